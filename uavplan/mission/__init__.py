@@ -1,0 +1,1 @@
+"""Mission layer: items, builder (ENU waypoints -> items), file formats. Knows no optimiser."""
