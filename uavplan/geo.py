@@ -1,0 +1,172 @@
+"""Local ENU tangent frame at a WGS84 origin, converted exactly through ECEF with pyproj.
+
+``EnuFrame.at(origin)`` gives a frame with x east, y north, z up (metres), tangent to the
+WGS84 ellipsoid at ``origin``. Conversions go ENU ↔ ECEF (a rotation and a shift, done here
+in numpy) and ECEF ↔ geodetic (pyproj, EPSG:4978 ↔ EPSG:4979, ``always_xy``), so they are
+exact rather than a flat-earth approximation; the round trip is well below 1 mm within
+hundreds of kilometres.
+
+Heights: the origin's ``alt_m`` is AMSL in a scenario, and pyproj works with heights above
+the ellipsoid. The frame uses the origin altitude *as if* it were an ellipsoidal height; the
+AMSL/ellipsoid offset (the geoid undulation, about 48 m at Zurich) is then a constant that
+cancels out, so altitudes coming back from :meth:`EnuFrame.to_geodetic` are in the same
+reference as ``origin.alt_m`` (AMSL). The geoid's slope over a mission's tens of kilometres
+is far below the centimetre level.
+
+All conversions are vectorised: points are ``(n, 3)`` arrays, geodetic values ``(n,)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uavplan.mission.items import GeoPoint
+
+if TYPE_CHECKING:
+    from pyproj import Transformer
+
+#: geodetic 3-D (lat, lon, ellipsoidal height) and geocentric (ECEF) WGS84
+GEODETIC_CRS = "EPSG:4979"
+ECEF_CRS = "EPSG:4978"
+
+
+def _up_vectors(lat_deg: NDArray[np.float64], lon_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit ellipsoid normals (ECEF) at geodetic lat/lon: shape ``(n, 3)``."""
+    lat = np.radians(lat_deg)
+    lon = np.radians(lon_deg)
+    return np.column_stack((np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)))
+
+
+@dataclass(frozen=True)
+class EnuFrame:
+    """East-north-up frame (metres) tangent to the WGS84 ellipsoid at ``origin``.
+
+    Build it with :meth:`EnuFrame.at`. The pyproj transformer is created on first use and
+    kept by the frame, so a frame is cheap to make and fast to reuse.
+    """
+
+    origin: GeoPoint
+
+    @classmethod
+    def at(cls, origin: GeoPoint) -> EnuFrame:
+        """The ENU frame whose origin (0, 0, 0) is ``origin`` (lat/lon degrees, alt metres)."""
+        if not isinstance(origin, GeoPoint):
+            raise TypeError(f"origin must be a GeoPoint, got {type(origin).__name__}")
+        return cls(origin)
+
+    # -- cached pieces ---------------------------------------------------------------------
+    @cached_property
+    def _transformer(self) -> Transformer:
+        from pyproj import Transformer  # deferred: keeps `import uavplan...` fast
+
+        return Transformer.from_crs(GEODETIC_CRS, ECEF_CRS, always_xy=True)
+
+    @cached_property
+    def _rotation(self) -> NDArray[np.float64]:
+        """Rows are the east, north and up unit vectors in ECEF: ``enu = R @ (ecef - o)``."""
+        lat = math.radians(self.origin.lat_deg)
+        lon = math.radians(self.origin.lon_deg)
+        sin_lat, cos_lat = math.sin(lat), math.cos(lat)
+        sin_lon, cos_lon = math.sin(lon), math.cos(lon)
+        return np.array(
+            [
+                [-sin_lon, cos_lon, 0.0],
+                [-sin_lat * cos_lon, -sin_lat * sin_lon, cos_lat],
+                [cos_lat * cos_lon, cos_lat * sin_lon, sin_lat],
+            ]
+        )
+
+    @cached_property
+    def origin_ecef_m(self) -> NDArray[np.float64]:
+        """The origin in ECEF metres, shape ``(3,)``."""
+        x, y, z = self._transformer.transform(
+            self.origin.lon_deg, self.origin.lat_deg, self.origin.alt_m
+        )
+        return np.array([x, y, z], dtype=np.float64)
+
+    # -- conversions -------------------------------------------------------------------------
+    def to_ecef(self, points_enu: ArrayLike) -> NDArray[np.float64]:
+        """ENU points ``(n, 3)`` (or one point ``(3,)``) → ECEF metres ``(n, 3)``."""
+        enu = _as_points(points_enu, "points_enu")
+        return enu @ self._rotation + self.origin_ecef_m
+
+    def from_ecef(self, points_ecef: ArrayLike) -> NDArray[np.float64]:
+        """ECEF metres ``(n, 3)`` → ENU points ``(n, 3)``."""
+        ecef = _as_points(points_ecef, "points_ecef")
+        return (ecef - self.origin_ecef_m) @ self._rotation.T
+
+    def to_geodetic(
+        self, points_enu: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """ENU points ``(n, 3)`` → ``(lat_deg, lon_deg, alt_m)``, each of shape ``(n,)``.
+
+        ``alt_m`` is in the origin altitude's reference (AMSL for a scenario origin);
+        longitudes are in [-180, 180].
+        """
+        ecef = self.to_ecef(points_enu)
+        lon_deg, lat_deg, alt_m = self._transformer.transform(
+            ecef[:, 0], ecef[:, 1], ecef[:, 2], direction="INVERSE"
+        )
+        return (
+            np.asarray(lat_deg, dtype=np.float64).reshape(-1),
+            np.asarray(lon_deg, dtype=np.float64).reshape(-1),
+            np.asarray(alt_m, dtype=np.float64).reshape(-1),
+        )
+
+    def to_enu(
+        self, lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike
+    ) -> NDArray[np.float64]:
+        """Geodetic positions (scalars or arrays, broadcast together) → ENU points ``(n, 3)``."""
+        lat, lon, alt = _as_geodetic(lat_deg, lon_deg, alt_m)
+        x, y, z = self._transformer.transform(lon, lat, alt)
+        ecef = np.column_stack(
+            (np.asarray(x).reshape(-1), np.asarray(y).reshape(-1), np.asarray(z).reshape(-1))
+        )
+        return self.from_ecef(ecef)
+
+    def to_enu_xy(self, lat_deg: ArrayLike, lon_deg: ArrayLike) -> NDArray[np.float64]:
+        """Where the ellipsoid normal through (lat, lon) meets the ground plane z = 0: ``(n, 2)``.
+
+        This is the exact inverse of the horizontal part of ``to_geodetic([x, y, 0])``: a
+        mission item at relative altitude ``h`` above flat ground is the ENU point
+        ``(*to_enu_xy(lat, lon), h)`` in the scenario's flat-ground model.
+        """
+        lat, lon, _ = _as_geodetic(lat_deg, lon_deg, 0.0)
+        on_ellipsoid = self.to_enu(lat, lon, np.zeros_like(lat))
+        direction = _up_vectors(lat, lon) @ self._rotation.T  # normals in ENU, (n, 3)
+        # The normal is a straight line in ECEF, so the crossing is a closed-form step.
+        t = -on_ellipsoid[:, 2] / direction[:, 2]
+        return on_ellipsoid[:, :2] + t[:, None] * direction[:, :2]
+
+
+def _as_points(points: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr.reshape(1, -1)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (n, 3), got {np.shape(points)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    return arr
+
+
+def _as_geodetic(
+    lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    lat, lon, alt = np.broadcast_arrays(
+        np.asarray(lat_deg, dtype=np.float64),
+        np.asarray(lon_deg, dtype=np.float64),
+        np.asarray(alt_m, dtype=np.float64),
+    )
+    lat, lon, alt = lat.reshape(-1), lon.reshape(-1), alt.reshape(-1)
+    if not (np.all(np.isfinite(lat)) and np.all(np.isfinite(lon)) and np.all(np.isfinite(alt))):
+        raise ValueError("geodetic coordinates must be finite")
+    if np.any(np.abs(lat) > 90.0):
+        raise ValueError("latitude must be within [-90, 90] degrees")
+    return lat, lon, alt
