@@ -182,7 +182,7 @@ offsets_m = st.floats(-50_000.0, 50_000.0)
 heights_m = st.floats(-200.0, 3000.0)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(origin=origins, x=offsets_m, y=offsets_m, z=heights_m)
 def test_enu_geodetic_round_trip_is_better_than_a_centimetre(
     origin: GeoPoint, x: float, y: float, z: float
