@@ -1,0 +1,90 @@
+"""Save and load mission files, choosing the format from the file name's extension.
+
+Supported: ``.plan`` (QGroundControl JSON) and ``.waypoints`` / ``.txt`` (``QGC WPL 110``).
+Another format is one more :class:`MissionFormat` in :data:`FORMATS` (a format that can only
+be written passes ``loads=None``). Saving is atomic: the old file stays whole until the new
+one is complete.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from uavplan.errors import MissionFileError
+from uavplan.fileio import atomic_write_text
+from uavplan.mission.items import Autopilot, MissionPlan
+from uavplan.mission.qgc_plan import plan_from_json, plan_to_json
+from uavplan.mission.waypoints_file import waypoints_from_text, waypoints_to_text
+
+#: ``loads(text, file=..., autopilot=...)``; ``autopilot`` is None when the caller gave none
+Loader = Callable[..., MissionPlan]
+
+
+@dataclass(frozen=True)
+class MissionFormat:
+    """One mission file format: its name, how to write it and (optionally) how to read it."""
+
+    name: str
+    dumps: Callable[[MissionPlan], str]
+    loads: Loader | None = None
+
+
+def _load_waypoints(text: str, *, file: str, autopilot: Autopilot | None) -> MissionPlan:
+    # The format has no autopilot field; it is ArduPilot's native layout (home = seq 0).
+    return waypoints_from_text(text, file=file, autopilot=autopilot or Autopilot.ARDUPILOT)
+
+
+PLAN_FORMAT = MissionFormat("QGroundControl plan", plan_to_json, plan_from_json)
+WAYPOINTS_FORMAT = MissionFormat("QGC WPL 110 waypoints", waypoints_to_text, _load_waypoints)
+
+#: extension (lower case, with the dot) → format
+FORMATS: dict[str, MissionFormat] = {
+    ".plan": PLAN_FORMAT,
+    ".waypoints": WAYPOINTS_FORMAT,
+    ".txt": WAYPOINTS_FORMAT,
+}
+
+
+def format_for(path: str | os.PathLike[str]) -> MissionFormat:
+    """The format a file name asks for; :class:`MissionFileError` for an unknown extension."""
+    suffix = Path(path).suffix.lower()
+    fmt = FORMATS.get(suffix)
+    if fmt is None:
+        known = ", ".join(sorted(FORMATS))
+        found = f"extension {suffix!r}" if suffix else "no extension"
+        raise MissionFileError(
+            f"unknown mission file type ({found}); use one of {known}", file=str(path)
+        )
+    return fmt
+
+
+def save_mission(plan: MissionPlan, path: str | os.PathLike[str]) -> None:
+    """Write ``plan`` to ``path`` in the format of its extension, atomically."""
+    fmt = format_for(path)
+    try:
+        text = fmt.dumps(plan)
+    except MissionFileError as err:
+        raise MissionFileError(err.reason, file=str(path), key=err.key) from err
+    try:
+        atomic_write_text(path, text)
+    except OSError as err:
+        raise MissionFileError(f"cannot write: {err.strerror or err}", file=str(path)) from err
+
+
+def load_mission(path: str | os.PathLike[str], autopilot: Autopilot | None = None) -> MissionPlan:
+    """Read a mission file. ``autopilot`` overrides what the file says (``.plan``) or
+    assumes (``.waypoints``: ArduPilot); it decides how DO_JUMP targets are numbered."""
+    fmt = format_for(path)
+    if fmt.loads is None:
+        raise MissionFileError(f"{fmt.name} files can be written but not read", file=str(path))
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            text = handle.read()
+    except UnicodeDecodeError as err:
+        raise MissionFileError(f"not UTF-8 text ({err.reason})", file=str(path)) from err
+    except OSError as err:
+        raise MissionFileError(f"cannot read: {err.strerror or err}", file=str(path)) from err
+    return fmt.loads(text, file=str(path), autopilot=autopilot)
