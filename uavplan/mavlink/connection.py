@@ -1,0 +1,385 @@
+"""A MAVLink 2 connection speaking our own message types. The only pymavlink importer.
+
+pymavlink is used as a codec only: its generated MAVLink 2 ``common`` dialect module is
+imported directly (``pymavlink.dialects.v20.common``), so nothing depends on the
+``MAVLINK20`` / ``MAVLINK_DIALECT`` environment variables or on ``mavutil``'s global dialect
+state, and no environment is changed at import. Transports are ours
+(:mod:`uavplan.mavlink.transport`), which gives OS-assigned ports, several peers on a
+listening endpoint and clean closing.
+
+A :class:`MavlinkConnection` optionally emits its own HEARTBEAT at 1 Hz from inside
+:meth:`~MavlinkConnection.recv` / :meth:`~MavlinkConnection.send`, as every ground station
+does: a vehicle listening on UDP learns our address from it, and PX4/ArduPilot treat a link
+without GCS heartbeats as lost.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+
+from pymavlink.dialects.v20 import common as _mav
+
+from uavplan.errors import LinkError
+from uavplan.mavlink.messages import (
+    AutopilotVersion,
+    CommandAck,
+    CommandLong,
+    Heartbeat,
+    Message,
+    MissionAck,
+    MissionClearAll,
+    MissionCount,
+    MissionCurrent,
+    MissionItemInt,
+    MissionRequest,
+    MissionRequestList,
+    MissionSetCurrent,
+    Received,
+    StatusText,
+    UnknownMessage,
+)
+from uavplan.mavlink.transport import ConnectionSpec, Transport, open_transport
+from uavplan.mission.items import GLOBAL_FRAMES, deg_to_e7
+
+#: our heartbeat period while a connection is open
+HEARTBEAT_PERIOD_S = 1.0
+
+_NAN = math.nan
+
+# ---------------------------------------------------------------------------------------------
+# Encoding: our dataclass -> pymavlink message object
+
+
+def _encode(mav: _mav.MAVLink, msg: Message) -> _mav.MAVLink_message:
+    if isinstance(msg, MissionItemInt):
+        return mav.mission_item_int_encode(
+            msg.target_system,
+            msg.target_component,
+            msg.seq,
+            msg.frame,
+            msg.command,
+            msg.current,
+            msg.autocontinue,
+            msg.param1,
+            msg.param2,
+            msg.param3,
+            msg.param4,
+            msg.x,
+            msg.y,
+            msg.z,
+            msg.mission_type,
+        )
+    if isinstance(msg, MissionRequest):
+        encode = mav.mission_request_int_encode if msg.int_form else mav.mission_request_encode
+        return encode(msg.target_system, msg.target_component, msg.seq, msg.mission_type)
+    if isinstance(msg, Heartbeat):
+        return mav.heartbeat_encode(
+            msg.type,
+            msg.autopilot,
+            msg.base_mode,
+            msg.custom_mode,
+            msg.system_status,
+            msg.mavlink_version,
+        )
+    if isinstance(msg, MissionCount):
+        return mav.mission_count_encode(
+            msg.target_system, msg.target_component, msg.count, msg.mission_type
+        )
+    if isinstance(msg, MissionAck):
+        return mav.mission_ack_encode(
+            msg.target_system, msg.target_component, msg.type, msg.mission_type
+        )
+    if isinstance(msg, MissionRequestList):
+        return mav.mission_request_list_encode(
+            msg.target_system, msg.target_component, msg.mission_type
+        )
+    if isinstance(msg, MissionClearAll):
+        return mav.mission_clear_all_encode(
+            msg.target_system, msg.target_component, msg.mission_type
+        )
+    if isinstance(msg, MissionCurrent):
+        return mav.mission_current_encode(msg.seq, msg.total, msg.mission_state, msg.mission_mode)
+    if isinstance(msg, MissionSetCurrent):
+        return mav.mission_set_current_encode(msg.target_system, msg.target_component, msg.seq)
+    if isinstance(msg, CommandLong):
+        return mav.command_long_encode(
+            msg.target_system,
+            msg.target_component,
+            msg.command,
+            msg.confirmation,
+            msg.param1,
+            msg.param2,
+            msg.param3,
+            msg.param4,
+            msg.param5,
+            msg.param6,
+            msg.param7,
+        )
+    if isinstance(msg, CommandAck):
+        return mav.command_ack_encode(
+            msg.command, msg.result, 0, 0, msg.target_system, msg.target_component
+        )
+    if isinstance(msg, AutopilotVersion):
+        return mav.autopilot_version_encode(
+            msg.capabilities,
+            msg.flight_sw_version,
+            msg.middleware_sw_version,
+            msg.os_sw_version,
+            msg.board_version,
+            [0] * 8,
+            [0] * 8,
+            [0] * 8,
+            msg.vendor_id,
+            msg.product_id,
+            msg.uid,
+        )
+    if isinstance(msg, StatusText):
+        return mav.statustext_encode(msg.severity, msg.text.encode("utf-8")[:50])
+    raise TypeError(f"cannot send {type(msg).__name__}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Decoding: pymavlink message object -> our dataclass
+
+
+def _item_from_float(m: _mav.MAVLink_mission_item_message) -> MissionItemInt:
+    """The deprecated MISSION_ITEM, converted as ArduPilot does (x/y rounded to 1e-7 deg)."""
+    global_frame = m.frame in GLOBAL_FRAMES
+    x = deg_to_e7(m.x) if global_frame else round(m.x)
+    y = deg_to_e7(m.y) if global_frame else round(m.y)
+    return MissionItemInt(
+        m.target_system,
+        m.target_component,
+        m.seq,
+        m.frame,
+        m.command,
+        m.current,
+        m.autocontinue,
+        m.param1,
+        m.param2,
+        m.param3,
+        m.param4,
+        x,
+        y,
+        m.z,
+        m.mission_type,
+        legacy_float=True,
+    )
+
+
+def _text(raw: bytes | str) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode("utf-8", errors="replace")
+    return raw.rstrip("\x00")
+
+
+_DECODERS: dict[int, Callable[[_mav.MAVLink_message], Message]] = {
+    _mav.MAVLINK_MSG_ID_HEARTBEAT: lambda m: Heartbeat(
+        m.type, m.autopilot, m.base_mode, m.custom_mode, m.system_status, m.mavlink_version
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_COUNT: lambda m: MissionCount(
+        m.target_system, m.target_component, m.count, m.mission_type
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_REQUEST_INT: lambda m: MissionRequest(
+        m.target_system, m.target_component, m.seq, m.mission_type, int_form=True
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_REQUEST: lambda m: MissionRequest(
+        m.target_system, m.target_component, m.seq, m.mission_type, int_form=False
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_REQUEST_LIST: lambda m: MissionRequestList(
+        m.target_system, m.target_component, m.mission_type
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_ITEM_INT: lambda m: MissionItemInt(
+        m.target_system,
+        m.target_component,
+        m.seq,
+        m.frame,
+        m.command,
+        m.current,
+        m.autocontinue,
+        m.param1,
+        m.param2,
+        m.param3,
+        m.param4,
+        m.x,
+        m.y,
+        m.z,
+        m.mission_type,
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_ITEM: _item_from_float,
+    _mav.MAVLINK_MSG_ID_MISSION_ACK: lambda m: MissionAck(
+        m.target_system, m.target_component, m.type, m.mission_type
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_CLEAR_ALL: lambda m: MissionClearAll(
+        m.target_system, m.target_component, m.mission_type
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_CURRENT: lambda m: MissionCurrent(
+        m.seq, m.total, m.mission_state, m.mission_mode
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_SET_CURRENT: lambda m: MissionSetCurrent(
+        m.target_system, m.target_component, m.seq
+    ),
+    _mav.MAVLINK_MSG_ID_COMMAND_LONG: lambda m: CommandLong(
+        m.target_system,
+        m.target_component,
+        m.command,
+        m.confirmation,
+        m.param1,
+        m.param2,
+        m.param3,
+        m.param4,
+        m.param5,
+        m.param6,
+        m.param7,
+    ),
+    _mav.MAVLINK_MSG_ID_COMMAND_ACK: lambda m: CommandAck(
+        m.command, m.result, m.target_system, m.target_component
+    ),
+    _mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda m: AutopilotVersion(
+        m.capabilities,
+        m.flight_sw_version,
+        m.middleware_sw_version,
+        m.os_sw_version,
+        m.board_version,
+        m.vendor_id,
+        m.product_id,
+        m.uid,
+    ),
+    _mav.MAVLINK_MSG_ID_STATUSTEXT: lambda m: StatusText(m.severity, _text(m.text)),
+}
+
+
+def _decode(m: _mav.MAVLink_message) -> Message:
+    decoder = _DECODERS.get(m.get_msgId())
+    if decoder is None:
+        return UnknownMessage(m.get_msgId(), m.get_type())
+    return decoder(m)
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+class MavlinkConnection:
+    """MAVLink 2 over one transport, with our own message types in and out.
+
+    ``heartbeat``: when given, that HEARTBEAT is sent right away and then every
+    :data:`HEARTBEAT_PERIOD_S` while the caller sends or receives.
+    """
+
+    def __init__(
+        self,
+        transport: Transport,
+        *,
+        system_id: int,
+        component_id: int,
+        heartbeat: Heartbeat | None = None,
+    ) -> None:
+        if not (1 <= system_id <= 255 and 0 <= component_id <= 255):
+            raise ValueError("system id must be 1..255 and component id 0..255")
+        self.transport = transport
+        self.system_id = system_id
+        self.component_id = component_id
+        self._mav = _mav.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
+        self._mav.robust_parsing = True
+        self._pending: deque[Received] = deque()
+        self._heartbeat = heartbeat
+        self._next_heartbeat = 0.0
+        self._closed = False
+        self.sent_count = 0
+        self.received_count = 0
+        self.bad_data_count = 0
+        if heartbeat is not None:
+            self._maybe_heartbeat()
+
+    @classmethod
+    def open(
+        cls,
+        conn: str | ConnectionSpec,
+        *,
+        system_id: int = 255,
+        component_id: int = 190,
+        heartbeat: Heartbeat | None = None,
+    ) -> MavlinkConnection:
+        """Open a connection string (pymavlink or MAVSDK spelling); see :mod:`.transport`."""
+        spec = conn if isinstance(conn, ConnectionSpec) else ConnectionSpec.parse(conn)
+        transport = open_transport(spec)
+        return cls(transport, system_id=system_id, component_id=component_id, heartbeat=heartbeat)
+
+    @property
+    def description(self) -> str:
+        return self.transport.description
+
+    @property
+    def local_address(self) -> tuple[str, int] | None:
+        return self.transport.local_address
+
+    def encode(self, msg: Message) -> bytes:
+        """The bytes of one MAVLink 2 frame carrying ``msg`` (advances our sequence number)."""
+        frame = _encode(self._mav, msg)
+        data = frame.pack(self._mav)
+        self._mav.seq = (self._mav.seq + 1) % 256
+        return data
+
+    def send(self, msg: Message) -> None:
+        if self._closed:
+            raise LinkError("the connection is closed")
+        self._maybe_heartbeat()
+        self.transport.send(self.encode(msg))
+        self.sent_count += 1
+
+    def send_bytes(self, data: bytes) -> None:
+        """Send pre-encoded frames (the mock vehicle uses this to replay or reorder)."""
+        self.transport.send(data)
+
+    def recv(self, timeout_s: float) -> Received | None:
+        """The next message, waiting at most ``timeout_s`` (``None`` on timeout)."""
+        deadline = time.monotonic() + max(0.0, timeout_s)
+        while True:
+            if self._pending:
+                return self._pending.popleft()
+            self._maybe_heartbeat()
+            now = time.monotonic()
+            wait = deadline - now
+            if self._heartbeat is not None:
+                wait = min(wait, max(0.0, self._next_heartbeat - now))
+            for chunk in self.transport.recv(max(0.0, wait)):
+                self._parse(chunk)
+            if not self._pending and time.monotonic() >= deadline:
+                return None
+
+    def _parse(self, chunk: bytes) -> None:
+        try:
+            frames = self._mav.parse_buffer(chunk) or []
+        except Exception:  # a corrupt frame: pymavlink raises MAVError subclasses
+            self.bad_data_count += 1
+            return
+        for frame in frames:
+            if frame.get_type() == "BAD_DATA":
+                self.bad_data_count += 1
+                continue
+            self.received_count += 1
+            self._pending.append(
+                Received(_decode(frame), frame.get_srcSystem(), frame.get_srcComponent())
+            )
+
+    def _maybe_heartbeat(self) -> None:
+        if self._heartbeat is None or self._closed:
+            return
+        now = time.monotonic()
+        if now >= self._next_heartbeat:
+            self._next_heartbeat = now + HEARTBEAT_PERIOD_S
+            self.transport.send(self.encode(self._heartbeat))
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self.transport.close()
+
+    def __enter__(self) -> MavlinkConnection:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
