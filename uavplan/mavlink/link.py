@@ -1,0 +1,204 @@
+"""A ground station's view of one vehicle: find it by HEARTBEAT, then talk only to it.
+
+:class:`VehicleLink` wraps a :class:`~uavplan.mavlink.connection.MavlinkConnection` that
+sends our GCS heartbeat, waits for the vehicle's HEARTBEAT (reference §7.14: never start a
+transfer before it), picks the target system/component from it (or from
+``target_system``), and then filters everything received down to messages from that
+vehicle addressed to us or broadcast (reference §7.10, §7.13). It keeps what the vehicle
+tells in passing: its capabilities (AUTOPILOT_VERSION) and its last STATUSTEXT, which
+failure messages quote.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from uavplan.errors import LinkError
+from uavplan.mavlink.connection import MavlinkConnection
+from uavplan.mavlink.messages import (
+    AUTOPILOT_VERSION_ID,
+    COMP_ID_MISSIONPLANNER,
+    AutopilotVersion,
+    Capability,
+    CommandLong,
+    Heartbeat,
+    MavAutopilotId,
+    MavCommand,
+    MavType,
+    Message,
+    Received,
+    StatusText,
+)
+from uavplan.mavlink.transport import ConnectionSpec
+from uavplan.mission.items import Autopilot
+
+#: default wait for the vehicle's first HEARTBEAT (vehicles send 1 Hz; allow for some loss)
+HEARTBEAT_TIMEOUT_S = 5.0
+#: our identity on the link: QGroundControl's system id and MAV_COMP_ID_MISSIONPLANNER
+GCS_SYSTEM_ID = 255
+GCS_COMPONENT_ID = COMP_ID_MISSIONPLANNER
+
+
+@dataclass(frozen=True)
+class VehicleInfo:
+    """Who answered: ids to address, and the autopilot flavour that decides the mission layout."""
+
+    system_id: int
+    component_id: int
+    mav_autopilot: int
+    mav_type: int
+
+    @property
+    def autopilot(self) -> Autopilot:
+        """PX4 or ArduPilot from HEARTBEAT.autopilot (reference §7.24); GENERIC otherwise."""
+        if self.mav_autopilot == MavAutopilotId.ARDUPILOTMEGA:
+            return Autopilot.ARDUPILOT
+        if self.mav_autopilot == MavAutopilotId.PX4:
+            return Autopilot.PX4
+        return Autopilot.GENERIC
+
+
+def _is_vehicle_heartbeat(hb: Heartbeat) -> bool:
+    return hb.type != MavType.GCS and hb.autopilot != MavAutopilotId.INVALID
+
+
+class VehicleLink:
+    """One vehicle over one connection. Use :meth:`connect` to open and discover."""
+
+    def __init__(self, connection: MavlinkConnection, vehicle: VehicleInfo) -> None:
+        self.connection = connection
+        self.vehicle = vehicle
+        self.capabilities: Capability | None = None
+        self.last_statustext: str | None = None
+        self.last_heard = time.monotonic()
+
+    # -- opening --------------------------------------------------------------------------
+    @classmethod
+    def connect(
+        cls,
+        conn: str | ConnectionSpec,
+        *,
+        target_system: int | None = None,
+        heartbeat_timeout_s: float = HEARTBEAT_TIMEOUT_S,
+        system_id: int = GCS_SYSTEM_ID,
+        component_id: int = GCS_COMPONENT_ID,
+    ) -> VehicleLink:
+        """Open ``conn``, send our heartbeat and wait for a vehicle's.
+
+        Raises :class:`LinkError` (exit 4) when no vehicle heartbeat (from
+        ``target_system``, if given) arrives within ``heartbeat_timeout_s``.
+        """
+        spec = conn if isinstance(conn, ConnectionSpec) else ConnectionSpec.parse(conn)
+        connection = MavlinkConnection.open(
+            spec,
+            system_id=system_id,
+            component_id=component_id,
+            heartbeat=Heartbeat(type=MavType.GCS, autopilot=MavAutopilotId.INVALID),
+        )
+        try:
+            vehicle = cls._wait_for_vehicle(connection, target_system, heartbeat_timeout_s)
+        except BaseException:
+            connection.close()
+            raise
+        link = cls(connection, vehicle)
+        # Ask for AUTOPILOT_VERSION now; it is picked up by recv() whenever it arrives.
+        link.send_capability_request()
+        return link
+
+    @staticmethod
+    def _wait_for_vehicle(
+        connection: MavlinkConnection, target_system: int | None, timeout_s: float
+    ) -> VehicleInfo:
+        deadline = time.monotonic() + timeout_s
+        others: set[int] = set()
+        while (remaining := deadline - time.monotonic()) > 0:
+            received = connection.recv(remaining)
+            if received is None or not isinstance(received.message, Heartbeat):
+                continue
+            hb = received.message
+            if not _is_vehicle_heartbeat(hb):
+                continue
+            if target_system is not None and received.system_id != target_system:
+                others.add(received.system_id)
+                continue
+            return VehicleInfo(received.system_id, received.component_id, hb.autopilot, hb.type)
+        wanted = f"from system {target_system} " if target_system is not None else ""
+        seen = f" (heard only from system(s) {sorted(others)})" if others else ""
+        raise LinkError(
+            f"no HEARTBEAT {wanted}within {timeout_s:g} s on {connection.description}{seen}; "
+            "is the vehicle on and the connection string right?",
+            step="connect: waiting for HEARTBEAT",
+        )
+
+    # -- traffic --------------------------------------------------------------------------
+    def send(self, message: Message) -> None:
+        self.connection.send(message)
+
+    def recv(self, timeout_s: float) -> Received | None:
+        """The next message from the vehicle addressed to us (or broadcast), or ``None``."""
+        deadline = time.monotonic() + max(0.0, timeout_s)
+        while True:
+            received = self.connection.recv(max(0.0, deadline - time.monotonic()))
+            if received is None:
+                return None
+            if self._accept(received):
+                return received
+            if time.monotonic() >= deadline:
+                return None
+
+    def _accept(self, received: Received) -> bool:
+        if received.system_id != self.vehicle.system_id:
+            return False
+        message = received.message
+        if isinstance(message, StatusText):
+            self.last_statustext = message.text
+            self.last_heard = time.monotonic()
+            return True
+        if received.component_id != self.vehicle.component_id:
+            return False
+        target_system = getattr(message, "target_system", 0)
+        target_component = getattr(message, "target_component", 0)
+        if target_system not in (0, self.connection.system_id):
+            return False
+        if target_component not in (0, self.connection.component_id):
+            return False
+        self.last_heard = time.monotonic()
+        if isinstance(message, AutopilotVersion):
+            self.capabilities = Capability(message.capabilities)
+        return True
+
+    def send_capability_request(self) -> None:
+        """MAV_CMD_REQUEST_MESSAGE(AUTOPILOT_VERSION), as QGC and MAVSDK send on connect."""
+        self.send(
+            CommandLong(
+                self.vehicle.system_id,
+                self.vehicle.component_id,
+                MavCommand.REQUEST_MESSAGE,
+                param1=float(AUTOPILOT_VERSION_ID),
+            )
+        )
+
+    def wait_capabilities(self, timeout_s: float, *, attempts: int = 3) -> Capability | None:
+        """AUTOPILOT_VERSION.capabilities, asking up to ``attempts`` times; ``None`` if silent."""
+        if self.capabilities is not None:
+            return self.capabilities
+        per_attempt = timeout_s / max(1, attempts)
+        for attempt in range(max(1, attempts)):
+            if attempt:
+                self.send_capability_request()
+            deadline = time.monotonic() + per_attempt
+            while self.capabilities is None and (left := deadline - time.monotonic()) > 0:
+                self.recv(left)
+            if self.capabilities is not None:
+                break
+        return self.capabilities
+
+    def close(self) -> None:
+        self.connection.close()
+
+    def __enter__(self) -> VehicleLink:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
