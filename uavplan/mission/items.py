@@ -67,16 +67,23 @@ class Autopilot(enum.Enum):
     @classmethod
     def from_name(cls, name: str) -> Autopilot:
         key = name.strip().lower()
-        table = {"px4": cls.PX4, "ardupilot": cls.ARDUPILOT, "apm": cls.ARDUPILOT, "generic": cls.GENERIC}
+        table = {
+            "px4": cls.PX4,
+            "ardupilot": cls.ARDUPILOT,
+            "apm": cls.ARDUPILOT,
+            "generic": cls.GENERIC,
+        }
         if key not in table:
             raise ValueError(f"unknown autopilot {name!r} (expected px4 or ardupilot)")
         return table[key]
 
     @property
     def label(self) -> str:
-        return {Autopilot.GENERIC: "generic", Autopilot.ARDUPILOT: "ardupilot", Autopilot.PX4: "px4"}[
-            self
-        ]
+        return {
+            Autopilot.GENERIC: "generic",
+            Autopilot.ARDUPILOT: "ardupilot",
+            Autopilot.PX4: "px4",
+        }[self]
 
 
 #: frames whose x/y are latitude / longitude

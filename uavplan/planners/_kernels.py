@@ -1,0 +1,518 @@
+"""Compiled kernels shared by every planner: initialisation, per-node update with the
+reachability rule, adaptive escape and oscillation optimisation.
+
+Encoding (PAPER-NOTES "Path model"): an individual is ``nodes[j] = (y, z)`` in grid units
+for the inner columns ``j = 1..D−1`` (array index ``j − 1``); start and goal are fixed.
+A node is *reachable* when the straight segment from the previous node to it is inside the
+bounds and keeps the margin from every obstacle (for the last node, also the segment to the
+goal). Every algorithm proposes nodes through :func:`propose` and repairs them the same way
+(:func:`rebuild`), so differences between algorithms come from the search rules alone.
+
+Randomness comes only from the ``numpy.random.Generator`` passed in.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from uavplan._geom import point_piece_dist, segment_free
+
+# Update rules (one per individual and call). Reference paths ``refs[g, r]`` and scalars
+# ``scal[g, s]`` carry what each rule needs; "δ" is the deviation from the start-end line.
+R_SPSA_PRODUCER_BEST = 0  # eq. 11, f_i = f_g:  P + rand·(P_ST − P)
+R_SPSA_PRODUCER = 1  # eq. 11 "deviation" reading: δ·e − rand·δ,  scal0 = e
+R_SPSA_PRODUCER_LITERAL = 2  # eq. 11 as printed: P + e + rand·(P_ST − P),  scal0 = e
+R_SSA_PRODUCER = 3  # eq. 3, R2 < ST: δ·e,  scal0 = e
+R_ALARM = 4  # eq. 3, R2 >= ST: P + Q·L,  scal0 = Q
+R_SCROUNGER_FAR = 5  # eq. 4, i > n/2: Q·exp((δ_worst − δ)/i²),  ref0 = worst, scal0 = i²
+R_SCROUNGER_NEAR = 6  # eq. 4 else: P_p + |P − P_p|·A⁺·L,  ref0 = P_p, scal0/1 = offset y/z
+R_DANGER = 7  # eq. 5, f_i > f_g: P_best + β·|P − P_best|,  ref0 = best
+R_DANGER_BEST = 8  # eq. 5, f_i = f_g: P + K·|P − P_w|/(f_i − f_w + ε),  ref0 = worst, scal0
+R_PSO = 9  # ref0 = velocity, ref1 = pbest, ref2 = gbest; scal0..2 = w, c1, c2
+R_GWO = 10  # ref0..2 = alpha, beta, delta; scal0 = a
+R_DE = 11  # ref0..2 = x_r1, x_r2, x_r3; scal0 = F, scal1 = CR, scal2 = j_rand (flat index)
+R_CSO_ROOSTER = 12  # δ·(1 + N(0, σ²)),  scal0 = σ
+R_CSO_HEN = 13  # P + S1·rand·(R1 − P) + S2·rand·(R2 − P); ref0 = R1, ref1 = R2; scal0/1 = S1/S2
+R_CSO_CHICK = 14  # P + FL·(M − P); ref0 = mother, scal0 = FL
+
+N_REFS = 4
+N_SCAL = 4
+
+
+@njit(cache=True, inline="always")
+def _round(v):
+    """Round half up to the grid, clamped so wild proposals (huge steps) stay finite."""
+    if not v < 1e6:  # also catches NaN
+        v = 1e6
+    elif v < -1e6:
+        v = -1e6
+    return math.floor(v + 0.5)
+
+
+#: memo table for node reachability (open addressing, linear probing)
+MEMO_BITS = 20
+_EMPTY = -1
+_MIX1 = np.int64(-4658895280553007687)  # splitmix64 finaliser constants as int64
+_MIX2 = np.int64(-7723592293110705685)
+
+
+def new_memo() -> tuple[np.ndarray, np.ndarray]:
+    """An empty reachability memo: (keys, values). Reachability of a node is a pure function
+    of (column, previous node, node) for a fixed world, so it is computed once per run."""
+    return np.full(1 << MEMO_BITS, _EMPTY, dtype=np.int64), np.zeros(1 << MEMO_BITS, np.int8)
+
+
+@njit(cache=True, inline="always")
+def _memo_key(j, y0, z0, y1, z1):
+    """Pack (column, y0, z0, y1, z1) into 60 bits; −1 when a value does not fit."""
+    a = int(y0) + 2048
+    b = int(z0) + 2048
+    c = int(y1) + 2048
+    d = int(z1) + 2048
+    if j < 0 or j >= 4096 or a < 0 or a >= 4096 or b < 0 or b >= 4096:
+        return -1
+    if c < 0 or c >= 4096 or d < 0 or d >= 4096:
+        return -1
+    return (((((j << 12) | a) << 12 | b) << 12 | c) << 12) | d
+
+
+@njit(cache=True)
+def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
+    poly_xy, poly_n, poly_h, circ, box, hp, zlim = geo[:7]
+    if j == 1:
+        ax = start_m[0]
+        ay = start_m[1]
+        az = start_m[2]
+    else:
+        ax = (j - 1) * dx
+        ay = y0 * dy
+        az = z0 * dz
+    bx = j * dx
+    by = y1 * dy
+    bz = z1 * dz
+    if not segment_free(
+        ax, ay, az, bx, by, bz, poly_xy, poly_n, poly_h, circ, box, hp, zlim, margin
+    ):
+        return False
+    if j == int(round(goal_m[0] / dx)) - 1:
+        return segment_free(
+            bx,
+            by,
+            bz,
+            goal_m[0],
+            goal_m[1],
+            goal_m[2],
+            poly_xy,
+            poly_n,
+            poly_h,
+            circ,
+            box,
+            hp,
+            zlim,
+            margin,
+        )
+    return True
+
+
+#: clearance is tabulated exactly up to this far beyond the margin (metres)
+TABLE_REACH_M = 60.0
+
+
+@njit(cache=True)
+def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, geo, cap):
+    """Distance from every grid node (column, y, z) to the nearest piece, capped at ``cap``;
+    −1 for nodes outside the bounds. Shape (n_cols + 1, iy_hi − iy_lo + 1, iz_hi − iz_lo + 1).
+    Each piece only visits the nodes of its bounding box grown by ``cap``."""
+    poly_xy, poly_n, poly_h, circ, box, hp, zlim = geo[:7]
+    ny = iy_hi - iy_lo + 1
+    nz = iz_hi - iz_lo + 1
+    tab = np.full((n_cols + 1, ny, nz), cap)
+    for k in range(box.shape[0]):
+        j0 = max(0, int(math.floor((box[k, 0] - cap) / dx)))
+        j1 = min(n_cols, int(math.ceil((box[k, 1] + cap) / dx)))
+        a0 = max(0, int(math.floor((box[k, 2] - cap) / dy)) - iy_lo)
+        a1 = min(ny - 1, int(math.ceil((box[k, 3] + cap) / dy)) - iy_lo)
+        c1 = min(nz - 1, int(math.ceil((box[k, 4] + cap) / dz)) - iz_lo)
+        for j in range(j0, j1 + 1):
+            for a in range(a0, a1 + 1):
+                for c in range(0, c1 + 1):
+                    d = point_piece_dist(
+                        j * dx, (a + iy_lo) * dy, (c + iz_lo) * dz, k, poly_xy, poly_n, poly_h, circ
+                    )
+                    if d < tab[j, a, c]:
+                        tab[j, a, c] = d
+    eps = 1e-9
+    for j in range(n_cols + 1):
+        for a in range(ny):
+            y = (a + iy_lo) * dy
+            for c in range(nz):
+                z = (c + iz_lo) * dz
+                inside = zlim[0] - eps <= z <= zlim[1] + eps
+                for i in range(hp.shape[0]):
+                    if hp[i, 0] * j * dx + hp[i, 1] * y > hp[i, 2] + eps:
+                        inside = False
+                if not inside:
+                    tab[j, a, c] = -1.0
+    return tab
+
+
+@njit(cache=True, inline="always")
+def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
+    """Reachability of the node of column ``j`` (1-based) at (y1, z1) from the node before it
+    at (y0, z0), both in grid units. Column 0 is the start; the node of the last inner
+    column must also reach the goal. ``start_m``/``goal_m``: (x, y, z) path-frame metres;
+    ``geo``: the world arrays in the path frame, the memo (keys, values), the clearance
+    table and its (y, z) index offsets.
+
+    Fast path (interior columns): a node closer than the margin (or outside the bounds) is
+    unreachable; the segment between nodes with clearances d0, d1 keeps the margin when
+    (d0 + d1 − length)/2 >= margin (distance is 1-Lipschitz). Otherwise the exact test
+    runs once and its answer is memoised.
+    """
+    keys = geo[7]
+    vals = geo[8]
+    tab = geo[9]
+    off = geo[10]
+    if 1 < j < tab.shape[0] - 2:
+        a = int(y0) - off[0]
+        b = int(z0) - off[1]
+        c = int(y1) - off[0]
+        d = int(z1) - off[1]
+        ny = tab.shape[1]
+        nz = tab.shape[2]
+        if a < 0 or a >= ny or c < 0 or c >= ny or b < 0 or b >= nz or d < 0 or d >= nz:
+            return False  # outside the bounds' bounding box
+        d0 = tab[j - 1, a, b]
+        d1 = tab[j, c, d]
+        lim = margin - 1e-9
+        if lim < 1e-9:
+            lim = 1e-9
+        if d0 < lim or d1 < lim:
+            return False
+        ey = (y1 - y0) * dy
+        ez = (z1 - z0) * dz
+        length = math.sqrt(dx * dx + ey * ey + ez * ez)
+        if d0 + d1 - length >= 2.0 * lim:
+            return True
+    if j == 1:
+        key = _memo_key(j, 0, 0, y1, z1)
+    else:
+        key = _memo_key(j, y0, z0, y1, z1)
+    if key < 0:
+        return _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+    mask = keys.shape[0] - 1
+    h = key ^ (key >> 30)
+    h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
+    h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
+    h &= mask
+    for _probe in range(64):
+        k = keys[h]
+        if k == key:
+            return vals[h] == 1
+        if k == _EMPTY:
+            free = _segment_to_node_free(
+                j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin
+            )
+            keys[h] = key
+            vals[h] = 1 if free else 0
+            return free
+        h = (h + 1) & mask
+    return _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+
+
+@njit(cache=True)
+def init_population(
+    n_pop,
+    n_inner,
+    start_u,
+    goal_u,
+    half_window,
+    t_max,
+    max_attempts,
+    dx,
+    dy,
+    dz,
+    start_m,
+    goal_m,
+    geo,
+    margin,
+    rng,
+):
+    """Path initialisation of section 4.1 (eq. 8–10) for ``n_pop`` individuals.
+
+    From the current node P_a the next is round(P_t + U(−Δh, Δh)) per axis with
+    P_t = P_a + (P_goal − P_a)/m, m the columns left; an unreachable node is reselected up to
+    ``t_max`` times, after which the individual is deadlocked and started again (at most
+    ``max_attempts`` starts per individual). Returns (nodes, ok, deadlocks).
+    """
+    nodes = np.zeros((n_pop, n_inner, 2))
+    ok = np.zeros(n_pop, dtype=np.bool_)
+    deadlocks = 0
+    for g in range(n_pop):
+        for _attempt in range(max_attempts):
+            py = start_u[0]
+            pz = start_u[1]
+            alive = True
+            for j in range(1, n_inner + 1):
+                m = n_inner + 1 - (j - 1)
+                ty = py + (goal_u[0] - py) / m
+                tz = pz + (goal_u[1] - pz) / m
+                placed = False
+                for _t in range(t_max):
+                    ny = _round(ty + (2.0 * rng.random() - 1.0) * half_window)
+                    nz = _round(tz + (2.0 * rng.random() - 1.0) * half_window)
+                    if node_free(j, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                        placed = True
+                        break
+                if not placed:
+                    alive = False
+                    break
+                nodes[g, j - 1, 0] = ny
+                nodes[g, j - 1, 1] = nz
+                py = ny
+                pz = nz
+            if alive:
+                ok[g] = True
+                break
+            deadlocks += 1
+    return nodes, ok, deadlocks
+
+
+@njit(cache=True, inline="always")
+def propose(rule, base, refs, scal, g, j, a, line, attempt, rng):
+    """One proposal (before rounding) for axis ``a`` of node ``j`` (0-based inner index)."""
+    p = base[g, j, a]
+    ln = line[j + 1, a]
+    if rule == R_SPSA_PRODUCER_BEST:
+        return p + rng.random() * (ln - p)
+    if rule == R_SPSA_PRODUCER:
+        d = p - ln
+        return ln + d * scal[g, 0] - rng.random() * d
+    if rule == R_SPSA_PRODUCER_LITERAL:
+        return p + scal[g, 0] + rng.random() * (ln - p)
+    if rule == R_SSA_PRODUCER:
+        return ln + (p - ln) * scal[g, 0]
+    if rule == R_ALARM:
+        q = scal[g, 0] if attempt == 0 else rng.standard_normal()
+        return p + q
+    if rule == R_SCROUNGER_FAR:
+        dw = refs[g, 0, j, a] - ln
+        d = p - ln
+        return ln + rng.standard_normal() * math.exp(min((dw - d) / scal[g, 0], 50.0))
+    if rule == R_SCROUNGER_NEAR:
+        return refs[g, 0, j, a] + scal[g, a]
+    if rule == R_DANGER:
+        b = refs[g, 0, j, a]
+        return b + rng.standard_normal() * abs(p - b)
+    if rule == R_DANGER_BEST:
+        return p + (2.0 * rng.random() - 1.0) * abs(p - refs[g, 0, j, a]) * scal[g, 0]
+    if rule == R_PSO:
+        v = refs[g, 0, j, a]
+        return (
+            p
+            + scal[g, 0] * v
+            + scal[g, 1] * rng.random() * (refs[g, 1, j, a] - p)
+            + scal[g, 2] * rng.random() * (refs[g, 2, j, a] - p)
+        )
+    if rule == R_GWO:
+        acc = 0.0
+        for r in range(3):
+            big_a = 2.0 * scal[g, 0] * rng.random() - scal[g, 0]
+            big_c = 2.0 * rng.random()
+            lead = refs[g, r, j, a]
+            acc += lead - big_a * abs(big_c * lead - p)
+        return acc / 3.0
+    if rule == R_DE:
+        flat = j * 2 + a
+        if rng.random() < scal[g, 1] or (attempt == 0 and flat == int(scal[g, 2])):
+            return refs[g, 0, j, a] + scal[g, 0] * (refs[g, 1, j, a] - refs[g, 2, j, a])
+        return p
+    if rule == R_CSO_ROOSTER:
+        return ln + (p - ln) * (1.0 + scal[g, 0] * rng.standard_normal())
+    if rule == R_CSO_HEN:
+        return (
+            p
+            + scal[g, 0] * rng.random() * (refs[g, 0, j, a] - p)
+            + scal[g, 1] * rng.random() * (refs[g, 1, j, a] - p)
+        )
+    if rule == R_CSO_CHICK:
+        return p + scal[g, 0] * (refs[g, 0, j, a] - p)
+    return p
+
+
+@njit(cache=True)
+def rebuild(
+    base,
+    rules,
+    refs,
+    scal,
+    escape,
+    line,
+    t_max,
+    v_min,
+    v_max,
+    dx,
+    dy,
+    dz,
+    start_m,
+    goal_m,
+    geo,
+    margin,
+    rng,
+):
+    """Apply each individual's rule node by node, start to goal, with the reachability rule.
+
+    base (G, n, 2) current positions; rules (G,) rule ids (−1: leave unchanged);
+    refs (G, N_REFS, n, 2); scal (G, N_SCAL); escape (G,) bool: after ``t_max`` failed
+    proposals try the adaptive variable-speed escape (eq. 12, Algorithm 2): P + (2·rand − 1)·V
+    for V = v_min..v_max, ``t_max`` tries per speed. If nothing is reachable the old node is
+    kept when it is reachable; otherwise the individual's update fails (``ok[g] = False``)
+    and it keeps its old path. ``line`` (D + 1, 2): the start-end line in grid units.
+    Returns (new positions, ok, escapes used).
+    """
+    n_pop = base.shape[0]
+    n_inner = base.shape[1]
+    out = base.copy()
+    ok = np.ones(n_pop, dtype=np.bool_)
+    escapes = 0
+    for g in range(n_pop):
+        rule = rules[g]
+        if rule < 0:
+            continue
+        py = 0.0
+        pz = 0.0
+        same = True  # the previous node equals the base path's, whose segments are known free
+        for j in range(n_inner):
+            placed = False
+            ny = 0.0
+            nz = 0.0
+            for attempt in range(t_max):
+                ny = _round(propose(rule, base, refs, scal, g, j, 0, line, attempt, rng))
+                nz = _round(propose(rule, base, refs, scal, g, j, 1, line, attempt, rng))
+                if same and ny == base[g, j, 0] and nz == base[g, j, 1]:
+                    placed = True
+                    break
+                if node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                    placed = True
+                    break
+            if not placed and escape[g]:
+                for v in range(v_min, v_max + 1):
+                    for _t in range(t_max):
+                        ny = _round(base[g, j, 0] + (2.0 * rng.random() - 1.0) * v)
+                        nz = _round(base[g, j, 1] + (2.0 * rng.random() - 1.0) * v)
+                        if node_free(
+                            j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                        ):
+                            placed = True
+                            break
+                    if placed:
+                        escapes += 1
+                        break
+            if not placed:
+                ny = base[g, j, 0]
+                nz = base[g, j, 1]
+                placed = same or node_free(
+                    j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                )
+            if not placed:
+                ok[g] = False
+                break
+            out[g, j, 0] = ny
+            out[g, j, 1] = nz
+            same = ny == base[g, j, 0] and nz == base[g, j, 1]
+            py = ny
+            pz = nz
+        if not ok[g]:
+            out[g] = base[g]
+    return out, ok, escapes
+
+
+@njit(cache=True)
+def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
+    """Adaptive oscillation optimisation (section 4.4, eq. 13), in place, every individual.
+
+    Node j becomes round(mean(P_{j−1}, P_j, …, P_{j+N_p−2})) with N_p = ``window``, the
+    previous node already optimised; when that node is unreachable N_p drops by one, and
+    below 3 the node is kept. Windows are cut at the goal. An individual whose kept node
+    became unreachable is left as it was. Returns the number of nodes moved.
+    """
+    n_pop = nodes.shape[0]
+    n_inner = nodes.shape[1]
+    moved = 0
+    new = np.empty((n_inner, 2))
+    for g in range(n_pop):
+        py = 0.0
+        pz = 0.0
+        ok = True
+        count = 0
+        same = True  # previous node unchanged: segments of the current path are known free
+        for j in range(n_inner):
+            placed = False
+            for np_ in range(window, 2, -1):
+                # window: previous (optimised) node, then nodes j .. j+np_-2
+                sy = py if j > 0 else start_m[1] / dy
+                sz = pz if j > 0 else start_m[2] / dz
+                cnt = 1
+                for k in range(j, j + np_ - 1):
+                    if k < n_inner:
+                        sy += nodes[g, k, 0]
+                        sz += nodes[g, k, 1]
+                    else:
+                        sy += goal_u[0]
+                        sz += goal_u[1]
+                    cnt += 1
+                    if k >= n_inner:
+                        break
+                ny = _round(sy / cnt)
+                nz = _round(sz / cnt)
+                if same and ny == nodes[g, j, 0] and nz == nodes[g, j, 1]:
+                    placed = True
+                    break
+                if node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                    placed = True
+                    break
+            if not placed:
+                ny = nodes[g, j, 0]
+                nz = nodes[g, j, 1]
+                if not (
+                    same
+                    or node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin)
+                ):
+                    ok = False
+                    break
+            same = ny == nodes[g, j, 0] and nz == nodes[g, j, 1]
+            if not same:
+                count += 1
+            new[j, 0] = ny
+            new[j, 1] = nz
+            py = ny
+            pz = nz
+        if ok:
+            for j in range(n_inner):
+                nodes[g, j, 0] = new[j, 0]
+                nodes[g, j, 1] = new[j, 1]
+            moved += count
+    return moved
+
+
+@njit(cache=True)
+def paths_feasible(nodes, dx, dy, dz, start_m, goal_m, geo, margin):
+    """(G,) bool: every segment of every individual reachable (start → nodes → goal)."""
+    n_pop = nodes.shape[0]
+    n_inner = nodes.shape[1]
+    out = np.ones(n_pop, dtype=np.bool_)
+    for g in range(n_pop):
+        py = 0.0
+        pz = 0.0
+        for j in range(n_inner):
+            ny = nodes[g, j, 0]
+            nz = nodes[g, j, 1]
+            if not node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                out[g] = False
+                break
+            py = ny
+            pz = nz
+    return out

@@ -1,0 +1,357 @@
+"""The planner contract: a problem, a result record, and the population loop every
+algorithm shares (STYLE: Problem, Algorithm and Termination kept apart, outcomes as values).
+
+A :class:`PathProblem` is the world in the path frame plus the encoding; an algorithm
+subclasses :class:`SwarmPlanner` and supplies ``setup`` and ``step``: how it turns the current
+population into candidates. Initialisation (eq. 8–10), the reachability rule, fitness,
+convergence recording and progress reporting are shared, so differences between algorithms
+come from their update rules alone (the paper's protocol, section 6).
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from uavplan.path.energy import N_SUB, column_spline, population_energy
+from uavplan.path.frame import PathFrame
+from uavplan.planners import _kernels as K
+from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams
+from uavplan.world import World
+
+#: starts per individual before the initialisation gives up on it
+INIT_MAX_ATTEMPTS = 25
+
+ProgressFn = Callable[[int, int, float], None]  # (iteration, iterations, best fitness)
+
+
+class PlanStatus(enum.Enum):
+    SOLVED = "solved"
+    NO_PATH = "no_path"  # no individual could be initialised (every start deadlocked)
+
+
+@dataclass(frozen=True, eq=False)
+class PathProblem:
+    """World in the path frame + path encoding + fitness weights."""
+
+    frame: PathFrame
+    world: World  # in the path frame
+    energy: EnergyWeights
+    start_m: np.ndarray  # (3,) path frame
+    goal_m: np.ndarray  # (3,)
+    start_u: np.ndarray  # (2,) grid units (y, z)
+    goal_u: np.ndarray  # (2,)
+    line_u: np.ndarray  # (D + 1, 2) start-end line in grid units
+    table: tuple[np.ndarray, np.ndarray]  # node clearance table (D+1, ny, nz), (y, z) offsets
+    memo: tuple[np.ndarray, np.ndarray] = field(default_factory=K.new_memo)
+
+    @classmethod
+    def build(
+        cls,
+        world_enu: World,
+        start_enu: tuple[float, float, float],
+        goal_enu: tuple[float, float, float],
+        grid: GridSpec,
+        energy: EnergyWeights,
+    ) -> PathProblem:
+        frame = PathFrame.build(start_enu, goal_enu, grid)
+        world = world_enu.in_frame(frame.origin_xy, frame.heading_rad)
+        start_m = np.array([0.0, 0.0, float(start_enu[2])])
+        goal_m = np.array([frame.length_m, 0.0, float(goal_enu[2])])
+        line = np.zeros((frame.n_cols + 1, 2))
+        line[:, 1] = frame.line_z_units
+        return cls(
+            frame,
+            world,
+            energy,
+            start_m,
+            goal_m,
+            np.array(frame.start_units),
+            np.array(frame.goal_units),
+            line,
+            _clearance_table(world, frame),
+        )
+
+    @property
+    def n_inner(self) -> int:
+        return self.frame.n_cols - 1
+
+    @property
+    def geo(self) -> tuple:
+        """World arrays (path frame), reachability memo and clearance table, as the kernels
+        take them."""
+        return (*self.world.kernel_args, *self.memo, *self.table)
+
+    @property
+    def margin_m(self) -> float:
+        return self.world.margin_m
+
+    @property
+    def steps(self) -> tuple[float, float, float]:
+        g = self.frame.grid
+        return (self.frame.dx_m, g.dy_m, g.dz_m)
+
+    def fitness(self, nodes: np.ndarray) -> np.ndarray:
+        """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
+        w = self.energy
+        dx, dy, dz = self.steps
+        return population_energy(
+            np.ascontiguousarray(nodes),
+            self.start_m[1:],
+            self.goal_m[1:],
+            dx,
+            dy,
+            dz,
+            N_SUB,
+            w.k0,
+            w.k1,
+            w.mu0,
+            w.k2,
+        )
+
+    def feasible(self, nodes: np.ndarray) -> np.ndarray:
+        dx, dy, dz = self.steps
+        return K.paths_feasible(
+            np.ascontiguousarray(nodes),
+            dx,
+            dy,
+            dz,
+            self.start_m,
+            self.goal_m,
+            self.geo,
+            self.margin_m,
+        )
+
+    def node_points(self, nodes: np.ndarray) -> np.ndarray:
+        """One individual's column polyline (D + 1, 3) in path-frame metres, with the ends."""
+        return self.frame.nodes_to_points(nodes)
+
+    def spline_points(self, nodes: np.ndarray) -> np.ndarray:
+        """The dense cubic spline the fitness is evaluated on, (D·N_SUB + 1, 3)."""
+        pts = self.node_points(nodes)
+        return column_spline(pts[:, 1:], self.frame.dx_m)
+
+    def initial_population(
+        self, n_pop: int, search: SearchParams, rng: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        dx, dy, dz = self.steps
+        return K.init_population(
+            n_pop,
+            self.n_inner,
+            self.start_u,
+            self.goal_u,
+            float(search.init_half_window),
+            search.t_max,
+            INIT_MAX_ATTEMPTS,
+            dx,
+            dy,
+            dz,
+            self.start_m,
+            self.goal_m,
+            self.geo,
+            self.margin_m,
+            rng,
+        )
+
+    def rebuild(
+        self,
+        base: np.ndarray,
+        rules: np.ndarray,
+        refs: np.ndarray,
+        scal: np.ndarray,
+        escape: np.ndarray,
+        t_max: int,
+        rng: np.random.Generator,
+        v_range: tuple[int, int] = (1, 5),
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Candidates from ``rules`` under the shared reachability rule (see kernels)."""
+        dx, dy, dz = self.steps
+        return K.rebuild(
+            base,
+            rules,
+            refs,
+            scal,
+            escape,
+            self.line_u,
+            t_max,
+            v_range[0],
+            v_range[1],
+            dx,
+            dy,
+            dz,
+            self.start_m,
+            self.goal_m,
+            self.geo,
+            self.margin_m,
+            rng,
+        )
+
+    def oscillate(self, nodes: np.ndarray, window: int) -> int:
+        dx, dy, dz = self.steps
+        return K.oscillate(
+            nodes,
+            self.goal_u,
+            window,
+            dx,
+            dy,
+            dz,
+            self.start_m,
+            self.goal_m,
+            self.geo,
+            self.margin_m,
+        )
+
+
+def _clearance_table(world: World, frame: PathFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Node clearances over the grid that covers the bounds (see ``K.clearance_table``)."""
+    g = frame.grid
+    # corners of the bounds polygon: intersect consecutive half-planes (a box: 4 corners)
+    ys = []
+    hp = world.hp
+    for i in range(hp.shape[0]):
+        for k in range(i + 1, hp.shape[0]):
+            m = np.array([hp[i, :2], hp[k, :2]])
+            if abs(np.linalg.det(m)) > 1e-12:
+                x, y = np.linalg.solve(m, [hp[i, 2], hp[k, 2]])
+                if world.points_inside_bounds(np.array([[x, y, world.zlim[0]]]))[0]:
+                    ys.append(y)
+    iy_lo, iy_hi = int(np.floor(min(ys) / g.dy_m)), int(np.ceil(max(ys) / g.dy_m))
+    iz_lo, iz_hi = int(np.floor(world.zlim[0] / g.dz_m)), int(np.ceil(world.zlim[1] / g.dz_m))
+    cap = world.margin_m + K.TABLE_REACH_M
+    tab = K.clearance_table(
+        frame.n_cols,
+        iy_lo,
+        iy_hi,
+        iz_lo,
+        iz_hi,
+        frame.dx_m,
+        g.dy_m,
+        g.dz_m,
+        world.kernel_args,
+        cap,
+    )
+    return tab, np.array([iy_lo, iz_lo], dtype=np.int64)
+
+
+@dataclass
+class PlannerResult:
+    """What a planner returns: one record (STYLE: x, fun, nit, success, message)."""
+
+    algorithm: str
+    seed: int
+    status: PlanStatus
+    best_nodes: np.ndarray | None  # (D − 1, 2) grid units
+    best_fitness: float
+    convergence: np.ndarray  # best fitness after each iteration
+    iterations: int
+    runtime_s: float
+    deadlocks: int = 0
+    stats: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def solved(self) -> bool:
+        return self.status is PlanStatus.SOLVED
+
+
+@dataclass
+class Population:
+    """The state a step works on: positions ``x`` (G, n, 2) and their fitness ``f`` (G,)."""
+
+    x: np.ndarray
+    f: np.ndarray
+    iteration: int = 0
+    iterations: int = 1
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def best_index(self) -> int:
+        return int(np.argmin(self.f))
+
+
+class SwarmPlanner:
+    """Shared population loop. Subclasses set ``name`` and implement :meth:`step`."""
+
+    name = "base"
+    #: does the paper's protocol post-process this algorithm's best path (section 4.5)?
+    postprocess = False
+
+    def __init__(self, search: SearchParams) -> None:
+        self.search = search
+
+    # hooks -------------------------------------------------------------------------------
+    def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        """Called once after initialisation (e.g. velocities)."""
+
+    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        """Advance ``pop`` by one iteration in place (positions and fitness)."""
+        raise NotImplementedError
+
+    def best(self, pop: Population) -> tuple[np.ndarray, float]:
+        """The best solution so far (an algorithm with memory may override)."""
+        i = pop.best_index
+        return pop.x[i], float(pop.f[i])
+
+    # the loop ----------------------------------------------------------------------------
+    def solve(
+        self,
+        problem: PathProblem,
+        rng: np.random.Generator | None = None,
+        progress: ProgressFn | None = None,
+    ) -> PlannerResult:
+        search = self.search
+        rng = rng if rng is not None else np.random.default_rng(search.seed)
+        t0 = time.perf_counter()
+        x, ok, deadlocks = problem.initial_population(search.population, search, rng)
+        if not ok.any():
+            return PlannerResult(
+                self.name,
+                search.seed,
+                PlanStatus.NO_PATH,
+                None,
+                float("inf"),
+                np.empty(0),
+                0,
+                time.perf_counter() - t0,
+                deadlocks,
+                message="every initial path deadlocked: no reachable node sequence from start "
+                "to goal along the start→goal direction",
+            )
+        if not ok.all():
+            # deadlocked individuals are replaced by copies of initialised ones
+            good = np.flatnonzero(ok)
+            bad = np.flatnonzero(~ok)
+            x[bad] = x[rng.choice(good, size=bad.size)]
+        pop = Population(x, problem.fitness(x), 0, search.iterations)
+        self.setup(problem, pop, rng)
+        convergence = np.empty(search.iterations)
+        for it in range(search.iterations):
+            pop.iteration = it
+            self.step(problem, pop, rng)
+            convergence[it] = self.best(pop)[1]
+            if progress is not None:
+                progress(it + 1, search.iterations, convergence[it])
+        best_x, best_f = self.best(pop)
+        stats = {k: v for k, v in pop.extra.items() if isinstance(v, int | float)}
+        return PlannerResult(
+            self.name,
+            search.seed,
+            PlanStatus.SOLVED,
+            best_x.copy(),
+            best_f,
+            convergence,
+            search.iterations,
+            time.perf_counter() - t0,
+            deadlocks,
+            stats,
+        )
+
+
+def empty_refs(n_pop: int, n_inner: int) -> tuple[np.ndarray, np.ndarray]:
+    """Zeroed reference-path and scalar arrays for :meth:`PathProblem.rebuild`."""
+    return np.zeros((n_pop, K.N_REFS, n_inner, 2)), np.zeros((n_pop, K.N_SCAL))

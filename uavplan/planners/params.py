@@ -1,0 +1,158 @@
+"""Every planner default in one documented place (STYLE habit 7).
+
+Values marked "Table 1" are the paper's (``paper/spsa-paper.md``, Table 1). The energy
+weights are ours: the paper gives no numbers, and Table 2's SPSA values (≈ 2000 on a ≈ 2 km
+route) fit ``k0 = 1`` per metre; ``k1·μ0 = 1`` and ``k2 = 1`` make a 1 m climb and a 90° kink
+each cost like a metre of flight. All of them can be set in a scenario's ``planner:`` section.
+
+This module holds plain dataclasses only (no numba, no numpy work) so that the scenario layer
+can validate planner options without importing the optimisers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+#: Every algorithm the ``--algorithm`` option accepts.
+ALGORITHMS: tuple[str, ...] = ("spsa", "ssa", "pso", "gwo", "de", "cso")
+
+
+@dataclass(frozen=True)
+class EnergyWeights:
+    """Weights of the energy fitness (eq. 1–2): E = k0·L + k1·Σ μ0(1 + cos θ) + k2·Σ|Δz|."""
+
+    k0: float = 1.0  # per metre flown
+    k1: float = 1.0  # turning scale
+    mu0: float = 1.0  # turning-angle coefficient
+    k2: float = 1.0  # per metre climbed or descended
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{f.name} must be a finite number >= 0")
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """Path grid (section 2.1, 6): one node per ``dx`` column, nodes rounded to ``dy``/``dz``."""
+
+    dx_m: float = 20.0
+    dy_m: float = 20.0
+    dz_m: float = 10.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{f.name} must be a number > 0")
+
+
+@dataclass(frozen=True)
+class SearchParams:
+    """Options shared by every planner: population, iterations, seed and the initialisation.
+
+    ``init_half_window`` is Δh of eq. 9–10 in grid units (paper: ten units in y and z);
+    ``t_max`` is the reselection limit T_max (Table 1) used by every algorithm, so all of
+    them follow the same reachability rule.
+    """
+
+    population: int = 30  # G, Table 1
+    iterations: int = 1000  # M, Table 1
+    seed: int = 1
+    t_max: int = 10  # T_max, Table 1
+    init_half_window: float = 10.0  # Δh, section 6
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.population, int) and self.population >= 4):
+            raise ValueError("population must be an integer >= 4")
+        if not (isinstance(self.iterations, int) and self.iterations >= 1):
+            raise ValueError("iterations must be an integer >= 1")
+        if not (isinstance(self.seed, int) and self.seed >= 0):
+            raise ValueError("seed must be an integer >= 0")
+        if not (isinstance(self.t_max, int) and self.t_max >= 1):
+            raise ValueError("t_max must be an integer >= 1")
+        if not (self.init_half_window > 0):
+            raise ValueError("init_half_window must be > 0")
+
+
+@dataclass(frozen=True)
+class SpsaParams:
+    """SPSA's own parameters (Table 1) and switches for each of its five contributions.
+
+    ``producer_rule``: how eq. 11's garbled "+ exp(−i/(α·M))" is read.
+      * ``"deviation"`` (default): SSA's multiplicative eq. 3 applied to the deviation δ from
+        the start-end line: δ' = δ·exp(−i/(α·M)) − rand·δ. It contracts toward the line.
+      * ``"literal"``: P' = P + exp(−i/(α·M)) + rand·(P_ST − P), a scalar added to every
+        coordinate, as printed.
+    The switches (all on by default) exist for the ablation study in ``uavplan bench``;
+    contribution 5 (node simplification, spline smoothing) is switched in :class:`PostParams`.
+    """
+
+    producer_ratio: float = 0.7  # PD
+    scrounger_ratio: float = 0.3  # JD
+    danger_ratio: float = 0.2  # SD
+    warning_value: float = 0.6  # ST
+    v_min: int = 1
+    v_max: int = 5
+    oscillation_window: int = 5  # N_p (max); min is 3 (section 4.4)
+    producer_rule: str = "deviation"
+    scrounger_index: str = "scrounger"  # i in eq. 4: "scrounger" (paper text) | "population"
+    start_end_producer: bool = True  # contribution 2 (off: SSA's eq. 3 producer)
+    escape: bool = True  # contribution 3 (adaptive variable-speed escape)
+    oscillation: bool = True  # contribution 4
+
+    def __post_init__(self) -> None:
+        for name in ("producer_ratio", "scrounger_ratio", "danger_ratio", "warning_value"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and 0.0 <= value <= 1.0):
+                raise ValueError(f"{name} must be within [0, 1]")
+        if abs(self.producer_ratio + self.scrounger_ratio - 1.0) > 1e-9:
+            raise ValueError("producer_ratio + scrounger_ratio must be 1")
+        if not (isinstance(self.v_min, int) and isinstance(self.v_max, int)):
+            raise ValueError("v_min and v_max must be integers")
+        if not 1 <= self.v_min <= self.v_max:
+            raise ValueError("need 1 <= v_min <= v_max")
+        if not (isinstance(self.oscillation_window, int) and self.oscillation_window >= 3):
+            raise ValueError("oscillation_window must be an integer >= 3")
+        if self.producer_rule not in ("deviation", "literal"):
+            raise ValueError("producer_rule must be 'deviation' or 'literal'")
+        if self.scrounger_index not in ("scrounger", "population"):
+            raise ValueError("scrounger_index must be 'scrounger' or 'population'")
+
+    @classmethod
+    def ssa(cls) -> SpsaParams:
+        """The original sparrow search (Xue & Shen 2020, reference code): 20 % producers with
+        eq. 3, ST = 0.8, scroungers ranked in the whole population, and none of SPSA's
+        contributions."""
+        return cls(
+            producer_ratio=0.2,
+            scrounger_ratio=0.8,
+            danger_ratio=0.2,
+            warning_value=0.8,
+            scrounger_index="population",
+            start_end_producer=False,
+            escape=False,
+            oscillation=False,
+        )
+
+
+@dataclass(frozen=True)
+class PostParams:
+    """Post-processing of the best path into a flyable route (section 4.5 and SPEC §4).
+
+    ``simplify`` and ``smooth`` are SPSA's contribution 5. ``tighten`` is ours, not the
+    paper's: after node simplification, interior vertices are pulled off the grid toward the
+    straight chord while every leg keeps the margin. The paper's protocol post-processes
+    SPSA's path only; baselines report their raw best path unless asked otherwise.
+    """
+
+    simplify: bool = True
+    tighten: bool = True
+    smooth: bool = True
+    sample_step_m: float = 5.0  # resolution of the final smoothed curve
+
+
+def field_names(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in fields(cls))

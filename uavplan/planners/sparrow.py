@@ -1,0 +1,139 @@
+"""Sparrow search (SSA, Xue & Shen 2020) and the Sparrow Particle Swarm Algorithm (SPSA).
+
+SPSA is SSA with the paper's five contributions (section 4, Algorithm 3):
+  1. path initialisation toward the target (eq. 8–10) — shared by every planner here;
+  2. producers pulled toward the start-end line (eq. 11 replaces eq. 3);
+  3. adaptive variable-speed escape for scroungers stuck on an unreachable node (eq. 12);
+  4. adaptive oscillation optimisation of every individual each iteration (eq. 13);
+  5. node simplification and cubic-spline smoothing of the best path (post-processing,
+     :mod:`uavplan.path.post`).
+One class implements both; :meth:`SpsaParams.ssa` switches SPSA's contributions off and
+restores SSA's own parameters.
+
+Selection is greedy per individual: a candidate replaces its parent only when it is better.
+The paper does not state it; Xue & Shen's reference code does the same (updates start from
+the personal best ``pX``, which is replaced only by a better position).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from uavplan.planners import _kernels as K
+from uavplan.planners.base import PathProblem, Population, SwarmPlanner, empty_refs
+from uavplan.planners.params import SearchParams, SpsaParams
+
+EPS = 1e-50  # ε of eq. 5, as in the reference code
+
+
+class SparrowPlanner(SwarmPlanner):
+    name = "spsa"
+    postprocess = True
+
+    def __init__(self, search: SearchParams, params: SpsaParams | None = None) -> None:
+        super().__init__(search)
+        self.params = params or SpsaParams()
+
+    def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        if self.params.oscillation:
+            # Algorithm 3: "Oscillation optimization of all individuals trajectories"
+            moved = problem.oscillate(pop.x, self.params.oscillation_window)
+            pop.f = problem.fitness(pop.x)
+            pop.extra["oscillated_nodes"] = moved
+        pop.extra.setdefault("escapes", 0)
+        pop.extra.setdefault("failed_updates", 0)
+
+    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        prm, search = self.params, self.search
+        x, f = pop.x, pop.f
+        n_pop, n_inner = x.shape[0], x.shape[1]
+        order = np.argsort(f, kind="stable")
+        best_i, worst_i = order[0], order[-1]
+        n_prod = min(n_pop - 1, max(1, round(prm.producer_ratio * n_pop)))
+        producers, scroungers = order[:n_prod], order[n_prod:]
+        v_range = (prm.v_min, prm.v_max)
+
+        # --- producers: eq. 11 (SPSA) or eq. 3 (SSA) ---------------------------------------
+        rules = np.full(n_pop, -1, dtype=np.int64)
+        refs, scal = empty_refs(n_pop, n_inner)
+        if rng.random() < prm.warning_value:
+            ranks = np.arange(1, n_prod + 1)
+            alpha = 1.0 - rng.random(n_prod)  # α in (0, 1]
+            scal[producers, 0] = np.exp(-ranks / (alpha * search.iterations))
+            if prm.start_end_producer:
+                literal = prm.producer_rule == "literal"
+                rules[producers] = K.R_SPSA_PRODUCER_LITERAL if literal else K.R_SPSA_PRODUCER
+                rules[best_i] = K.R_SPSA_PRODUCER_BEST
+            else:
+                rules[producers] = K.R_SSA_PRODUCER
+        else:
+            rules[producers] = K.R_ALARM
+            scal[producers, 0] = rng.standard_normal(n_prod)
+        no_escape = np.zeros(n_pop, dtype=np.bool_)
+        cand, ok_p, _ = problem.rebuild(x, rules, refs, scal, no_escape, search.t_max, rng, v_range)
+        f_prod = problem.fitness(cand[producers])
+        p_best = cand[producers[int(np.argmin(f_prod))]]
+
+        # --- scroungers: eq. 4, with the escape of eq. 12 ---------------------------------
+        rules = np.full(n_pop, -1, dtype=np.int64)
+        refs, scal = empty_refs(n_pop, n_inner)
+        if prm.scrounger_index == "scrounger":
+            index, half = np.arange(1, scroungers.size + 1), scroungers.size / 2.0
+        else:
+            index, half = np.arange(n_prod + 1, n_pop + 1), n_pop / 2.0
+        far = index > half
+        rules[scroungers[far]] = K.R_SCROUNGER_FAR
+        refs[scroungers[far], 0] = x[worst_i]
+        scal[scroungers[far], 0] = index[far].astype(float) ** 2
+        near = scroungers[~far]
+        if near.size:
+            rules[near] = K.R_SCROUNGER_NEAR
+            refs[near, 0] = p_best
+            # |P − P_p|·A⁺·L with A a random ±1 row: A⁺ = Aᵀ/d, the same offset on every node
+            signs = rng.choice(np.array([-1.0, 1.0]), size=(near.size, n_inner, 2))
+            scal[near, :2] = (np.abs(x[near] - p_best) * signs).sum(axis=1) / n_inner
+        escape = np.zeros(n_pop, dtype=np.bool_)
+        escape[scroungers] = prm.escape
+        cand_s, ok_s, escapes = problem.rebuild(
+            x, rules, refs, scal, escape, search.t_max, rng, v_range
+        )
+        cand[scroungers] = cand_s[scroungers]
+
+        # --- danger-aware sparrows: eq. 5 --------------------------------------------------
+        n_danger = min(n_pop, round(prm.danger_ratio * n_pop))
+        if n_danger:
+            aware = rng.choice(n_pop, size=n_danger, replace=False)
+            rules = np.full(n_pop, -1, dtype=np.int64)
+            refs, scal = empty_refs(n_pop, n_inner)
+            is_best = f[aware] <= f[best_i]
+            rules[aware[~is_best]] = K.R_DANGER
+            refs[aware[~is_best], 0] = x[best_i]
+            rules[aware[is_best]] = K.R_DANGER_BEST
+            refs[aware[is_best], 0] = x[worst_i]
+            scal[aware[is_best], 0] = 1.0 / (f[aware[is_best]] - f[worst_i] + EPS)
+            cand_d, _, _ = problem.rebuild(
+                x, rules, refs, scal, no_escape, search.t_max, rng, v_range
+            )
+            cand[aware] = cand_d[aware]
+
+        # --- adaptive oscillation optimisation: eq. 13 -----------------------------------
+        if prm.oscillation:
+            problem.oscillate(cand, prm.oscillation_window)
+
+        # --- greedy selection ---------------------------------------------------------------
+        f_cand = problem.fitness(cand)
+        better = f_cand < f
+        x[better] = cand[better]
+        f[better] = f_cand[better]
+        pop.extra["escapes"] += escapes
+        pop.extra["failed_updates"] += int((~ok_p).sum() + (~ok_s).sum())
+
+
+class SsaPlanner(SparrowPlanner):
+    """The original sparrow search: SPSA's machinery with its contributions switched off."""
+
+    name = "ssa"
+    postprocess = False
+
+    def __init__(self, search: SearchParams, params: SpsaParams | None = None) -> None:
+        super().__init__(search, params or SpsaParams.ssa())

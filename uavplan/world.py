@@ -1,0 +1,260 @@
+"""The world: obstacles as vertical solids, the flight bounds and the safety margin.
+
+Everything is in a local metric frame (ENU metres unless the world was moved into another
+frame with :meth:`World.in_frame`). The heavy lifting is in :mod:`uavplan._geom`; this module
+builds the flat arrays those kernels read and offers vectorised, documented entry points:
+
+* :meth:`World.segments_free` — are these straight segments inside the bounds and at least
+  ``margin`` from every obstacle? (batches of segments at once)
+* :meth:`World.points_clearance` / :meth:`World.segments_clearance` — exact distances.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from uavplan import _geom
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
+
+if TYPE_CHECKING:
+    from uavplan.scenario import Scenario
+
+MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
+
+
+def _is_convex_ccw(poly: Sequence[tuple[float, float]]) -> bool:
+    n = len(poly)
+    for i in range(n):
+        ax, ay = poly[i]
+        bx, by = poly[(i + 1) % n]
+        cx, cy = poly[(i + 2) % n]
+        if (bx - ax) * (cy - by) - (by - ay) * (cx - bx) < -1e-12:
+            return False
+    return True
+
+
+def _triangulate(poly: Sequence[tuple[float, float]]) -> list[list[tuple[float, float]]]:
+    """Ear clipping of a simple CCW polygon into CCW triangles."""
+    pts = list(poly)
+    idx = list(range(len(pts)))
+    tris: list[list[tuple[float, float]]] = []
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    def inside(p, a, b, c):
+        return cross(a, b, p) >= 0 and cross(b, c, p) >= 0 and cross(c, a, p) >= 0
+
+    guard = 0
+    while len(idx) > 3 and guard < 10_000:
+        guard += 1
+        for k in range(len(idx)):
+            i0, i1, i2 = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
+            a, b, c = pts[i0], pts[i1], pts[i2]
+            if cross(a, b, c) <= 1e-12:
+                continue
+            if any(inside(pts[j], a, b, c) for j in idx if j not in (i0, i1, i2)):
+                continue
+            tris.append([a, b, c])
+            idx.pop(k)
+            break
+        else:  # numerically degenerate remainder: fan it
+            break
+    if len(idx) >= 3:
+        for k in range(1, len(idx) - 1):
+            a, b, c = pts[idx[0]], pts[idx[k]], pts[idx[k + 1]]
+            if cross(a, b, c) > 1e-12:
+                tris.append([a, b, c])
+    return tris
+
+
+def _convex_pieces(obstacle: Obstacle) -> list[list[tuple[float, float]]]:
+    poly = obstacle.footprint()
+    if len(poly) <= MAX_VERTS and _is_convex_ccw(poly):
+        return [poly]
+    return _triangulate(poly)
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """Obstacles split into convex pieces, plus convex bounds, in one metric frame.
+
+    Arrays (read by the kernels):
+      ``poly_xy`` (P, MAX_VERTS, 2), ``poly_n`` (P,), ``poly_h`` (P,): convex polygons;
+      ``circ`` (C, 4): circles (cx, cy, r, h); ``box`` (P + C, 5): piece bounding boxes
+      (xmin, xmax, ymin, ymax, zmax); ``owner`` (P + C,): index of the obstacle of each piece;
+      ``hp`` (m, 3): bounds half-planes a·x + b·y <= c; ``zlim`` (2,).
+    """
+
+    poly_xy: np.ndarray
+    poly_n: np.ndarray
+    poly_h: np.ndarray
+    circ: np.ndarray
+    box: np.ndarray
+    owner: np.ndarray
+    hp: np.ndarray
+    zlim: np.ndarray
+    margin_m: float
+    n_obstacles: int
+
+    # -- construction ------------------------------------------------------------------
+    @classmethod
+    def from_scenario(cls, scenario: Scenario) -> World:
+        b = scenario.bounds
+        return cls.build(
+            scenario.obstacles,
+            bounds_xyz=(b.x_m, b.y_m, b.z_m),
+            margin_m=scenario.safety_margin_m,
+        )
+
+    @classmethod
+    def build(
+        cls,
+        obstacles: Sequence[Obstacle],
+        *,
+        bounds_xyz: tuple[tuple[float, float], tuple[float, float], tuple[float, float]],
+        margin_m: float,
+    ) -> World:
+        polys: list[tuple[list[tuple[float, float]], float, int]] = []
+        circles: list[tuple[float, float, float, float, int]] = []
+        for i, obs in enumerate(obstacles):
+            if isinstance(obs, CylinderObstacle):
+                circles.append((*obs.center_m, obs.radius_m, obs.height_m, i))
+            elif isinstance(obs, BoxObstacle | PrismObstacle):
+                for piece in _convex_pieces(obs):
+                    polys.append((piece, obs.height_m, i))
+            else:  # pragma: no cover - the scenario layer only makes these three
+                raise TypeError(f"unknown obstacle {obs!r}")
+        poly_xy = np.zeros((len(polys), MAX_VERTS, 2))
+        poly_n = np.zeros(len(polys), dtype=np.int64)
+        poly_h = np.zeros(len(polys))
+        owner = []
+        for k, (piece, h, i) in enumerate(polys):
+            poly_xy[k, : len(piece)] = piece
+            poly_n[k] = len(piece)
+            poly_h[k] = h
+            owner.append(i)
+        circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
+        owner.extend(c[4] for c in circles)
+        (x0, x1), (y0, y1), (z0, z1) = bounds_xyz
+        hp = np.array([[1.0, 0.0, x1], [-1.0, 0.0, -x0], [0.0, 1.0, y1], [0.0, -1.0, -y0]])
+        return cls._assemble(
+            poly_xy,
+            poly_n,
+            poly_h,
+            circ,
+            np.array(owner, dtype=np.int64),
+            hp,
+            np.array([z0, z1], dtype=float),
+            float(margin_m),
+            len(obstacles),
+        )
+
+    @classmethod
+    def _assemble(cls, poly_xy, poly_n, poly_h, circ, owner, hp, zlim, margin_m, n_obs) -> World:
+        box = np.zeros((poly_n.shape[0] + circ.shape[0], 5))
+        for k in range(poly_n.shape[0]):
+            v = poly_xy[k, : poly_n[k]]
+            box[k] = (v[:, 0].min(), v[:, 0].max(), v[:, 1].min(), v[:, 1].max(), poly_h[k])
+        for c in range(circ.shape[0]):
+            cx, cy, r, h = circ[c]
+            box[poly_n.shape[0] + c] = (cx - r, cx + r, cy - r, cy + r, h)
+        return cls(
+            np.ascontiguousarray(poly_xy),
+            poly_n,
+            poly_h,
+            np.ascontiguousarray(circ),
+            box,
+            owner,
+            np.ascontiguousarray(hp),
+            zlim,
+            margin_m,
+            n_obs,
+        )
+
+    def in_frame(self, origin_xy: Sequence[float], heading_rad: float) -> World:
+        """The same world expressed in a frame whose origin is ``origin_xy`` and whose +x axis
+        points along ``heading_rad`` (counter-clockwise from this frame's +x)."""
+        c, s = math.cos(heading_rad), math.sin(heading_rad)
+        ox, oy = float(origin_xy[0]), float(origin_xy[1])
+
+        def to_frame(x, y):
+            dx, dy = x - ox, y - oy
+            return c * dx + s * dy, -s * dx + c * dy
+
+        poly_xy = self.poly_xy.copy()
+        for k in range(self.poly_n.shape[0]):
+            n = self.poly_n[k]
+            u, v = to_frame(self.poly_xy[k, :n, 0], self.poly_xy[k, :n, 1])
+            poly_xy[k, :n, 0], poly_xy[k, :n, 1] = u, v
+        circ = self.circ.copy()
+        if circ.shape[0]:
+            circ[:, 0], circ[:, 1] = to_frame(self.circ[:, 0], self.circ[:, 1])
+        # a·x + b·y <= k  with x = ox + c·u − s·v, y = oy + s·u + c·v
+        a, b, k = self.hp[:, 0], self.hp[:, 1], self.hp[:, 2]
+        hp = np.stack([a * c + b * s, -a * s + b * c, k - a * ox - b * oy], axis=1)
+        return World._assemble(
+            poly_xy,
+            self.poly_n.copy(),
+            self.poly_h.copy(),
+            circ,
+            self.owner.copy(),
+            hp,
+            self.zlim.copy(),
+            self.margin_m,
+            self.n_obstacles,
+        )
+
+    # -- queries -----------------------------------------------------------------------
+    @property
+    def kernel_args(self) -> tuple:
+        """Arguments of :func:`uavplan._geom.segment_free` after the two end points."""
+        return (self.poly_xy, self.poly_n, self.poly_h, self.circ, self.box, self.hp, self.zlim)
+
+    def segments_free(
+        self, p0: np.ndarray, p1: np.ndarray, margin_m: float | None = None
+    ) -> np.ndarray:
+        """(n,) bool: segment p0[i]→p1[i] inside the bounds and ≥ margin from all obstacles."""
+        p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
+        p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
+        margin = self.margin_m if margin_m is None else float(margin_m)
+        return _geom.segments_free(p0, p1, *self.kernel_args, margin)
+
+    def points_inside_bounds(self, points: np.ndarray) -> np.ndarray:
+        p = np.atleast_2d(np.asarray(points, dtype=float))
+        ok = (p[:, 2] >= self.zlim[0] - 1e-9) & (p[:, 2] <= self.zlim[1] + 1e-9)
+        for a, b, k in self.hp:
+            ok &= a * p[:, 0] + b * p[:, 1] <= k + 1e-9
+        return ok
+
+    def points_clearance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact distance (n,) from each point to the nearest obstacle and its index (-1: none)."""
+        p = np.ascontiguousarray(np.atleast_2d(points), dtype=float)
+        dist, piece = _geom.points_clearance(p, self.poly_xy, self.poly_n, self.poly_h, self.circ)
+        return dist, np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
+
+    def segments_clearance(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact minimum distance (n,) from each segment to the nearest obstacle and its index."""
+        p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
+        p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
+        dist, piece = _geom.segments_clearance(
+            p0, p1, self.poly_xy, self.poly_n, self.poly_h, self.circ, self.box
+        )
+        return dist, np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
+
+    def polyline_clearance(self, points: np.ndarray) -> float:
+        """Smallest distance between the polyline through ``points`` (n, 3) and any obstacle."""
+        p = np.asarray(points, dtype=float)
+        if p.shape[0] < 2:
+            return float(self.points_clearance(p)[0].min()) if p.shape[0] else math.inf
+        dist, _ = self.segments_clearance(p[:-1], p[1:])
+        return float(dist.min()) if dist.size else math.inf
+
+    def nearest_obstacle(self, point: Sequence[float]) -> tuple[float, int]:
+        dist, idx = self.points_clearance(np.asarray(point, dtype=float).reshape(1, 3))
+        return float(dist[0]), int(idx[0])
