@@ -168,59 +168,100 @@ def _inside(px, py, pz, hp, zlim):
     return True
 
 
+@njit(cache=True, inline="always")
+def _cell_range(lo, hi, origin, cell, n):
+    a = int(math.floor((lo - origin) / cell))
+    b = int(math.floor((hi - origin) / cell))
+    if a < 0:
+        a = 0
+    if b > n - 1:
+        b = n - 1
+    return a, b
+
+
 @njit(cache=True)
-def segment_free(ax, ay, az, bx, by, bz, poly_xy, poly_n, poly_h, circ, box, hp, zlim, margin):
+def segment_free(ax, ay, az, bx, by, bz, W, margin):
     """True when segment a→b lies inside the bounds and keeps ``margin`` from every piece.
 
-    The bounds are convex: half-planes ``hp[i, 0]·x + hp[i, 1]·y <= hp[i, 2]`` and
-    ``zlim[0] <= z <= zlim[1]``, so checking both endpoints suffices.
+    ``W`` is the world tuple (see :class:`uavplan.world.World`). The bounds are convex:
+    half-planes ``hp[i, 0]·x + hp[i, 1]·y <= hp[i, 2]`` and ``zlim[0] <= z <= zlim[1]``, so
+    checking both endpoints suffices. Pieces are found through a uniform grid of cells; a
+    piece spanning several cells is tested once (in the first cell it shares with the
+    segment's box).
     """
+    poly_xy, poly_n, poly_h, circ, box, hp, zlim, gmeta, cell_start, cell_items, piece_cells = W
     if not (_inside(ax, ay, az, hp, zlim) and _inside(bx, by, bz, hp, zlim)):
         return False
-    npieces = box.shape[0]
     thr = margin - 1e-9
     if thr < 1e-9:
         thr = 1e-9  # margin 0 still means "not touching"
-    for k in range(npieces):
-        if seg_piece_dist(ax, ay, az, bx, by, bz, k, poly_xy, poly_n, poly_h, circ, box, thr) < thr:
-            return False
+    npieces = box.shape[0]
+    gx0 = gmeta[0]
+    gy0 = gmeta[1]
+    cell = gmeta[2]
+    nx = int(gmeta[3])
+    ny = int(gmeta[4])
+    if npieces == 0:
+        return True
+    if nx == 0:
+        for k in range(npieces):
+            if (
+                seg_piece_dist(ax, ay, az, bx, by, bz, k, poly_xy, poly_n, poly_h, circ, box, thr)
+                < thr
+            ):
+                return False
+        return True
+    cx0, cx1 = _cell_range(min(ax, bx) - margin, max(ax, bx) + margin, gx0, cell, nx)
+    cy0, cy1 = _cell_range(min(ay, by) - margin, max(ay, by) + margin, gy0, cell, ny)
+    for cx in range(cx0, cx1 + 1):
+        for cy in range(cy0, cy1 + 1):
+            c = cx * ny + cy
+            for t in range(cell_start[c], cell_start[c + 1]):
+                k = cell_items[t]
+                # test each piece once: in the first cell of its overlap with the query
+                if cx != max(cx0, piece_cells[k, 0]) or cy != max(cy0, piece_cells[k, 2]):
+                    continue
+                if (
+                    seg_piece_dist(
+                        ax, ay, az, bx, by, bz, k, poly_xy, poly_n, poly_h, circ, box, thr
+                    )
+                    < thr
+                ):
+                    return False
     return True
 
 
 @njit(cache=True)
-def segments_free(p0, p1, poly_xy, poly_n, poly_h, circ, box, hp, zlim, margin):
+def segments_free(p0, p1, W, margin):
     """Batch of :func:`segment_free`; ``p0``, ``p1``: (n, 3)."""
     n = p0.shape[0]
     out = np.empty(n, dtype=np.bool_)
     for i in range(n):
-        out[i] = segment_free(
-            p0[i, 0],
-            p0[i, 1],
-            p0[i, 2],
-            p1[i, 0],
-            p1[i, 1],
-            p1[i, 2],
-            poly_xy,
-            poly_n,
-            poly_h,
-            circ,
-            box,
-            hp,
-            zlim,
-            margin,
-        )
+        out[i] = segment_free(p0[i, 0], p0[i, 1], p0[i, 2], p1[i, 0], p1[i, 1], p1[i, 2], W, margin)
     return out
 
 
+@njit(cache=True, inline="always")
+def _box_gap(x0, x1, y0, y1, z0, z1, box, k):
+    """Distance between an axis-aligned box and piece k's box (z from 0 to its height)."""
+    gx = max(0.0, box[k, 0] - x1, x0 - box[k, 1])
+    gy = max(0.0, box[k, 2] - y1, y0 - box[k, 3])
+    gz = max(0.0, z0 - box[k, 4], -z1)
+    return math.sqrt(gx * gx + gy * gy + gz * gz)
+
+
 @njit(cache=True)
-def points_clearance(p, poly_xy, poly_n, poly_h, circ):
+def points_clearance(p, W):
     """Exact distance from each point (n, 3) to the nearest piece, and that piece's index."""
+    poly_xy, poly_n, poly_h, circ, box = W[0], W[1], W[2], W[3], W[4]
     n = p.shape[0]
-    npieces = poly_n.shape[0] + circ.shape[0]
+    npieces = box.shape[0]
     dist = np.full(n, np.inf)
     which = np.full(n, -1, dtype=np.int64)
     for i in range(n):
         for k in range(npieces):
+            if _box_gap(p[i, 0], p[i, 0], p[i, 1], p[i, 1], p[i, 2], p[i, 2], box, k) >= dist[i]:
+                continue
             d = point_piece_dist(p[i, 0], p[i, 1], p[i, 2], k, poly_xy, poly_n, poly_h, circ)
             if d < dist[i]:
                 dist[i] = d
@@ -229,30 +270,69 @@ def points_clearance(p, poly_xy, poly_n, poly_h, circ):
 
 
 @njit(cache=True)
-def segments_clearance(p0, p1, poly_xy, poly_n, poly_h, circ, box):
+def segments_clearance(p0, p1, W):
     """Exact minimum distance from each segment p0[i]→p1[i] to the nearest piece."""
+    poly_xy, poly_n, poly_h, circ, box = W[0], W[1], W[2], W[3], W[4]
     n = p0.shape[0]
     npieces = box.shape[0]
     dist = np.full(n, np.inf)
     which = np.full(n, -1, dtype=np.int64)
     for i in range(n):
+        ax, ay, az = p0[i, 0], p0[i, 1], p0[i, 2]
+        bx, by, bz = p1[i, 0], p1[i, 1], p1[i, 2]
+        x0, x1 = min(ax, bx), max(ax, bx)
+        y0, y1 = min(ay, by), max(ay, by)
+        z0, z1 = min(az, bz), max(az, bz)
         for k in range(npieces):
-            d = seg_piece_dist(
-                p0[i, 0],
-                p0[i, 1],
-                p0[i, 2],
-                p1[i, 0],
-                p1[i, 1],
-                p1[i, 2],
-                k,
-                poly_xy,
-                poly_n,
-                poly_h,
-                circ,
-                box,
-                -1.0,
-            )
+            if _box_gap(x0, x1, y0, y1, z0, z1, box, k) >= dist[i]:
+                continue
+            d = seg_piece_dist(ax, ay, az, bx, by, bz, k, poly_xy, poly_n, poly_h, circ, box, -1.0)
             if d < dist[i]:
                 dist[i] = d
                 which[i] = k
     return dist, which
+
+
+@njit(cache=True)
+def build_cells(box, pad, cell):
+    """Uniform grid over the pieces' boxes grown by ``pad``: (gmeta, cell_start, cell_items,
+    piece_cells). gmeta = (x0, y0, cell, nx, ny, pad). A query grows its own box by the
+    margin, so ``pad`` may be 0: a piece within the margin shares a cell with the query."""
+    npieces = box.shape[0]
+    gmeta = np.zeros(6)
+    if npieces == 0:
+        return gmeta, np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros((0, 4), np.int64)
+    x0 = box[:, 0].min() - pad
+    y0 = box[:, 2].min() - pad
+    x1 = box[:, 1].max() + pad
+    y1 = box[:, 3].max() + pad
+    nx = int(math.floor((x1 - x0) / cell)) + 1
+    ny = int(math.floor((y1 - y0) / cell)) + 1
+    piece_cells = np.empty((npieces, 4), np.int64)
+    counts = np.zeros(nx * ny + 1, np.int64)
+    for k in range(npieces):
+        a0, a1 = _cell_range(box[k, 0] - pad, box[k, 1] + pad, x0, cell, nx)
+        b0, b1 = _cell_range(box[k, 2] - pad, box[k, 3] + pad, y0, cell, ny)
+        piece_cells[k, 0] = a0
+        piece_cells[k, 1] = a1
+        piece_cells[k, 2] = b0
+        piece_cells[k, 3] = b1
+        for cx in range(a0, a1 + 1):
+            for cy in range(b0, b1 + 1):
+                counts[cx * ny + cy + 1] += 1
+    cell_start = np.cumsum(counts)
+    fill = cell_start[:-1].copy()
+    cell_items = np.empty(cell_start[-1], np.int64)
+    for k in range(npieces):
+        for cx in range(piece_cells[k, 0], piece_cells[k, 1] + 1):
+            for cy in range(piece_cells[k, 2], piece_cells[k, 3] + 1):
+                c = cx * ny + cy
+                cell_items[fill[c]] = k
+                fill[c] += 1
+    gmeta[0] = x0
+    gmeta[1] = y0
+    gmeta[2] = cell
+    gmeta[3] = nx
+    gmeta[4] = ny
+    gmeta[5] = pad
+    return gmeta, cell_start, cell_items, piece_cells

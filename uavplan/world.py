@@ -73,6 +73,14 @@ def _triangulate(poly: Sequence[tuple[float, float]]) -> list[list[tuple[float, 
     return tris
 
 
+def _cell_size(box: np.ndarray) -> float:
+    """Grid cell edge: about the typical piece size, never below 25 m."""
+    if box.shape[0] == 0:
+        return 100.0
+    sizes = np.maximum(box[:, 1] - box[:, 0], box[:, 3] - box[:, 2])
+    return float(max(25.0, 1.5 * np.median(sizes)))
+
+
 def _convex_pieces(obstacle: Obstacle) -> list[list[tuple[float, float]]]:
     poly = obstacle.footprint()
     if len(poly) <= MAX_VERTS and _is_convex_ccw(poly):
@@ -101,6 +109,7 @@ class World:
     zlim: np.ndarray
     margin_m: float
     n_obstacles: int
+    cells: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     # -- construction ------------------------------------------------------------------
     @classmethod
@@ -164,6 +173,7 @@ class World:
         for c in range(circ.shape[0]):
             cx, cy, r, h = circ[c]
             box[poly_n.shape[0] + c] = (cx - r, cx + r, cy - r, cy + r, h)
+        cells = _geom.build_cells(box, 0.0, _cell_size(box))
         return cls(
             np.ascontiguousarray(poly_xy),
             poly_n,
@@ -175,6 +185,7 @@ class World:
             zlim,
             margin_m,
             n_obs,
+            cells,
         )
 
     def in_frame(self, origin_xy: Sequence[float], heading_rad: float) -> World:
@@ -213,8 +224,17 @@ class World:
     # -- queries -----------------------------------------------------------------------
     @property
     def kernel_args(self) -> tuple:
-        """Arguments of :func:`uavplan._geom.segment_free` after the two end points."""
-        return (self.poly_xy, self.poly_n, self.poly_h, self.circ, self.box, self.hp, self.zlim)
+        """The world tuple ``W`` the kernels of :mod:`uavplan._geom` take."""
+        return (
+            self.poly_xy,
+            self.poly_n,
+            self.poly_h,
+            self.circ,
+            self.box,
+            self.hp,
+            self.zlim,
+            *self.cells,
+        )
 
     def segments_free(
         self, p0: np.ndarray, p1: np.ndarray, margin_m: float | None = None
@@ -223,7 +243,7 @@ class World:
         p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
         p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
         margin = self.margin_m if margin_m is None else float(margin_m)
-        return _geom.segments_free(p0, p1, *self.kernel_args, margin)
+        return _geom.segments_free(p0, p1, self.kernel_args, margin)
 
     def points_inside_bounds(self, points: np.ndarray) -> np.ndarray:
         p = np.atleast_2d(np.asarray(points, dtype=float))
@@ -235,16 +255,14 @@ class World:
     def points_clearance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact distance (n,) from each point to the nearest obstacle and its index (-1: none)."""
         p = np.ascontiguousarray(np.atleast_2d(points), dtype=float)
-        dist, piece = _geom.points_clearance(p, self.poly_xy, self.poly_n, self.poly_h, self.circ)
+        dist, piece = _geom.points_clearance(p, self.kernel_args)
         return dist, np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
 
     def segments_clearance(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact minimum distance (n,) from each segment to the nearest obstacle and its index."""
         p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
         p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
-        dist, piece = _geom.segments_clearance(
-            p0, p1, self.poly_xy, self.poly_n, self.poly_h, self.circ, self.box
-        )
+        dist, piece = _geom.segments_clearance(p0, p1, self.kernel_args)
         return dist, np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
 
     def polyline_clearance(self, points: np.ndarray) -> float:

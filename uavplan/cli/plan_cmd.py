@@ -1,1 +1,201 @@
-"""Placeholder module; commands are added by their issue."""
+"""``uavplan plan`` and ``uavplan validate``: thin wiring of scenario → planner → mission file."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import click
+
+from uavplan.cli import main
+from uavplan.cli.common import handle_errors, show_progress
+from uavplan.errors import InputError, NoPathError
+
+
+class _Progress:
+    """A progress bar on stderr, throttled to about 10 updates a second."""
+
+    def __init__(self, enabled: bool, label: str) -> None:
+        self.enabled = enabled
+        self.label = label
+        self.bar = None
+        self.last = 0.0
+        self.done = 0
+
+    def __call__(self, iteration: int, total: int, best: float) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            self.bar = click.progressbar(
+                length=total, label=self.label, file=sys.stderr, show_pos=True, width=30
+            )
+            self.bar.__enter__()
+        now = time.monotonic()
+        if now - self.last >= 0.1 or iteration == total:
+            self.bar.label = f"{self.label} E={best:.1f}"
+            self.bar.update(iteration - self.done)
+            self.done = iteration
+            self.last = now
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+            self.bar = None
+
+
+def _load_scenario(path: str):
+    from uavplan.scenario import load_scenario
+
+    return load_scenario(path)
+
+
+@main.command("plan")
+@click.argument("scenario", type=click.Path(dir_okay=False))
+@click.option(
+    "-o",
+    "--output",
+    "output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Mission file to write: .plan, .waypoints (format from the extension).",
+)
+@click.option(
+    "--algorithm",
+    type=click.Choice(["spsa", "ssa", "pso", "gwo", "de", "cso"]),
+    help="Planner (default: the scenario's, else spsa).",
+)
+@click.option("--seed", type=click.IntRange(min=0), help="Random seed (reproducible runs).")
+@click.option("--iterations", type=click.IntRange(min=1), help="Iterations M (default 1000).")
+@click.option("--population", type=click.IntRange(min=4), help="Population size G (default 30).")
+@click.option(
+    "--autopilot",
+    type=click.Choice(["px4", "ardupilot"]),
+    help="Mission flavour (default: the scenario's, else ardupilot).",
+)
+@click.option("--report", type=click.Path(dir_okay=False), help="Write a JSON report here.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress output.")
+@handle_errors
+def plan_command(
+    scenario: str,
+    output: str,
+    algorithm: str | None,
+    seed: int | None,
+    iterations: int | None,
+    population: int | None,
+    autopilot: str | None,
+    report: str | None,
+    quiet: bool,
+) -> None:
+    """Plan a collision-free route for SCENARIO and write it as a mission file."""
+    from uavplan.fileio import atomic_write_text
+    from uavplan.geo import EnuFrame
+    from uavplan.mission.builder import build_mission
+    from uavplan.mission.io import format_for, save_mission
+    from uavplan.mission.items import Autopilot
+    from uavplan.planning import plan_route
+
+    format_for(output)  # fail on an unknown extension before spending time planning
+    scn = _load_scenario(scenario)
+    search = scn.planner.search
+    changes = {
+        k: v
+        for k, v in (("seed", seed), ("iterations", iterations), ("population", population))
+        if v is not None
+    }
+    if changes:
+        scn = scn.with_planner(search=replace(search, **changes))
+    if algorithm:
+        scn = scn.with_planner(algorithm=algorithm)
+    if autopilot:
+        scn = replace(scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(autopilot)))
+
+    progress = _Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
+    try:
+        result = plan_route(scn, progress=progress)
+    finally:
+        progress.close()
+    if report:
+        atomic_write_text(report, json.dumps(result.report(scn), indent=2) + "\n")
+    if not result.ok:
+        raise NoPathError(f"{scn.name}: no collision-free path: {result.message}")
+    if not result.collision_free:
+        raise NoPathError(
+            f"{scn.name}: the route comes within {result.min_clearance_m:.2f} m of an obstacle "
+            f"(safety margin {scn.safety_margin_m:g} m)"
+        )
+    mission = build_mission(
+        result.waypoints_enu,
+        EnuFrame.at(scn.origin),
+        autopilot=scn.mission.autopilot,
+        end=scn.mission.end,
+        takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
+        cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
+    )
+    save_mission(mission, output)
+    if not quiet:
+        e_path, e_turn, e_climb = result.energy_terms
+        click.echo(
+            f"{Path(output).name}: {len(mission.items)} items, {result.waypoints_enu.shape[0]} "
+            f"waypoints, {result.length_m:.0f} m, energy {result.energy:.1f} "
+            f"(path {e_path:.1f}, turning {e_turn:.2f}, climb {e_climb:.1f}), "
+            f"min clearance {result.min_clearance_m:.2f} m, planned in {result.runtime_s:.2f} s",
+            err=True,
+        )
+
+
+@main.command("validate")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option(
+    "--scenario",
+    "scenario_path",
+    type=click.Path(dir_okay=False),
+    help="Check the mission FILE against this scenario's obstacles and margin.",
+)
+@handle_errors
+def validate_command(file: str, scenario_path: str | None) -> None:
+    """Check a scenario file, or a mission file against a scenario."""
+    if scenario_path is None:
+        scn = _load_scenario(file)
+        click.echo(
+            f"{file}: ok — {scn.name}, {len(scn.obstacles)} obstacles, "
+            f"margin {scn.safety_margin_m:g} m"
+        )
+        return
+    import numpy as np
+
+    from uavplan.geo import EnuFrame
+    from uavplan.mission.builder import mission_polyline_enu
+    from uavplan.mission.io import load_mission
+    from uavplan.world import World
+
+    scn = _load_scenario(scenario_path)
+    plan = load_mission(file)
+    frame = EnuFrame.at(scn.origin)
+    try:
+        poly = mission_polyline_enu(plan, frame)
+    except ValueError as err:
+        raise InputError(str(err), file=file) from None
+    if poly.shape[0] < 2:
+        raise InputError("the mission has fewer than two positions to fly", file=file)
+    world = World.from_scenario(scn)
+    dist, which = world.segments_clearance(poly[:-1], poly[1:])
+    worst = int(np.argmin(dist))
+    inside = world.points_inside_bounds(poly)
+    if not inside.all():
+        k = int(np.flatnonzero(~inside)[0])
+        raise NoPathError(
+            f"{file}: point {k} of the flown path {poly[k].round(1).tolist()} is outside the "
+            "scenario bounds"
+        )
+    if dist[worst] < scn.safety_margin_m - 1e-6:
+        raise NoPathError(
+            f"{file}: leg {worst} of the flown path comes within {dist[worst]:.2f} m of "
+            f"obstacles[{which[worst]}] (safety margin {scn.safety_margin_m:g} m)"
+        )
+    click.echo(
+        f"{file}: ok — {len(plan.items)} items, min clearance {dist.min():.2f} m "
+        f"(margin {scn.safety_margin_m:g} m)"
+    )

@@ -81,7 +81,7 @@ def _memo_key(j, y0, z0, y1, z1):
 
 @njit(cache=True)
 def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
-    poly_xy, poly_n, poly_h, circ, box, hp, zlim = geo[:7]
+    W = geo[:11]
     if j == 1:
         ax = start_m[0]
         ay = start_m[1]
@@ -93,27 +93,10 @@ def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, m
     bx = j * dx
     by = y1 * dy
     bz = z1 * dz
-    if not segment_free(
-        ax, ay, az, bx, by, bz, poly_xy, poly_n, poly_h, circ, box, hp, zlim, margin
-    ):
+    if not segment_free(ax, ay, az, bx, by, bz, W, margin):
         return False
     if j == int(round(goal_m[0] / dx)) - 1:
-        return segment_free(
-            bx,
-            by,
-            bz,
-            goal_m[0],
-            goal_m[1],
-            goal_m[2],
-            poly_xy,
-            poly_n,
-            poly_h,
-            circ,
-            box,
-            hp,
-            zlim,
-            margin,
-        )
+        return segment_free(bx, by, bz, goal_m[0], goal_m[1], goal_m[2], W, margin)
     return True
 
 
@@ -172,10 +155,10 @@ def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
     (d0 + d1 − length)/2 >= margin (distance is 1-Lipschitz). Otherwise the exact test
     runs once and its answer is memoised.
     """
-    keys = geo[7]
-    vals = geo[8]
-    tab = geo[9]
-    off = geo[10]
+    keys = geo[11]
+    vals = geo[12]
+    tab = geo[13]
+    off = geo[14]
     if 1 < j < tab.shape[0] - 2:
         a = int(y0) - off[0]
         b = int(z0) - off[1]

@@ -253,6 +253,8 @@ class PlannerResult:
     deadlocks: int = 0
     stats: dict[str, Any] = field(default_factory=dict)
     message: str = ""
+    population: np.ndarray | None = None  # final positions (G, D − 1, 2)
+    population_fitness: np.ndarray | None = None
 
     @property
     def solved(self) -> bool:
@@ -349,6 +351,8 @@ class SwarmPlanner:
             time.perf_counter() - t0,
             deadlocks,
             stats,
+            population=pop.x.copy(),
+            population_fitness=pop.f.copy(),
         )
 
 

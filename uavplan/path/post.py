@@ -1,0 +1,200 @@
+"""From a planner's best node path to a flyable route (paper section 4.5, SPEC §4).
+
+1. :func:`simplify` — node simplification: from the current node jump to the *farthest*
+   later node reachable in a straight line (Figure 4).
+2. :func:`tighten` — ours: pull each interior vertex off the grid toward the chord of its
+   neighbours as far as both legs keep the margin (a string-pulling pass; it can only lower
+   every energy term).
+3. :func:`smooth_route` — cubic spline through the vertices, parametrised by cumulative chord
+   length; each leg between two vertices is a blend ``(1 − λ)·line + λ·spline`` and λ is
+   halved on any leg whose dense samples come closer than the margin (λ = 0 is the straight,
+   feasible leg), so the smoothed curve keeps the margin.
+4. :func:`resample_waypoints` — waypoints every ``spacing`` metres along the curve, vertices
+   always kept; a straight leg that comes closer than the margin gets the curve's midpoint
+   inserted until every leg is clear.
+
+All coordinates are metres in one frame (the path frame or ENU); the world must be in the
+same frame. Nothing here knows about optimisers, files or MAVLink.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from uavplan.world import World
+
+#: halvings of λ before a leg falls back to the straight line
+MAX_BLEND_HALVINGS = 8
+#: passes of the tightening sweep
+TIGHTEN_PASSES = 30
+TIGHTEN_BISECTIONS = 24
+
+
+def simplify(points: np.ndarray, world: World) -> np.ndarray:
+    """Indices of the simplified polyline: greedy farthest-reachable jumps (Figure 4).
+
+    ``points`` (n, 3) is a feasible polyline; the result starts at 0 and ends at n − 1.
+    """
+    p = np.asarray(points, dtype=float)
+    n = p.shape[0]
+    keep = [0]
+    i = 0
+    while i < n - 1:
+        later = np.arange(i + 1, n)
+        free = world.segments_free(np.repeat(p[i : i + 1], later.size, axis=0), p[later])
+        reachable = later[free]
+        # the next node is reachable by construction; guard anyway
+        i = int(reachable.max()) if reachable.size else i + 1
+        keep.append(i)
+    return np.array(keep, dtype=np.int64)
+
+
+def tighten(vertices: np.ndarray, world: World, tol_m: float = 1e-3) -> np.ndarray:
+    """Move interior vertices toward their neighbours' chord while both legs stay free.
+
+    Each pass moves every interior vertex ``v`` along ``v → q`` (``q`` the closest point of
+    the chord between its neighbours) by the largest fraction found by bisection for which
+    both adjacent segments keep the margin. Vertices that become redundant (neighbours see
+    each other) are dropped. Stops when no vertex moves more than ``tol_m``.
+    """
+    v = np.array(vertices, dtype=float)
+    for _ in range(TIGHTEN_PASSES):
+        moved = 0.0
+        k = 1
+        while k < v.shape[0] - 1:
+            a, b = v[k - 1], v[k + 1]
+            if world.segments_free(a[None], b[None])[0]:
+                v = np.delete(v, k, axis=0)
+                moved = max(moved, 1.0)
+                continue
+            ab = b - a
+            t = float(np.clip(np.dot(v[k] - a, ab) / max(np.dot(ab, ab), 1e-12), 0.0, 1.0))
+            q = a + t * ab
+            step = q - v[k]
+            if np.linalg.norm(step) > tol_m:
+                fracs = _largest_free_fraction(v[k], step, a, b, world)
+                if fracs > 0.0:
+                    v[k] = v[k] + fracs * step
+                    moved = max(moved, fracs * float(np.linalg.norm(step)))
+            k += 1
+        if moved <= tol_m:
+            break
+    return v
+
+
+def _largest_free_fraction(
+    p: np.ndarray, step: np.ndarray, a: np.ndarray, b: np.ndarray, world: World
+) -> float:
+    """Largest f in [0, 1] (to bisection precision) with a→p+f·step→b free."""
+
+    def ok(f: float) -> bool:
+        c = p + f * step
+        return bool(world.segments_free(np.stack([a, c]), np.stack([c, b])).all())
+
+    if ok(1.0):
+        return 1.0
+    lo, hi = 0.0, 1.0
+    for _ in range(TIGHTEN_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if ok(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@dataclass(frozen=True)
+class SmoothRoute:
+    """A smoothed route: vertices it passes through, per-leg blend factors, dense samples.
+
+    ``samples`` (k, 3) is the final curve; ``vertex_index`` gives the row of every vertex in
+    ``samples``.
+    """
+
+    vertices: np.ndarray  # (m, 3)
+    blend: np.ndarray  # (m − 1,) λ per leg
+    samples: np.ndarray  # (k, 3)
+    vertex_index: np.ndarray  # (m,)
+
+
+def _leg_samples(
+    v: np.ndarray, spline: CubicSpline | None, s: np.ndarray, i: int, lam: float, step_m: float
+) -> np.ndarray:
+    """Dense samples of leg i (excluding its end vertex)."""
+    a, b = v[i], v[i + 1]
+    n = max(1, math.ceil(np.linalg.norm(b - a) / step_m))
+    u = np.arange(n) / n
+    line = a + u[:, None] * (b - a)
+    if spline is None or lam == 0.0:
+        return line
+    curve = spline(s[i] + u * (s[i + 1] - s[i]))
+    return (1.0 - lam) * line + lam * curve
+
+
+def smooth_route(
+    vertices: np.ndarray, world: World, *, smooth: bool = True, step_m: float = 5.0
+) -> SmoothRoute:
+    """Cubic-spline smoothing of a feasible polyline, blended back where it would cut into
+    the margin (see module doc). With ``smooth=False`` the polyline itself is sampled."""
+    v = np.asarray(vertices, dtype=float)
+    m = v.shape[0]
+    spline = None
+    s = np.zeros(m)
+    if smooth and m >= 3:
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(v, axis=0), axis=1))])
+        spline = CubicSpline(s, v, axis=0, bc_type="natural")
+    blend = np.ones(m - 1) if spline is not None else np.zeros(m - 1)
+    legs: list[np.ndarray] = []
+    for i in range(m - 1):
+        for _ in range(MAX_BLEND_HALVINGS + 1):
+            pts = np.vstack([_leg_samples(v, spline, s, i, blend[i], step_m), v[i + 1]])
+            if blend[i] == 0.0 or world.segments_free(pts[:-1], pts[1:]).all():
+                break
+            blend[i] = 0.0 if blend[i] < 2.0**-MAX_BLEND_HALVINGS else blend[i] / 2.0
+        legs.append(pts[:-1])
+    samples = np.vstack([*legs, v[-1:]])
+    counts = np.array([leg.shape[0] for leg in legs])
+    vertex_index = np.concatenate([[0], np.cumsum(counts)])
+    return SmoothRoute(v, blend, samples, vertex_index)
+
+
+def resample_waypoints(route: SmoothRoute, world: World, spacing_m: float) -> np.ndarray:
+    """Waypoints (w, 3) along ``route.samples`` about every ``spacing_m`` metres, keeping
+    every vertex, refined until each straight leg keeps the margin.
+
+    Legs made of consecutive dense samples are free (``smooth_route`` ensured it), so the
+    refinement always terminates.
+    """
+    pts = route.samples
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    chosen: set[int] = set(int(i) for i in route.vertex_index)
+    for a, b in zip(route.vertex_index[:-1], route.vertex_index[1:], strict=True):
+        length = arc[b] - arc[a]
+        n = max(1, round(length / spacing_m))
+        targets = arc[a] + length * np.arange(1, n) / n
+        chosen.update(int(i) for i in np.searchsorted(arc, targets))
+    idx = np.array(sorted(chosen))
+    for _ in range(64):
+        free = world.segments_free(pts[idx[:-1]], pts[idx[1:]])
+        if free.all():
+            break
+        bad = np.flatnonzero(~free)
+        inserts = [(idx[i] + idx[i + 1]) // 2 for i in bad if idx[i + 1] - idx[i] > 1]
+        if not inserts:  # cannot happen: consecutive samples are free
+            break
+        idx = np.array(sorted(set(idx.tolist()) | set(inserts)))
+    return pts[idx]
+
+
+def dedupe(points: np.ndarray, tol_m: float = 1e-6) -> np.ndarray:
+    """Drop consecutive duplicate points."""
+    p = np.asarray(points, dtype=float)
+    if p.shape[0] < 2:
+        return p
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(p, axis=0), axis=1) > tol_m])
+    return p[keep]
