@@ -1,1 +1,381 @@
-"""Placeholder module; commands are added by their issue."""
+"""``uavplan upload``, ``download``, ``clear`` and ``mock-vehicle``: missions over MAVLink.
+
+Thin wrappers: parse options, call :mod:`uavplan.mavlink`, print one summary line. Failures
+of the vehicle or the link exit 4 with the step that failed; bad files or options exit 2.
+The MAVLink package is imported inside the commands so ``uavplan --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any
+
+import click
+
+from uavplan.cli import main
+from uavplan.cli.common import handle_errors, show_progress
+from uavplan.errors import InputError
+
+if TYPE_CHECKING:
+    from uavplan.mavlink.link import VehicleLink
+    from uavplan.mavlink.protocol import ProtocolTimeouts
+
+_CONN_HELP = (
+    "connection: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, "
+    "DEVICE[,BAUD], or udp:// udpin:// udpout:// tcp:// serial://DEV:BAUD"
+)
+
+
+def _link_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """--conn, --timeout, --retries, --target-system, --heartbeat-timeout, --quiet."""
+    options = [
+        click.option("--conn", required=True, metavar="CONN", help=_CONN_HELP),
+        click.option(
+            "--timeout",
+            "timeout_s",
+            type=click.FloatRange(min=0.01, max=600),
+            default=1.5,
+            show_default=True,
+            help="Per-step protocol timeout in seconds (item re-requests use 1/6 of it).",
+        ),
+        click.option(
+            "--retries",
+            type=click.IntRange(0, 100),
+            default=5,
+            show_default=True,
+            help="Re-sends of a request before the step fails.",
+        ),
+        click.option(
+            "--target-system",
+            type=click.IntRange(1, 255),
+            default=None,
+            help="Talk to this system id (default: the first vehicle heard).",
+        ),
+        click.option(
+            "--heartbeat-timeout",
+            "heartbeat_timeout_s",
+            type=click.FloatRange(min=0.1, max=600),
+            default=5.0,
+            show_default=True,
+            help="How long to wait for the vehicle's HEARTBEAT.",
+        ),
+        click.option("--quiet", "-q", is_flag=True, help="No progress output."),
+    ]
+    for option in reversed(options):
+        fn = option(fn)
+    return fn
+
+
+def _timeouts(timeout_s: float, retries: int) -> ProtocolTimeouts:
+    from uavplan.mavlink.protocol import ProtocolTimeouts
+
+    return ProtocolTimeouts.scaled(timeout_s, retries)
+
+
+def _connect(conn: str, target_system: int | None, heartbeat_timeout_s: float) -> VehicleLink:
+    from uavplan.mavlink.link import VehicleLink
+
+    return VehicleLink.connect(
+        conn, target_system=target_system, heartbeat_timeout_s=heartbeat_timeout_s
+    )
+
+
+def _describe_vehicle(link: VehicleLink) -> str:
+    vehicle = link.vehicle
+    return (
+        f"system {vehicle.system_id} ({vehicle.autopilot.label}) on {link.connection.description}"
+    )
+
+
+@contextmanager
+def _progress(quiet: bool) -> Iterator[Callable[[str, int, int], None] | None]:
+    """A ``progress(phase, done, total)`` drawing one bar per phase on stderr, or None."""
+    if not show_progress(quiet):
+        yield None
+        return
+    state: dict[str, Any] = {"phase": None, "bar": None, "done": 0}
+
+    def finish() -> None:
+        if state["bar"] is not None:
+            state["bar"].render_finish()
+            state["bar"] = None
+
+    def update(phase: str, done: int, total: int) -> None:
+        if phase != state["phase"]:
+            finish()
+            state["phase"], state["done"] = phase, 0
+            state["bar"] = click.progressbar(length=max(total, 1), label=phase, file=sys.stderr)
+            state["bar"].render_progress()
+        bar = state["bar"]
+        if done > state["done"]:
+            bar.update(done - state["done"])
+            state["done"] = done
+
+    try:
+        yield update
+    finally:
+        finish()
+
+
+@main.command("upload")
+@click.argument("mission", type=click.Path(dir_okay=False))
+@_link_options
+@click.option("--no-verify", is_flag=True, help="Skip the read-back comparison.")
+@handle_errors
+def upload_cmd(
+    mission: str,
+    conn: str,
+    timeout_s: float,
+    retries: int,
+    target_system: int | None,
+    heartbeat_timeout_s: float,
+    quiet: bool,
+    no_verify: bool,
+) -> None:
+    """Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).
+
+    Succeeds only when the vehicle accepts every plan type and, unless --no-verify, the
+    read-back matches item for item.
+    """
+    from uavplan.mavlink.protocol import MissionClient
+    from uavplan.mavlink.transfer import upload_plan
+    from uavplan.mission.io import load_mission
+    from uavplan.mission.items import MissionType
+
+    plan = load_mission(mission)
+    with (
+        _connect(conn, target_system, heartbeat_timeout_s) as link,
+        _progress(quiet) as progress,
+    ):
+        client = MissionClient(link, _timeouts(timeout_s, retries))
+        report = upload_plan(client, plan, verify=not no_verify, progress=progress)
+        counts = report.item_counts
+        parts = [f"{counts[MissionType.MISSION]} mission items"]
+        if MissionType.FENCE in counts:
+            parts.append(f"{counts[MissionType.FENCE]} fence items")
+        if MissionType.RALLY in counts:
+            parts.append(f"{counts[MissionType.RALLY]} rally points")
+        checked = "verified by read-back" if report.verified else "not verified"
+        for note in report.notes:
+            click.echo(f"note: {note}", err=True)
+        click.echo(
+            f"uploaded {', '.join(parts)} to {_describe_vehicle(link)}; {checked} "
+            f"({report.elapsed_s:.2f} s)"
+        )
+
+
+@main.command("download")
+@_link_options
+@click.option(
+    "-o",
+    "--output",
+    "output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Mission file to write (.plan with geofence and rally points, or .waypoints).",
+)
+@handle_errors
+def download_cmd(
+    conn: str,
+    timeout_s: float,
+    retries: int,
+    target_system: int | None,
+    heartbeat_timeout_s: float,
+    quiet: bool,
+    output: str,
+) -> None:
+    """Read the vehicle's mission (and geofence / rally points for a .plan) into a file."""
+    from uavplan.mavlink.protocol import MissionClient
+    from uavplan.mavlink.transfer import download_plan
+    from uavplan.mission.io import format_for, save_mission
+
+    wants_plan = output.lower().endswith(".plan")
+    format_for(output)  # an unknown extension is a usage error: fail before connecting
+    with (
+        _connect(conn, target_system, heartbeat_timeout_s) as link,
+        _progress(quiet) as progress,
+    ):
+        client = MissionClient(link, _timeouts(timeout_s, retries))
+        result = download_plan(client, fence_and_rally=wants_plan, progress=progress)
+        save_mission(result.plan, output)
+        for note in result.notes:
+            click.echo(f"note: {note}", err=True)
+        plan = result.plan
+        extra = ""
+        if wants_plan:
+            n_fence = len(plan.fence.wire_items())
+            extra = f", {n_fence} fence items, {len(plan.rally)} rally points"
+        click.echo(
+            f"downloaded {len(plan.items)} mission items{extra} from "
+            f"{_describe_vehicle(link)} into {output}"
+        )
+
+
+_TYPE_CHOICES = ("mission", "fence", "rally", "all")
+
+
+@main.command("clear")
+@_link_options
+@click.option(
+    "--type",
+    "plan_type",
+    type=click.Choice(_TYPE_CHOICES),
+    default="mission",
+    show_default=True,
+    help="Plan type to clear; 'all' clears the three one after another.",
+)
+@handle_errors
+def clear_cmd(
+    conn: str,
+    timeout_s: float,
+    retries: int,
+    target_system: int | None,
+    heartbeat_timeout_s: float,
+    quiet: bool,
+    plan_type: str,
+) -> None:
+    """Clear the vehicle's mission, geofence, rally points, or all three."""
+    from uavplan.mavlink.protocol import MissionClient
+    from uavplan.mavlink.transfer import clear_plan
+    from uavplan.mission.items import MissionType
+
+    types = (
+        [MissionType.MISSION, MissionType.FENCE, MissionType.RALLY]
+        if plan_type == "all"
+        else [MissionType[plan_type.upper()]]
+    )
+    with _connect(conn, target_system, heartbeat_timeout_s) as link:
+        clear_plan(MissionClient(link, _timeouts(timeout_s, retries)), types)
+        names = ", ".join(t.name.lower() for t in types)
+        click.echo(f"cleared {names} on {_describe_vehicle(link)}")
+
+
+def _parse_home(text: str | None) -> Any:
+    if text is None:
+        return None
+    from uavplan.mission.items import GeoPoint
+
+    try:
+        lat, lon, alt = (float(v) for v in text.split(","))
+        return GeoPoint(lat, lon, alt)
+    except ValueError as err:
+        raise InputError(
+            f"expected LAT,LON,ALT in degrees and metres ({err})", key="--home"
+        ) from None
+
+
+@main.command("mock-vehicle")
+@click.option("--conn", required=True, metavar="CONN", help=_CONN_HELP)
+@click.option(
+    "--autopilot",
+    type=click.Choice(["px4", "ardupilot"]),
+    default="px4",
+    show_default=True,
+    help="Which firmware's mission-protocol behaviour to imitate.",
+)
+@click.option(
+    "--loss",
+    type=click.FloatRange(0.0, 1.0),
+    default=0.0,
+    show_default=True,
+    help="Fraction of packets dropped, each way.",
+)
+@click.option(
+    "--duplicate",
+    type=click.FloatRange(0.0, 1.0),
+    default=0.0,
+    show_default=True,
+    help="Fraction of packets duplicated, each way.",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the fault RNG.")
+@click.option("--system-id", type=click.IntRange(1, 255), default=1, show_default=True)
+@click.option(
+    "--home",
+    metavar="LAT,LON,ALT",
+    default=None,
+    help="ArduPilot: the home position a download returns as seq 0.",
+)
+@click.option(
+    "--firmware-timing",
+    is_flag=True,
+    help="Re-request missing items at the firmware's interval (PX4 250 ms, ArduPilot 1 s) "
+    "instead of adapting to the link's round trip.",
+)
+@click.option(
+    "--mission",
+    "preload",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Start holding this .plan / .waypoints (mission, fence and rally).",
+)
+@handle_errors
+def mock_vehicle_cmd(
+    conn: str,
+    autopilot: str,
+    loss: float,
+    duplicate: float,
+    seed: int,
+    system_id: int,
+    home: str | None,
+    firmware_timing: bool,
+    preload: str | None,
+) -> None:
+    """Run a simulated vehicle on CONN until SIGINT / SIGTERM.
+
+    It sends heartbeats, serves mission / geofence / rally upload, download and clear,
+    and holds what it is sent. --loss and --duplicate inject faults deterministically.
+    """
+    from uavplan.mavlink.mock_vehicle import LinkFaults, MockConfig, MockVehicle
+    from uavplan.mavlink.transfer import plan_wire_items
+    from uavplan.mission.io import load_mission
+    from uavplan.mission.items import Autopilot, MissionType
+
+    flavour = Autopilot.from_name(autopilot)
+    config = MockConfig(
+        autopilot=flavour,
+        system_id=system_id,
+        home=_parse_home(home),
+        firmware_timing=firmware_timing,
+        link_faults=LinkFaults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
+    )
+    plan = load_mission(preload) if preload else None
+    vehicle = MockVehicle(conn, config)
+    try:
+        if plan is not None:
+            for mission_type in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
+                vehicle.preload(mission_type, plan_wire_items(plan, mission_type, flavour))
+        stop = threading.Event()
+
+        def on_signal(signum: int, _frame: object) -> None:
+            stop.set()
+
+        previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            where = vehicle.connection.description
+            faults = (
+                f", loss {loss:g}, duplicate {duplicate:g}, seed {seed}"
+                if (loss or duplicate)
+                else ""
+            )
+            click.echo(
+                f"mock {flavour.label} vehicle, system {system_id}, listening on {where}"
+                f"{faults}; Ctrl-C to stop",
+                err=True,
+            )
+            vehicle.run(stop)
+        finally:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+        stats = vehicle.stats()
+        click.echo(
+            f"mock vehicle stopped: {stats.uploads_accepted} uploads accepted, "
+            f"{stats.uploads_failed} failed, {stats.downloads_served} downloads, "
+            f"{stats.clears} clears",
+            err=True,
+        )
+    finally:
+        vehicle.stop()

@@ -21,10 +21,12 @@ from uavplan.mavlink.messages import (
     COMP_ID_MISSIONPLANNER,
     AutopilotVersion,
     Capability,
+    CommandAck,
     CommandLong,
     Heartbeat,
     MavAutopilotId,
     MavCommand,
+    MavResult,
     MavType,
     Message,
     Received,
@@ -35,6 +37,8 @@ from uavplan.mission.items import Autopilot
 
 #: default wait for the vehicle's first HEARTBEAT (vehicles send 1 Hz; allow for some loss)
 HEARTBEAT_TIMEOUT_S = 5.0
+#: how long connecting waits for AUTOPILOT_VERSION (a vehicle may not answer at all)
+CAPABILITY_WAIT_S = 0.5
 #: our identity on the link: QGroundControl's system id and MAV_COMP_ID_MISSIONPLANNER
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = COMP_ID_MISSIONPLANNER
@@ -59,6 +63,9 @@ class VehicleInfo:
         return Autopilot.GENERIC
 
 
+_CAPABILITY_COMMANDS = (MavCommand.REQUEST_MESSAGE, MavCommand.REQUEST_AUTOPILOT_CAPABILITIES)
+
+
 def _is_vehicle_heartbeat(hb: Heartbeat) -> bool:
     return hb.type != MavType.GCS and hb.autopilot != MavAutopilotId.INVALID
 
@@ -72,6 +79,10 @@ class VehicleLink:
         self.capabilities: Capability | None = None
         self.last_statustext: str | None = None
         self.last_heard = time.monotonic()
+        #: round trip of the AUTOPILOT_VERSION request (its COMMAND_ACK), once measured
+        self.handshake_rtt_s: float | None = None
+        self._capability_request_at: float | None = None
+        self._capability_refused = False
 
     # -- opening --------------------------------------------------------------------------
     @classmethod
@@ -102,8 +113,10 @@ class VehicleLink:
             connection.close()
             raise
         link = cls(connection, vehicle)
-        # Ask for AUTOPILOT_VERSION now; it is picked up by recv() whenever it arrives.
+        # As QGC and MAVSDK do on connecting, ask for AUTOPILOT_VERSION: its capability bits
+        # say whether fence and rally transfers exist, and the answer times the link.
         link.send_capability_request()
+        link.wait_capabilities(CAPABILITY_WAIT_S, attempts=1)
         return link
 
     @staticmethod
@@ -166,10 +179,21 @@ class VehicleLink:
         self.last_heard = time.monotonic()
         if isinstance(message, AutopilotVersion):
             self.capabilities = Capability(message.capabilities)
+            self._time_handshake()
+        elif isinstance(message, CommandAck) and message.command in _CAPABILITY_COMMANDS:
+            self._time_handshake()
+            if message.result != MavResult.ACCEPTED:
+                self._capability_refused = True
         return True
+
+    def _time_handshake(self) -> None:
+        if self._capability_request_at is not None and self.handshake_rtt_s is None:
+            self.handshake_rtt_s = time.monotonic() - self._capability_request_at
 
     def send_capability_request(self) -> None:
         """MAV_CMD_REQUEST_MESSAGE(AUTOPILOT_VERSION), as QGC and MAVSDK send on connect."""
+        if self._capability_request_at is None:
+            self._capability_request_at = time.monotonic()
         self.send(
             CommandLong(
                 self.vehicle.system_id,
@@ -190,6 +214,8 @@ class VehicleLink:
             deadline = time.monotonic() + per_attempt
             while self.capabilities is None and (left := deadline - time.monotonic()) > 0:
                 self.recv(left)
+                if self._capability_refused:
+                    return None
             if self.capabilities is not None:
                 break
         return self.capabilities

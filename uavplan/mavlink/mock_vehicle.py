@@ -181,6 +181,9 @@ class MockConfig:
     send_heartbeats: bool = True
     home: GeoPoint | None = None  # ArduPilot: what a download returns as seq 0
     firmware_timing: bool = False
+    #: AUTOPILOT_VERSION.capabilities to report; None: MISSION_FLOAT/INT, COMMAND_INT,
+    #: MAVLINK2, MISSION_FENCE and MISSION_RALLY
+    capabilities: int | None = None
     link_faults: LinkFaults = field(default_factory=LinkFaults)
     mission_faults: MissionFaults = field(default_factory=MissionFaults)
 
@@ -516,14 +519,16 @@ class MockVehicle:
             ack(MavResult.UNSUPPORTED)
 
     def _autopilot_version(self) -> AutopilotVersion:
-        caps = (
-            Capability.MISSION_FLOAT
-            | Capability.MISSION_INT
-            | Capability.COMMAND_INT
-            | Capability.MAVLINK2
-            | Capability.MISSION_FENCE
-            | Capability.MISSION_RALLY
-        )
+        caps = self.config.capabilities
+        if caps is None:
+            caps = (
+                Capability.MISSION_FLOAT
+                | Capability.MISSION_INT
+                | Capability.COMMAND_INT
+                | Capability.MAVLINK2
+                | Capability.MISSION_FENCE
+                | Capability.MISSION_RALLY
+            )
         if self.config.autopilot == Autopilot.PX4:
             version = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 official
         else:

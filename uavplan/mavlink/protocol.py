@@ -12,7 +12,7 @@ State machines (reference §1, §7, §8)
 Upload (the vehicle drives and retries)::
 
     WAIT_FIRST_REQUEST --REQUEST(0..n-1)--> SENDING --REQUEST(n-1)--> WAIT_FINAL_ACK
-      | timeout: re-send COUNT (ack_s apart, 1 + retries times), then TIMEOUT
+      | timeout: re-send COUNT (ControlSchedule), then TIMEOUT
       | ERROR/DENIED before any request: "busy", re-send COUNT later (same budget)
       | NO_SPACE: fail at once
     SENDING: answer every in-range REQUEST / REQUEST_INT with MISSION_ITEM_INT (duplicates
@@ -27,23 +27,23 @@ Upload (the vehicle drives and retries)::
 Download (the GCS drives and retries)::
 
     WAIT_COUNT --COUNT(n)--> WAIT_ITEM(0) --ITEM(0)--> ... WAIT_ITEM(n-1) --> ACK ACCEPTED
-      REQUEST_LIST re-sent ack_s apart, 1 + retries times; count 0 -> ACK and done;
+      REQUEST_LIST re-sent per ControlSchedule; count 0 -> ACK and done;
       REQUEST_INT strictly in order (PX4 aborts on a skipped seq); items of any other seq
       are dropped; a missing item is re-requested, then TIMEOUT after item_s x (1 + retries).
 
-Clear: MISSION_CLEAR_ALL re-sent ack_s apart, 1 + retries times, until a MISSION_ACK.
+Clear: MISSION_CLEAR_ALL re-sent per ControlSchedule until a MISSION_ACK.
 
 Every failure we detect ourselves sends MISSION_ACK(OPERATION_CANCELLED) so the vehicle
 goes idle at once (reference §1.5); a failure the vehicle reported needs no cancel.
 
-Timeouts: the spec/QGC values are the defaults and the ceilings. The GCS-driven per-item
-re-request in a download is RTT-adaptive (RFC 6298: ``srtt + 4 x rttvar``, floor
-``min_retry_s``, ceiling ``item_s``), so a fast link does not wait 250 ms per lost packet
-while a slow radio link still gets the spec timing; a re-sent REQUEST_INT for the item the
-vehicle just sent is the "repeat of the last one" every firmware accepts. Control messages
-(COUNT, REQUEST_LIST, CLEAR_ALL) keep the fixed ``ack_s``: a premature duplicate of those
-restarts or confuses some vehicles (PX4 restarts a download on a second REQUEST_LIST; the
-MAVSDK server queues a second incoming transfer on a second COUNT).
+Timeouts: the spec/QGC values are the defaults, the ceilings and the total budgets. Within
+a budget, re-sends follow the measured round trip (RFC 6298: ``srtt + 4 x rttvar``, seeded
+by the AUTOPILOT_VERSION request made on connecting and updated by every clean exchange),
+so a fast link does not wait 250 ms or 1.5 s per lost packet while a slow radio link still
+gets the spec timing. Per-item download re-requests use a 10 ms floor: a re-sent
+REQUEST_INT for the item the vehicle just sent is the "repeat of the last one" every
+firmware accepts. Control messages (COUNT, REQUEST_LIST, CLEAR_ALL) use a 200 ms floor
+and back off (:class:`ControlSchedule`).
 """
 
 from __future__ import annotations
@@ -88,8 +88,12 @@ class ProtocolTimeouts:
     - ``upload_silence_s``: upload, longest wait for the vehicle's next request. It must
       exceed the vehicle's re-request interval a few times over: ArduPilot re-requests
       once a second, PX4 every 250 ms (reference §2, "Timing consequences").
-    - ``retries``: re-sends after the first attempt (devguide: at most 5).
-    - ``min_retry_s``: floor of the adaptive re-request interval.
+    - ``retries``: the retry budget. A GCS-driven step (COUNT, REQUEST_LIST, CLEAR_ALL, a
+      download item) fails once it has been sent ``1 + retries`` times *and*
+      ``(1 + retries) x`` its timeout has passed: the spec's budget (devguide: at most 5
+      retries). Within it, re-sends follow the measured round trip.
+    - ``min_retry_s``: floor of the adaptive item re-request interval.
+    - ``min_control_s``: floor of the adaptive re-send interval of control messages.
     """
 
     ack_s: float = 1.5
@@ -97,9 +101,10 @@ class ProtocolTimeouts:
     upload_silence_s: float = 3.0
     retries: int = 5
     min_retry_s: float = 0.01
+    min_control_s: float = 0.2
 
     def __post_init__(self) -> None:
-        for name in ("ack_s", "item_s", "upload_silence_s", "min_retry_s"):
+        for name in ("ack_s", "item_s", "upload_silence_s", "min_retry_s", "min_control_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
@@ -116,6 +121,7 @@ class ProtocolTimeouts:
             upload_silence_s=2.0 * timeout_s,
             retries=retries,
             min_retry_s=min(0.01, timeout_s / 6.0),
+            min_control_s=min(0.2, timeout_s),
         )
 
     @property
@@ -151,6 +157,43 @@ class RoundTripEstimator:
         if self.srtt_s is None:
             return ceiling_s
         return min(ceiling_s, max(floor_s, self.srtt_s + 4.0 * self.rttvar_s))
+
+
+class ControlSchedule:
+    """When to re-send a control message (COUNT, REQUEST_LIST, CLEAR_ALL) and when to quit.
+
+    First wait: ``srtt + 4 rttvar`` of the link, within [``min_control_s``, ``ack_s``]
+    (``ack_s`` while the round trip is unknown); doubled after each re-send up to ``ack_s``.
+    Give up after ``1 + retries`` sends once ``(1 + retries) x ack_s`` have passed, the
+    devguide's budget: a fast link retries sooner, a dead one fails no sooner than the spec
+    says. The floor keeps a premature duplicate rare: it would restart a PX4 download, and
+    the MAVSDK server starts a second incoming transfer on a second COUNT.
+    """
+
+    def __init__(self, timeouts: ProtocolTimeouts, rtt: RoundTripEstimator) -> None:
+        self._timeouts = timeouts
+        self._interval = rtt.timeout(timeouts.ack_s, min(timeouts.min_control_s, timeouts.ack_s))
+        self.started = time.monotonic()
+        self.sends = 0
+        self.deadline = self.started
+
+    def sent(self) -> None:
+        """Record a send; :attr:`deadline` is when to give up waiting for its answer."""
+        now = time.monotonic()
+        if self.sends:
+            self._interval = min(self._timeouts.ack_s, 2.0 * self._interval)
+        self.sends += 1
+        self.deadline = now + self._interval
+
+    @property
+    def exhausted(self) -> bool:
+        t = self._timeouts
+        spent = time.monotonic() - self.started
+        return self.sends > t.retries and spent >= (t.retries + 1) * t.ack_s - 1e-3
+
+    def describe(self, what: str, answer: str) -> str:
+        spent = time.monotonic() - self.started
+        return f"no {answer} after {self.sends} {what} messages over {spent:.1f} s"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -330,6 +373,18 @@ def _reason_for_item(result: MissionResult | int, item: MissionItem | None) -> s
 # ---------------------------------------------------------------------------------------------
 
 
+#: how long a failed transfer waits for the STATUSTEXT that may explain the vehicle's refusal
+STATUSTEXT_GRACE_S = 0.1
+_VEHICLE_REFUSALS = frozenset(
+    {
+        TransferStatus.REJECTED,
+        TransferStatus.NO_SPACE,
+        TransferStatus.BUSY,
+        TransferStatus.CANCELLED,
+    }
+)
+
+
 class _Counters:
     def __init__(self) -> None:
         self.sent = 0
@@ -346,6 +401,8 @@ class MissionClient:
         self.link = link
         self.timeouts = timeouts or ProtocolTimeouts()
         self.rtt = RoundTripEstimator()
+        if link.handshake_rtt_s is not None:
+            self.rtt.add(link.handshake_rtt_s)
 
     # -- helpers --------------------------------------------------------------------------
     @property
@@ -398,6 +455,12 @@ class MissionClient:
             ignored=counters.ignored,
             srtt_ms=None if self.rtt.srtt_s is None else self.rtt.srtt_s * 1e3,
         )
+        if status in _VEHICLE_REFUSALS and self.link.last_statustext is None:
+            # a vehicle often explains a refusal right after its ACK ("Only 700 items are
+            # supported"): give that STATUSTEXT a moment to arrive
+            deadline = time.monotonic() + STATUSTEXT_GRACE_S
+            while self.link.last_statustext is None and time.monotonic() < deadline:
+                self.link.recv(deadline - time.monotonic())
         statustext = None if status is TransferStatus.SUCCESS else self.link.last_statustext
         return TransferOutcome(
             operation,
@@ -449,11 +512,12 @@ class MissionClient:
             return self._outcome(op, mission_type, status, counters, started, **kwargs)
 
         count_message = MissionCount(*self._target, count, int(mission_type))
+        schedule = ControlSchedule(t, self.rtt)
         self._send(counters, count_message)
-        count_sends = 1
+        schedule.sent()
         busy_result: MissionResult | int | None = None
         state = "WAIT_FIRST_REQUEST"
-        deadline = time.monotonic() + t.ack_s
+        deadline = schedule.deadline
         sent_seqs: set[int] = set()
         requests_per_seq: Counter[int] = Counter()
         last_sent_seq = -1
@@ -472,12 +536,12 @@ class MissionClient:
                     continue
                 # ---- timeouts ---------------------------------------------------------
                 if state == "WAIT_FIRST_REQUEST":
-                    if count_sends > t.retries:
+                    if schedule.exhausted:
                         if busy_result is not None:
                             return done(
                                 TransferStatus.BUSY,
                                 step="MISSION_COUNT",
-                                detail=f"vehicle stayed busy through {count_sends} "
+                                detail=f"vehicle stayed busy through {schedule.sends} "
                                 "MISSION_COUNT attempts (another transfer running?)",
                                 vehicle_result=busy_result,
                             )
@@ -485,13 +549,12 @@ class MissionClient:
                         return done(
                             TransferStatus.TIMEOUT,
                             step="MISSION_COUNT",
-                            detail=f"no MISSION_REQUEST after {count_sends} MISSION_COUNT "
-                            f"messages {t.ack_s:g} s apart",
+                            detail=schedule.describe("MISSION_COUNT", "MISSION_REQUEST"),
                         )
                     self._send(counters, count_message)
                     counters.resent += 1
-                    count_sends += 1
-                    deadline = now + t.ack_s
+                    schedule.sent()
+                    deadline = schedule.deadline
                     continue
                 if state == "SENDING":
                     self._cancel(counters, mission_type)
@@ -613,6 +676,11 @@ class MissionClient:
                         detail=f"vehicle refused the upload with {result_label(result)}",
                         vehicle_result=result,
                     )
+                if result == MissionResult.ERROR and schedule.sends > 1 and state == "SENDING":
+                    # PX4 answers a duplicate COUNT that reached it after item 0 with ERROR
+                    # ("Busy") and carries on (reference §7.2): let the timers decide.
+                    counters.ignored += 1
+                    continue
                 if state == "WAIT_FINAL_ACK" and final_resends > 0:
                     # ArduPilot answers a repeated last item with an error after it finished.
                     return done(
@@ -662,21 +730,21 @@ class MissionClient:
         # ---- WAIT_COUNT ---------------------------------------------------------------
         request_list = MissionRequestList(*self._target, int(mission_type))
         count: int | None = None
-        attempts = 0
+        schedule = ControlSchedule(t, self.rtt)
         while count is None:
-            if attempts > t.retries:
+            if schedule.sends and schedule.exhausted:
                 self._cancel(counters, mission_type)
                 return done(
                     TransferStatus.TIMEOUT,
                     step="MISSION_REQUEST_LIST",
-                    detail=f"no MISSION_COUNT after {attempts} MISSION_REQUEST_LIST messages "
-                    f"{t.ack_s:g} s apart",
+                    detail=schedule.describe("MISSION_REQUEST_LIST", "MISSION_COUNT"),
                 )
             self._send(counters, request_list)
-            if attempts:
+            if schedule.sends:
                 counters.resent += 1
-            attempts += 1
-            deadline = time.monotonic() + t.ack_s
+            schedule.sent()
+            list_sent_at = time.monotonic()
+            deadline = schedule.deadline
             while (left := deadline - time.monotonic()) > 0:
                 received = self._recv(left, mission_type)
                 if received is None:
@@ -685,6 +753,8 @@ class MissionClient:
                 message = received.message
                 if isinstance(message, MissionCount):
                     count = message.count
+                    if schedule.sends == 1:
+                        self.rtt.add(time.monotonic() - list_sent_at)
                     break
                 if isinstance(message, MissionAck) and message.type != MissionResult.ACCEPTED:
                     result = MissionResult.from_wire(message.type)
@@ -782,11 +852,13 @@ class MissionClient:
         started = time.monotonic()
         op = Operation.CLEAR
         message_out = MissionClearAll(*self._target, int(mission_type))
-        for attempt in range(t.retries + 1):
+        schedule = ControlSchedule(t, self.rtt)
+        while not (schedule.sends and schedule.exhausted):
             self._send(counters, message_out)
-            if attempt:
+            if schedule.sends:
                 counters.resent += 1
-            deadline = time.monotonic() + t.ack_s
+            schedule.sent()
+            deadline = schedule.deadline
             while (left := deadline - time.monotonic()) > 0:
                 received = self._recv(left, mission_type)
                 if received is None:
@@ -822,6 +894,5 @@ class MissionClient:
             counters,
             started,
             step="MISSION_CLEAR_ALL",
-            detail=f"no MISSION_ACK after {t.retries + 1} MISSION_CLEAR_ALL messages "
-            f"{t.ack_s:g} s apart",
+            detail=schedule.describe("MISSION_CLEAR_ALL", "MISSION_ACK"),
         )
