@@ -31,10 +31,10 @@ R_SCROUNGER_FAR = 5  # eq. 4, i > n/2: Q·exp((δ_worst − δ)/i²),  ref0 = wo
 R_SCROUNGER_NEAR = 6  # eq. 4 else: P_p + |P − P_p|·A⁺·L,  ref0 = P_p, scal0/1 = offset y/z
 R_DANGER = 7  # eq. 5, f_i > f_g: P_best + β·|P − P_best|,  ref0 = best
 R_DANGER_BEST = 8  # eq. 5, f_i = f_g: P + K·|P − P_w|/(f_i − f_w + ε),  ref0 = worst, scal0
-R_PSO = 9  # ref0 = velocity, ref1 = pbest, ref2 = gbest; scal0..2 = w, c1, c2
+R_PSO = 9  # ref0 = velocity, ref1 = pbest, ref2 = gbest, ref3 = Vmax; scal0..2 = w, c1, c2
 R_GWO = 10  # ref0..2 = alpha, beta, delta; scal0 = a
 R_DE = 11  # ref0..2 = x_r1, x_r2, x_r3; scal0 = F, scal1 = CR, scal2 = j_rand (flat index)
-R_CSO_ROOSTER = 12  # δ·(1 + N(0, σ²)),  scal0 = σ
+R_CSO_ROOSTER = 12  # δ·(1 + σ²·N(0, 1)),  scal0 = σ² (Meng: "Randn(0, σ²), standard deviation σ²")
 R_CSO_HEN = 13  # P + S1·rand·(R1 − P) + S2·rand·(R2 − P); ref0 = R1, ref1 = R2; scal0/1 = S1/S2
 R_CSO_CHICK = 14  # P + FL·(M − P); ref0 = mother, scal0 = FL
 
@@ -293,13 +293,15 @@ def propose(rule, base, refs, scal, g, j, a, line, attempt, rng):
     if rule == R_DANGER_BEST:
         return p + (2.0 * rng.random() - 1.0) * abs(p - refs[g, 0, j, a]) * scal[g, 0]
     if rule == R_PSO:
-        v = refs[g, 0, j, a]
-        return (
-            p
-            + scal[g, 0] * v
+        v = (
+            scal[g, 0] * refs[g, 0, j, a]
             + scal[g, 1] * rng.random() * (refs[g, 1, j, a] - p)
             + scal[g, 2] * rng.random() * (refs[g, 2, j, a] - p)
         )
+        v_max = refs[g, 3, j, a]
+        if v_max > 0.0:
+            v = min(max(v, -v_max), v_max)
+        return p + v
     if rule == R_GWO:
         acc = 0.0
         for r in range(3):

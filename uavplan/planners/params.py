@@ -156,3 +156,106 @@ class PostParams:
 
 def field_names(cls: type) -> tuple[str, ...]:
     return tuple(f.name for f in fields(cls))
+
+
+# ---------------------------------------------------------------------------------------------
+# Baselines (paper section 6). Each uses the shared SearchParams (G, M, T_max, initialisation)
+# and its authors' standard settings below; none is tuned for these maps.
+
+
+@dataclass(frozen=True)
+class PsoParams:
+    """Particle swarm (Kennedy & Eberhart 1995) with the inertia weight of Shi & Eberhart.
+
+    v ← w·v + c1·r1·(pbest − x) + c2·r2·(gbest − x), x ← x + v, r1, r2 ~ U(0, 1) per node and
+    axis. ``w`` falls linearly from ``w_start`` to ``w_end`` over the run (Shi & Eberhart
+    1999, "Empirical study of particle swarm optimization": 0.9 → 0.4); c1 = c2 = 2
+    (Kennedy & Eberhart 1995). Each velocity component is clamped to ``v_max_fraction`` of
+    its axis's range (Vmax; Eberhart & Shi 2001 recommend 10–20 % of the dynamic range);
+    ``None`` disables the clamp. The velocity carried to the next iteration is the displacement
+    actually made, after rounding to the grid and the reachability rule.
+    """
+
+    w_start: float = 0.9
+    w_end: float = 0.4
+    c1: float = 2.0
+    c2: float = 2.0
+    v_max_fraction: float | None = 0.2
+
+    def __post_init__(self) -> None:
+        for name in ("w_start", "w_end", "c1", "c2"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0")
+        v = self.v_max_fraction
+        if v is not None and not (isinstance(v, int | float) and 0 < v <= 1):
+            raise ValueError("v_max_fraction must be within (0, 1] or None")
+
+
+@dataclass(frozen=True)
+class GwoParams:
+    """Grey wolf optimiser (Mirjalili, Mirjalili & Lewis 2014).
+
+    Each wolf moves to the mean of X_k − A·|C·X_k − X| over the three leaders k = α, β, δ
+    (the best three positions found so far), A = 2a·r1 − a, C = 2·r2 per node and axis; ``a``
+    falls linearly from ``a_start`` to ``a_end`` (2 → 0 in the paper).
+    """
+
+    a_start: float = 2.0
+    a_end: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("a_start", "a_end"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0")
+
+
+@dataclass(frozen=True)
+class DeParams:
+    """Differential evolution, DE/rand/1/bin (Storn & Price 1997).
+
+    Mutant v = x_r1 + F·(x_r2 − x_r3), r1, r2, r3 distinct and different from the target;
+    binomial crossover with rate CR and one forced coordinate j_rand; greedy selection.
+    F = 0.5, CR = 0.9 are Storn & Price's recommended starting values.
+    """
+
+    f: float = 0.5  # differential weight F
+    cr: float = 0.9  # crossover rate CR
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.f, int | float) and 0 < self.f <= 2):
+            raise ValueError("f must be within (0, 2]")
+        if not (isinstance(self.cr, int | float) and 0 <= self.cr <= 1):
+            raise ValueError("cr must be within [0, 1]")
+
+
+@dataclass(frozen=True)
+class CsoParams:
+    """Chicken swarm optimisation (Meng, Liu, Gao & Zhang 2014; *chicken*, not cat, swarm).
+
+    Every ``g`` iterations the swarm is ranked: the best ``rooster_ratio`` are roosters, the
+    next ``hen_ratio`` hens, the rest chicks; ``mother_ratio`` of the hens are mothers. Each hen
+    follows a rooster (its group), each chick a mother. Proportions are those of the authors'
+    released MATLAB code (rPercent 0.15, hPercent 0.7, mPercent 0.5; the paper's text uses
+    RN = 0.2·N); ``g`` = 10 and FL ∈ [0.4, 1] are the paper's experimental settings.
+    """
+
+    rooster_ratio: float = 0.15
+    hen_ratio: float = 0.7
+    mother_ratio: float = 0.5
+    g: int = 10  # G: hierarchy update period (iterations)
+    fl_min: float = 0.4
+    fl_max: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("rooster_ratio", "hen_ratio", "mother_ratio"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and 0 < value < 1):
+                raise ValueError(f"{name} must be within (0, 1)")
+        if self.rooster_ratio + self.hen_ratio >= 1:
+            raise ValueError("rooster_ratio + hen_ratio must be < 1 (the rest are chicks)")
+        if not (isinstance(self.g, int) and self.g >= 1):
+            raise ValueError("g must be an integer >= 1")
+        if not (0 <= self.fl_min <= self.fl_max <= 2):
+            raise ValueError("need 0 <= fl_min <= fl_max <= 2")
