@@ -102,7 +102,8 @@ def retarget(plan: MissionPlan, autopilot: Autopilot) -> MissionPlan:
     return replace(plan, items=items, autopilot=autopilot)
 
 
-def _sanitise(item: MissionItem, autopilot: Autopilot) -> MissionItem:
+def sanitise_item(item: MissionItem, autopilot: Autopilot) -> MissionItem:
+    """ArduPilot: unset params become 0 except where it accepts NaN (MAVSDK checks the same)."""
     if autopilot != Autopilot.ARDUPILOT:
         return item
     params = list(item.params)
@@ -120,7 +121,7 @@ def plan_wire_items(
     Raises :class:`InputError` for an item the firmware is known to reject (frame).
     """
     laid_out = retarget(plan, autopilot) if mission_type == MissionType.MISSION else plan
-    items = [_sanitise(it, autopilot) for it in laid_out.wire_items(mission_type)]
+    items = [sanitise_item(it, autopilot) for it in laid_out.wire_items(mission_type)]
     allowed = SUPPORTED_FRAMES.get(autopilot)
     if allowed is not None:
         for seq, item in enumerate(items):
