@@ -139,7 +139,7 @@ def test_goal_is_on_the_last_column(x, y, z0, bearing, distance, z1, grid) -> No
     assert f.n_cols >= 2
     assert f.n_cols == max(2, round(f.length_m / grid.dx_m))
     assert f.column_x_m[-1] == pytest.approx(f.length_m, rel=1e-12)
-    assert np.diff(f.column_x_m) == pytest.approx(np.full(f.n_cols, f.dx_m), rel=1e-9)
+    np.testing.assert_allclose(np.diff(f.column_x_m), f.dx_m, rtol=1e-9)
     if f.n_cols > 2:  # only stretched, never by more than half a column
         assert abs(f.dx_m - grid.dx_m) <= grid.dx_m / 2 + 1e-9
     # nodes on the start-end line map back onto start and goal and the straight line
@@ -149,7 +149,7 @@ def test_goal_is_on_the_last_column(x, y, z0, bearing, distance, z1, grid) -> No
     assert enu[-1] == pytest.approx(f.goal_enu, abs=1e-6)
     t = np.arange(f.n_cols + 1) / f.n_cols
     line = np.array(f.start_enu) + t[:, None] * (np.array(f.goal_enu) - np.array(f.start_enu))
-    assert enu == pytest.approx(line, abs=1e-6)
+    np.testing.assert_allclose(enu, line, rtol=0, atol=1e-6)
 
 
 @settings(max_examples=50, deadline=None)
@@ -163,6 +163,6 @@ def test_start_end_line_z(x, y, z0, bearing, distance, z1, grid) -> None:
     assert z.shape == (f.n_cols + 1,)
     assert z[0] == pytest.approx(z0, abs=1e-9)
     assert z[-1] == pytest.approx(z1, abs=1e-9)
-    assert np.diff(z) == pytest.approx(np.full(f.n_cols, (z1 - z0) / f.n_cols), abs=1e-9)
+    np.testing.assert_allclose(np.diff(z), (z1 - z0) / f.n_cols, rtol=0, atol=1e-9)
     assert f.start_units == (0.0, pytest.approx(z0 / grid.dz_m))
     assert f.goal_units == (0.0, pytest.approx(z1 / grid.dz_m))
