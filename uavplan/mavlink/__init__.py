@@ -19,47 +19,46 @@ Typical use::
 Nothing outside :mod:`uavplan.mavlink` and :mod:`uavplan.cli` imports this package.
 """
 
-from uavplan.mavlink.link import VehicleInfo, VehicleLink
-from uavplan.mavlink.messages import Capability, MissionResult
-from uavplan.mavlink.mock_vehicle import LinkFaults, MissionFaults, MockConfig, MockVehicle
-from uavplan.mavlink.protocol import (
-    MissionClient,
-    MissionTransferError,
-    Operation,
-    ProtocolTimeouts,
-    TransferOutcome,
-    TransferStatus,
-)
-from uavplan.mavlink.transfer import (
-    PlanDownload,
-    PlanTransferReport,
-    clear_plan,
-    compare_items,
-    download_plan,
-    upload_plan,
-)
-from uavplan.mavlink.transport import ConnectionSpec
+from __future__ import annotations
 
-__all__ = [
-    "Capability",
-    "ConnectionSpec",
-    "LinkFaults",
-    "MissionClient",
-    "MissionFaults",
-    "MissionResult",
-    "MissionTransferError",
-    "MockConfig",
-    "MockVehicle",
-    "Operation",
-    "PlanDownload",
-    "PlanTransferReport",
-    "ProtocolTimeouts",
-    "TransferOutcome",
-    "TransferStatus",
-    "VehicleInfo",
-    "VehicleLink",
-    "clear_plan",
-    "compare_items",
-    "download_plan",
-    "upload_plan",
-]
+import importlib
+from typing import Any
+
+#: public name -> module that defines it; imported on first use, so that importing one
+#: submodule (the CLI's upload path) does not pull in the mock vehicle and numpy
+_EXPORTS = {
+    "VehicleInfo": "link",
+    "VehicleLink": "link",
+    "Capability": "messages",
+    "MissionResult": "messages",
+    "LinkFaults": "mock_vehicle",
+    "MissionFaults": "mock_vehicle",
+    "MockConfig": "mock_vehicle",
+    "MockVehicle": "mock_vehicle",
+    "MissionClient": "protocol",
+    "MissionTransferError": "protocol",
+    "Operation": "protocol",
+    "ProtocolTimeouts": "protocol",
+    "TransferOutcome": "protocol",
+    "TransferStatus": "protocol",
+    "PlanDownload": "transfer",
+    "PlanTransferReport": "transfer",
+    "clear_plan": "transfer",
+    "compare_items": "transfer",
+    "download_plan": "transfer",
+    "upload_plan": "transfer",
+    "ConnectionSpec": "transport",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -294,7 +294,6 @@ class MockVehicle:
         self._sending: _Sending | None = None
         self._last_completed: tuple[tuple[int, int], int, int] | None = None
         self._held: bytes | None = None
-        self._known_peers: set[tuple[int, int]] = set()
         self._current_seq = 0
         self._rtt = RoundTripEstimator()
         self._uploads_accepted = self._uploads_failed = self._downloads = self._clears = 0
@@ -465,9 +464,10 @@ class MockVehicle:
         message = received.message
         partner = (received.system_id, received.component_id)
         if isinstance(message, Heartbeat):
-            if partner not in self._known_peers:
-                # answer a new ground station at once instead of at the next 1 Hz tick
-                self._known_peers.add(partner)
+            if message.type == MavType.GCS:
+                # answer a ground station's heartbeat at once instead of at the next 1 Hz
+                # tick, so connecting takes a round trip, not up to a second (only a GCS's:
+                # two vehicles must not echo each other)
                 self._send_heartbeat()
             return
         if isinstance(message, StatusText) or not self._addressed_to_us(message):
