@@ -8,7 +8,7 @@ from dataclasses import replace
 import pytest
 from mavlink_helpers import (
     FAST,
-    HOME,
+    PlanSource,
     bundled_plans,
     connected_client,
     for_autopilot,
@@ -70,11 +70,11 @@ def _fence_close(sent: MissionPlan, got: MissionPlan) -> bool:
 
 
 @pytest.mark.parametrize("autopilot", AUTOPILOTS, ids=lambda a: a.label)
-@pytest.mark.parametrize(("name", "plan"), PLANS, ids=[name for name, _ in PLANS])
+@pytest.mark.parametrize(("name", "source"), PLANS, ids=[name for name, _ in PLANS])
 def test_upload_then_download_round_trips_every_mission(
-    name: str, plan: MissionPlan, autopilot: Autopilot
+    name: str, source: PlanSource, autopilot: Autopilot
 ) -> None:
-    plan = for_autopilot(plan, autopilot)
+    plan = for_autopilot(source(), autopilot)
     with (
         running_mock(MockConfig(autopilot=autopilot)) as vehicle,
         connected_client(vehicle) as client,
@@ -89,14 +89,16 @@ def test_upload_then_download_round_trips_every_mission(
         assert compare_items(expected, stored, MissionType.MISSION, autopilot) is None
         if autopilot == Autopilot.ARDUPILOT:
             assert stored[0].command == MavCmd.NAV_WAYPOINT and stored[0].frame == 0
-            assert abs(stored[0].x - HOME.lat_deg) < 1e-7  # planned home in seq 0
+            assert plan.home is not None
+            assert abs(stored[0].x - plan.home.lat_deg) < 1e-7  # planned home in seq 0
         assert vehicle.wire_items(MissionType.MISSION)[0].current == 1
         assert sum(w.current for w in vehicle.wire_items(MissionType.MISSION)) == 1
         back = download_plan(client).plan
     assert back.autopilot == autopilot
     assert_plans_match(plan, back)
     if autopilot == Autopilot.ARDUPILOT:
-        assert back.home is not None and abs(back.home.lat_deg - HOME.lat_deg) < 1e-7
+        assert back.home is not None and plan.home is not None
+        assert abs(back.home.lat_deg - plan.home.lat_deg) < 1e-7
 
 
 def test_fast_upload_of_200_items_on_loopback() -> None:
