@@ -1,1 +1,138 @@
-"""Placeholder module; commands are added by their issue."""
+"""``uavplan bench``: the paper's comparison (Table 2) and SPSA's ablation, as thin wiring
+over :mod:`uavplan.bench`."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import click
+
+from uavplan.cli import main
+from uavplan.cli.common import handle_errors, show_progress
+from uavplan.errors import InputError
+
+_DEFAULT_ALGORITHMS = "spsa,ssa,pso,gwo,de,cso"
+
+
+@main.command("bench")
+@click.argument("scenarios", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option(
+    "--algorithms",
+    default=_DEFAULT_ALGORITHMS,
+    show_default=True,
+    help="Comma-separated algorithms; SPSA variants such as spsa-no-escape are accepted.",
+)
+@click.option("--runs", type=click.IntRange(min=1), default=30, show_default=True)
+@click.option(
+    "--iterations", type=click.IntRange(min=1), help="Iterations M (default: scenario's)."
+)
+@click.option(
+    "--population", type=click.IntRange(min=4), help="Population G (default: scenario's)."
+)
+@click.option(
+    "--seed0",
+    type=click.IntRange(min=0),
+    default=1,
+    show_default=True,
+    help="Seeds are SEED0 .. SEED0+RUNS-1, the same for every algorithm.",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Local worker processes.",
+)
+@click.option(
+    "--dask",
+    "dask_address",
+    metavar="ADDRESS",
+    help="Run the jobs on this Dask scheduler (e.g. tcp://host:8786) instead of locally.",
+)
+@click.option(
+    "--ablation",
+    is_flag=True,
+    help="Also run SPSA with each of its contributions switched off in turn.",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False),
+    help="Write runs.csv, summary.csv, bench.json, summary.md and convergence PNGs here.",
+)
+@click.option("--quiet", "-q", is_flag=True, help="No progress output.")
+@handle_errors
+def bench_command(
+    scenarios: tuple[str, ...],
+    algorithms: str,
+    runs: int,
+    iterations: int | None,
+    population: int | None,
+    seed0: int,
+    workers: int,
+    dask_address: str | None,
+    ablation: bool,
+    out_dir: str | None,
+    quiet: bool,
+) -> None:
+    """Run every algorithm RUNS times on each SCENARIO and print the paper's Table 2:
+    mean / worst / best / std of the final energy, success rate and median runtime."""
+    from uavplan import bench
+    from uavplan.scenario import load_scenario
+
+    if dask_address and workers != 1:
+        raise click.UsageError("--workers and --dask are exclusive (Dask sizes its own workers)")
+    try:
+        variants = [bench.Variant.parse(a) for a in algorithms.split(",") if a.strip()]
+        if ablation:
+            have = {v.label for v in variants}
+            variants += [v for v in bench.ablation_variants() if v.label not in have]
+        loaded = [load_scenario(path) for path in scenarios]
+        jobs = bench.make_jobs(
+            loaded,
+            variants,
+            runs=runs,
+            seed0=seed0,
+            iterations=iterations,
+            population=population,
+        )
+    except ValueError as err:
+        raise InputError(str(err), key="--algorithms") from None
+
+    bar = None
+    if show_progress(quiet):
+        bar = click.progressbar(
+            length=len(jobs), label="bench", file=sys.stderr, show_pos=True, show_eta=True
+        )
+        bar.__enter__()
+
+    def progress(done: int, total: int, rec: bench.RunRecord) -> None:
+        if bar is not None:
+            bar.label = f"bench {rec.scenario} {rec.algorithm}"
+            bar.update(1)
+
+    t0 = time.perf_counter()
+    try:
+        records = bench.run_jobs(jobs, workers=workers, dask=dask_address, progress=progress)
+    except RuntimeError as err:
+        if "uavplan[dask]" in str(err):
+            raise InputError(str(err), key="--dask") from None
+        raise
+    finally:
+        if bar is not None:
+            bar.__exit__(None, None, None)
+    wall = time.perf_counter() - t0
+
+    click.echo(bench.format_tables(bench.summarise(records)))
+    if out_dir:
+        config = bench.resolved_config(jobs)
+        config["runs"] = runs
+        config["workers"] = None if dask_address else workers
+        config["dask"] = dask_address
+        config["wall_time_s"] = round(wall, 2)
+        written = bench.write_outputs(out_dir, records, config=config)
+        if not quiet:
+            click.echo(f"wrote {len(written)} files to {out_dir}", err=True)
+    if not quiet:
+        click.echo(f"{len(records)} runs in {wall:.1f} s", err=True)

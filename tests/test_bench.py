@@ -1,0 +1,232 @@
+"""``uavplan bench`` and :mod:`uavplan.bench`: jobs, the three backends (serial, local
+processes, Dask) giving the same records, the Table-2 aggregation and the files written."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from uavplan import bench
+from uavplan.cli import main
+from uavplan.errors import EXIT_INPUT
+from uavplan.scenario import load_scenario
+
+TINY = """\
+name: tiny
+origin: {lat: 47.0, lon: 8.0, alt: 400}
+bounds: {x: [0, 300], y: [-140, 140], z: [0, 120]}
+start: [0, 0, 30]
+goal: [300, 20, 40]
+obstacles:
+  - {type: box, center: [150, 10], size: [40, 60], height: 100}
+planner: {population: 8, iterations: 4}
+"""
+
+
+@pytest.fixture
+def tiny_path(tmp_path: Path) -> Path:
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY)
+    return path
+
+
+def _record(alg: str, energy: float, seed: int = 1, ok: bool = True) -> bench.RunRecord:
+    return bench.RunRecord(
+        index=seed,
+        scenario="s",
+        algorithm=alg,
+        seed=seed,
+        status="ok",
+        energy=energy,
+        search_fitness=energy + 10,
+        collision_free=ok,
+        min_clearance_m=10.0,
+        length_m=energy,
+        runtime_s=float(seed),
+        iterations=3,
+        deadlocks=0,
+        convergence=np.array([energy + 2, energy + 1, energy]),
+    )
+
+
+def _key(records: list[bench.RunRecord]) -> list[tuple]:
+    return [(r.scenario, r.algorithm, r.seed, r.energy, r.search_fitness) for r in records]
+
+
+# --- variants and jobs ------------------------------------------------------------------------
+
+
+def test_variant_labels() -> None:
+    v = bench.Variant.parse("spsa-no-escape")
+    assert (v.algorithm, dict(v.spsa_changes), dict(v.post_changes)) == (
+        "spsa",
+        {"escape": False},
+        {},
+    )
+    assert bench.Variant.parse("CSO") == bench.Variant("cso", "cso")
+    assert dict(bench.Variant.parse("spsa-no-simplify").post_changes)["simplify"] is False
+    with pytest.raises(ValueError, match="unknown algorithm 'cat'"):
+        bench.Variant.parse("cat")
+    labels = [v.label for v in bench.ablation_variants()]
+    assert labels[0] == "spsa" and len(labels) == 1 + len(bench.ABLATIONS)
+
+
+def test_make_jobs_covers_every_scenario_variant_and_seed(tiny_path: Path) -> None:
+    scn = load_scenario(tiny_path)
+    jobs = bench.make_jobs([scn, scn], ["spsa", "pso"], runs=3, seed0=7, iterations=2)
+    assert len(jobs) == 2 * 3 * 2
+    assert [j.index for j in jobs] == list(range(12))
+    assert {j.seed for j in jobs} == {7, 8, 9}
+    assert {j.scenario.name for j in jobs} == {"tiny", "tiny#2"}
+    assert all(j.scenario.planner.search.iterations == 2 for j in jobs)
+    assert len({j.scenario_key for j in jobs}) == 1  # same geometry, one world per worker
+    with pytest.raises(ValueError, match="listed twice"):
+        bench.make_jobs([scn], ["pso", "pso"])
+
+
+def test_job_scenario_applies_variant_and_seed(tiny_path: Path) -> None:
+    scn = load_scenario(tiny_path)
+    (job,) = bench.make_jobs([scn], ["spsa-no-smooth"], runs=1, seed0=4)
+    run = bench.job_scenario(job)
+    assert run.planner.algorithm == "spsa"
+    assert run.planner.search.seed == 4
+    assert run.planner.post.smooth is False
+
+
+# --- backends -----------------------------------------------------------------------------------
+
+
+def test_serial_runs_are_reproducible_and_in_job_order(tiny_path: Path) -> None:
+    jobs = bench.make_jobs([load_scenario(tiny_path)], ["spsa", "ssa", "pso"], runs=2)
+    seen = []
+    a = bench.run_jobs(jobs, progress=lambda done, total, rec: seen.append((done, total)))
+    b = bench.run_jobs(jobs)
+    assert seen == [(i, 6) for i in range(1, 7)]
+    assert [r.index for r in a] == list(range(6))
+    assert _key(a) == _key(b)
+    for r in a:
+        assert r.status == "ok" and math.isfinite(r.energy)
+        assert r.convergence.shape == (4,)
+
+
+@pytest.mark.timeout(90)
+def test_process_pool_matches_serial(tiny_path: Path) -> None:
+    jobs = bench.make_jobs([load_scenario(tiny_path)], ["spsa", "gwo"], runs=2)
+    assert _key(bench.run_jobs(jobs, workers=2)) == _key(bench.run_jobs(jobs))
+
+
+@pytest.mark.timeout(90)
+def test_dask_local_cluster_matches_serial(tiny_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    jobs = bench.make_jobs([load_scenario(tiny_path)], ["de", "cso"], runs=2)
+    with (
+        distributed.LocalCluster(
+            processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        by_address = bench.run_jobs(jobs, dask=cluster.scheduler_address)
+        by_client = bench.run_jobs(jobs, dask=client)
+    serial = bench.run_jobs(jobs)
+    assert _key(by_address) == _key(serial) == _key(by_client)
+
+
+# --- aggregation and outputs ----------------------------------------------------------------
+
+
+def test_summary_is_table_two_statistics() -> None:
+    recs = [_record("spsa", e, i) for i, e in enumerate([100.0, 102.0, 104.0], 1)]
+    recs += [_record("pso", e, i, ok=i != 2) for i, e in enumerate([200.0, 300.0], 1)]
+    spsa, pso = bench.summarise(recs)
+    assert (spsa.mean, spsa.worst, spsa.best, spsa.std) == (102.0, 104.0, 100.0, 2.0)
+    assert spsa.median_runtime_s == 2.0 and spsa.success_rate == 1.0
+    assert (pso.mean, pso.collision_free, pso.runs) == (250.0, 1, 2)
+    table = bench.format_table([spsa, pso], "s")
+    assert "| s | spsa | pso |" in table
+    assert "| mean | 102.00 | 250.00 |" in table
+    assert "| collision-free | 3/3 | 1/2 |" in table
+    assert "| SPSA mean ÷ mean | 1.000 | 0.408 |" in table
+    curve = bench.mean_convergence(recs)["s"]["spsa"]
+    np.testing.assert_allclose(curve, [104.0, 103.0, 102.0])
+
+
+def test_write_outputs(tmp_path: Path) -> None:
+    recs = [_record("spsa", 100.0, 1), _record("spsa", 101.0, 2), _record("de", 400.0, 1)]
+    written = bench.write_outputs(tmp_path / "out", recs, config={"runs": 2})
+    names = {p.name for p in written}
+    assert names == {
+        "runs.csv",
+        "summary.csv",
+        "bench.json",
+        "summary.md",
+        "convergence-s.png",
+    }
+    with open(tmp_path / "out" / "runs.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 3 and rows[2]["algorithm"] == "de" and "convergence" not in rows[0]
+    doc = json.loads((tmp_path / "out" / "bench.json").read_text())
+    assert doc["config"] == {"runs": 2}
+    assert doc["summary"][0]["mean"] == 100.5
+    assert len(doc["mean_convergence"]["s"]["de"]) == 3
+    assert (tmp_path / "out" / "convergence-s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# --- CLI ------------------------------------------------------------------------------------------
+
+
+def test_cli_bench_with_ablation(tiny_path: Path, tmp_path: Path) -> None:
+    out = tmp_path / "res"
+    result = CliRunner().invoke(
+        main,
+        [
+            "bench",
+            str(tiny_path),
+            "--algorithms",
+            "spsa,pso",
+            "--ablation",
+            "--runs",
+            "1",
+            "--iterations",
+            "2",
+            "--seed0",
+            "3",
+            "--out",
+            str(out),
+            "-q",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert "| tiny | spsa | pso | spsa-no-start-end |" in result.output
+    doc = json.loads((out / "bench.json").read_text())
+    assert len(doc["runs"]) == 2 + len(bench.ABLATIONS)
+    assert doc["config"]["seeds"] == [3]
+    assert doc["config"]["algorithms"]["spsa-no-escape"]["spsa"]["escape"] is False
+    assert doc["config"]["algorithms"]["pso"]["params"]["c1"] == 2.0
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--algorithms", "spsa,cat"], "unknown algorithm 'cat'"),
+        (["--workers", "2", "--dask", "tcp://127.0.0.1:1"], "exclusive"),
+        (["--runs", "0"], "--runs"),
+    ],
+)
+def test_cli_bench_rejects_bad_options(tiny_path: Path, args: list[str], message: str) -> None:
+    result = CliRunner().invoke(main, ["bench", str(tiny_path), *args])
+    assert result.exit_code == EXIT_INPUT
+    assert message in result.output
+
+
+def test_cli_bench_bad_scenario_is_input_error(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\n")
+    result = CliRunner().invoke(main, ["bench", str(bad)])
+    assert result.exit_code == EXIT_INPUT
+    assert "bad.yaml" in result.output

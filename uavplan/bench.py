@@ -1,0 +1,588 @@
+"""Experiment runner for the paper's comparison (section 6, Table 2) and SPSA's ablation.
+
+A benchmark is a list of :class:`BenchJob` — plain picklable specs, one per (scenario,
+algorithm variant, seed) — run by :func:`run_jobs` serially, on local processes
+(``workers > 1``) or on a Dask distributed cluster (``dask=ADDRESS``), with the same result:
+one :class:`RunRecord` per job, in job order. :func:`summarise` aggregates them into the
+Table-2 statistics (mean / worst / best / std of the final energy), success rate and runtime;
+:func:`write_outputs` writes CSV, JSON, a Markdown table and convergence plots.
+
+Each run goes through :func:`uavplan.planning.plan_route`, the same pipeline as
+``uavplan plan``: the paper's protocol post-processes SPSA's best path only, baselines report
+their raw best path on its spline. Every algorithm gets the same seeds, so for a given seed
+every algorithm starts from the same initial population (eq. 8–10).
+
+An algorithm *variant* is a label: a registered algorithm (``spsa``, ``pso``, …) or SPSA with
+one contribution switched off (``spsa-no-escape``, …, see :data:`ABLATIONS`).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import io
+import json
+import math
+import pickle
+import threading
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uavplan.fileio import atomic_write_bytes, atomic_write_text
+from uavplan.planners.params import ALGORITHMS, SpsaParams
+from uavplan.scenario import Scenario
+
+#: SPSA's five contributions (paper section 4), each as the change that switches it off:
+#: label suffix → (SpsaParams changes, PostParams changes). ``tighten`` is ours, not the
+#: paper's; it acts on the simplified nodes, so "no-simplify" switches it off too and
+#: "no-tighten" shows what it adds on its own.
+ABLATIONS: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
+    "no-start-end": ({"start_end_producer": False}, {}),
+    "no-escape": ({"escape": False}, {}),
+    "no-oscillation": ({"oscillation": False}, {}),
+    "no-simplify": ({}, {"simplify": False, "tighten": False}),
+    "no-smooth": ({}, {"smooth": False}),
+    "no-tighten": ({}, {"tighten": False}),
+}
+
+#: the paper's six algorithms, in the order tables list them
+DEFAULT_ALGORITHMS: tuple[str, ...] = ("spsa", "ssa", "pso", "gwo", "de", "cso")
+
+ProgressCallback = Callable[[int, int, "RunRecord"], None]  # (done, total, record)
+
+
+@dataclass(frozen=True)
+class Variant:
+    """An algorithm and the changes to its configuration: ``spsa-no-escape`` is SPSA with
+    ``SpsaParams.escape`` off."""
+
+    label: str
+    algorithm: str
+    spsa_changes: tuple[tuple[str, Any], ...] = ()
+    post_changes: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def parse(cls, label: str) -> Variant:
+        """``"pso"`` or ``"spsa-no-escape"``; ValueError names what is wrong."""
+        label = label.strip().lower()
+        if label in ALGORITHMS:
+            return cls(label, label)
+        base, _, suffix = label.partition("-")
+        if base == "spsa" and suffix in ABLATIONS:
+            spsa, post = ABLATIONS[suffix]
+            return cls(label, "spsa", tuple(spsa.items()), tuple(post.items()))
+        known = [*ALGORITHMS, *(f"spsa-{s}" for s in ABLATIONS)]
+        raise ValueError(f"unknown algorithm {label!r} (known: {', '.join(known)})")
+
+
+def ablation_variants() -> list[Variant]:
+    """SPSA in full, then with each contribution switched off in turn."""
+    return [Variant.parse("spsa"), *(Variant.parse(f"spsa-{s}") for s in ABLATIONS)]
+
+
+@dataclass(frozen=True)
+class BenchJob:
+    """One run: everything a worker needs, picklable, no open files or handles.
+
+    ``scenario`` already carries the run's search settings (population, iterations);
+    ``scenario_key`` identifies its geometry so a worker builds the world once.
+    """
+
+    index: int
+    scenario: Scenario
+    scenario_key: str
+    variant: Variant
+    seed: int
+
+
+@dataclass
+class RunRecord:
+    """The outcome of one run. ``energy`` is E (eq. 1) of the final path, the Table-2 value;
+    ``search_fitness`` is the best fitness the search itself reached (before SPSA's
+    post-processing); ``convergence`` is the best fitness after each iteration."""
+
+    index: int
+    scenario: str
+    algorithm: str
+    seed: int
+    status: str
+    energy: float
+    search_fitness: float
+    collision_free: bool
+    min_clearance_m: float
+    length_m: float
+    runtime_s: float
+    iterations: int
+    deadlocks: int
+    convergence: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0))
+
+    def row(self) -> dict[str, Any]:
+        """The record without its convergence curve (a CSV / JSON row)."""
+        d = dataclasses.asdict(self)
+        d.pop("convergence")
+        return d
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Table-2 statistics of one (scenario, algorithm) over its runs. Energy statistics are
+    over the runs that returned a path; ``std`` is the sample standard deviation."""
+
+    scenario: str
+    algorithm: str
+    runs: int
+    solved: int
+    collision_free: int
+    mean: float
+    worst: float
+    best: float
+    std: float
+    median_runtime_s: float
+    mean_search_fitness: float
+
+    @property
+    def success_rate(self) -> float:
+        return self.collision_free / self.runs if self.runs else 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Jobs
+
+
+def scenario_key(scenario: Scenario) -> str:
+    """A digest of what the world and the path problem depend on."""
+    cfg = scenario.planner
+    parts = (
+        scenario.bounds,
+        scenario.obstacles,
+        scenario.safety_margin_m,
+        scenario.start_m,
+        scenario.goal_m,
+        cfg.grid,
+        cfg.energy,
+    )
+    return hashlib.sha256(pickle.dumps(parts)).hexdigest()[:16]
+
+
+def make_jobs(
+    scenarios: Sequence[Scenario],
+    variants: Sequence[Variant | str],
+    *,
+    runs: int = 30,
+    seed0: int = 1,
+    iterations: int | None = None,
+    population: int | None = None,
+) -> list[BenchJob]:
+    """Every (scenario, variant, seed) with seeds ``seed0 .. seed0 + runs − 1``; ``iterations``
+    and ``population`` override the scenarios' own settings when given. Jobs are ordered
+    scenario, seed, variant, so slow and fast algorithms interleave across workers."""
+    if runs < 1:
+        raise ValueError("runs must be >= 1")
+    vs = [v if isinstance(v, Variant) else Variant.parse(v) for v in variants]
+    if not vs:
+        raise ValueError("no algorithms to run")
+    labels = [v.label for v in vs]
+    if len(set(labels)) != len(labels):
+        raise ValueError(f"algorithms listed twice: {', '.join(labels)}")
+    jobs: list[BenchJob] = []
+    names: set[str] = set()
+    for scn in scenarios:
+        changes = {k: v for k, v in (("iterations", iterations), ("population", population)) if v}
+        if changes:
+            scn = scn.with_planner(search=dataclasses.replace(scn.planner.search, **changes))
+        name = scn.name
+        k = 2
+        while name in names:  # two files with the same scenario name stay apart
+            name, k = f"{scn.name}#{k}", k + 1
+        names.add(name)
+        scn = dataclasses.replace(scn, name=name)
+        key = scenario_key(scn)
+        for seed in range(seed0, seed0 + runs):
+            for v in vs:
+                jobs.append(BenchJob(len(jobs), scn, key, v, seed))
+    return jobs
+
+
+# ---------------------------------------------------------------------------------------------
+# Running one job (in whatever process or thread executes it)
+
+_CACHE_SIZE = 8
+_cache: dict[str, tuple[Any, Any]] = {}
+_cache_lock = threading.Lock()
+
+
+def _world_and_problem(job: BenchJob) -> tuple[Any, Any]:
+    """The scenario's world and path problem, built once per process. Each run gets its own
+    reachability memo: the memo is pure, but one that earlier runs filled up only slows
+    lookups down (it holds 2^20 entries and a GWO or DE run alone nearly fills it)."""
+    from uavplan.planners import _kernels as K
+    from uavplan.planners.base import PathProblem
+    from uavplan.world import World
+
+    with _cache_lock:
+        hit = _cache.get(job.scenario_key)
+    if hit is None:
+        scn = job.scenario
+        world = World.from_scenario(scn)
+        cfg = scn.planner
+        problem = PathProblem.build(world, scn.start_m, scn.goal_m, cfg.grid, cfg.energy)
+        hit = (world, problem)
+        with _cache_lock:
+            if len(_cache) >= _CACHE_SIZE:
+                _cache.pop(next(iter(_cache)))
+            _cache[job.scenario_key] = hit
+    world, problem = hit
+    return world, dataclasses.replace(problem, memo=K.new_memo())
+
+
+def job_scenario(job: BenchJob) -> Scenario:
+    """The scenario as the job runs it: its variant's algorithm and switches, its seed."""
+    scn, v = job.scenario, job.variant
+    cfg = scn.planner
+    # planner.options belong to the scenario's own algorithm
+    options = cfg.options if v.algorithm == cfg.algorithm else {}
+    return scn.with_planner(
+        algorithm=v.algorithm,
+        search=dataclasses.replace(cfg.search, seed=job.seed),
+        spsa=dataclasses.replace(cfg.spsa, **dict(v.spsa_changes)),
+        post=dataclasses.replace(cfg.post, **dict(v.post_changes)),
+        options=options,
+    )
+
+
+def run_job(job: BenchJob) -> RunRecord:
+    """Run one job through :func:`uavplan.planning.plan_route` and record the outcome."""
+    from uavplan.planning import plan_route
+
+    world, problem = _world_and_problem(job)
+    scn = job_scenario(job)
+    res = plan_route(scn, world=world, problem=problem)
+    pr = res.planner
+    return RunRecord(
+        index=job.index,
+        scenario=scn.name,
+        algorithm=job.variant.label,
+        seed=job.seed,
+        status=res.status.value,
+        energy=float(res.energy),
+        search_fitness=float(pr.best_fitness),
+        collision_free=bool(res.collision_free),
+        min_clearance_m=float(res.min_clearance_m),
+        length_m=float(res.length_m),
+        runtime_s=float(res.runtime_s),
+        iterations=int(pr.iterations),
+        deadlocks=int(pr.deadlocks),
+        convergence=np.asarray(pr.convergence, dtype=float),
+    )
+
+
+def _worker_init() -> None:
+    """Local worker processes run one job at a time: keep numba to one thread each."""
+    try:
+        import numba
+
+        numba.set_num_threads(1)
+    except (ImportError, ValueError):  # pragma: no cover - numba is a dependency
+        pass
+
+
+# ---------------------------------------------------------------------------------------------
+# Backends
+
+
+def run_jobs(
+    jobs: Sequence[BenchJob],
+    *,
+    workers: int = 1,
+    dask: Any = None,
+    progress: ProgressCallback | None = None,
+) -> list[RunRecord]:
+    """Run ``jobs`` and return their records in job order.
+
+    ``dask``: a scheduler address (``tcp://host:8786``, or a ``LocalCluster``'s) or a
+    ``distributed.Client``; the jobs then run on that cluster and ``workers`` is ignored.
+    Otherwise ``workers`` > 1 runs them on that many local processes, 1 runs them here.
+    ``progress(done, total, record)`` is called as each job finishes.
+    """
+    jobs = list(jobs)
+    total = len(jobs)
+    done: list[RunRecord] = []
+
+    def finished(rec: RunRecord) -> None:
+        done.append(rec)
+        if progress is not None:
+            progress(len(done), total, rec)
+
+    if dask is not None:
+        _run_dask(jobs, dask, finished)
+    elif workers > 1 and total > 1:
+        _run_processes(jobs, min(workers, total), finished)
+    else:
+        for job in jobs:
+            finished(run_job(job))
+    return sorted(done, key=lambda r: r.index)
+
+
+def _run_processes(
+    jobs: list[BenchJob], workers: int, finished: Callable[[RunRecord], None]
+) -> None:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    # spawn: workers start clean (no inherited threads or locks), the same on every platform
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init) as pool:
+        futures = [pool.submit(run_job, job) for job in jobs]
+        try:
+            for fut in as_completed(futures):
+                finished(fut.result())
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
+
+
+def _run_dask(jobs: list[BenchJob], dask: Any, finished: Callable[[RunRecord], None]) -> None:
+    try:
+        from distributed import Client, as_completed
+    except ImportError as err:  # pragma: no cover - depends on the environment
+        raise RuntimeError(
+            "the Dask backend needs the optional extra: pip install 'uavplan[dask]'"
+        ) from err
+    own = not isinstance(dask, Client)
+    client = Client(dask) if own else dask
+    try:
+        futures = client.map(run_job, jobs, pure=False)
+        for fut in as_completed(futures):
+            finished(fut.result())
+    finally:
+        if own:
+            client.close()
+
+
+# ---------------------------------------------------------------------------------------------
+# Aggregation
+
+
+def summarise(records: Iterable[RunRecord]) -> list[Summary]:
+    """Table-2 statistics per (scenario, algorithm), in first-seen order."""
+    groups: dict[tuple[str, str], list[RunRecord]] = {}
+    for r in records:
+        groups.setdefault((r.scenario, r.algorithm), []).append(r)
+    out = []
+    nan = math.nan
+    for (scn, alg), rs in groups.items():
+        e = np.array([r.energy for r in rs if r.status == "ok" and math.isfinite(r.energy)])
+        s = np.array([r.search_fitness for r in rs if math.isfinite(r.search_fitness)])
+        out.append(
+            Summary(
+                scenario=scn,
+                algorithm=alg,
+                runs=len(rs),
+                solved=int(e.size),
+                collision_free=sum(r.collision_free for r in rs),
+                mean=float(e.mean()) if e.size else nan,
+                worst=float(e.max()) if e.size else nan,
+                best=float(e.min()) if e.size else nan,
+                std=float(e.std(ddof=1)) if e.size > 1 else (0.0 if e.size else nan),
+                median_runtime_s=float(np.median([r.runtime_s for r in rs])),
+                mean_search_fitness=float(s.mean()) if s.size else nan,
+            )
+        )
+    return out
+
+
+def mean_convergence(records: Iterable[RunRecord]) -> dict[str, dict[str, np.ndarray]]:
+    """scenario → algorithm → mean best fitness after each iteration (over runs that have a
+    full curve)."""
+    curves: dict[str, dict[str, list[np.ndarray]]] = {}
+    for r in records:
+        if r.convergence.size:
+            curves.setdefault(r.scenario, {}).setdefault(r.algorithm, []).append(r.convergence)
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for scn, by_alg in curves.items():
+        out[scn] = {}
+        for alg, cs in by_alg.items():
+            n = min(c.size for c in cs)
+            out[scn][alg] = np.mean([c[:n] for c in cs], axis=0)
+    return out
+
+
+def _fmt(v: float, digits: int = 2) -> str:
+    return "—" if not math.isfinite(v) else f"{v:.{digits}f}"
+
+
+def format_table(summaries: Sequence[Summary], scenario: str) -> str:
+    """One scenario's results in the layout of the paper's Table 2 (Markdown): rows mean,
+    worst, best, std of the final energy, then success rate, median runtime and, when SPSA is
+    in the table, SPSA's mean as a fraction of each algorithm's."""
+    rows = [s for s in summaries if s.scenario == scenario]
+    if not rows:
+        return ""
+    head = f"| {scenario} | " + " | ".join(s.algorithm for s in rows) + " |"
+    sep = "|---|" + "---:|" * len(rows)
+    lines = [head, sep]
+
+    def line(name: str, cells: Iterable[str]) -> None:
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+
+    line("mean", (_fmt(s.mean) for s in rows))
+    line("worst", (_fmt(s.worst) for s in rows))
+    line("best", (_fmt(s.best) for s in rows))
+    line("std", (_fmt(s.std) for s in rows))
+    line("collision-free", (f"{s.collision_free}/{s.runs}" for s in rows))
+    line("median runtime (s)", (_fmt(s.median_runtime_s) for s in rows))
+    spsa = next((s for s in rows if s.algorithm == "spsa"), None)
+    if spsa is not None and math.isfinite(spsa.mean):
+        ratios = [
+            _fmt(spsa.mean / s.mean, 3) if s.mean and math.isfinite(s.mean) else "—" for s in rows
+        ]
+        line("SPSA mean ÷ mean", ratios)
+    return "\n".join(lines)
+
+
+def format_tables(summaries: Sequence[Summary]) -> str:
+    scenarios = list(dict.fromkeys(s.scenario for s in summaries))
+    return "\n\n".join(format_table(summaries, scn) for scn in scenarios)
+
+
+# ---------------------------------------------------------------------------------------------
+# Outputs
+
+
+def plot_convergence(curves: Mapping[str, np.ndarray], title: str, path: str | Path) -> None:
+    """Mean best fitness against iteration, one line per algorithm (paper Figures 10–12)."""
+    from matplotlib.figure import Figure  # no pyplot: no global backend state, Agg for PNG
+
+    fig = Figure(figsize=(7.5, 4.5), dpi=120)
+    ax = fig.add_subplot()
+    for alg, curve in curves.items():
+        style = "--" if alg.startswith("spsa-") else "-"
+        ax.plot(np.arange(1, curve.size + 1), curve, style, label=alg, linewidth=1.4)
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("mean best fitness (energy)")
+    ax.set_yscale("log")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small", ncols=2)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def _safe_name(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+
+
+def write_outputs(
+    out_dir: str | Path,
+    records: Sequence[RunRecord],
+    *,
+    config: Mapping[str, Any] | None = None,
+    plots: bool = True,
+) -> list[Path]:
+    """Write ``runs.csv`` (one row per run), ``summary.csv``, ``bench.json`` (configuration,
+    summary, runs and mean convergence curves), ``summary.md`` (the tables) and one
+    ``convergence-<scenario>.png`` per scenario. Every file is written atomically. Returns
+    the paths written."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summaries = summarise(records)
+    curves = mean_convergence(records)
+    written: list[Path] = []
+
+    def put(name: str, text: str) -> None:
+        atomic_write_text(out / name, text)
+        written.append(out / name)
+
+    rows = [r.row() for r in records]
+    put("runs.csv", _csv(rows, list(RunRecord.__dataclass_fields__)[:-1]))
+    srows = [{**dataclasses.asdict(s), "success_rate": s.success_rate} for s in summaries]
+    put("summary.csv", _csv(srows, [*Summary.__dataclass_fields__, "success_rate"]))
+    doc = {
+        "config": dict(config or {}),
+        "summary": srows,
+        "runs": rows,
+        "mean_convergence": {
+            scn: {alg: [round(float(v), 4) for v in c] for alg, c in by.items()}
+            for scn, by in curves.items()
+        },
+    }
+    put("bench.json", json.dumps(_jsonable(doc), indent=1) + "\n")
+    put("summary.md", format_tables(summaries) + "\n")
+    if plots:
+        for scn, by_alg in curves.items():
+            path = out / f"convergence-{_safe_name(scn)}.png"
+            plot_convergence(by_alg, f"{scn}: mean best fitness over runs", path)
+            written.append(path)
+    return written
+
+
+def _csv(rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n")
+    w.writeheader()
+    for row in rows:
+        w.writerow({k: _jsonable(row.get(k)) for k in columns})
+    return buf.getvalue()
+
+
+def _jsonable(value: Any) -> Any:
+    """Plain JSON values: NaN/inf become None (JSON has neither)."""
+    if isinstance(value, float | np.floating):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, np.integer | np.bool_):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
+    """What the runs used, per scenario and algorithm (STYLE: echo the configuration)."""
+    from uavplan.planners.registry import make_options
+
+    out: dict[str, Any] = {"scenarios": {}, "algorithms": {}, "seeds": []}
+    seen_v: dict[str, Variant] = {}
+    for job in jobs:
+        seen_v.setdefault(job.variant.label, job.variant)
+        if job.scenario.name not in out["scenarios"]:
+            cfg = job.scenario.planner
+            out["scenarios"][job.scenario.name] = {
+                "source": job.scenario.source,
+                "population": cfg.search.population,
+                "iterations": cfg.search.iterations,
+                "t_max": cfg.search.t_max,
+                "init_half_window": cfg.search.init_half_window,
+                "grid": dataclasses.asdict(cfg.grid),
+                "energy": dataclasses.asdict(cfg.energy),
+                "safety_margin_m": job.scenario.safety_margin_m,
+                "options": {cfg.algorithm: dict(cfg.options)} if cfg.options else {},
+            }
+    out["seeds"] = sorted({job.seed for job in jobs})
+    first = jobs[0].scenario if jobs else None
+    for label, v in seen_v.items():
+        entry: dict[str, Any] = {"algorithm": v.algorithm}
+        if v.algorithm == "ssa":
+            entry["spsa"] = dataclasses.asdict(SpsaParams.ssa())
+        elif v.algorithm == "spsa" and first is not None:
+            entry["spsa"] = dataclasses.asdict(
+                dataclasses.replace(first.planner.spsa, **dict(v.spsa_changes))
+            )
+            entry["post"] = dataclasses.asdict(
+                dataclasses.replace(first.planner.post, **dict(v.post_changes))
+            )
+        else:
+            params = make_options(v.algorithm, None)
+            entry["params"] = dataclasses.asdict(params) if params is not None else None
+        out["algorithms"][label] = entry
+    return out
