@@ -91,6 +91,22 @@ class RouteResult:
         }
 
 
+def _best_simplified(
+    problem: PathProblem, population: np.ndarray, nodes_pf: np.ndarray, vertices: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Among the distinct final individuals (and the best one), the one whose simplified
+    polyline has the lowest energy: (its column polyline, its simplified vertices)."""
+    w = problem.energy
+    best = (sum(energy_terms(vertices, w)), nodes_pf, vertices)
+    for nodes in np.unique(population.reshape(population.shape[0], -1), axis=0):
+        pts = problem.node_points(nodes.reshape(-1, 2))
+        v = pts[simplify(pts, problem.world)]
+        e = sum(energy_terms(v, w))
+        if e < best[0]:
+            best = (e, pts, v)
+    return best[1], best[2]
+
+
 def takeoff_column(scenario: Scenario) -> np.ndarray:
     """The vertical climb from the ground to the start point, (2, 3)."""
     sx, sy, sz = scenario.start_m
@@ -134,6 +150,8 @@ def plan_route(
     vertices = nodes_pf
     if post.simplify:
         vertices = nodes_pf[simplify(nodes_pf, wpf)]
+        if post.select == "population" and res.population is not None:
+            nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
     if post.tighten:
         vertices = tighten(vertices, wpf)
     route = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)

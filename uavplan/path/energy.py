@@ -121,11 +121,11 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
     inner = nodes.shape[1]
     nk = inner + 2
     cp, den = _thomas_factors(max(inner, 1))
-    ys = np.empty(nk)
-    zs = np.empty(nk)
-    pts = np.empty(((nk - 1) * n_sub + 1, 3))
     out = np.empty(g_count)
     for g in range(g_count):
+        ys = np.empty(nk)
+        zs = np.empty(nk)
+        pts = np.empty(((nk - 1) * n_sub + 1, 3))
         ys[0] = start_yz[0]
         zs[0] = start_yz[1]
         ys[nk - 1] = goal_yz[0]

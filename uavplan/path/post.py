@@ -150,11 +150,11 @@ def smooth_route(
     blend = np.ones(m - 1) if spline is not None else np.zeros(m - 1)
     legs: list[np.ndarray] = []
     for i in range(m - 1):
-        for _ in range(MAX_BLEND_HALVINGS + 1):
+        while True:  # ends at the latest with λ = 0, the straight (feasible) leg
             pts = np.vstack([_leg_samples(v, spline, s, i, blend[i], step_m), v[i + 1]])
             if blend[i] == 0.0 or world.segments_free(pts[:-1], pts[1:]).all():
                 break
-            blend[i] = 0.0 if blend[i] < 2.0**-MAX_BLEND_HALVINGS else blend[i] / 2.0
+            blend[i] = 0.0 if blend[i] <= 2.0**-MAX_BLEND_HALVINGS else blend[i] / 2.0
         legs.append(pts[:-1])
     samples = np.vstack([*legs, v[-1:]])
     counts = np.array([leg.shape[0] for leg in legs])

@@ -60,9 +60,11 @@ _MIX2 = np.int64(-7723592293110705685)
 
 
 def new_memo() -> tuple[np.ndarray, np.ndarray]:
-    """An empty reachability memo: (keys, values). Reachability of a node is a pure function
-    of (column, previous node, node) for a fixed world, so it is computed once per run."""
-    return np.full(1 << MEMO_BITS, _EMPTY, dtype=np.int64), np.zeros(1 << MEMO_BITS, np.int8)
+    """An empty reachability memo. Reachability of a node is a pure function of (column,
+    previous node, node) for a fixed world, so it is computed once per run. Entries pack
+    ``key·2 + free`` into one int64, so a reader on another thread sees either nothing or a
+    whole entry. The second array is unused (kept so the kernels' argument layout is fixed)."""
+    return np.full(1 << MEMO_BITS, _EMPTY, dtype=np.int64), np.zeros(1, np.int8)
 
 
 @njit(cache=True, inline="always")
@@ -156,7 +158,6 @@ def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
     runs once and its answer is memoised.
     """
     keys = geo[11]
-    vals = geo[12]
     tab = geo[13]
     off = geo[14]
     if 1 < j < tab.shape[0] - 2:
@@ -193,15 +194,14 @@ def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
     h &= mask
     for _probe in range(64):
         k = keys[h]
-        if k == key:
-            return vals[h] == 1
         if k == _EMPTY:
             free = _segment_to_node_free(
                 j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin
             )
-            keys[h] = key
-            vals[h] = 1 if free else 0
+            keys[h] = 2 * key + (1 if free else 0)  # one store: a whole entry or none
             return free
+        if (k >> 1) == key:
+            return (k & 1) == 1
         h = (h + 1) & mask
     return _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
 
@@ -264,39 +264,75 @@ def init_population(
     return nodes, ok, deadlocks
 
 
+# Per-individual random streams: each individual gets its own splitmix64 stream seeded from
+# the caller's numpy Generator, so individuals are independent of each other and of the order
+# they are processed in (the kernels could run them on several threads unchanged).
+_SM_GAMMA = np.uint64(0x9E3779B97F4A7C15)
+_SM_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_SM_M2 = np.uint64(0x94D049BB133111EB)
+
+
 @njit(cache=True, inline="always")
-def propose(rule, base, refs, scal, g, j, a, line, attempt, rng):
+def _next_u64(st):
+    st[0] += _SM_GAMMA
+    z = st[0]
+    z = (z ^ (z >> np.uint64(30))) * _SM_M1
+    z = (z ^ (z >> np.uint64(27))) * _SM_M2
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(cache=True, inline="always")
+def _rand(st):
+    """Uniform in [0, 1)."""
+    return float(_next_u64(st) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+@njit(cache=True, inline="always")
+def _randn(st):
+    """Standard normal (Box–Muller)."""
+    u1 = 1.0 - _rand(st)
+    u2 = _rand(st)
+    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)
+
+
+def stream_seeds(rng: np.random.Generator, n: int) -> np.ndarray:
+    """One seed per individual for the kernels' random streams, drawn from ``rng``."""
+    return rng.integers(0, np.iinfo(np.int64).max, size=n, dtype=np.int64).astype(np.uint64)
+
+
+@njit(cache=True, inline="always")
+def propose(rule, base, refs, scal, g, j, a, line, attempt, st):
     """One proposal (before rounding) for axis ``a`` of node ``j`` (0-based inner index)."""
     p = base[g, j, a]
     ln = line[j + 1, a]
     if rule == R_SPSA_PRODUCER_BEST:
-        return p + rng.random() * (ln - p)
+        return p + _rand(st) * (ln - p)
     if rule == R_SPSA_PRODUCER:
         d = p - ln
-        return ln + d * scal[g, 0] - rng.random() * d
+        return ln + d * scal[g, 0] - _rand(st) * d
     if rule == R_SPSA_PRODUCER_LITERAL:
-        return p + scal[g, 0] + rng.random() * (ln - p)
+        return p + scal[g, 0] + _rand(st) * (ln - p)
     if rule == R_SSA_PRODUCER:
         return ln + (p - ln) * scal[g, 0]
     if rule == R_ALARM:
-        q = scal[g, 0] if attempt == 0 else rng.standard_normal()
+        q = scal[g, 0] if attempt == 0 else _randn(st)
         return p + q
     if rule == R_SCROUNGER_FAR:
         dw = refs[g, 0, j, a] - ln
         d = p - ln
-        return ln + rng.standard_normal() * math.exp(min((dw - d) / scal[g, 0], 50.0))
+        return ln + _randn(st) * math.exp(min((dw - d) / scal[g, 0], 50.0))
     if rule == R_SCROUNGER_NEAR:
         return refs[g, 0, j, a] + scal[g, a]
     if rule == R_DANGER:
         b = refs[g, 0, j, a]
-        return b + rng.standard_normal() * abs(p - b)
+        return b + _randn(st) * abs(p - b)
     if rule == R_DANGER_BEST:
-        return p + (2.0 * rng.random() - 1.0) * abs(p - refs[g, 0, j, a]) * scal[g, 0]
+        return p + (2.0 * _rand(st) - 1.0) * abs(p - refs[g, 0, j, a]) * scal[g, 0]
     if rule == R_PSO:
         v = (
             scal[g, 0] * refs[g, 0, j, a]
-            + scal[g, 1] * rng.random() * (refs[g, 1, j, a] - p)
-            + scal[g, 2] * rng.random() * (refs[g, 2, j, a] - p)
+            + scal[g, 1] * _rand(st) * (refs[g, 1, j, a] - p)
+            + scal[g, 2] * _rand(st) * (refs[g, 2, j, a] - p)
         )
         v_max = refs[g, 3, j, a]
         if v_max > 0.0:
@@ -305,23 +341,23 @@ def propose(rule, base, refs, scal, g, j, a, line, attempt, rng):
     if rule == R_GWO:
         acc = 0.0
         for r in range(3):
-            big_a = 2.0 * scal[g, 0] * rng.random() - scal[g, 0]
-            big_c = 2.0 * rng.random()
+            big_a = 2.0 * scal[g, 0] * _rand(st) - scal[g, 0]
+            big_c = 2.0 * _rand(st)
             lead = refs[g, r, j, a]
             acc += lead - big_a * abs(big_c * lead - p)
         return acc / 3.0
     if rule == R_DE:
         flat = j * 2 + a
-        if rng.random() < scal[g, 1] or (attempt == 0 and flat == int(scal[g, 2])):
+        if _rand(st) < scal[g, 1] or (attempt == 0 and flat == int(scal[g, 2])):
             return refs[g, 0, j, a] + scal[g, 0] * (refs[g, 1, j, a] - refs[g, 2, j, a])
         return p
     if rule == R_CSO_ROOSTER:
-        return ln + (p - ln) * (1.0 + scal[g, 0] * rng.standard_normal())
+        return ln + (p - ln) * (1.0 + scal[g, 0] * _randn(st))
     if rule == R_CSO_HEN:
         return (
             p
-            + scal[g, 0] * rng.random() * (refs[g, 0, j, a] - p)
-            + scal[g, 1] * rng.random() * (refs[g, 1, j, a] - p)
+            + scal[g, 0] * _rand(st) * (refs[g, 0, j, a] - p)
+            + scal[g, 1] * _rand(st) * (refs[g, 1, j, a] - p)
         )
     if rule == R_CSO_CHICK:
         return p + scal[g, 0] * (refs[g, 0, j, a] - p)
@@ -346,7 +382,7 @@ def rebuild(
     goal_m,
     geo,
     margin,
-    rng,
+    seeds,
 ):
     """Apply each individual's rule node by node, start to goal, with the reachability rule.
 
@@ -356,17 +392,20 @@ def rebuild(
     for V = v_min..v_max, ``t_max`` tries per speed. If nothing is reachable the old node is
     kept when it is reachable; otherwise the individual's update fails (``ok[g] = False``)
     and it keeps its old path. ``line`` (D + 1, 2): the start-end line in grid units.
+    ``seeds`` (G,) uint64: each individual's random stream (see :func:`stream_seeds`).
     Returns (new positions, ok, escapes used).
     """
     n_pop = base.shape[0]
     n_inner = base.shape[1]
     out = base.copy()
     ok = np.ones(n_pop, dtype=np.bool_)
-    escapes = 0
+    esc = np.zeros(n_pop, dtype=np.int64)
     for g in range(n_pop):
         rule = rules[g]
         if rule < 0:
             continue
+        st = np.empty(1, dtype=np.uint64)
+        st[0] = seeds[g]
         py = 0.0
         pz = 0.0
         same = True  # the previous node equals the base path's, whose segments are known free
@@ -375,8 +414,8 @@ def rebuild(
             ny = 0.0
             nz = 0.0
             for attempt in range(t_max):
-                ny = _round(propose(rule, base, refs, scal, g, j, 0, line, attempt, rng))
-                nz = _round(propose(rule, base, refs, scal, g, j, 1, line, attempt, rng))
+                ny = _round(propose(rule, base, refs, scal, g, j, 0, line, attempt, st))
+                nz = _round(propose(rule, base, refs, scal, g, j, 1, line, attempt, st))
                 if same and ny == base[g, j, 0] and nz == base[g, j, 1]:
                     placed = True
                     break
@@ -386,15 +425,15 @@ def rebuild(
             if not placed and escape[g]:
                 for v in range(v_min, v_max + 1):
                     for _t in range(t_max):
-                        ny = _round(base[g, j, 0] + (2.0 * rng.random() - 1.0) * v)
-                        nz = _round(base[g, j, 1] + (2.0 * rng.random() - 1.0) * v)
+                        ny = _round(base[g, j, 0] + (2.0 * _rand(st) - 1.0) * v)
+                        nz = _round(base[g, j, 1] + (2.0 * _rand(st) - 1.0) * v)
                         if node_free(
                             j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
                         ):
                             placed = True
                             break
                     if placed:
-                        escapes += 1
+                        esc[g] += 1
                         break
             if not placed:
                 ny = base[g, j, 0]
@@ -411,8 +450,10 @@ def rebuild(
             py = ny
             pz = nz
         if not ok[g]:
-            out[g] = base[g]
-    return out, ok, escapes
+            for j in range(n_inner):
+                out[g, j, 0] = base[g, j, 0]
+                out[g, j, 1] = base[g, j, 1]
+    return out, ok, esc.sum()
 
 
 @njit(cache=True)
@@ -426,9 +467,9 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
     """
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
-    moved = 0
-    new = np.empty((n_inner, 2))
+    moved = np.zeros(n_pop, dtype=np.int64)
     for g in range(n_pop):
+        new = np.empty((n_inner, 2))
         py = 0.0
         pz = 0.0
         ok = True
@@ -479,8 +520,8 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
             for j in range(n_inner):
                 nodes[g, j, 0] = new[j, 0]
                 nodes[g, j, 1] = new[j, 1]
-            moved += count
-    return moved
+            moved[g] = count
+    return moved.sum()
 
 
 @njit(cache=True)

@@ -114,6 +114,16 @@ class PathProblem:
             w.k2,
         )
 
+    def fitness_of_changed(
+        self, cand: np.ndarray, parent: np.ndarray, parent_f: np.ndarray
+    ) -> np.ndarray:
+        """Fitness of candidates, evaluating only those that differ from their parent."""
+        changed = (cand != parent).any(axis=(1, 2))
+        out = parent_f.copy()
+        if changed.any():
+            out[changed] = self.fitness(cand[changed])
+        return out
+
     def feasible(self, nodes: np.ndarray) -> np.ndarray:
         dx, dy, dz = self.steps
         return K.paths_feasible(
@@ -169,7 +179,8 @@ class PathProblem:
         rng: np.random.Generator,
         v_range: tuple[int, int] = (1, 5),
     ) -> tuple[np.ndarray, np.ndarray, int]:
-        """Candidates from ``rules`` under the shared reachability rule (see kernels)."""
+        """Candidates from ``rules`` under the shared reachability rule (see kernels).
+        ``rng`` seeds one random stream per individual."""
         dx, dy, dz = self.steps
         return K.rebuild(
             base,
@@ -188,7 +199,7 @@ class PathProblem:
             self.goal_m,
             self.geo,
             self.margin_m,
-            rng,
+            K.stream_seeds(rng, base.shape[0]),
         )
 
     def oscillate(self, nodes: np.ndarray, window: int) -> int:
@@ -282,6 +293,9 @@ class SwarmPlanner:
     name = "base"
     #: does the paper's protocol post-process this algorithm's best path (section 4.5)?
     postprocess = False
+    #: independent searches the iteration budget is split into (fresh initialisation each);
+    #: 1 is the paper's protocol
+    rounds = 1
 
     def __init__(self, search: SearchParams) -> None:
         self.search = search
@@ -309,50 +323,74 @@ class SwarmPlanner:
         search = self.search
         rng = rng if rng is not None else np.random.default_rng(search.seed)
         t0 = time.perf_counter()
-        x, ok, deadlocks = problem.initial_population(search.population, search, rng)
-        if not ok.any():
-            return PlannerResult(
-                self.name,
-                search.seed,
-                PlanStatus.NO_PATH,
-                None,
-                float("inf"),
-                np.empty(0),
-                0,
-                time.perf_counter() - t0,
-                deadlocks,
-                message="every initial path deadlocked: no reachable node sequence from start "
-                "to goal along the start→goal direction",
-            )
-        if not ok.all():
-            # deadlocked individuals are replaced by copies of initialised ones
-            good = np.flatnonzero(ok)
-            bad = np.flatnonzero(~ok)
-            x[bad] = x[rng.choice(good, size=bad.size)]
-        pop = Population(x, problem.fitness(x), 0, search.iterations)
-        self.setup(problem, pop, rng)
+        rounds = max(1, min(self.rounds, search.iterations))
+        lengths = np.full(rounds, search.iterations // rounds)
+        lengths[: search.iterations % rounds] += 1
         convergence = np.empty(search.iterations)
-        for it in range(search.iterations):
-            pop.iteration = it
-            self.step(problem, pop, rng)
-            convergence[it] = self.best(pop)[1]
-            if progress is not None:
-                progress(it + 1, search.iterations, convergence[it])
-        best_x, best_f = self.best(pop)
-        stats = {k: v for k, v in pop.extra.items() if isinstance(v, int | float)}
+        finals_x: list[np.ndarray] = []
+        finals_f: list[np.ndarray] = []
+        best_x: np.ndarray | None = None
+        best_f = float("inf")
+        deadlocks = 0
+        stats: dict[str, Any] = {}
+        done = 0
+        for n_iter in lengths:
+            x, ok, dead = problem.initial_population(search.population, search, rng)
+            deadlocks += dead
+            if not ok.any():
+                if best_x is None:
+                    return PlannerResult(
+                        self.name,
+                        search.seed,
+                        PlanStatus.NO_PATH,
+                        None,
+                        float("inf"),
+                        np.empty(0),
+                        0,
+                        time.perf_counter() - t0,
+                        deadlocks,
+                        message="every initial path deadlocked: no reachable node sequence "
+                        "from start to goal along the start→goal direction",
+                    )
+                convergence[done : done + n_iter] = best_f
+                done += n_iter
+                continue
+            if not ok.all():
+                # deadlocked individuals are replaced by copies of initialised ones
+                good = np.flatnonzero(ok)
+                bad = np.flatnonzero(~ok)
+                x[bad] = x[rng.choice(good, size=bad.size)]
+            pop = Population(x, problem.fitness(x), 0, int(n_iter))
+            self.setup(problem, pop, rng)
+            for it in range(n_iter):
+                pop.iteration = it
+                self.step(problem, pop, rng)
+                bx, bf = self.best(pop)
+                if bf < best_f:
+                    best_x, best_f = bx.copy(), bf
+                convergence[done] = best_f
+                done += 1
+                if progress is not None:
+                    progress(done, search.iterations, best_f)
+            finals_x.append(pop.x.copy())
+            finals_f.append(pop.f.copy())
+            for k, v in pop.extra.items():
+                if isinstance(v, int | float):
+                    stats[k] = stats.get(k, 0) + v
+        stats["rounds"] = int(rounds)
         return PlannerResult(
             self.name,
             search.seed,
             PlanStatus.SOLVED,
-            best_x.copy(),
+            best_x,
             best_f,
             convergence,
             search.iterations,
             time.perf_counter() - t0,
             deadlocks,
             stats,
-            population=pop.x.copy(),
-            population_fitness=pop.f.copy(),
+            population=np.concatenate(finals_x),
+            population_fitness=np.concatenate(finals_f),
         )
 
 

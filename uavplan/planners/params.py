@@ -102,6 +102,7 @@ class SpsaParams:
     start_end_producer: bool = True  # contribution 2 (off: SSA's eq. 3 producer)
     escape: bool = True  # contribution 3 (adaptive variable-speed escape)
     oscillation: bool = True  # contribution 4
+    restarts: int = 1  # ours: split the iterations into this many independent searches
 
     def __post_init__(self) -> None:
         for name in ("producer_ratio", "scrounger_ratio", "danger_ratio", "warning_value"):
@@ -116,6 +117,8 @@ class SpsaParams:
             raise ValueError("need 1 <= v_min <= v_max")
         if not (isinstance(self.oscillation_window, int) and self.oscillation_window >= 3):
             raise ValueError("oscillation_window must be an integer >= 3")
+        if not (isinstance(self.restarts, int) and self.restarts >= 1):
+            raise ValueError("restarts must be an integer >= 1")
         if self.producer_rule not in ("deviation", "literal"):
             raise ValueError("producer_rule must be 'deviation' or 'literal'")
         if self.scrounger_index not in ("scrounger", "population"):
@@ -152,6 +155,17 @@ class PostParams:
     tighten: bool = True
     smooth: bool = True
     sample_step_m: float = 5.0  # resolution of the final smoothed curve
+    #: which paths are post-processed: "best" (the paper: the best individual) or
+    #: "population" (ours: every distinct final individual is simplified and the lowest
+    #: simplified energy wins; the search fitness is measured on the jagged grid path, so
+    #: its best is not always the best route once simplified)
+    select: str = "population"
+
+    def __post_init__(self) -> None:
+        if self.select not in ("best", "population"):
+            raise ValueError("select must be 'best' or 'population'")
+        if not self.sample_step_m > 0:
+            raise ValueError("sample_step_m must be > 0")
 
 
 def field_names(cls: type) -> tuple[str, ...]:

@@ -33,6 +33,7 @@ class SparrowPlanner(SwarmPlanner):
     def __init__(self, search: SearchParams, params: SpsaParams | None = None) -> None:
         super().__init__(search)
         self.params = params or SpsaParams()
+        self.rounds = self.params.restarts
 
     def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         if self.params.oscillation:
@@ -42,6 +43,14 @@ class SparrowPlanner(SwarmPlanner):
             pop.extra["oscillated_nodes"] = moved
         pop.extra.setdefault("escapes", 0)
         pop.extra.setdefault("failed_updates", 0)
+
+    @staticmethod
+    def _buffers(pop: Population) -> tuple[np.ndarray, np.ndarray]:
+        """Reference-path and scalar arrays reused across calls; a rule reads only the
+        entries its own update sets, so they need no clearing."""
+        if "refs" not in pop.extra:
+            pop.extra["refs"], pop.extra["scal"] = empty_refs(pop.x.shape[0], pop.x.shape[1])
+        return pop.extra["refs"], pop.extra["scal"]
 
     def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         prm, search = self.params, self.search
@@ -55,11 +64,11 @@ class SparrowPlanner(SwarmPlanner):
 
         # --- producers: eq. 11 (SPSA) or eq. 3 (SSA) ---------------------------------------
         rules = np.full(n_pop, -1, dtype=np.int64)
-        refs, scal = empty_refs(n_pop, n_inner)
+        refs, scal = self._buffers(pop)
         if rng.random() < prm.warning_value:
             ranks = np.arange(1, n_prod + 1)
             alpha = 1.0 - rng.random(n_prod)  # α in (0, 1]
-            scal[producers, 0] = np.exp(-ranks / (alpha * search.iterations))
+            scal[producers, 0] = np.exp(-ranks / (alpha * pop.iterations))
             if prm.start_end_producer:
                 literal = prm.producer_rule == "literal"
                 rules[producers] = K.R_SPSA_PRODUCER_LITERAL if literal else K.R_SPSA_PRODUCER
@@ -71,12 +80,11 @@ class SparrowPlanner(SwarmPlanner):
             scal[producers, 0] = rng.standard_normal(n_prod)
         no_escape = np.zeros(n_pop, dtype=np.bool_)
         cand, ok_p, _ = problem.rebuild(x, rules, refs, scal, no_escape, search.t_max, rng, v_range)
-        f_prod = problem.fitness(cand[producers])
+        f_prod = problem.fitness_of_changed(cand[producers], x[producers], f[producers])
         p_best = cand[producers[int(np.argmin(f_prod))]]
 
         # --- scroungers: eq. 4, with the escape of eq. 12 ---------------------------------
         rules = np.full(n_pop, -1, dtype=np.int64)
-        refs, scal = empty_refs(n_pop, n_inner)
         if prm.scrounger_index == "scrounger":
             index, half = np.arange(1, scroungers.size + 1), scroungers.size / 2.0
         else:
@@ -104,7 +112,6 @@ class SparrowPlanner(SwarmPlanner):
         if n_danger:
             aware = rng.choice(n_pop, size=n_danger, replace=False)
             rules = np.full(n_pop, -1, dtype=np.int64)
-            refs, scal = empty_refs(n_pop, n_inner)
             is_best = f[aware] <= f[best_i]
             rules[aware[~is_best]] = K.R_DANGER
             refs[aware[~is_best], 0] = x[best_i]
@@ -121,7 +128,7 @@ class SparrowPlanner(SwarmPlanner):
             problem.oscillate(cand, prm.oscillation_window)
 
         # --- greedy selection ---------------------------------------------------------------
-        f_cand = problem.fitness(cand)
+        f_cand = problem.fitness_of_changed(cand, x, f)
         better = f_cand < f
         x[better] = cand[better]
         f[better] = f_cand[better]
