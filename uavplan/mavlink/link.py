@@ -82,6 +82,7 @@ class VehicleLink:
         #: round trip of the AUTOPILOT_VERSION request (its COMMAND_ACK), once measured
         self.handshake_rtt_s: float | None = None
         self._capability_request_at: float | None = None
+        self._capability_requests = 0
         self._capability_refused = False
 
     # -- opening --------------------------------------------------------------------------
@@ -115,8 +116,7 @@ class VehicleLink:
         link = cls(connection, vehicle)
         # As QGC and MAVSDK do on connecting, ask for AUTOPILOT_VERSION: its capability bits
         # say whether fence and rally transfers exist, and the answer times the link.
-        link.send_capability_request()
-        link.wait_capabilities(CAPABILITY_WAIT_S, attempts=1)
+        link.wait_capabilities(CAPABILITY_WAIT_S, attempts=2)
         return link
 
     @staticmethod
@@ -187,13 +187,15 @@ class VehicleLink:
         return True
 
     def _time_handshake(self) -> None:
-        if self._capability_request_at is not None and self.handshake_rtt_s is None:
+        # Karn's rule: an answer to a repeated request does not say which one it answers
+        if self._capability_requests == 1 and self.handshake_rtt_s is None:
+            assert self._capability_request_at is not None
             self.handshake_rtt_s = time.monotonic() - self._capability_request_at
 
     def send_capability_request(self) -> None:
         """MAV_CMD_REQUEST_MESSAGE(AUTOPILOT_VERSION), as QGC and MAVSDK send on connect."""
-        if self._capability_request_at is None:
-            self._capability_request_at = time.monotonic()
+        self._capability_request_at = time.monotonic()
+        self._capability_requests += 1
         self.send(
             CommandLong(
                 self.vehicle.system_id,
@@ -208,9 +210,8 @@ class VehicleLink:
         if self.capabilities is not None:
             return self.capabilities
         per_attempt = timeout_s / max(1, attempts)
-        for attempt in range(max(1, attempts)):
-            if attempt:
-                self.send_capability_request()
+        for _attempt in range(max(1, attempts)):
+            self.send_capability_request()
             deadline = time.monotonic() + per_attempt
             while self.capabilities is None and (left := deadline - time.monotonic()) > 0:
                 self.recv(left)
