@@ -77,6 +77,29 @@ def test_variant_labels() -> None:
     assert labels[0] == "spsa" and len(labels) == 1 + len(bench.ABLATIONS)
 
 
+def test_parameter_variants() -> None:
+    v = bench.Variant.parse("de(cr=0.1; f=0.7)")
+    assert (v.label, v.algorithm, dict(v.options)) == (
+        "de(cr=0.1; f=0.7)",
+        "de",
+        {"cr": 0.1, "f": 0.7},
+    )
+    v = bench.Variant.parse("spsa-no-escape(oscillation_window=4, smooth=false)")
+    assert dict(v.spsa_changes) == {"escape": False, "oscillation_window": 4}
+    assert dict(v.post_changes) == {"smooth": False}
+    assert bench.Variant.parse("pso(v_max_fraction=null)").options == (("v_max_fraction", None),)
+    for bad, message in [
+        ("de(F=1)", "unknown de option"),
+        ("spsa(nope=1)", "unknown spsa parameter"),
+        ("gwo(a_start=-1)", "a_start must be"),
+        ("ssa(x=1)", "takes no options"),
+        ("de(cr)", "not KEY=VALUE"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            bench.Variant.parse(bad)
+    assert bench.split_labels("spsa, de(cr=0.1,f=0.6),pso") == ["spsa", "de(cr=0.1,f=0.6)", "pso"]
+
+
 def test_make_jobs_covers_every_scenario_variant_and_seed(tiny_path: Path) -> None:
     scn = load_scenario(tiny_path)
     jobs = bench.make_jobs([scn, scn], ["spsa", "pso"], runs=3, seed0=7, iterations=2)
@@ -97,6 +120,9 @@ def test_job_scenario_applies_variant_and_seed(tiny_path: Path) -> None:
     assert run.planner.algorithm == "spsa"
     assert run.planner.search.seed == 4
     assert run.planner.post.smooth is False
+    (job,) = bench.make_jobs([scn], ["de(cr=0.1)"], runs=1)
+    run = bench.job_scenario(job)
+    assert (run.planner.algorithm, dict(run.planner.options)) == ("de", {"cr": 0.1})
 
 
 # --- backends -----------------------------------------------------------------------------------

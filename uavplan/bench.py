@@ -25,6 +25,7 @@ import io
 import json
 import math
 import pickle
+import re
 import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from uavplan.fileio import atomic_write_bytes, atomic_write_text
-from uavplan.planners.params import ALGORITHMS, SpsaParams
+from uavplan.planners.params import ALGORITHMS, SpsaParams, field_names
 from uavplan.scenario import Scenario
 
 #: SPSA's five contributions (paper section 4), each as the change that switches it off:
@@ -58,26 +59,99 @@ ProgressCallback = Callable[[int, int, "RunRecord"], None]  # (done, total, reco
 
 @dataclass(frozen=True)
 class Variant:
-    """An algorithm and the changes to its configuration: ``spsa-no-escape`` is SPSA with
-    ``SpsaParams.escape`` off."""
+    """An algorithm and the changes to its configuration.
+
+    Labels: a registered algorithm (``pso``); SPSA with one contribution off
+    (``spsa-no-escape``, see :data:`ABLATIONS`); either with parameters in parentheses,
+    ``de(cr=0.1)``, ``pso(v_max_fraction=0.1; c1=1.5)``, ``spsa(oscillation_window=4)``
+    (``;`` or ``,`` between them; values read as YAML scalars). SPSA's parameters are
+    :class:`SpsaParams` or :class:`PostParams` fields, a baseline's its parameter dataclass's.
+    """
 
     label: str
     algorithm: str
     spsa_changes: tuple[tuple[str, Any], ...] = ()
     post_changes: tuple[tuple[str, Any], ...] = ()
+    options: tuple[tuple[str, Any], ...] = ()  # a baseline's parameters
 
     @classmethod
     def parse(cls, label: str) -> Variant:
-        """``"pso"`` or ``"spsa-no-escape"``; ValueError names what is wrong."""
-        label = label.strip().lower()
-        if label in ALGORITHMS:
-            return cls(label, label)
-        base, _, suffix = label.partition("-")
-        if base == "spsa" and suffix in ABLATIONS:
+        """A variant from its label; ValueError names what is wrong."""
+        label = label.strip()
+        head, params = label, ""
+        if label.endswith(")") and "(" in label:
+            head, _, params = label[:-1].partition("(")
+        head = head.strip().lower()
+        base, _, suffix = head.partition("-")
+        if head in ALGORITHMS:
+            v = cls(head, head)
+        elif base == "spsa" and suffix in ABLATIONS:
             spsa, post = ABLATIONS[suffix]
-            return cls(label, "spsa", tuple(spsa.items()), tuple(post.items()))
-        known = [*ALGORITHMS, *(f"spsa-{s}" for s in ABLATIONS)]
-        raise ValueError(f"unknown algorithm {label!r} (known: {', '.join(known)})")
+            v = cls(head, "spsa", tuple(spsa.items()), tuple(post.items()))
+        else:
+            known = [*ALGORITHMS, *(f"spsa-{s}" for s in ABLATIONS)]
+            raise ValueError(f"unknown algorithm {head!r} (known: {', '.join(known)})")
+        if not params.strip():
+            return v
+        return v._with_params(_parse_params(params), label)
+
+    def _with_params(self, params: dict[str, Any], label: str) -> Variant:
+        from uavplan.planners.params import PostParams
+        from uavplan.planners.registry import make_options
+
+        if self.algorithm == "spsa":
+            spsa_keys = set(field_names(SpsaParams))
+            post_keys = set(field_names(PostParams))
+            unknown = sorted(set(params) - spsa_keys - post_keys)
+            if unknown:
+                raise ValueError(f"{label}: unknown spsa parameter(s) {', '.join(unknown)}")
+            spsa = {
+                **dict(self.spsa_changes),
+                **{k: v for k, v in params.items() if k in spsa_keys},
+            }
+            post = {
+                **dict(self.post_changes),
+                **{k: v for k, v in params.items() if k in post_keys},
+            }
+            try:
+                dataclasses.replace(SpsaParams(), **spsa)
+                dataclasses.replace(PostParams(), **post)
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"{label}: {err}") from None
+            return Variant(label, "spsa", tuple(spsa.items()), tuple(post.items()))
+        try:
+            make_options(self.algorithm, params)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{label}: {err}") from None
+        return Variant(label, self.algorithm, options=tuple(params.items()))
+
+
+def _parse_params(text: str) -> dict[str, Any]:
+    import yaml
+
+    out: dict[str, Any] = {}
+    for item in re.split(r"[;,]", text):
+        if not item.strip():
+            continue
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise ValueError(f"parameter {item.strip()!r} is not KEY=VALUE")
+        out[key.strip()] = yaml.safe_load(value.strip())
+    return out
+
+
+def split_labels(text: str) -> list[str]:
+    """Split a comma-separated algorithm list, keeping commas inside parentheses."""
+    labels, depth, cur = [], 0, []
+    for ch in text:
+        depth += (ch == "(") - (ch == ")")
+        if ch == "," and depth == 0:
+            labels.append("".join(cur))
+            cur = []
+        else:
+            cur.append(ch)
+    labels.append("".join(cur))
+    return [label.strip() for label in labels if label.strip()]
 
 
 def ablation_variants() -> list[Variant]:
@@ -244,8 +318,8 @@ def job_scenario(job: BenchJob) -> Scenario:
     """The scenario as the job runs it: its variant's algorithm and switches, its seed."""
     scn, v = job.scenario, job.variant
     cfg = scn.planner
-    # planner.options belong to the scenario's own algorithm
-    options = cfg.options if v.algorithm == cfg.algorithm else {}
+    # planner.options belong to the scenario's own algorithm; the variant's come on top
+    options = {**(cfg.options if v.algorithm == cfg.algorithm else {}), **dict(v.options)}
     return scn.with_planner(
         algorithm=v.algorithm,
         search=dataclasses.replace(cfg.search, seed=job.seed),
@@ -582,7 +656,7 @@ def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
                 dataclasses.replace(first.planner.post, **dict(v.post_changes))
             )
         else:
-            params = make_options(v.algorithm, None)
+            params = make_options(v.algorithm, dict(v.options))
             entry["params"] = dataclasses.asdict(params) if params is not None else None
         out["algorithms"][label] = entry
     return out

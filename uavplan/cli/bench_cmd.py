@@ -21,7 +21,8 @@ _DEFAULT_ALGORITHMS = "spsa,ssa,pso,gwo,de,cso"
     "--algorithms",
     default=_DEFAULT_ALGORITHMS,
     show_default=True,
-    help="Comma-separated algorithms; SPSA variants such as spsa-no-escape are accepted.",
+    help="Comma-separated algorithms; also SPSA ablations (spsa-no-escape) and parameter "
+    "variants such as 'de(cr=0.1)' or 'spsa(oscillation_window=4)'.",
 )
 @click.option("--runs", type=click.IntRange(min=1), default=30, show_default=True)
 @click.option(
@@ -84,7 +85,7 @@ def bench_command(
     if dask_address and workers != 1:
         raise click.UsageError("--workers and --dask are exclusive (Dask sizes its own workers)")
     try:
-        variants = [bench.Variant.parse(a) for a in algorithms.split(",") if a.strip()]
+        variants = [bench.Variant.parse(a) for a in bench.split_labels(algorithms)]
         if ablation:
             have = {v.label for v in variants}
             variants += [v for v in bench.ablation_variants() if v.label not in have]
