@@ -113,7 +113,7 @@ class ChickenSwarmPlanner(SwarmPlanner):
 
         no_escape = np.zeros(n_pop, dtype=np.bool_)
         cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
-        f_cand = problem.fitness(cand)
+        f_cand = problem.fitness_of_changed(cand, x, f)
         better = f_cand < f
         x[better] = cand[better]
         f[better] = f_cand[better]

@@ -48,7 +48,7 @@ class DifferentialEvolutionPlanner(SwarmPlanner):
         scal[:, 2] = rng.integers(0, 2 * n_inner, size=n_pop)
         no_escape = np.zeros(n_pop, dtype=np.bool_)
         cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
-        f_cand = problem.fitness(cand)
+        f_cand = problem.fitness_of_changed(cand, x, f)
         better = f_cand < f
         x[better] = cand[better]
         f[better] = f_cand[better]

@@ -68,7 +68,7 @@ class GreyWolfPlanner(SwarmPlanner):
         no_escape = np.zeros(n_pop, dtype=np.bool_)
         cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
         pop.x = cand
-        pop.f = problem.fitness(cand)
+        pop.f = problem.fitness_of_changed(cand, x, pop.f)
         pool_x = np.concatenate([leaders, cand])
         pool_f = np.concatenate([ex["leaders_f"], pop.f])
         lead = best_distinct(pool_x, pool_f, N_LEADERS)

@@ -67,7 +67,7 @@ class ParticleSwarmPlanner(SwarmPlanner):
         cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
         ex["velocity"] = cand - x
         pop.x = cand
-        pop.f = problem.fitness(cand)
+        pop.f = problem.fitness_of_changed(cand, x, pop.f)
         better = pop.f < ex["pbest_f"]
         ex["pbest"][better] = cand[better]
         ex["pbest_f"][better] = pop.f[better]
