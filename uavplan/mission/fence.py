@@ -1,0 +1,674 @@
+"""A geofence for a planned route: obstacles as exclusion zones, the bounds as an inclusion zone.
+
+A MAVLink geofence is two-dimensional: an exclusion polygon or circle forbids its area at
+*every* altitude. So an obstacle can go into the fence only if the route flies around it;
+an obstacle the route flies over cannot, or the vehicle would breach its own fence on the
+way. :func:`build_geofence` decides that per obstacle from the flown polyline:
+
+* the route's horizontal distance to the obstacle's footprint is at least the safety
+  margin everywhere → the route flies **around** it: the footprint, inflated by the margin,
+  becomes an exclusion zone (``ZoneStatus.EXCLUDED``);
+* the route comes horizontally closer than the margin → over the footprint (or its margin
+  ring) the route is above the obstacle top: it flies **over** it (``FLOWN_OVER``). Its
+  lowest height above the top there is reported. Were it below the top, the route would not
+  be collision-free (``TOO_CLOSE``); no zone either, nor when the margin leaves no room for
+  a zone between the footprint and the route.
+
+Zones (ENU metres, then WGS84): a cylinder is a circle of radius ``r + offset``; a box or
+prism footprint is offset outward with its corners cut by tangents to the rounded offset, so
+the polygon *contains* the footprint grown by ``offset`` in every direction (conservative).
+``offset`` is the safety margin, except where the route passes closer than margin +
+:data:`ROUTE_GAP_M`: a fence the vehicle grazes is a fence it breaches with ordinary GNSS and
+tracking error, so that zone shrinks to leave the route the gap
+(:attr:`ObstacleZone.offset_m` says what was used; :meth:`FenceBuild.notes` names them). A
+corner is one mitre where the route is far, and is cut finer (down to
+:data:`MIN_CORNER_STEP_DEG` per cut) where the route comes close, to keep the item count low.
+A concave prism whose offset would fold over itself is fenced by its convex hull.
+
+The bounds' horizontal rectangle, grown by :data:`INCLUSION_BUFFER_M`, is the inclusion
+polygon (a start or goal on the bounds' edge would otherwise sit on the fence line).
+
+Autopilots hold few fence items (PX4: 64 in total; one per polygon vertex, one per circle).
+Zones closest to the route come first; the rest are left out (``OVER_LIMIT``) and reported.
+
+Nothing here plans or imports a planner: the inputs are footprints, heights and a polyline.
+"""
+
+from __future__ import annotations
+
+import enum
+import itertools
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uavplan.geo import EnuFrame
+from uavplan.mission.builder import mission_polyline_enu
+from uavplan.mission.items import FenceCircle, FencePolygon, GeoFence, MissionPlan
+
+if TYPE_CHECKING:
+    from uavplan.scenario import Scenario
+
+_Arr = NDArray[np.float64]
+
+#: fence items a PX4 vehicle stores (dataman.h); ArduPilot holds at least as many
+DEFAULT_MAX_ITEMS = 64
+#: the route stays at least this far (horizontally) outside every exclusion zone: about a
+#: multirotor's GNSS tracking error, and ArduPilot's default FENCE_MARGIN
+ROUTE_GAP_M = 2.0
+#: the inclusion polygon is the bounds rectangle grown by this (GPS noise at a start on the edge)
+INCLUSION_BUFFER_M = 5.0
+#: a corner is cut by tangents covering at most 90 degrees of turn each (a box corner: one
+#: mitre) and, where the route passes close, down to this angle (more vertices, closer fit)
+MIN_CORNER_STEP_DEG = 22.5
+#: two horizontal distances closer than this are equal (the route may touch the margin exactly)
+DISTANCE_TOL_M = 1e-6
+#: spacing of the samples used to measure the route's height over a flown-over obstacle
+SAMPLE_STEP_M = 1.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Inputs
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """An obstacle as the fence and the exporters see it: a ground shape and a height.
+
+    Either ``ring_enu`` (a simple polygon, counter-clockwise, ENU metres, not closed) or
+    ``center_enu`` + ``radius_m`` (a circle). ``kind`` is ``"box"``, ``"prism"`` or
+    ``"cylinder"``; ``index`` is the obstacle's position in the scenario.
+    """
+
+    index: int
+    kind: str
+    height_m: float
+    ring_enu: tuple[tuple[float, float], ...] | None = None
+    center_enu: tuple[float, float] | None = None
+    radius_m: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.height_m) and self.height_m > 0):
+            raise ValueError(f"footprint height must be > 0 m, got {self.height_m!r}")
+        if self.ring_enu is not None:
+            ring = tuple((float(x), float(y)) for x, y in self.ring_enu)
+            if len(ring) < 3:
+                raise ValueError("a footprint polygon needs at least 3 vertices")
+            if _signed_area(np.asarray(ring)) < 0:
+                ring = ring[::-1]
+            object.__setattr__(self, "ring_enu", ring)
+        elif self.center_enu is None or self.radius_m is None or not self.radius_m > 0:
+            raise ValueError("a footprint is a polygon (ring_enu) or a circle (center, radius)")
+
+    @property
+    def is_circle(self) -> bool:
+        return self.ring_enu is None
+
+    def outline_enu(self, segments: int = 48) -> NDArray[np.float64]:
+        """The ground outline as a counter-clockwise ring ``(k, 2)`` (circles as polygons)."""
+        if self.ring_enu is not None:
+            return np.asarray(self.ring_enu, dtype=np.float64)
+        assert self.center_enu is not None and self.radius_m is not None
+        return _circle_ring(self.center_enu, self.radius_m, segments)
+
+
+def footprints_of(obstacles: Iterable[object]) -> tuple[Footprint, ...]:
+    """Footprints of scenario obstacles (:mod:`uavplan.obstacles` values), in order."""
+    out: list[Footprint] = []
+    for index, obstacle in enumerate(obstacles):
+        kind = str(getattr(obstacle, "kind", "prism"))
+        height = float(obstacle.height_m)  # type: ignore[attr-defined]
+        if hasattr(obstacle, "radius_m"):
+            out.append(
+                Footprint(
+                    index,
+                    kind,
+                    height,
+                    center_enu=tuple(obstacle.center_m),  # type: ignore[attr-defined]
+                    radius_m=float(obstacle.radius_m),  # type: ignore[attr-defined]
+                )
+            )
+        else:
+            ring = tuple(obstacle.footprint())  # type: ignore[attr-defined]
+            out.append(Footprint(index, kind, height, ring_enu=ring))
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Results
+
+
+class ZoneStatus(enum.Enum):
+    EXCLUDED = "excluded"  # in the fence as an exclusion zone
+    FLOWN_OVER = "flown_over"  # the route passes above it; a 2-D zone would contain the route
+    TOO_CLOSE = "too_close"  # no room for a zone beside the route (or the route hits it)
+    OVER_LIMIT = "over_limit"  # left out: the fence would hold more than max_items
+
+
+@dataclass(frozen=True)
+class ObstacleZone:
+    """What the fence does with one obstacle.
+
+    ``route_distance_m``: smallest horizontal distance from the flown route to the footprint.
+    ``offset_m``: how far the zone reaches beyond the footprint (EXCLUDED and OVER_LIMIT).
+    ``height_above_top_m``: FLOWN_OVER / TOO_CLOSE: the route's lowest height above the
+    obstacle top where it is horizontally within the margin of the footprint.
+    ``polygon_enu`` (``(k, 2)``, counter-clockwise) or ``circle_enu`` (x, y, radius): the zone.
+    """
+
+    index: int
+    status: ZoneStatus
+    route_distance_m: float
+    offset_m: float | None = None
+    height_above_top_m: float | None = None
+    polygon_enu: NDArray[np.float64] | None = None
+    circle_enu: tuple[float, float, float] | None = None
+
+    @property
+    def item_count(self) -> int:
+        if self.polygon_enu is not None:
+            return int(self.polygon_enu.shape[0])
+        return 1 if self.circle_enu is not None else 0
+
+
+@dataclass(frozen=True)
+class FenceBuild:
+    """The fence and how it was made (one :class:`ObstacleZone` per obstacle, in order)."""
+
+    fence: GeoFence
+    inclusion_enu: NDArray[np.float64]  # (4, 2) counter-clockwise
+    zones: tuple[ObstacleZone, ...]
+    margin_m: float
+    max_items: int
+    ceiling_m: float | None = None  # bounds' top: a .plan fence has no altitude limit
+
+    @property
+    def item_count(self) -> int:
+        return len(self.fence.wire_items())
+
+    def with_status(self, status: ZoneStatus) -> list[int]:
+        return [z.index for z in self.zones if z.status is status]
+
+    def summary(self) -> str:
+        """One line: what went into the fence and what did not."""
+        parts = [f"{len(self.with_status(ZoneStatus.EXCLUDED))} exclusion zones"]
+        for status, label in (
+            (ZoneStatus.FLOWN_OVER, "flown over"),
+            (ZoneStatus.OVER_LIMIT, f"left out (over the {self.max_items}-item limit)"),
+            (ZoneStatus.TOO_CLOSE, "too close to the route to fence"),
+        ):
+            indices = self.with_status(status)
+            if indices:
+                parts.append(f"obstacles {_ranges(indices)} {label}")
+        return f"geofence: inclusion polygon + {', '.join(parts)}; {self.item_count} fence items"
+
+    def notes(self) -> list[str]:
+        """Things an operator must know before flying with this fence."""
+        notes: list[str] = []
+        shrunk = [
+            z.index
+            for z in self.zones
+            if z.status is ZoneStatus.EXCLUDED
+            and z.offset_m is not None
+            and z.offset_m < self.margin_m - 1e-9
+        ]
+        if shrunk:
+            notes.append(
+                f"the route passes close to obstacles {_ranges(shrunk)}: their zones reach "
+                f"less than the {self.margin_m:g} m margin beyond the footprint"
+            )
+        if self.ceiling_m is not None:
+            notes.append(
+                f"a .plan fence has no altitude: set the autopilot's maximum altitude to "
+                f"{self.ceiling_m:g} m (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX)"
+            )
+        return notes
+
+
+# ---------------------------------------------------------------------------------------------
+# Building
+
+
+def build_geofence(
+    footprints: Sequence[Footprint],
+    route_enu: ArrayLike,
+    frame: EnuFrame,
+    *,
+    bounds_xy_m: tuple[tuple[float, float], tuple[float, float]],
+    margin_m: float,
+    ceiling_m: float | None = None,
+    max_items: int = DEFAULT_MAX_ITEMS,
+    inclusion_buffer_m: float = INCLUSION_BUFFER_M,
+    route_gap_m: float = ROUTE_GAP_M,
+) -> FenceBuild:
+    """The geofence for a route flown through obstacles.
+
+    ``route_enu``: ``(n, 3)`` the flown polyline (home on the ground, takeoff climb, the
+    straight legs between waypoints), ENU metres in ``frame``. ``bounds_xy_m``:
+    ``((x_min, x_max), (y_min, y_max))``. ``max_items`` counts every fence item (polygon
+    vertices, circles) including the 4 of the inclusion polygon.
+    """
+    route = np.asarray(route_enu, dtype=np.float64)
+    if route.ndim != 2 or route.shape[1] != 3 or route.shape[0] < 1:
+        raise ValueError(f"route_enu must have shape (n >= 1, 3), got {route.shape}")
+    if not np.all(np.isfinite(route)):
+        raise ValueError("route_enu must be finite")
+    if not (math.isfinite(margin_m) and margin_m >= 0):
+        raise ValueError(f"margin must be >= 0 m, got {margin_m!r}")
+    if max_items < 4:
+        raise ValueError("max_items must leave room for the 4-vertex inclusion polygon")
+    (x0, x1), (y0, y1) = bounds_xy_m
+    b = float(inclusion_buffer_m)
+    inclusion = np.array([[x0 - b, y0 - b], [x1 + b, y0 - b], [x1 + b, y1 + b], [x0 - b, y1 + b]])
+
+    seg_a, seg_b = _segments_xy(route)
+    candidates = [_zone(fp, route, seg_a, seg_b, margin_m, route_gap_m) for fp in footprints]
+
+    # The fence item budget: zones nearest the route first (they matter most).
+    budget = max_items - inclusion.shape[0]
+    chosen: dict[int, ObstacleZone] = {}
+    for zone in sorted(
+        (z for z in candidates if z.status is ZoneStatus.EXCLUDED),
+        key=lambda z: (z.route_distance_m, z.index),
+    ):
+        if zone.item_count <= budget:
+            budget -= zone.item_count
+            chosen[zone.index] = zone
+    zones = tuple(
+        z
+        if z.status is not ZoneStatus.EXCLUDED or z.index in chosen
+        else _replace_status(z, ZoneStatus.OVER_LIMIT)
+        for z in candidates
+    )
+    fence = _to_geofence(inclusion, [z for z in zones if z.status is ZoneStatus.EXCLUDED], frame)
+    return FenceBuild(fence, inclusion, zones, float(margin_m), int(max_items), ceiling_m)
+
+
+def geofence_for(
+    scenario: Scenario, plan: MissionPlan, *, max_items: int = DEFAULT_MAX_ITEMS
+) -> FenceBuild:
+    """The geofence for ``plan`` flown through ``scenario``'s obstacles, bounds and margin.
+
+    The route is the mission's flown polyline (:func:`mission_polyline_enu`). Raises
+    ``ValueError`` if the mission's altitudes cannot be placed (AMSL items without a home).
+    """
+    frame = EnuFrame.at(scenario.origin)
+    return build_geofence(
+        footprints_of(scenario.obstacles),
+        mission_polyline_enu(plan, frame),
+        frame,
+        bounds_xy_m=(scenario.bounds.x_m, scenario.bounds.y_m),
+        margin_m=scenario.safety_margin_m,
+        ceiling_m=scenario.bounds.z_m[1],
+        max_items=max_items,
+    )
+
+
+def _replace_status(zone: ObstacleZone, status: ZoneStatus) -> ObstacleZone:
+    return replace(zone, status=status)
+
+
+def _zone(
+    fp: Footprint,
+    route: _Arr,
+    seg_a: _Arr,
+    seg_b: _Arr,
+    margin_m: float,
+    gap_m: float,
+) -> ObstacleZone:
+    distance = _footprint_distance(fp, seg_a, seg_b)
+    if distance < margin_m - DISTANCE_TOL_M:
+        lowest = _height_above_top(fp, route, margin_m)
+        status = ZoneStatus.FLOWN_OVER if lowest >= -DISTANCE_TOL_M else ZoneStatus.TOO_CLOSE
+        return ObstacleZone(fp.index, status, distance, height_above_top_m=lowest)
+
+    if fp.is_circle:
+        assert fp.center_enu is not None and fp.radius_m is not None
+        offset = min(margin_m, distance - gap_m)
+        if offset <= 0:
+            return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
+        cx, cy = fp.center_enu
+        return ObstacleZone(
+            fp.index,
+            ZoneStatus.EXCLUDED,
+            distance,
+            offset_m=offset,
+            circle_enu=(cx, cy, fp.radius_m + offset),
+        )
+
+    ring = fp.outline_enu()
+    for outline in (ring, convex_hull(ring)):  # the hull if the ring's offset folds
+        made = _polygon_zone(outline, margin_m, seg_a, seg_b, gap_m)
+        if made is None:
+            break  # no room between the route and the footprint
+        polygon, offset = made
+        if polygon is None:
+            continue
+        if _segments_polygon_distance(seg_a, seg_b, polygon).min() < gap_m - 1e-6:
+            break  # pragma: no cover - the construction guarantees the gap
+        return ObstacleZone(
+            fp.index, ZoneStatus.EXCLUDED, distance, offset_m=offset, polygon_enu=polygon
+        )
+    return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
+
+
+def _polygon_zone(
+    ring: _Arr, margin_m: float, seg_a: _Arr, seg_b: _Arr, gap_m: float
+) -> tuple[_Arr | None, float] | None:
+    """The exclusion polygon for ``ring`` and its offset, keeping ``gap_m`` to the route.
+
+    Every point of an offset polygon lies within ``offset`` of the ring, or within
+    ``offset / cos(step / 2)`` of a convex corner (its tangent cut, ``step`` the angle per
+    cut). So the offset is at most the route's distance minus the gap, and each corner gets
+    as few cuts as its own distance to the route allows (a mitre when the route is far).
+    Returns None if no positive offset fits, ``(None, offset)`` if the offset folds over.
+    """
+    distance = float(_segments_polygon_distance(seg_a, seg_b, ring).min())
+    offset = min(margin_m, distance - gap_m)
+    if offset <= 0:
+        return None
+    turns = _turn_angles(ring)
+    corner_room = _point_segment_distance(ring[:, None, :], seg_a[None], seg_b[None]).min(axis=1)
+    corner_room = corner_room - gap_m  # how far each corner's cuts may reach
+    finest = math.radians(MIN_CORNER_STEP_DEG)
+    convex = turns > 1e-12
+    # Corners the route passes so close that even the finest cuts reach too far set the offset.
+    worst = np.where(convex, corner_room * np.cos(_step(turns, finest) / 2.0), np.inf)
+    offset = float(min(offset, worst.min()))
+    if offset <= 0:
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        allowed = 2.0 * np.arccos(np.clip(offset / corner_room, -1.0, 1.0))
+    allowed = np.clip(np.nan_to_num(allowed, nan=finest), finest, math.radians(90.0))
+    steps = np.where(convex, np.ceil(turns / allowed - 1e-9), 1).astype(int)
+    steps = np.maximum(steps, 1)
+    return _offset_ring(ring, offset, steps), offset
+
+
+def _step(turns: _Arr, max_step: float) -> _Arr:
+    """The angle of each cut when a turn is split into cuts of at most ``max_step``."""
+    n = np.maximum(np.ceil(np.abs(turns) / max_step - 1e-9), 1.0)
+    return np.abs(turns) / n
+
+
+def _to_geofence(
+    inclusion: NDArray[np.float64], zones: Sequence[ObstacleZone], frame: EnuFrame
+) -> GeoFence:
+    polygons = [FencePolygon(_latlon_clockwise(inclusion, frame), inclusion=True)]
+    circles = []
+    for zone in zones:
+        if zone.polygon_enu is not None:
+            polygons.append(
+                FencePolygon(_latlon_clockwise(zone.polygon_enu, frame), inclusion=False)
+            )
+        elif zone.circle_enu is not None:
+            cx, cy, radius = zone.circle_enu
+            lat, lon, _ = frame.to_geodetic([cx, cy, 0.0])
+            circles.append(FenceCircle((float(lat[0]), float(lon[0])), radius, inclusion=False))
+    return GeoFence(tuple(polygons), tuple(circles))
+
+
+def _latlon_clockwise(ring_enu: NDArray[np.float64], frame: EnuFrame) -> tuple:
+    """A counter-clockwise ENU ring as (lat, lon) vertices, clockwise (QGC's convention)."""
+    ring = ring_enu[::-1]
+    lat, lon, _ = frame.to_geodetic(np.column_stack((ring, np.zeros(len(ring)))))
+    return tuple((float(a), float(o)) for a, o in zip(lat, lon, strict=True))
+
+
+# ---------------------------------------------------------------------------------------------
+# 2-D geometry (ENU metres). Small and vectorised; rings are counter-clockwise, not closed.
+
+
+def inflate_polygon(
+    ring_enu: ArrayLike, offset_m: float, *, max_step_deg: float = 90.0
+) -> NDArray[np.float64]:
+    """A polygon containing ``ring`` grown by ``offset_m`` in every direction.
+
+    Edges move out by ``offset_m``; each convex corner is cut by tangents to the rounded
+    offset, one per ``max_step_deg`` of turn (90: a mitred corner of a box); a reflex corner
+    is where the two moved edges meet. The result contains the exact offset (the Minkowski
+    sum with a disc) and is counter-clockwise. If the offset of a concave ring folds over
+    itself, the convex hull is offset instead (still containing the exact offset).
+    """
+    ring = np.asarray(ring_enu, dtype=np.float64)
+    if _signed_area(ring) < 0:
+        ring = ring[::-1]
+    if offset_m <= 0:
+        return ring.copy()
+    step = math.radians(max_step_deg)
+    for outline in (ring, convex_hull(ring)):
+        turns = _turn_angles(outline)
+        steps = np.where(turns > 1e-12, np.ceil(turns / step - 1e-9), 1).astype(int)
+        out = _offset_ring(outline, offset_m, np.maximum(steps, 1))
+        if out is not None:
+            return out
+    raise AssertionError("the offset of a convex ring cannot fold")  # pragma: no cover
+
+
+def _turn_angles(ring: _Arr) -> _Arr:
+    """Turn at each vertex of a counter-clockwise ring, radians in (-pi, pi] (> 0: convex)."""
+    edges = np.roll(ring, -1, axis=0) - ring
+    heading = np.arctan2(edges[:, 1], edges[:, 0])
+    return (heading - np.roll(heading, 1) + math.pi) % (2 * math.pi) - math.pi
+
+
+def _offset_ring(ring: _Arr, offset: float, steps: NDArray[np.int_]) -> _Arr | None:
+    """Offset ``ring`` by ``offset``, cutting convex corner i with ``steps[i]`` tangents.
+
+    None when the result folds over itself (an edge reverses or two edges cross).
+    """
+    edges = np.roll(ring, -1, axis=0) - ring  # edge i: ring[i] -> ring[i+1]
+    normal = np.arctan2(-edges[:, 0], edges[:, 1])  # outward normal (dy, -dx) of each edge
+    turns = _turn_angles(ring)
+    vertices: list[tuple[float, float]] = []
+    starts: list[int] = []
+    ends: list[int] = []
+    n = len(ring)
+    for i in range(n):
+        count = int(steps[i]) if turns[i] > 1e-12 else 1
+        delta = float(turns[i]) / count
+        reach = offset / math.cos(delta / 2.0)
+        starts.append(len(vertices))
+        for j in range(count):
+            angle = normal[i - 1] + (j + 0.5) * delta
+            vertices.append(
+                (ring[i, 0] + reach * math.cos(angle), ring[i, 1] + reach * math.sin(angle))
+            )
+        ends.append(len(vertices) - 1)
+    out = np.asarray(vertices)
+    # Edge i now runs from the last cut of corner i to the first of corner i+1; if it
+    # points backwards, the offset has folded over itself.
+    for i in range(n):
+        p, q = out[ends[i]], out[starts[(i + 1) % n]]
+        if float(np.dot(q - p, edges[i])) < -1e-9:
+            return None
+    if _self_intersects(out):
+        return None
+    return out
+
+
+def convex_hull(points: ArrayLike) -> NDArray[np.float64]:
+    """Counter-clockwise convex hull ``(k, 2)`` (Andrew's monotone chain)."""
+    pts = sorted({(float(x), float(y)) for x, y in np.asarray(points, dtype=np.float64)})
+    if len(pts) < 3:
+        return np.asarray(pts)
+
+    def cross(o, a, b) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[tuple[float, float]] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list[tuple[float, float]] = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.asarray(lower[:-1] + upper[:-1])
+
+
+def _signed_area(ring: NDArray[np.float64]) -> float:
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def _self_intersects(ring: NDArray[np.float64]) -> bool:
+    """Do two non-adjacent edges of the closed ring cross or touch?"""
+    n = len(ring)
+    a, b = ring, np.roll(ring, -1, axis=0)
+    i, j = np.triu_indices(n, k=2)
+    adjacent = (i == 0) & (j == n - 1)
+    i, j = i[~adjacent], j[~adjacent]
+    return bool(_segments_intersect(a[i], b[i], a[j], b[j]).any())
+
+
+def _cross2(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _segments_intersect(p0: _Arr, p1: _Arr, q0: _Arr, q1: _Arr) -> NDArray[np.bool_]:
+    """Element-wise: does segment p0-p1 meet segment q0-q1 (touching counts)?"""
+    d1 = _cross2(q1 - q0, p0 - q0)
+    d2 = _cross2(q1 - q0, p1 - q0)
+    d3 = _cross2(p1 - p0, q0 - p0)
+    d4 = _cross2(p1 - p0, q1 - p0)
+    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+    eps = 1e-12
+    touch = (
+        ((np.abs(d1) <= eps) & _on_segment(q0, q1, p0))
+        | ((np.abs(d2) <= eps) & _on_segment(q0, q1, p1))
+        | ((np.abs(d3) <= eps) & _on_segment(p0, p1, q0))
+        | ((np.abs(d4) <= eps) & _on_segment(p0, p1, q1))
+    )
+    return proper | touch
+
+
+def _on_segment(a: NDArray[np.float64], b: NDArray[np.float64], p: NDArray[np.float64]):
+    lo, hi = np.minimum(a, b) - 1e-12, np.maximum(a, b) + 1e-12
+    return np.all((p >= lo) & (p <= hi), axis=-1)
+
+
+def _point_segment_distance(
+    p: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Broadcast distance from points ``p`` to segments ``a``-``b`` (zero-length allowed)."""
+    ab = b - a
+    denom = np.sum(ab * ab, axis=-1)
+    t = np.where(denom > 0, np.sum((p - a) * ab, axis=-1) / np.where(denom > 0, denom, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    closest = a + t[..., None] * ab
+    return np.sqrt(np.sum((p - closest) ** 2, axis=-1))
+
+
+def points_in_polygon(points: ArrayLike, ring: ArrayLike) -> NDArray[np.bool_]:
+    """Even-odd rule: which of ``points`` ``(n, 2)`` lie inside ``ring`` ``(k, 2)``."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    r = np.asarray(ring, dtype=np.float64)
+    a, b = r, np.roll(r, -1, axis=0)
+    px, py = p[:, None, 0], p[:, None, 1]
+    straddles = (a[None, :, 1] > py) != (b[None, :, 1] > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_cross = a[None, :, 0] + (py - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (
+            b[None, :, 1] - a[None, :, 1]
+        )
+    hits = straddles & (px < x_cross)
+    return (np.count_nonzero(hits, axis=1) % 2) == 1
+
+
+def _segments_xy(route: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    xy = route[:, :2]
+    if len(xy) == 1:
+        return xy, xy
+    return xy[:-1], xy[1:]
+
+
+def _segments_polygon_distance(
+    seg_a: NDArray[np.float64], seg_b: NDArray[np.float64], ring: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Per segment ``(n,)``: its distance to the polygon region (0 if it enters it)."""
+    e0, e1 = ring, np.roll(ring, -1, axis=0)
+    A, B = seg_a[:, None, :], seg_b[:, None, :]
+    E0, E1 = e0[None, :, :], e1[None, :, :]
+    dist = np.minimum.reduce(
+        [
+            _point_segment_distance(A, E0, E1),
+            _point_segment_distance(B, E0, E1),
+            _point_segment_distance(E0, A, B),
+            _point_segment_distance(E1, A, B),
+        ]
+    ).min(axis=1)
+    crossing = _segments_intersect(A, B, E0, E1).any(axis=1)
+    inside = points_in_polygon(seg_a, ring)
+    return np.where(crossing | inside, 0.0, dist)
+
+
+def _footprint_distance(
+    fp: Footprint, seg_a: NDArray[np.float64], seg_b: NDArray[np.float64]
+) -> float:
+    """Smallest horizontal distance from the route's segments to the footprint region."""
+    if fp.is_circle:
+        assert fp.center_enu is not None and fp.radius_m is not None
+        center = np.asarray(fp.center_enu, dtype=np.float64)
+        d = _point_segment_distance(center[None, :], seg_a, seg_b) - fp.radius_m
+        return float(max(d.min(), 0.0))
+    return float(_segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
+
+
+def _densify(route: NDArray[np.float64], step_m: float) -> NDArray[np.float64]:
+    """The polyline sampled at most ``step_m`` apart (horizontally), vertices included."""
+    if len(route) < 2:
+        return route
+    pieces = [route[:1]]
+    for a, b in itertools.pairwise(route):
+        n = max(1, math.ceil(float(np.hypot(*(b[:2] - a[:2]))) / step_m))
+        t = np.arange(1, n + 1)[:, None] / n
+        pieces.append(a + t * (b - a))
+    return np.vstack(pieces)
+
+
+def _height_above_top(fp: Footprint, route: NDArray[np.float64], margin_m: float) -> float:
+    """Lowest ``z - height`` of the route where it is horizontally within the margin."""
+    samples = _densify(route, SAMPLE_STEP_M)
+    xy = samples[:, :2]
+    if fp.is_circle:
+        assert fp.center_enu is not None and fp.radius_m is not None
+        d = np.hypot(*(xy - np.asarray(fp.center_enu)).T) - fp.radius_m
+    else:
+        ring = fp.outline_enu()
+        e0, e1 = ring[None, :, :], np.roll(ring, -1, axis=0)[None, :, :]
+        d = _point_segment_distance(xy[:, None, :], e0, e1).min(axis=1)
+        d[points_in_polygon(xy, ring)] = 0.0
+    near = d < margin_m - DISTANCE_TOL_M
+    if not near.any():  # only a segment interior comes close; take its nearer end
+        near = d <= d.min() + 1e-9
+    return float((samples[near, 2] - fp.height_m).min())
+
+
+def _circle_ring(center: Sequence[float], radius: float, segments: int) -> NDArray[np.float64]:
+    angles = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+    return np.column_stack(
+        (center[0] + radius * np.cos(angles), center[1] + radius * np.sin(angles))
+    )
+
+
+def _ranges(indices: Sequence[int]) -> str:
+    """[0, 1, 2, 5] -> '0-2, 5'."""
+    out: list[str] = []
+    start = prev = None
+    for i in sorted(indices):
+        if start is None:
+            start = prev = i
+        elif i == prev + 1:
+            prev = i
+        else:
+            out.append(f"{start}-{prev}" if prev != start else f"{start}")
+            start = prev = i
+    if start is not None:
+        out.append(f"{start}-{prev}" if prev != start else f"{start}")
+    return ", ".join(out)
