@@ -1,0 +1,514 @@
+"""Route exports for maps and globes: GeoJSON (RFC 7946) and KML 2.2.
+
+Both take a :class:`MissionPlan`, which is all ``uavplan convert`` has, plus optional
+:class:`ExportExtras` that ``uavplan plan`` knows as well: the obstacle footprints and the
+planned (smoothed) path, in the scenario's ENU frame.
+
+What is drawn:
+
+* the **route**: the polyline the vehicle flies through the mission items (home on the
+  ground, the takeoff climb, straight legs between waypoints, a landing descent), as
+  :func:`~uavplan.mission.builder.mission_polyline_enu` defines it; the RTL leg home is the
+  autopilot's and is not drawn;
+* the **waypoints**: every mission item with a position, with its sequence number, command
+  and altitude; and the home position;
+* with extras: the **planned path** (the smooth curve the waypoints were sampled from) and
+  the **obstacles** (footprint polygons with their heights; cylinders as 48-gons);
+* the mission's **geofence** zones, if it has any (circles as 48-gons).
+
+Altitudes: the mission's altitudes are heights above home, which is the scenario's flat
+ground, and that is what both formats carry. GeoJSON's third coordinate is that height in
+metres (RFC 7946 would have ellipsoidal height; every feature says so in its
+``altitude_reference`` property, and the route gives ``home_amsl_m`` to convert). KML uses
+``<altitudeMode>relativeToGround</altitudeMode>``, the route is ``<extrude>``\\ d down to the
+ground and obstacles are extruded to their heights, so Google Earth shows a 3-D scene.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uavplan.errors import MissionFileError
+from uavplan.geo import EnuFrame
+from uavplan.mission.builder import mission_polyline_enu
+from uavplan.mission.fence import Footprint, footprints_of
+from uavplan.mission.items import (
+    GLOBAL_FRAMES,
+    GeoPoint,
+    MavCmd,
+    MavFrame,
+    MissionItem,
+    MissionPlan,
+    canonical_frame,
+)
+
+if TYPE_CHECKING:
+    from uavplan.scenario import Scenario
+
+#: value of every feature's ``altitude_reference`` property
+ALTITUDE_REFERENCE = "height above home (the takeoff point on flat ground), metres"
+#: decimals kept for degrees (1e-8 deg is about 1 mm) and metres
+DEGREE_DECIMALS = 8
+METRE_DECIMALS = 3
+#: vertices of a circle drawn as a polygon
+CIRCLE_SEGMENTS = 48
+KML_NAMESPACE = "http://www.opengis.net/kml/2.2"
+
+
+@dataclass(frozen=True)
+class ExportExtras:
+    """What an export can show beyond the mission itself (everything optional).
+
+    ``frame``: the scenario's ENU frame; required for ``obstacles`` and ``planned_path_enu``
+    (``(n, 3)`` ENU metres). ``properties`` are copied onto the route feature / document
+    (scenario name, algorithm, energy...).
+    """
+
+    frame: EnuFrame | None = None
+    obstacles: tuple[Footprint, ...] = ()
+    planned_path_enu: NDArray[np.float64] | None = None
+    name: str | None = None
+    safety_margin_m: float | None = None
+    properties: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        if self.frame is None and (self.obstacles or self.planned_path_enu is not None):
+            raise ValueError("obstacles and a planned path need the scenario's ENU frame")
+        if self.planned_path_enu is not None:
+            path = np.asarray(self.planned_path_enu, dtype=np.float64)
+            if path.ndim != 2 or path.shape[1] != 3:
+                raise ValueError(f"planned_path_enu must have shape (n, 3), got {path.shape}")
+            object.__setattr__(self, "planned_path_enu", path)
+
+    @classmethod
+    def from_scenario(
+        cls,
+        scenario: Scenario,
+        *,
+        planned_path_enu: NDArray[np.float64] | None = None,
+        properties: Mapping[str, Any] | None = None,
+    ) -> ExportExtras:
+        """The scenario's frame, obstacles, name and margin (and a planned path, if given)."""
+        return cls(
+            frame=EnuFrame.at(scenario.origin),
+            obstacles=footprints_of(scenario.obstacles),
+            planned_path_enu=planned_path_enu,
+            name=scenario.name,
+            safety_margin_m=scenario.safety_margin_m,
+            properties=dict(properties or {}),
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# Geometry shared by both formats
+
+
+@dataclass(frozen=True)
+class _Waypoint:
+    seq: int
+    index: int
+    item: MissionItem
+    height_m: float  # above home
+
+
+@dataclass(frozen=True)
+class _Area:
+    kind: str  # "obstacle" | "fence"
+    ring_lonlat: NDArray[np.float64]  # (k, 2) counter-clockwise, not closed
+    properties: dict[str, Any]
+    height_m: float | None = None
+
+
+@dataclass(frozen=True)
+class _Scene:
+    name: str
+    home: GeoPoint | None
+    route_lonlatalt: NDArray[np.float64] | None  # (n, 3)
+    planned_lonlatalt: NDArray[np.float64] | None
+    waypoints: tuple[_Waypoint, ...]
+    areas: tuple[_Area, ...]
+    properties: dict[str, Any]
+
+
+def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
+    extras = extras or ExportExtras()
+    home_alt = plan.home.alt_m if plan.home is not None else None
+    waypoints = _waypoints(plan, home_alt)
+    route_enu = _route_enu(plan)
+    route = None
+    if len(route_enu) >= 2:
+        frame = _route_frame(plan)
+        assert frame is not None
+        route = _enu_to_lonlatalt(route_enu, frame)
+    planned = None
+    if extras.planned_path_enu is not None and len(extras.planned_path_enu) >= 2:
+        assert extras.frame is not None
+        planned = _enu_to_lonlatalt(extras.planned_path_enu, extras.frame)
+    areas: list[_Area] = []
+    if extras.obstacles:
+        assert extras.frame is not None
+        for fp in extras.obstacles:
+            props: dict[str, Any] = {
+                "kind": "obstacle",
+                "index": fp.index,
+                "shape": fp.kind,
+                "height_m": fp.height_m,
+            }
+            if fp.radius_m is not None:
+                props["radius_m"] = fp.radius_m
+            if extras.safety_margin_m is not None:
+                props["safety_margin_m"] = extras.safety_margin_m
+            ring = _xy_to_lonlat(fp.outline_enu(CIRCLE_SEGMENTS), extras.frame)
+            areas.append(_Area("obstacle", ring, props, fp.height_m))
+    areas.extend(_fence_areas(plan))
+    length = float(np.linalg.norm(np.diff(route_enu, axis=0), axis=1).sum())
+    properties: dict[str, Any] = {
+        "autopilot": plan.autopilot.label,
+        "mission_items": len(plan.items),
+        "route_length_m": round(length, METRE_DECIMALS),
+        "altitude_reference": ALTITUDE_REFERENCE,
+    }
+    if plan.home is not None:
+        properties["home_amsl_m"] = round(plan.home.alt_m, METRE_DECIMALS)
+    if extras.safety_margin_m is not None:
+        properties["safety_margin_m"] = extras.safety_margin_m
+    properties.update(extras.properties)
+    return _Scene(
+        name=extras.name or "uavplan mission",
+        home=plan.home,
+        route_lonlatalt=route,
+        planned_lonlatalt=planned,
+        waypoints=waypoints,
+        areas=tuple(areas),
+        properties=properties,
+    )
+
+
+def _route_frame(plan: MissionPlan) -> EnuFrame | None:
+    """A frame to trace the flown route in: at home, or at the first positioned item."""
+    if plan.home is not None:
+        return EnuFrame.at(GeoPoint(plan.home.lat_deg, plan.home.lon_deg, plan.home.alt_m))
+    for item in plan.items:
+        if item.is_global:
+            return EnuFrame.at(GeoPoint(item.lat_deg, item.lon_deg, 0.0))
+    return None
+
+
+def _route_enu(plan: MissionPlan) -> NDArray[np.float64]:
+    frame = _route_frame(plan)
+    if frame is None:
+        return np.empty((0, 3))
+    try:
+        return mission_polyline_enu(plan, frame)
+    except ValueError as err:
+        raise MissionFileError(f"cannot trace the route: {err}") from None
+
+
+def _waypoints(plan: MissionPlan, home_alt_m: float | None) -> tuple[_Waypoint, ...]:
+    first_seq = len(plan.wire_items()) - len(plan.items)  # ArduPilot's home takes seq 0
+    out = []
+    for index, item in enumerate(plan.items):
+        if item.frame not in GLOBAL_FRAMES:
+            continue
+        if canonical_frame(item.frame) == MavFrame.GLOBAL:
+            if home_alt_m is None:
+                continue  # an AMSL altitude without a home: no height to show
+            height = item.alt_m - home_alt_m
+        else:
+            height = item.alt_m
+        out.append(_Waypoint(first_seq + index, index, item, height))
+    return tuple(out)
+
+
+def _enu_to_lonlatalt(points_enu: NDArray[np.float64], frame: EnuFrame) -> NDArray[np.float64]:
+    """ENU points → [lon, lat, height]: lat/lon of the ground point below, height = z."""
+    ground = np.column_stack((points_enu[:, :2], np.zeros(len(points_enu))))
+    lat, lon, _ = frame.to_geodetic(ground)
+    return np.column_stack((lon, lat, points_enu[:, 2]))
+
+
+def _xy_to_lonlat(ring_enu: NDArray[np.float64], frame: EnuFrame) -> NDArray[np.float64]:
+    lat, lon, _ = frame.to_geodetic(np.column_stack((ring_enu, np.zeros(len(ring_enu)))))
+    return np.column_stack((lon, lat))
+
+
+def _counter_clockwise(ring: NDArray[np.float64]) -> NDArray[np.float64]:
+    x, y = ring[:, 0], ring[:, 1]
+    area = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    return ring if area >= 0 else ring[::-1]
+
+
+def _fence_areas(plan: MissionPlan) -> list[_Area]:
+    areas = []
+    for i, poly in enumerate(plan.fence.polygons):
+        ring = np.array([(lon, lat) for lat, lon in poly.vertices])
+        props = {"kind": "fence", "shape": "polygon", "inclusion": poly.inclusion, "index": i}
+        areas.append(_Area("fence", _counter_clockwise(ring), props))
+    for i, circle in enumerate(plan.fence.circles):
+        lat, lon = circle.center
+        local = EnuFrame.at(GeoPoint(lat, lon, 0.0))
+        angles = np.linspace(0.0, 2 * math.pi, CIRCLE_SEGMENTS, endpoint=False)
+        ring_enu = circle.radius_m * np.column_stack((np.cos(angles), np.sin(angles)))
+        props = {
+            "kind": "fence",
+            "shape": "circle",
+            "inclusion": circle.inclusion,
+            "index": i,
+            "center": [round(lon, DEGREE_DECIMALS), round(lat, DEGREE_DECIMALS)],
+            "radius_m": circle.radius_m,
+        }
+        areas.append(_Area("fence", _xy_to_lonlat(ring_enu, local), props))
+    return areas
+
+
+def _command_name(command: int) -> str:
+    try:
+        return MavCmd(command).name
+    except ValueError:
+        return f"MAV_CMD {command}"
+
+
+def _position(lon: float, lat: float, alt: float | None = None) -> list[float]:
+    out = [round(float(lon), DEGREE_DECIMALS), round(float(lat), DEGREE_DECIMALS)]
+    if alt is not None:
+        out.append(round(float(alt), METRE_DECIMALS))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# GeoJSON
+
+
+def to_geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> dict[str, Any]:
+    """The export as a GeoJSON FeatureCollection (plain JSON-ready values).
+
+    Positions are ``[lon, lat]`` or ``[lon, lat, height]`` (height above home, metres).
+    Polygon rings are closed and counter-clockwise (RFC 7946 §3.1.6). Every feature has a
+    ``kind`` property: ``route``, ``planned_path``, ``home``, ``waypoint``, ``obstacle`` or
+    ``fence``.
+    """
+    scene = _scene(plan, extras)
+    features: list[dict[str, Any]] = []
+    if scene.route_lonlatalt is not None:
+        props = {"kind": "route", "name": scene.name, **scene.properties}
+        features.append(_feature(_line(scene.route_lonlatalt), props))
+    if scene.planned_lonlatalt is not None:
+        props = {
+            "kind": "planned_path",
+            "name": f"{scene.name}: planned path",
+            "altitude_reference": ALTITUDE_REFERENCE,
+        }
+        features.append(_feature(_line(scene.planned_lonlatalt), props))
+    if scene.home is not None:
+        props = {
+            "kind": "home",
+            "name": "home",
+            "altitude_amsl_m": round(scene.home.alt_m, METRE_DECIMALS),
+            "altitude_reference": ALTITUDE_REFERENCE,
+        }
+        point = _position(scene.home.lon_deg, scene.home.lat_deg, 0.0)
+        features.append(_feature({"type": "Point", "coordinates": point}, props))
+    for wp in scene.waypoints:
+        item = wp.item
+        props = {
+            "kind": "waypoint",
+            "name": f"{wp.seq} {_command_name(item.command)}",
+            "seq": wp.seq,
+            "item_index": wp.index,
+            "command": item.command,
+            "command_name": _command_name(item.command),
+            "frame": item.frame,
+            "height_m": round(wp.height_m, METRE_DECIMALS),
+            "altitude_reference": ALTITUDE_REFERENCE,
+            "params": list(item.params),
+        }
+        point = _position(item.lon_deg, item.lat_deg, wp.height_m)
+        features.append(_feature({"type": "Point", "coordinates": point}, props))
+    for area in scene.areas:
+        ring = [_position(lon, lat) for lon, lat in area.ring_lonlat]
+        ring.append(ring[0])
+        features.append(_feature({"type": "Polygon", "coordinates": [ring]}, area.properties))
+    return {"type": "FeatureCollection", "features": features}
+
+
+def _line(points: NDArray[np.float64]) -> dict[str, Any]:
+    return {"type": "LineString", "coordinates": [_position(*p) for p in points]}
+
+
+def _feature(geometry: dict[str, Any], properties: Mapping[str, Any]) -> dict[str, Any]:
+    return {"type": "Feature", "geometry": geometry, "properties": dict(properties)}
+
+
+def geojson_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
+    """The GeoJSON file text: one feature per line (readable and diff-friendly), no NaN."""
+    doc = to_geojson(plan, extras)
+    features = ",\n".join(json.dumps(f, allow_nan=False) for f in doc["features"])
+    return f'{{"type": "FeatureCollection", "features": [\n{features}\n]}}\n'
+
+
+# ---------------------------------------------------------------------------------------------
+# KML
+
+
+_KML_STYLES = {
+    # id: (line colour aabbggrr, line width, fill colour aabbggrr or None)
+    "route": ("ff1478ff", 3.0, "401478ff"),
+    "planned": ("ffff9933", 2.0, None),
+    "obstacle": ("ff505050", 1.0, "c0a0a0a0"),
+    "fence-inclusion": ("ff00c000", 2.0, "00000000"),
+    "fence-exclusion": ("ff0000e0", 2.0, "400000e0"),
+}
+
+
+def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
+    """The export as a KML 2.2 document (UTF-8 text with an XML declaration)."""
+    scene = _scene(plan, extras)
+    ET.register_namespace("", KML_NAMESPACE)
+    root = ET.Element(_k("kml"))
+    doc = _sub(root, "Document")
+    _sub(doc, "name", scene.name)
+    _sub(doc, "description", _describe(scene.properties))
+    for style_id, (line, width, fill) in _KML_STYLES.items():
+        style = _sub(doc, "Style", id=style_id)
+        line_style = _sub(style, "LineStyle")
+        _sub(line_style, "color", line)
+        _sub(line_style, "width", f"{width:g}")
+        if fill is not None:
+            _sub(_sub(style, "PolyStyle"), "color", fill)
+    waypoint_style = _sub(doc, "Style", id="waypoint")
+    icon_style = _sub(waypoint_style, "IconStyle")
+    _sub(icon_style, "scale", "0.6")
+    _sub(
+        _sub(icon_style, "Icon"),
+        "href",
+        "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png",
+    )
+    _sub(_sub(waypoint_style, "LabelStyle"), "scale", "0.7")
+
+    route_folder = _folder(doc, "Route")
+    if scene.route_lonlatalt is not None:
+        mark = _placemark(route_folder, "flown route", "route", _describe(scene.properties))
+        _line_string(mark, scene.route_lonlatalt, extrude=True)
+    if scene.planned_lonlatalt is not None:
+        mark = _placemark(route_folder, "planned path", "planned")
+        _line_string(mark, scene.planned_lonlatalt, extrude=False)
+
+    wp_folder = _folder(doc, "Waypoints")
+    if scene.home is not None:
+        mark = _placemark(wp_folder, "home", "waypoint", f"{scene.home.alt_m:.2f} m AMSL")
+        _point(mark, scene.home.lon_deg, scene.home.lat_deg, 0.0)
+    for wp in scene.waypoints:
+        name = f"{wp.seq} {_command_name(wp.item.command)}"
+        mark = _placemark(wp_folder, name, "waypoint", f"{wp.height_m:.1f} m above home")
+        _extended_data(
+            mark, {"seq": wp.seq, "command": wp.item.command, "height_m": round(wp.height_m, 3)}
+        )
+        _point(mark, wp.item.lon_deg, wp.item.lat_deg, wp.height_m)
+
+    obstacles = [a for a in scene.areas if a.kind == "obstacle"]
+    if obstacles:
+        folder = _folder(doc, "Obstacles")
+        for area in obstacles:
+            props = area.properties
+            name = f"obstacle {props['index']} ({props['shape']}, {props['height_m']:g} m)"
+            mark = _placemark(folder, name, "obstacle")
+            _extended_data(mark, props)
+            _polygon(mark, area.ring_lonlat, area.height_m)
+    fences = [a for a in scene.areas if a.kind == "fence"]
+    if fences:
+        folder = _folder(doc, "Geofence")
+        for area in fences:
+            inclusion = bool(area.properties["inclusion"])
+            kind = "inclusion" if inclusion else "exclusion"
+            name = f"fence {kind} {area.properties['shape']} {area.properties['index']}"
+            mark = _placemark(folder, name, f"fence-{kind}")
+            _extended_data(mark, area.properties)
+            _polygon(mark, area.ring_lonlat, None)
+
+    ET.indent(root, space=" ")
+    body = ET.tostring(root, encoding="unicode")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + body + "\n"
+
+
+def _k(tag: str) -> str:
+    return f"{{{KML_NAMESPACE}}}{tag}"
+
+
+def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -> ET.Element:
+    element = ET.SubElement(parent, _k(tag), attrib)
+    if text is not None:
+        element.text = text
+    return element
+
+
+def _folder(doc: ET.Element, name: str) -> ET.Element:
+    folder = _sub(doc, "Folder")
+    _sub(folder, "name", name)
+    return folder
+
+
+def _placemark(
+    parent: ET.Element, name: str, style: str, description: str | None = None
+) -> ET.Element:
+    mark = _sub(parent, "Placemark")
+    _sub(mark, "name", name)
+    if description:
+        _sub(mark, "description", description)
+    _sub(mark, "styleUrl", f"#{style}")
+    return mark
+
+
+def _describe(properties: Mapping[str, Any]) -> str:
+    return "; ".join(f"{k}: {v}" for k, v in properties.items())
+
+
+def _extended_data(mark: ET.Element, values: Mapping[str, Any]) -> None:
+    data = _sub(mark, "ExtendedData")
+    for key, value in values.items():
+        _sub(_sub(data, "Data", name=str(key)), "value", str(value))
+
+
+def _coordinates(points: Sequence[Sequence[float]]) -> str:
+    return " ".join(",".join(f"{v:.{_decimals(i)}f}" for i, v in enumerate(p)) for p in points)
+
+
+def _decimals(axis: int) -> int:
+    return DEGREE_DECIMALS if axis < 2 else METRE_DECIMALS
+
+
+def _line_string(mark: ET.Element, points: NDArray[np.float64], *, extrude: bool) -> None:
+    line = _sub(mark, "LineString")
+    _sub(line, "extrude", "1" if extrude else "0")
+    _sub(line, "tessellate", "0")
+    _sub(line, "altitudeMode", "relativeToGround")
+    _sub(line, "coordinates", _coordinates(points))
+
+
+def _point(mark: ET.Element, lon: float, lat: float, height_m: float) -> None:
+    point = _sub(mark, "Point")
+    _sub(point, "altitudeMode", "relativeToGround")
+    _sub(point, "coordinates", _coordinates([(lon, lat, height_m)]))
+
+
+def _polygon(mark: ET.Element, ring_lonlat: NDArray[np.float64], height_m: float | None) -> None:
+    """An extruded solid of ``height_m`` above the ground, or a ground-clamped area."""
+    polygon = _sub(mark, "Polygon")
+    if height_m is not None:
+        _sub(polygon, "extrude", "1")
+        _sub(polygon, "altitudeMode", "relativeToGround")
+    else:
+        _sub(polygon, "tessellate", "1")
+        _sub(polygon, "altitudeMode", "clampToGround")
+    ring = np.vstack((ring_lonlat, ring_lonlat[:1]))
+    z = np.full((len(ring), 1), 0.0 if height_m is None else height_m)
+    outer = _sub(_sub(polygon, "outerBoundaryIs"), "LinearRing")
+    _sub(outer, "coordinates", _coordinates(np.hstack((ring, z))))
