@@ -1,1 +1,258 @@
-"""Placeholder module; commands are added by their issue."""
+"""``uavplan render`` (a picture of a scenario and a route) and ``uavplan convert`` (mission
+file → another mission format or a map export).
+
+``render SCENARIO -o FIG.png`` plans the scenario exactly as ``uavplan plan`` would with the
+same options (same seed, same route) and draws it; ``--mission FILE`` draws that mission's
+route instead and plans nothing; ``--no-plan`` draws the scenario alone.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import click
+
+from uavplan.cli import main
+from uavplan.cli.common import handle_errors, show_progress
+from uavplan.errors import InputError, NoPathError
+
+_SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
+
+
+def _parse_size(_ctx: Any, _param: Any, value: str) -> tuple[int, int]:
+    match = _SIZE.match(value)
+    if not match:
+        raise click.BadParameter(f"{value!r} is not WIDTHxHEIGHT in pixels, e.g. 1600x800")
+    width, height = int(match.group(1)), int(match.group(2))
+    if width < 200 or height < 150 or width > 10000 or height > 10000:
+        raise click.BadParameter(f"{width}x{height}: width 200..10000, height 150..10000 px")
+    return width, height
+
+
+def _require_png(path: str, option: str) -> None:
+    if Path(path).suffix.lower() != ".png":
+        raise InputError(f"{option} writes a PNG picture; name the file *.png", file=path)
+
+
+@main.command("render")
+@click.argument("scenario", type=click.Path(dir_okay=False))
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG file to write."
+)
+@click.option(
+    "--mission",
+    "mission_path",
+    type=click.Path(dir_okay=False),
+    help="Draw this mission file's route (.plan, .waypoints) instead of planning.",
+)
+@click.option("--no-plan", is_flag=True, help="Draw the scenario alone, without a route.")
+@click.option(
+    "--algorithm",
+    type=click.Choice(["spsa", "ssa", "pso", "gwo", "de", "cso"]),
+    help="Planner (default: the scenario's, else spsa).",
+)
+@click.option("--seed", type=click.IntRange(min=0), help="Random seed (default: the scenario's).")
+@click.option(
+    "--iterations", type=click.IntRange(min=1), help="Iterations (fewer: quicker, rougher)."
+)
+@click.option("--population", type=click.IntRange(min=4), help="Population size.")
+@click.option(
+    "--size",
+    default="1600x800",
+    show_default=True,
+    callback=_parse_size,
+    help="Picture size in pixels, WIDTHxHEIGHT.",
+)
+@click.option(
+    "--dpi", type=click.IntRange(30, 600), default=100, show_default=True, help="Resolution."
+)
+@click.option("--quiet", "-q", is_flag=True, help="No progress output.")
+@handle_errors
+def render_command(
+    scenario: str,
+    output: str,
+    mission_path: str | None,
+    no_plan: bool,
+    algorithm: str | None,
+    seed: int | None,
+    iterations: int | None,
+    population: int | None,
+    size: tuple[int, int],
+    dpi: int,
+    quiet: bool,
+) -> None:
+    """Draw SCENARIO in 3-D and from above, with a planned route or a mission's route.
+
+    Without --mission it plans first, exactly as `uavplan plan` does with the same options,
+    and draws the raw best path, the smoothed path and the mission waypoints.
+    """
+    from uavplan.scenario import load_scenario
+
+    _require_png(output, "render")
+    if mission_path is not None and (no_plan or algorithm or seed is not None or iterations):
+        raise click.UsageError("--mission draws a mission file; it takes no planner options")
+    scn = load_scenario(scenario)
+    width, height = size
+    picture = {"width_px": width, "height_px": height, "dpi": dpi}
+    if mission_path is not None:
+        summary = _render_mission(scn, mission_path, output, picture)
+    elif no_plan:
+        from uavplan.render import render_scenario
+
+        render_scenario(scn, output, subtitle=_scenario_line(scn), **picture)
+        summary = "scenario only"
+    else:
+        summary = _render_planned(
+            scn, output, picture, algorithm, seed, iterations, population, quiet
+        )
+    if not quiet:
+        click.echo(f"{Path(output).name}: {width}x{height} px, {summary}", err=True)
+
+
+def _scenario_line(scn: Any) -> str:
+    return (
+        f"{len(scn.obstacles)} obstacles, safety margin {scn.safety_margin_m:g} m, "
+        f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"
+    )
+
+
+def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str, int]) -> str:
+    import numpy as np
+
+    from uavplan.geo import EnuFrame
+    from uavplan.mission.io import load_mission
+    from uavplan.render import RouteLayers, render_scenario
+    from uavplan.world import World
+
+    plan = load_mission(mission_path)
+    try:
+        layers = RouteLayers.from_mission(plan, EnuFrame.at(scn.origin))
+    except ValueError as err:
+        raise InputError(str(err), file=mission_path) from None
+    flown = layers.flown_enu
+    assert flown is not None
+    name = Path(mission_path).name
+    if len(flown) < 2:
+        subtitle = f"{name}: {len(plan.items)} items, nothing to fly"
+    else:
+        length = float(np.linalg.norm(np.diff(flown, axis=0), axis=1).sum())
+        clearance = World.from_scenario(scn).polyline_clearance(flown)
+        warning = "  (closer than the margin!)" if clearance < scn.safety_margin_m - 1e-6 else ""
+        subtitle = (
+            f"{name}: {len(plan.items)} items, {length:.0f} m flown, min clearance "
+            f"{clearance:.2f} m (margin {scn.safety_margin_m:g} m){warning}"
+        )
+    render_scenario(scn, output, layers, subtitle=subtitle, **picture)
+    return subtitle
+
+
+def _render_planned(
+    scn: Any,
+    output: str,
+    picture: dict[str, int],
+    algorithm: str | None,
+    seed: int | None,
+    iterations: int | None,
+    population: int | None,
+    quiet: bool,
+) -> str:
+    from uavplan.cli.plan_cmd import _Progress
+    from uavplan.geo import EnuFrame
+    from uavplan.mission.builder import build_mission
+    from uavplan.planning import plan_route
+    from uavplan.render import render_planned, render_scenario, route_subtitle
+
+    changes = {
+        k: v
+        for k, v in (("seed", seed), ("iterations", iterations), ("population", population))
+        if v is not None
+    }
+    if changes:
+        scn = scn.with_planner(search=replace(scn.planner.search, **changes))
+    if algorithm:
+        scn = scn.with_planner(algorithm=algorithm)
+    progress = _Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
+    try:
+        result = plan_route(scn, progress=progress)
+    finally:
+        progress.close()
+    if not result.ok:
+        render_scenario(
+            scn, output, subtitle=f"no collision-free path: {result.message}", **picture
+        )
+        raise NoPathError(
+            f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
+            f"in {output})"
+        )
+    mission = build_mission(
+        result.waypoints_enu,
+        EnuFrame.at(scn.origin),
+        autopilot=scn.mission.autopilot,
+        end=scn.mission.end,
+        takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
+        cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
+    )
+    render_planned(scn, result, mission, output, **picture)
+    if not result.collision_free:
+        raise NoPathError(
+            f"{scn.name}: the route comes within {result.min_clearance_m:.2f} m of an obstacle "
+            f"(safety margin {scn.safety_margin_m:g} m); drawn in {output}"
+        )
+    return route_subtitle(result, scn.safety_margin_m)
+
+
+@main.command("convert")
+@click.argument("input_path", metavar="IN", type=click.Path(dir_okay=False))
+@click.argument("output", metavar="OUT", type=click.Path(dir_okay=False))
+@click.option(
+    "--scenario",
+    "scenario_path",
+    type=click.Path(dir_okay=False),
+    help="Add this scenario's obstacles to a .geojson / .kml export.",
+)
+@click.option(
+    "--autopilot",
+    type=click.Choice(["px4", "ardupilot"]),
+    help="Read IN as this autopilot's mission (a .waypoints file does not say; "
+    "default ardupilot there, the file's firmwareType for a .plan).",
+)
+@click.option("--quiet", "-q", is_flag=True, help="No summary line.")
+@handle_errors
+def convert_command(
+    input_path: str, output: str, scenario_path: str | None, autopilot: str | None, quiet: bool
+) -> None:
+    """Convert mission file IN to OUT; the formats come from the extensions.
+
+    IN: .plan or .waypoints. OUT: .plan, .waypoints, .geojson or .kml (the map exports
+    draw the flown route, the waypoints, the geofence and, with --scenario, the obstacles).
+    """
+    from uavplan.mission.io import format_for, load_mission, save_mission
+    from uavplan.mission.items import Autopilot, GeoFence
+
+    out_format = format_for(output)  # an unknown extension fails before reading anything
+    plan = load_mission(input_path, Autopilot.from_name(autopilot) if autopilot else None)
+    notes = []
+    if out_format.dumps_extras is None and out_format.loads is not None:
+        if Path(output).suffix.lower() != ".plan" and (not plan.fence.is_empty or plan.rally):
+            notes.append(f"{Path(output).suffix} holds no geofence or rally points; left out")
+            plan = replace(plan, fence=GeoFence(), rally=())
+    extras = None
+    if scenario_path is not None:
+        from uavplan.mission.export import ExportExtras
+        from uavplan.scenario import load_scenario
+
+        if out_format.dumps_extras is None:
+            raise click.UsageError("--scenario only adds obstacles to a .geojson or .kml")
+        extras = ExportExtras.from_scenario(load_scenario(scenario_path))
+    save_mission(plan, output, extras=extras)
+    for note in notes:
+        click.echo(f"note: {note}", err=True)
+    if not quiet:
+        click.echo(
+            f"{Path(output).name}: {len(plan.items)} mission items from {Path(input_path).name} "
+            f"({out_format.name})",
+            err=True,
+        )

@@ -1,0 +1,584 @@
+"""Pictures of a scenario and a route: a 3-D view and a top view side by side (PNG).
+
+:func:`render_scenario` draws the obstacles as solids coloured by height, the start and
+the goal, and whatever :class:`RouteLayers` it is given: the planner's raw best path (its
+node polyline), the smoothed path, and the route the autopilot flies through the mission's
+waypoints. The top view adds each obstacle's safety margin (dashed outline of the footprint
+grown by the margin), the bounds and, if the mission has one, the geofence.
+
+The 3-D view's vertical scale is stretched when the scene is much wider than it is high
+(the factor is printed on the z axis), otherwise a 250 m tall scene 2 km wide is a flat
+line. The route is always drawn on top of the obstacles, so it stays visible behind them.
+
+matplotlib is imported inside the functions, with its Agg canvas and no pyplot, so
+importing this module costs nothing and needs no display.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uavplan.geo import EnuFrame
+from uavplan.mission.builder import mission_polyline_enu
+from uavplan.mission.fence import Footprint, footprints_of, inflate_polygon
+from uavplan.mission.items import MissionPlan
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from uavplan.planning import RouteResult
+    from uavplan.scenario import Scenario
+
+#: default picture size (pixels) and resolution
+DEFAULT_WIDTH_PX = 1600
+DEFAULT_HEIGHT_PX = 800
+DEFAULT_DPI = 100
+#: the 3-D view's height axis is drawn at least this fraction of its widest horizontal side
+MIN_VERTICAL_ASPECT = 0.25
+#: obstacle indices are written in the top view when there are at most this many
+MAX_LABELLED_OBSTACLES = 40
+#: width / height of the 3-D box as drawn (about, for a wide scene), to size it to its panel
+_BOX_ASPECT_ON_SCREEN = 1.5
+#: sides of a cylinder drawn as a prism
+CYLINDER_SIDES = 40
+
+_COLORS = {
+    "raw": "#8e44ad",
+    "smoothed": "#1f77b4",
+    "flown": "#ff7f0e",
+    "start": "#2ca02c",
+    "goal": "#d62728",
+    "margin": "#444444",
+    "fence_exclusion": "#d62728",
+    "fence_inclusion": "#2ca02c",
+    "bounds": "#777777",
+}
+_OBSTACLE_CMAP = "Greys"
+_LIGHT_XY = np.array([-0.55, -0.83])  # walls facing south-west are lit
+_OBSTACLE_SHADES = (0.25, 0.7)  # the part of the colour map used, low to high obstacles
+
+
+@dataclass(frozen=True)
+class FenceOutline:
+    """A geofence zone in the scenario's ENU frame: a polygon ``(k, 2)`` or a circle."""
+
+    inclusion: bool
+    polygon_enu: NDArray[np.float64] | None = None
+    circle_enu: tuple[float, float, float] | None = None  # x, y, radius
+
+
+@dataclass(frozen=True)
+class RouteLayers:
+    """What to draw over the scenario (every layer optional). Points are ENU metres ``(n, 3)``.
+
+    ``raw_path_enu``: the planner's best node polyline; ``smoothed_path_enu``: the final
+    smooth curve; ``flown_enu``: the polyline the autopilot flies through the mission items;
+    ``waypoints_enu``: the mission's positions (marked along the flown route).
+    """
+
+    raw_path_enu: NDArray[np.float64] | None = None
+    smoothed_path_enu: NDArray[np.float64] | None = None
+    flown_enu: NDArray[np.float64] | None = None
+    waypoints_enu: NDArray[np.float64] | None = None
+    fence: tuple[FenceOutline, ...] = field(default_factory=tuple)
+
+    @classmethod
+    def from_mission(cls, plan: MissionPlan, frame: EnuFrame) -> RouteLayers:
+        """The route a mission flies (and its geofence), in ``frame``.
+
+        Raises ``ValueError`` if an item's altitude cannot be placed (AMSL without a home).
+        """
+        flown = mission_polyline_enu(plan, frame)
+        waypoints = flown[1:] if plan.home is not None else flown
+        return cls(flown_enu=flown, waypoints_enu=waypoints, fence=_fence_outlines(plan, frame))
+
+    @classmethod
+    def from_route(
+        cls, result: RouteResult, plan: MissionPlan | None, frame: EnuFrame
+    ) -> RouteLayers:
+        """A planned route: raw and smoothed paths, plus the mission built from it."""
+        base = cls.from_mission(plan, frame) if plan is not None else cls()
+        return replace(base, raw_path_enu=result.raw_path_enu, smoothed_path_enu=result.path_enu)
+
+
+def _fence_outlines(plan: MissionPlan, frame: EnuFrame) -> tuple[FenceOutline, ...]:
+    out: list[FenceOutline] = []
+    for poly in plan.fence.polygons:
+        lat, lon = np.asarray(poly.vertices, dtype=np.float64).T
+        out.append(FenceOutline(poly.inclusion, polygon_enu=frame.to_enu_xy(lat, lon)))
+    for circle in plan.fence.circles:
+        ((x, y),) = frame.to_enu_xy([circle.center[0]], [circle.center[1]])
+        out.append(FenceOutline(circle.inclusion, circle_enu=(float(x), float(y), circle.radius_m)))
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def render_scenario(
+    scenario: Scenario,
+    output: str | os.PathLike[str],
+    layers: RouteLayers | None = None,
+    *,
+    width_px: int = DEFAULT_WIDTH_PX,
+    height_px: int = DEFAULT_HEIGHT_PX,
+    dpi: int = DEFAULT_DPI,
+    title: str | None = None,
+    subtitle: str | None = None,
+) -> None:
+    """Draw ``scenario`` (and ``layers``) into the PNG file ``output``, exactly
+    ``width_px`` × ``height_px`` pixels.
+
+    Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi, ``OSError``
+    if the file cannot be written.
+    """
+    if width_px < 200 or height_px < 150:
+        raise ValueError(f"picture size must be at least 200x150 px, got {width_px}x{height_px}")
+    if dpi <= 0:
+        raise ValueError(f"dpi must be positive, got {dpi}")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    layers = layers or RouteLayers()
+    footprints = footprints_of(scenario.obstacles)
+    heights = [fp.height_m for fp in footprints] or [1.0]
+    shade = _HeightShade(min(heights), max(heights))
+
+    fig = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
+    FigureCanvasAgg(fig)
+    # Text and lines follow the picture's size (in inches: --dpi makes them larger).
+    scale = min(width_px / dpi / 16.0, height_px / dpi / 8.0) ** 0.5
+    px = scale * dpi / 100.0  # pixels per pixel of the 1600x800 design
+    header = ((72 if subtitle else 48) * px) / height_px
+    side_by_side = width_px / height_px >= 1.5
+    columns = 5 if side_by_side else 3
+    rows = -(-len(_legend_handles(scenario, layers, scale)) // columns)
+    footer = ((22 + 20 * rows) * px) / height_px
+    if side_by_side:
+        grid = fig.add_gridspec(
+            1,
+            2,
+            width_ratios=(1.3, 1.0),
+            left=0.0,
+            right=0.96,
+            bottom=footer,
+            top=1.0 - header,
+            wspace=0.2,
+        )
+        ax3d = fig.add_subplot(grid[0, 0], projection="3d")
+        ax2d = fig.add_subplot(grid[0, 1])
+    else:  # a tall picture: the 3-D view above the top view
+        grid = fig.add_gridspec(
+            2,
+            1,
+            height_ratios=(1.4, 1.0),
+            left=0.08,
+            right=0.95,
+            bottom=footer + 0.03,
+            top=1.0 - header,
+            hspace=0.15,
+        )
+        ax3d = fig.add_subplot(grid[0, 0], projection="3d")
+        ax2d = fig.add_subplot(grid[1, 0])
+    # mplot3d draws its box in a square of the panel's shorter side; zoom it to fill the
+    # panel (its artists are not clipped, so a little overflow into the margins is fine).
+    cell = ax3d.get_position(original=True)
+    cell_w, cell_h = cell.width * width_px, cell.height * height_px
+    side = min(cell_w, cell_h)
+    zoom = 0.88 * min(cell_w / side, _BOX_ASPECT_ON_SCREEN * cell_h / side) / 1.05
+    _draw_3d(ax3d, scenario, footprints, layers, shade, scale, zoom)
+    mappable = _draw_top(ax2d, scenario, footprints, layers, shade, scale)
+    bar = fig.colorbar(mappable, ax=ax2d, fraction=0.035, pad=0.02)
+    bar.set_label("obstacle height (m)", fontsize=9 * scale)
+    bar.ax.tick_params(labelsize=8 * scale)
+
+    handles = _legend_handles(scenario, layers, scale)
+    fig.legend(
+        handles=handles,
+        loc="lower center",
+        ncol=min(len(handles), columns),
+        fontsize=9 * scale,
+        frameon=False,
+        bbox_to_anchor=(0.5, 0.0),
+    )
+    fig.text(
+        0.5,
+        1.0 - 6 * px / height_px,
+        title or scenario.name,
+        ha="center",
+        va="top",
+        fontsize=14 * scale,
+    )
+    if subtitle:
+        fig.text(
+            0.5,
+            1.0 - 34 * px / height_px,
+            subtitle,
+            ha="center",
+            va="top",
+            fontsize=10 * scale,
+        )
+    fig.savefig(os.fspath(output), dpi=dpi, format="png")
+
+
+class _HeightShade:
+    """Obstacle colour from its height (a slice of a grey colour map)."""
+
+    def __init__(self, low_m: float, high_m: float) -> None:
+        from matplotlib import colormaps
+        from matplotlib.colors import LinearSegmentedColormap, Normalize
+
+        base = colormaps[_OBSTACLE_CMAP]
+        lo, hi = _OBSTACLE_SHADES
+        self.cmap = LinearSegmentedColormap.from_list(
+            "obstacles", base(np.linspace(lo, hi, 64)), N=64
+        )
+        if high_m - low_m < 1e-9:
+            low_m, high_m = low_m - 1.0, high_m + 1.0
+        self.norm = Normalize(low_m, high_m)
+
+    def __call__(self, height_m: float) -> Any:
+        return self.cmap(self.norm(height_m))
+
+
+def _outline(fp: Footprint) -> NDArray[np.float64]:
+    return fp.outline_enu(CYLINDER_SIDES)
+
+
+def _margin_outline(fp: Footprint, margin_m: float) -> NDArray[np.float64]:
+    if fp.is_circle:
+        assert fp.center_enu is not None and fp.radius_m is not None
+        return Footprint(
+            fp.index,
+            fp.kind,
+            fp.height_m,
+            center_enu=fp.center_enu,
+            radius_m=fp.radius_m + margin_m,
+        ).outline_enu(72)
+    return inflate_polygon(_outline(fp), margin_m, max_step_deg=10.0)
+
+
+def _draw_3d(
+    ax: Any,
+    scenario: Scenario,
+    footprints: Sequence[Footprint],
+    layers: RouteLayers,
+    shade: _HeightShade,
+    scale: float,
+    zoom: float,
+) -> None:
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    ax.computed_zorder = False  # the route stays visible behind the obstacles
+    faces: list[NDArray[np.float64]] = []
+    face_colors: list[Any] = []
+    edge_colors: list[Any] = []
+    outline = (0.17, 0.17, 0.17, 1.0)
+    ceiling = scenario.bounds.z_m[1]
+    for fp in footprints:
+        ring = _outline(fp)
+        h = min(fp.height_m, ceiling)  # drawn up to the top of the box, coloured by height
+        base = np.asarray(shade(fp.height_m)[:3])
+        nxt = np.roll(ring, -1, axis=0)
+        side = nxt - ring
+        # outward normals of the walls, lit from the south-west
+        normals = np.column_stack((side[:, 1], -side[:, 0]))
+        normals /= np.maximum(np.hypot(normals[:, 0], normals[:, 1]), 1e-12)[:, None]
+        light = np.clip(normals @ _LIGHT_XY, 0.0, 1.0)
+        for a, b, lit in zip(ring, nxt, light, strict=True):
+            faces.append(
+                np.array([[a[0], a[1], 0], [b[0], b[1], 0], [b[0], b[1], h], [a[0], a[1], h]])
+            )
+            color = (*(base * (0.7 + 0.3 * lit)), 1.0)
+            face_colors.append(color)
+            edge_colors.append(color if fp.is_circle else outline)  # no seams on cylinders
+        faces.append(np.column_stack((ring, np.full(len(ring), h))))
+        face_colors.append((*np.minimum(base * 1.1, 1.0), 1.0))
+        edge_colors.append(outline)
+    if faces:
+        # One collection, sorted by depth: obstacles hide each other correctly.
+        solids = Poly3DCollection(
+            faces, facecolors=face_colors, edgecolors=edge_colors, linewidths=0.35 * scale
+        )
+        solids.set_zorder(1)
+        solids.set_clip_on(False)  # the zoomed box may reach past the axes' frame
+        ax.add_collection3d(solids, autolim=False)
+
+    _draw_paths(ax, layers, scale, three_d=True)
+    _start_goal(ax, scenario, scale, three_d=True)
+
+    (x0, x1), (y0, y1), (z0, z1) = scenario.bounds.x_m, scenario.bounds.y_m, scenario.bounds.z_m
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_zlim(z0, z1)
+    wide = max(x1 - x0, y1 - y0)
+    stretch = max(1.0, MIN_VERTICAL_ASPECT * wide / (z1 - z0))
+    ax.set_box_aspect((x1 - x0, y1 - y0, (z1 - z0) * stretch), zoom=zoom)
+    ax.view_init(elev=27, azim=-58)
+    fs = 8 * scale
+    ax.set_xlabel("x east (m)", fontsize=fs, labelpad=2)
+    ax.set_ylabel("y north (m)", fontsize=fs, labelpad=2)
+    zlabel = "z up (m)" if stretch < 1.05 else f"z up (m, ×{stretch:.1f})"
+    ax.set_zlabel(zlabel, fontsize=fs, labelpad=2)
+    ax.tick_params(labelsize=7 * scale, pad=0)
+
+
+def _draw_top(
+    ax: Axes,
+    scenario: Scenario,
+    footprints: Sequence[Footprint],
+    layers: RouteLayers,
+    shade: _HeightShade,
+    scale: float,
+) -> Any:
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Circle, Polygon, Rectangle
+
+    (x0, x1), (y0, y1) = scenario.bounds.x_m, scenario.bounds.y_m
+    ax.add_patch(
+        Rectangle(
+            (x0, y0),
+            x1 - x0,
+            y1 - y0,
+            fill=False,
+            ls="--",
+            lw=0.8 * scale,
+            ec=_COLORS["bounds"],
+            zorder=0,
+        )
+    )
+    margin = scenario.safety_margin_m
+    if footprints:  # collections: hundreds of buildings draw fast
+        ax.add_collection(
+            PolyCollection(
+                [_outline(fp) for fp in footprints],
+                facecolors=[shade(fp.height_m) for fp in footprints],
+                edgecolors="#222222",
+                linewidths=0.5 * scale,
+                zorder=2,
+            ),
+            autolim=False,
+        )
+        if margin > 0:
+            ax.add_collection(
+                PolyCollection(
+                    [_margin_outline(fp, margin) for fp in footprints],
+                    facecolors="none",
+                    edgecolors=_COLORS["margin"],
+                    linestyles=[(0, (3, 2))],
+                    linewidths=0.7 * scale,
+                    zorder=1,
+                ),
+                autolim=False,
+            )
+    if 0 < len(footprints) <= MAX_LABELLED_OBSTACLES:
+        from matplotlib import patheffects
+
+        halo = [patheffects.withStroke(linewidth=2.0 * scale, foreground="white")]
+        for fp in footprints:
+            cx, cy = _outline(fp).mean(axis=0)
+            ax.text(
+                cx,
+                cy,
+                str(fp.index),
+                ha="center",
+                va="center",
+                fontsize=7.5 * scale,
+                color="black",
+                zorder=3,
+                path_effects=halo,
+            )
+    for zone in layers.fence:
+        color = _COLORS["fence_inclusion" if zone.inclusion else "fence_exclusion"]
+        style = {"fill": False, "ec": color, "lw": 0.9 * scale, "ls": "-.", "zorder": 3}
+        if zone.polygon_enu is not None:
+            ax.add_patch(Polygon(zone.polygon_enu, closed=True, **style))
+        elif zone.circle_enu is not None:
+            x, y, r = zone.circle_enu
+            ax.add_patch(Circle((x, y), r, **style))
+
+    _draw_paths(ax, layers, scale, three_d=False)
+    _start_goal(ax, scenario, scale, three_d=False)
+
+    pad = 0.02 * max(x1 - x0, y1 - y0)
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x east (m)", fontsize=8 * scale)
+    ax.set_ylabel("y north (m)", fontsize=8 * scale)
+    ax.tick_params(labelsize=7 * scale)
+    ax.grid(True, lw=0.3, alpha=0.4)
+    ax.set_title(f"top view (dashed: {margin:g} m safety margin)", fontsize=11 * scale)
+    mappable = ScalarMappable(norm=shade.norm, cmap=shade.cmap)
+    mappable.set_array([])
+    return mappable
+
+
+def _draw_paths(ax: Any, layers: RouteLayers, scale: float, *, three_d: bool) -> None:
+    """Raw path, smoothed path, flown route and waypoints, in that order (on top)."""
+    dims = 3 if three_d else 2
+    lw = 1.0 * scale
+    # 3-D artists are not clipped: the zoomed box may reach past the axes' frame
+    common: dict[str, Any] = {"clip_on": not three_d}
+    if layers.raw_path_enu is not None:
+        p = layers.raw_path_enu[:, :dims].T
+        ax.plot(*p, ":", color=_COLORS["raw"], lw=1.2 * lw, zorder=5, **common)
+    if layers.smoothed_path_enu is not None:
+        p = layers.smoothed_path_enu[:, :dims].T
+        ax.plot(
+            *p,
+            "-",
+            color=_COLORS["smoothed"],
+            lw=4 * lw,
+            alpha=0.55,
+            zorder=6,
+            solid_capstyle="round",
+            **common,
+        )
+    if layers.flown_enu is not None:
+        p = layers.flown_enu[:, :dims].T
+        ax.plot(*p, "-", color=_COLORS["flown"], lw=1.1 * lw, zorder=7, **common)
+    if layers.waypoints_enu is not None and len(layers.waypoints_enu):
+        p = layers.waypoints_enu[:, :dims].T
+        extra = {"depthshade": False} if three_d else {}
+        ax.scatter(*p, s=9 * scale, color=_COLORS["flown"], zorder=8, **common, **extra)
+
+
+def _start_goal(ax: Any, scenario: Scenario, scale: float, *, three_d: bool) -> None:
+    size = 90 * scale
+    for point, marker, key in ((scenario.start_m, "^", "start"), (scenario.goal_m, "*", "goal")):
+        coords = point if three_d else point[:2]
+        kwargs: dict[str, Any] = {"depthshade": False} if three_d else {}
+        ax.scatter(
+            *[[c] for c in coords],
+            marker=marker,
+            s=size * (1.6 if marker == "*" else 1.0),
+            color=_COLORS[key],
+            edgecolors="black",
+            linewidths=0.6,
+            zorder=9,
+            clip_on=not three_d,
+            **kwargs,
+        )
+
+
+def _legend_handles(scenario: Scenario, layers: RouteLayers, scale: float) -> list[Any]:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    lw = 1.0 * scale
+    handles: list[Any] = [
+        Patch(fc="#9a9a9a", ec="#222222", label="obstacle"),
+        Line2D(
+            [],
+            [],
+            ls=(0, (3, 2)),
+            color=_COLORS["margin"],
+            lw=0.8,
+            label=f"safety margin ({scenario.safety_margin_m:g} m)",
+        ),
+    ]
+    if layers.raw_path_enu is not None:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls=":",
+                color=_COLORS["raw"],
+                lw=1.4 * lw,
+                label="raw best path (planner nodes)",
+            )
+        )
+    if layers.smoothed_path_enu is not None:
+        handles.append(
+            Line2D([], [], color=_COLORS["smoothed"], lw=4 * lw, alpha=0.55, label="smoothed path")
+        )
+    if layers.flown_enu is not None:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color=_COLORS["flown"],
+                lw=1.1 * lw,
+                marker="o",
+                markersize=3.5,
+                label="mission waypoints (flown route)",
+            )
+        )
+    if any(not z.inclusion for z in layers.fence):
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="-.",
+                color=_COLORS["fence_exclusion"],
+                lw=1.0,
+                label="geofence exclusion",
+            )
+        )
+    if any(z.inclusion for z in layers.fence):
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="-.",
+                color=_COLORS["fence_inclusion"],
+                lw=1.0,
+                label="geofence inclusion",
+            )
+        )
+    handles.append(
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker="^",
+            color=_COLORS["start"],
+            mec="black",
+            markersize=8,
+            label="start",
+        )
+    )
+    handles.append(
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker="*",
+            color=_COLORS["goal"],
+            mec="black",
+            markersize=11,
+            label="goal",
+        )
+    )
+    return handles
+
+
+def route_subtitle(result: RouteResult, margin_m: float) -> str:
+    """One line describing a planned route (algorithm, seed, length, energy, clearance)."""
+    return (
+        f"{result.algorithm}, seed {result.seed}: {result.length_m:.0f} m, "
+        f"energy {result.energy:.1f}, min clearance {result.min_clearance_m:.2f} m "
+        f"(margin {margin_m:g} m)"
+    )
+
+
+def render_planned(
+    scenario: Scenario,
+    result: RouteResult,
+    plan: MissionPlan | None,
+    output: str | os.PathLike[str],
+    **kwargs: Any,
+) -> None:
+    """The picture ``uavplan plan --plot`` draws: a planned route and its mission."""
+    frame = EnuFrame.at(scenario.origin)
+    layers = RouteLayers.from_route(result, plan, frame)
+    subtitle = route_subtitle(result, scenario.safety_margin_m) if result.ok else None
+    render_scenario(scenario, output, layers, subtitle=subtitle, **kwargs)
