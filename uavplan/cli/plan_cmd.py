@@ -60,7 +60,8 @@ def _load_scenario(path: str):
     "output",
     required=True,
     type=click.Path(dir_okay=False),
-    help="Mission file to write: .plan, .waypoints (format from the extension).",
+    help="File to write: .plan, .waypoints, or a .geojson / .kml map export (format from "
+    "the extension).",
 )
 @click.option(
     "--algorithm",
@@ -76,6 +77,15 @@ def _load_scenario(path: str):
     help="Mission flavour (default: the scenario's, else ardupilot).",
 )
 @click.option("--report", type=click.Path(dir_okay=False), help="Write a JSON report here.")
+@click.option(
+    "--plot", type=click.Path(dir_okay=False), help="Draw the route into this PNG picture."
+)
+@click.option(
+    "--fence",
+    is_flag=True,
+    help="Add a geofence: the bounds as inclusion, obstacles the route flies around as "
+    "exclusion zones (.plan, .geojson, .kml).",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress output.")
 @handle_errors
 def plan_command(
@@ -87,6 +97,8 @@ def plan_command(
     population: int | None,
     autopilot: str | None,
     report: str | None,
+    plot: str | None,
+    fence: bool,
     quiet: bool,
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file."""
@@ -97,7 +109,11 @@ def plan_command(
     from uavplan.mission.items import Autopilot
     from uavplan.planning import plan_route
 
-    format_for(output)  # fail on an unknown extension before spending time planning
+    out_format = format_for(output)  # fail on an unknown extension before planning
+    if plot and Path(plot).suffix.lower() != ".png":
+        raise InputError("--plot writes a PNG picture; name the file *.png", file=plot)
+    if fence and out_format.dumps_extras is None and Path(output).suffix.lower() != ".plan":
+        raise InputError("a geofence needs a .plan (or .geojson / .kml) output", file=output)
     scn = _load_scenario(scenario)
     search = scn.planner.search
     changes = {
@@ -134,7 +150,23 @@ def plan_command(
         takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
         cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
     )
-    save_mission(mission, output)
+    if fence:
+        from uavplan.mission.fence import geofence_for
+
+        built = geofence_for(scn, mission)
+        mission = replace(mission, fence=built.fence)
+        if not quiet:
+            for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
+                click.echo(line, err=True)
+    from uavplan.mission.export import ExportExtras  # obstacles etc. for .geojson / .kml
+
+    summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
+    extras = ExportExtras.from_scenario(scn, planned_path_enu=result.path_enu, properties=summary)
+    save_mission(mission, output, extras=extras)
+    if plot:
+        from uavplan.render import render_planned
+
+        render_planned(scn, result, mission, plot)
     if not quiet:
         e_path, e_turn, e_climb = result.energy_terms
         click.echo(

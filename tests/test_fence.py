@@ -1,0 +1,434 @@
+"""Geofence from obstacles and a route: zone geometry, around/over decisions, the item budget,
+the ``.plan`` it ends up in, MAVSDK's importer and the mock vehicle.
+
+Routes here are hand-made polylines, so every expectation is computed by hand; one test
+runs ``uavplan plan --fence`` end to end on a tiny scenario.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import math
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from uavplan.cli import main
+from uavplan.geo import EnuFrame
+from uavplan.mission.builder import build_mission, mission_polyline_enu
+from uavplan.mission.fence import (
+    DEFAULT_MAX_ITEMS,
+    INCLUSION_BUFFER_M,
+    ROUTE_GAP_M,
+    Footprint,
+    ZoneStatus,
+    build_geofence,
+    convex_hull,
+    footprints_of,
+    geofence_for,
+    inflate_polygon,
+    points_in_polygon,
+)
+from uavplan.mission.io import load_mission, save_mission
+from uavplan.mission.items import (
+    Autopilot,
+    GeoPoint,
+    MavCmd,
+    MissionItem,
+    MissionPlan,
+    MissionType,
+    items_equal,
+)
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
+
+ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
+FRAME = EnuFrame.at(ORIGIN)
+BOUNDS = ((0.0, 1000.0), (-300.0, 300.0))
+
+
+def box(index: int, cx: float, cy: float, sx: float, sy: float, h: float, yaw: float = 0.0):
+    return Footprint(index, "box", h, ring_enu=BoxObstacle((cx, cy), (sx, sy), h, yaw).footprint())
+
+
+def circle(index: int, cx: float, cy: float, r: float, h: float) -> Footprint:
+    return Footprint(index, "cylinder", h, center_enu=(cx, cy), radius_m=r)
+
+
+def straight_route(z: float = 30.0) -> np.ndarray:
+    """Home on the ground at (0, 0), climb to z, fly east along y = 0 to x = 1000."""
+    return np.array([[0.0, 0.0, 0.0], [0.0, 0.0, z], [1000.0, 0.0, z]])
+
+
+def ring_distance(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Exact distance of each point to a polygon region (0 inside), by brute force."""
+    a, b = ring, np.roll(ring, -1, axis=0)
+    ab = b - a
+    t = np.clip(
+        np.einsum("pkj,kj->pk", points[:, None, :] - a[None], ab) / np.sum(ab * ab, axis=1), 0, 1
+    )
+    closest = a[None] + t[..., None] * ab[None]
+    d = np.linalg.norm(points[:, None, :] - closest, axis=2).min(axis=1)
+    d[points_in_polygon(points, ring)] = 0.0
+    return d
+
+
+def route_to_zone_distance(route: np.ndarray, zone: Any) -> float:
+    """Smallest horizontal distance from a densely sampled route to a zone."""
+    pts = np.vstack([np.linspace(p, q, 2000)[:, :2] for p, q in itertools.pairwise(route)])
+    if zone.circle_enu is not None:
+        x, y, r = zone.circle_enu
+        return float(max(0.0, (np.hypot(pts[:, 0] - x, pts[:, 1] - y) - r).min()))
+    return float(ring_distance(pts, zone.polygon_enu).min())
+
+
+# ---------------------------------------------------------------------------------------------
+# inflate_polygon: conservative (contains the exact offset) and tight
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    sx=st.floats(5, 200),
+    sy=st.floats(5, 200),
+    yaw=st.floats(-180, 180),
+    offset=st.floats(0.5, 30),
+    step=st.sampled_from([90.0, 45.0, 22.5, 10.0]),
+)
+def test_inflated_box_contains_the_exact_offset(
+    sx: float, sy: float, yaw: float, offset: float, step: float
+) -> None:
+    ring = np.asarray(BoxObstacle((0.0, 0.0), (sx, sy), 10.0, yaw).footprint())
+    grown = inflate_polygon(ring, offset, max_step_deg=step)
+    # points at (just under) the offset distance around the box are inside the polygon
+    angles = np.linspace(0, 2 * math.pi, 720, endpoint=False)
+    far = np.column_stack((np.cos(angles), np.sin(angles))) * (sx + sy + 4 * offset)
+    # walk each ray inward until it is exactly at `offset` from the box (bisection)
+    lo, hi = np.zeros(len(far)), np.ones(len(far))
+    for _ in range(50):
+        mid = (lo + hi) / 2
+        outside = ring_distance(far * mid[:, None], ring) > offset * (1 - 1e-9)
+        hi = np.where(outside, mid, hi)
+        lo = np.where(outside, lo, mid)
+    on_offset = far * lo[:, None]
+    assert points_in_polygon(on_offset, grown).all()
+    # and no vertex reaches further than the corner cut allows
+    reach = ring_distance(grown, ring)
+    assert reach.max() <= offset / math.cos(math.radians(step) / 2) + 1e-6
+    assert reach.min() >= offset - 1e-6
+
+
+def test_inflated_concave_prism_keeps_its_notch_and_contains_the_offset() -> None:
+    l_shape = np.array([[0, 0], [100, 0], [100, 30], [30, 30], [30, 100], [0, 100]], float)
+    grown = inflate_polygon(l_shape, 5.0)
+    assert len(grown) == 6  # mitred corners, the reflex corner where the moved edges meet
+    assert not points_in_polygon(np.array([[60.0, 60.0]]), grown)[0]  # the notch stays open
+    assert points_in_polygon(np.array([[35.0 - 0.01, 35.0 - 0.01]]), grown)[0]
+    assert ring_distance(grown, l_shape).min() == pytest.approx(5.0)
+
+
+def test_offset_that_folds_over_falls_back_to_the_convex_hull() -> None:
+    # a 4 m wide slot: a 10 m offset closes it and folds
+    u_shape = np.array(
+        [[0, 0], [50, 0], [50, 50], [27, 50], [27, 10], [23, 10], [23, 50], [0, 50]], float
+    )
+    grown = inflate_polygon(u_shape, 10.0)
+    hull = convex_hull(u_shape)
+    assert len(grown) == len(hull)
+    assert points_in_polygon(np.array([[25.0, 30.0]]), grown)[0]
+
+
+# ---------------------------------------------------------------------------------------------
+# build_geofence: around, over, grazing, the budget
+
+
+def test_zones_by_hand() -> None:
+    footprints = [
+        box(0, 300, 100, 100, 100, 50),  # 50 m beside the route: around, mitred box
+        circle(1, 600, 0, 30, 20),  # under the route (z 30 = 20 + margin 10): over
+        box(2, 800, 15, 40, 10, 60),  # its south face exactly 10 m from the route: grazed
+        circle(3, 500, -200, 20, 40),  # far: circle of radius 20 + 10
+    ]
+    route = straight_route(30.0)
+    built = build_geofence(footprints, route, FRAME, bounds_xy_m=BOUNDS, margin_m=10.0)
+    z = built.zones
+    assert [zone.status for zone in z] == [
+        ZoneStatus.EXCLUDED,
+        ZoneStatus.FLOWN_OVER,
+        ZoneStatus.EXCLUDED,
+        ZoneStatus.EXCLUDED,
+    ]
+    assert z[0].offset_m == 10.0 and z[0].route_distance_m == pytest.approx(50.0)
+    assert z[0].polygon_enu is not None and len(z[0].polygon_enu) == 4
+    np.testing.assert_allclose(
+        np.sort(z[0].polygon_enu, axis=0), [[240, 40], [240, 40], [360, 160], [360, 160]]
+    )
+    assert z[1].height_above_top_m == pytest.approx(10.0)
+    assert z[1].route_distance_m == 0.0
+    # grazed: the zone shrinks to leave the route ROUTE_GAP_M
+    assert z[2].offset_m is not None and z[2].offset_m < 10.0 - ROUTE_GAP_M + 1e-9
+    assert route_to_zone_distance(route, z[2]) >= ROUTE_GAP_M - 1e-6
+    assert z[3].circle_enu == pytest.approx((500.0, -200.0, 30.0))
+    for zone in z:
+        if zone.status is ZoneStatus.EXCLUDED:
+            assert route_to_zone_distance(route, zone) >= ROUTE_GAP_M - 1e-6
+    # the fence: inclusion first, then the exclusion polygons, circles separately
+    fence = built.fence
+    assert [p.inclusion for p in fence.polygons] == [True, False, False]
+    assert [c.inclusion for c in fence.circles] == [False]
+    assert fence.circles[0].radius_m == pytest.approx(30.0)
+    assert built.item_count == 4 + 4 + len(z[2].polygon_enu) + 1
+    assert "obstacles 1 flown over" in built.summary()
+    assert any("obstacles 2" in note for note in built.notes())
+
+
+def test_fence_vertices_are_the_enu_zones_in_wgs84_clockwise() -> None:
+    footprints = [box(0, 300, 100, 100, 100, 50, yaw=30)]
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10)
+    inclusion, exclusion = built.fence.polygons
+    lat, lon = np.asarray(inclusion.vertices).T
+    back = FRAME.to_enu_xy(lat, lon)
+    b = INCLUSION_BUFFER_M
+    np.testing.assert_allclose(
+        back[::-1],
+        [[-b, -300 - b], [1000 + b, -300 - b], [1000 + b, 300 + b], [-b, 300 + b]],
+        atol=1e-3,
+    )
+    lat, lon = np.asarray(exclusion.vertices).T
+    np.testing.assert_allclose(
+        FRAME.to_enu_xy(lat, lon)[::-1], built.zones[0].polygon_enu, atol=1e-3
+    )
+    # QGC's convention: clockwise (negative signed area in x east / y north)
+    x, y = FRAME.to_enu_xy(lat, lon).T
+    assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0
+
+
+def test_route_beside_an_obstacle_below_its_top_is_too_close_not_flown_over() -> None:
+    footprints = [box(0, 500, 8, 40, 10, 100)]  # 3 m from the route, route at 30 m
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10)
+    zone = built.zones[0]
+    assert zone.status is ZoneStatus.TOO_CLOSE
+    assert zone.height_above_top_m == pytest.approx(-70.0)
+    assert built.fence.polygons[1:] == ()
+
+
+def test_the_item_budget_keeps_the_zones_nearest_the_route() -> None:
+    footprints = [box(i, 50 + 90 * i, 40 + 10 * i, 20, 20, 50) for i in range(10)]
+    built = build_geofence(
+        footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=5, max_items=4 + 4 * 3
+    )
+    kept = built.with_status(ZoneStatus.EXCLUDED)
+    assert kept == [0, 1, 2]  # nearest three: 40, 50, 60 m from the route (minus half size)
+    assert built.with_status(ZoneStatus.OVER_LIMIT) == list(range(3, 10))
+    assert built.item_count == 16
+    assert "3-9 left out (over the 16-item limit)" in built.summary()
+
+
+def test_forty_obstacles_still_fit_px4s_fence_storage() -> None:
+    footprints = [box(i, 30 + 25 * i, 60 + (i % 3) * 40, 10, 10, 50) for i in range(40)]
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=5)
+    assert built.item_count <= DEFAULT_MAX_ITEMS
+    assert len(built.fence.wire_items()) == built.item_count
+
+
+def test_footprints_of_scenario_obstacles() -> None:
+    obstacles = [
+        BoxObstacle((10, 20), (4, 6), 30, 90),
+        CylinderObstacle((0, 0), 5, 12),
+        PrismObstacle(((0, 0), (10, 0), (0, 10)), 7),
+    ]
+    fps = footprints_of(obstacles)
+    assert [f.kind for f in fps] == ["box", "cylinder", "prism"]
+    assert fps[1].is_circle and fps[1].radius_m == 5 and fps[1].center_enu == (0, 0)
+    np.testing.assert_allclose(
+        sorted(fps[0].ring_enu), sorted([(13, 18), (13, 22), (7, 18), (7, 22)]), atol=1e-9
+    )
+    assert fps[2].height_m == 7
+
+
+def test_geofence_for_a_mission_uses_its_flown_route() -> None:
+    """The route includes the takeoff climb from home: a zone must leave home outside."""
+
+    class Scn:  # the few scenario fields geofence_for reads
+        origin = ORIGIN
+        bounds = type("B", (), {"x_m": BOUNDS[0], "y_m": BOUNDS[1], "z_m": (0.0, 150.0)})()
+        obstacles = (BoxObstacle((0.0, 25.0), (20.0, 10.0), 60.0),)  # 20 m north of home
+        safety_margin_m = 10.0
+
+    plan = build_mission(
+        np.array([[0.0, 0.0, 30.0], [0.0, -200.0, 30.0], [400.0, -200.0, 30.0]]),
+        FRAME,
+        autopilot=Autopilot.PX4,
+    )
+    built = geofence_for(Scn(), plan)
+    zone = built.zones[0]
+    assert zone.status is ZoneStatus.EXCLUDED
+    assert zone.route_distance_m == pytest.approx(20.0)
+    assert route_to_zone_distance(mission_polyline_enu(plan, FRAME), zone) >= ROUTE_GAP_M - 1e-6
+    assert "150 m" in built.notes()[-1]
+
+
+# ---------------------------------------------------------------------------------------------
+# The .plan with a fence: written by `plan --fence`, read by MAVSDK, uploaded to the mock
+
+
+TINY_SCENARIO = """\
+name: fence-tiny
+origin: {lat: 47.397742, lon: 8.545594, alt: 488.0}
+bounds: {x: [0, 600], y: [-200, 200], z: [0, 120]}
+start: [0, 0, 30]
+goal: [600, 0, 30]
+obstacles:
+  - {type: box, center: [200, 0], size: [60, 60], height: 110}
+  - {type: cylinder, center: [400, 90], radius: 30, height: 80}
+  - {type: box, center: [420, -80], size: [40, 40], height: 60, yaw: 30}
+safety_margin: 10
+planner: {population: 16, iterations: 40, seed: 1}
+mission: {autopilot: px4, spacing: 50, end: rtl}
+"""
+
+
+@pytest.fixture(scope="module")
+def fenced_plan(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    root = tmp_path_factory.mktemp("fence")
+    scenario = root / "tiny.yaml"
+    scenario.write_text(TINY_SCENARIO)
+    out = root / "tiny.plan"
+    result = CliRunner().invoke(main, ["plan", str(scenario), "-o", str(out), "--fence"])
+    assert result.exit_code == 0, result.output
+    return scenario, out, result.output
+
+
+def test_plan_fence_writes_the_bounds_and_the_obstacles_flown_around(
+    fenced_plan: tuple[Path, Path, str],
+) -> None:
+    from uavplan.scenario import load_scenario
+
+    scenario_path, plan_path, output = fenced_plan
+    plan = load_mission(plan_path)
+    scn = load_scenario(scenario_path)
+    built = geofence_for(scn, plan)
+    assert plan.fence == built.fence  # what went into the file is the fence of its own route
+    assert plan.fence.polygons[0].inclusion
+    assert "geofence: inclusion polygon + " in output
+    route = mission_polyline_enu(plan, FRAME)
+    for zone in built.zones:
+        assert zone.status in (ZoneStatus.EXCLUDED, ZoneStatus.FLOWN_OVER)
+        if zone.status is ZoneStatus.EXCLUDED:
+            assert route_to_zone_distance(route, zone) >= ROUTE_GAP_M - 1e-6
+        else:
+            assert zone.height_above_top_m is not None and zone.height_above_top_m > 0
+    assert built.with_status(ZoneStatus.EXCLUDED)  # the 110 m block under a 120 m ceiling
+
+
+def test_plan_fence_needs_a_format_that_holds_one(tmp_path: Path) -> None:
+    scenario = tmp_path / "tiny.yaml"
+    scenario.write_text(TINY_SCENARIO)
+    result = CliRunner().invoke(
+        main, ["plan", str(scenario), "-o", str(tmp_path / "x.waypoints"), "--fence"]
+    )
+    assert result.exit_code == 2
+    assert "geofence needs a .plan" in result.output
+    assert not (tmp_path / "x.waypoints").exists()
+
+
+@contextlib.contextmanager
+def mavsdk_mission_raw() -> Iterator[Any]:
+    """MAVSDK's MissionRaw plugin on a system created from one PX4 HEARTBEAT (no socket)."""
+    from mavsdk.component_type import ComponentType
+    from mavsdk.mavsdk import Configuration, Mavsdk
+    from mavsdk.plugins.mission_raw.mission_raw import MissionRaw
+    from pymavlink.dialects.v20 import common as mavlink2
+
+    mavsdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    try:
+        mavsdk.add_any_connection("raw://")
+        mavsdk.subscribe_raw_bytes_to_be_sent(lambda _data: None)
+        mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+        heartbeat = mav.heartbeat_encode(
+            mavlink2.MAV_TYPE_QUADROTOR, Autopilot.PX4.value, 0, 0, mavlink2.MAV_STATE_STANDBY
+        )
+        mavsdk.pass_received_raw_bytes(heartbeat.pack(mav))
+        system = mavsdk.first_autopilot(2.0)
+        assert system is not None
+        plugin = MissionRaw(system)
+        try:
+            yield plugin
+        finally:
+            plugin.destroy()
+    finally:
+        mavsdk.destroy()
+
+
+def test_mavsdk_imports_the_fence(fenced_plan: tuple[Path, Path, str]) -> None:
+    _, plan_path, _ = fenced_plan
+    plan = load_mission(plan_path)
+    with mavsdk_mission_raw() as mission_raw:
+        data = mission_raw.import_qgroundcontrol_mission(str(plan_path))
+    got = [
+        MissionItem.from_wire(
+            command=i.command,
+            frame=i.frame,
+            params=(i.param1, i.param2, i.param3, i.param4),
+            x=i.x,
+            y=i.y,
+            z=i.z,
+            autocontinue=i.autocontinue,
+        )
+        for i in data.geofence_items
+    ]
+    expected = plan.fence.wire_items()
+    assert len(got) == len(expected) > 4
+    assert [i.command for i in got] == [i.command for i in expected]
+    assert all(items_equal(a, b) for a, b in zip(got, expected, strict=True))
+    assert {i.command for i in got} <= {
+        MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+        MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+        MavCmd.NAV_FENCE_CIRCLE_EXCLUSION,
+    }
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("autopilot", [Autopilot.PX4, Autopilot.ARDUPILOT])
+def test_the_fence_round_trips_through_the_mock_vehicle(
+    autopilot: Autopilot, fenced_plan: tuple[Path, Path, str], tmp_path: Path
+) -> None:
+    from mavlink_helpers import client_conn, running_mock
+
+    from uavplan.mavlink.mock_vehicle import MockConfig
+
+    _, plan_path, _ = fenced_plan
+    plan = load_mission(plan_path)
+    runner = CliRunner()
+    back_path = tmp_path / "back.plan"
+    with running_mock(MockConfig(autopilot=autopilot, home=plan.home)) as vehicle:
+        conn = client_conn(vehicle)
+        result = runner.invoke(main, ["upload", str(plan_path), "--conn", conn])
+        assert result.exit_code == 0, result.output
+        n_fence = len(plan.fence.wire_items())
+        assert f"{n_fence} fence items" in result.output
+        stored = vehicle.items(MissionType.FENCE)
+        assert len(stored) == n_fence
+        assert all(items_equal(a, b) for a, b in zip(plan.fence.wire_items(), stored, strict=True))
+        result = runner.invoke(main, ["download", "--conn", conn, "-o", str(back_path)])
+        assert result.exit_code == 0, result.output
+    back = load_mission(back_path)
+    assert _same_fence(back, plan)
+
+
+def _same_fence(a: MissionPlan, b: MissionPlan) -> bool:
+    wa, wb = a.fence.wire_items(), b.fence.wire_items()
+    return len(wa) == len(wb) and all(items_equal(x, y) for x, y in zip(wa, wb, strict=True))
+
+
+def test_a_fenced_plan_survives_save_and_load(tmp_path: Path) -> None:
+    footprints = [box(0, 300, 100, 100, 100, 50), circle(1, 500, -200, 20, 40)]
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10)
+    plan = MissionPlan(items=(), home=ORIGIN, fence=built.fence)
+    save_mission(plan, tmp_path / "f.plan")
+    assert load_mission(tmp_path / "f.plan").fence == built.fence
