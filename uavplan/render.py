@@ -166,10 +166,10 @@ def render_scenario(
             2,
             width_ratios=(1.3, 1.0),
             left=0.0,
-            right=0.96,
+            right=0.92,
             bottom=footer,
             top=1.0 - header,
-            wspace=0.2,
+            wspace=0.3,
         )
         ax3d = fig.add_subplot(grid[0, 0], projection="3d")
         ax2d = fig.add_subplot(grid[0, 1])
@@ -191,10 +191,11 @@ def render_scenario(
     cell = ax3d.get_position(original=True)
     cell_w, cell_h = cell.width * width_px, cell.height * height_px
     side = min(cell_w, cell_h)
-    zoom = 0.88 * min(cell_w / side, _BOX_ASPECT_ON_SCREEN * cell_h / side) / 1.05
+    zoom = min(cell_w / side, _BOX_ASPECT_ON_SCREEN * cell_h / side) / 1.05
     _draw_3d(ax3d, scenario, footprints, layers, shade, scale, zoom)
     mappable = _draw_top(ax2d, scenario, footprints, layers, shade, scale)
-    bar = fig.colorbar(mappable, ax=ax2d, fraction=0.035, pad=0.02)
+    # the colour bar rides on the top view (whatever its aspect leaves of the panel)
+    bar = fig.colorbar(mappable, cax=ax2d.inset_axes((1.03, 0.0, 0.03, 1.0)))
     bar.set_label("obstacle height (m)", fontsize=9 * scale)
     bar.ax.tick_params(labelsize=8 * scale)
 
