@@ -139,12 +139,13 @@ def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str,
         subtitle = f"{name}: {len(plan.items)} items, nothing to fly"
     else:
         length = float(np.linalg.norm(np.diff(flown, axis=0), axis=1).sum())
-        clearance = World.from_scenario(scn).polyline_clearance(flown)
-        warning = "  (closer than the margin!)" if clearance < scn.safety_margin_m - 1e-6 else ""
-        subtitle = (
-            f"{name}: {len(plan.items)} items, {length:.0f} m flown, min clearance "
-            f"{clearance:.2f} m (margin {scn.safety_margin_m:g} m){warning}"
-        )
+        subtitle = f"{name}: {len(plan.items)} items, {length:.0f} m flown"
+        if scn.obstacles:
+            clearance = World.from_scenario(scn).polyline_clearance(flown)
+            close = clearance < scn.safety_margin_m - 1e-6
+            subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
+                "  (closer than the margin!)" if close else ""
+            )
     render_scenario(scn, output, layers, subtitle=subtitle, **picture)
     return subtitle
 
