@@ -286,12 +286,6 @@ def test_batch_of_mixed_segments() -> None:
     assert w.segments_free(p0[:0], p1[:0]).shape == (0,)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=IndexError,
-    reason="BUG: World.points_clearance/segments_clearance with no obstacles raise IndexError "
-    "(self.owner[np.maximum(piece, 0)] indexes an empty array) instead of (inf, -1)",
-)
 def test_world_without_obstacles() -> None:
     w = world()
     assert free(w, (0, 0, 10), (100, 0, 10))
@@ -307,11 +301,6 @@ def test_world_without_obstacles_segments_free() -> None:
     assert not free(w, (0, 0, 10), (100, 0, 600))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: a PrismObstacle whose polygon is clockwise (only the YAML loader reorients) is "
-    "silently lost by World.build: ear clipping finds no CCW ear, the CW triangle gives no piece",
-)
 def test_clockwise_prism_given_directly_is_still_an_obstacle() -> None:
     cw = PrismObstacle(tuple(reversed(L_SHAPE.polygon_m)), 20.0)
     w = world(cw, CYL)  # CYL keeps `owner` non-empty

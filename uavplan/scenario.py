@@ -335,7 +335,13 @@ def _dataclass_section(chk: _Checker, raw: Any, key: str, cls: type, renames: Ma
     try:
         return cls(**kwargs)
     except ValueError as err:
-        raise chk.fail(key, str(err)) from None
+        # name the key the user wrote: "dx_m must be ..." -> planner.grid.dx: "must be ..."
+        message = str(err)
+        for field_name in sorted(field_names(cls), key=len, reverse=True):
+            if message.startswith(field_name + " must"):
+                user_key = next((k for k, v in renames.items() if v == field_name), field_name)
+                raise chk.fail(_join(key, user_key), message[len(field_name) + 1 :]) from None
+        raise chk.fail(key, message) from None
 
 
 def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
@@ -378,7 +384,10 @@ def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
         post = _dataclass_section(chk, raw["post"], "planner.post", PostParams, {})
     options: Mapping[str, Any] = {}
     if "options" in raw:
-        options = dict(chk.mapping(raw["options"], "planner.options", set(raw["options"] or {})))
+        opts = raw["options"]
+        if not isinstance(opts, Mapping):
+            raise chk.fail("planner.options", f"must be a mapping, got {_type_name(opts)}")
+        options = dict(chk.mapping(opts, "planner.options", {str(k) for k in opts}))
     return PlannerConfig(algorithm, search, grid, energy, spsa, post, options)
 
 
@@ -481,13 +490,21 @@ def load_scenario(path: str | Path) -> Scenario:
         mission=mission,
         source=str(path),
     )
-    _check_geometry(chk, scenario)
+    _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"))
     return scenario
 
 
-def _check_geometry(chk: _Checker, scn: Scenario) -> None:
-    """Start and goal inside the bounds, clear of every obstacle plus the margin."""
+def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | None) -> None:
+    """Start and goal inside the bounds, clear of every obstacle plus the margin, and the
+    vertical take-off climb (and the landing descent with ``end: land``) clear too."""
+    import numpy as np
+
     from uavplan.world import World  # the world layer knows nothing of YAML
+
+    def name(index: int) -> str:
+        if index < n_map:
+            return f"obstacle #{index} of map {map_ref}"
+        return f"obstacles[{index - n_map}]"
 
     for key, point in (("start", scn.start_m), ("goal", scn.goal_m)):
         if not scn.bounds.contains(point):
@@ -495,12 +512,25 @@ def _check_geometry(chk: _Checker, scn: Scenario) -> None:
     if math.hypot(scn.goal_m[0] - scn.start_m[0], scn.goal_m[1] - scn.start_m[1]) < 1.0:
         raise chk.fail("goal", "must be at least 1 m away from the start horizontally")
     world = World.from_scenario(scn)
+    margin = scn.safety_margin_m
     for key, point in (("start", scn.start_m), ("goal", scn.goal_m)):
         clearance, index = world.nearest_obstacle(point)
-        if index >= 0 and clearance < scn.safety_margin_m - 1e-9:
+        if index >= 0 and clearance < margin - 1e-9:
             inside = "inside" if clearance <= 0 else f"{clearance:.1f} m from"
             raise chk.fail(
+                key, f"{list(point)} is {inside} {name(index)} (needs {margin:g} m safety margin)"
+            )
+    columns = [("start", scn.start_m, "take-off climb")]
+    if scn.mission.end == "land":
+        columns.append(("goal", scn.goal_m, "landing descent"))
+    for key, point, what in columns:
+        top = np.array([point], dtype=float)
+        ground = top.copy()
+        ground[0, 2] = 0.0
+        dist, which = world.segments_clearance(ground, top)
+        if which[0] >= 0 and dist[0] < margin - 1e-9:
+            raise chk.fail(
                 key,
-                f"{list(point)} is {inside} obstacles[{index}] "
-                f"(needs {scn.safety_margin_m:g} m safety margin)",
+                f"the {what} above {list(point[:2])} passes {dist[0]:.1f} m from "
+                f"{name(int(which[0]))} (needs {margin:g} m safety margin)",
             )

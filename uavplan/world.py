@@ -83,6 +83,12 @@ def _cell_size(box: np.ndarray) -> float:
 
 def _convex_pieces(obstacle: Obstacle) -> list[list[tuple[float, float]]]:
     poly = obstacle.footprint()
+    area2 = sum(
+        poly[i][0] * poly[(i + 1) % len(poly)][1] - poly[(i + 1) % len(poly)][0] * poly[i][1]
+        for i in range(len(poly))
+    )
+    if area2 < 0:  # the kernels and the ear clipping expect counter-clockwise polygons
+        poly = poly[::-1]
     if len(poly) <= MAX_VERTS and _is_convex_ccw(poly):
         return [poly]
     return _triangulate(poly)
@@ -256,14 +262,20 @@ class World:
         """Exact distance (n,) from each point to the nearest obstacle and its index (-1: none)."""
         p = np.ascontiguousarray(np.atleast_2d(points), dtype=float)
         dist, piece = _geom.points_clearance(p, self.kernel_args)
-        return dist, np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
+        return dist, self._owners(piece)
 
     def segments_clearance(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact minimum distance (n,) from each segment to the nearest obstacle and its index."""
         p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
         p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
         dist, piece = _geom.segments_clearance(p0, p1, self.kernel_args)
-        return dist, np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
+        return dist, self._owners(piece)
+
+    def _owners(self, piece: np.ndarray) -> np.ndarray:
+        """Obstacle index of each piece index (−1 stays −1: no obstacle at all)."""
+        if self.owner.size == 0:
+            return np.full(piece.shape, -1, dtype=np.int64)
+        return np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
 
     def polyline_clearance(self, points: np.ndarray) -> float:
         """Smallest distance between the polyline through ``points`` (n, 3) and any obstacle."""
