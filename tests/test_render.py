@@ -92,7 +92,7 @@ def test_render_a_mission_file_plans_nothing(tmp_path: Path, monkeypatch) -> Non
 
 
 def test_render_scenario_only_and_exact_sizes(tmp_path: Path) -> None:
-    scenario = ROOT / "missions" / "paper-env3.yaml"
+    scenario = ROOT / "missions" / "paper-env1.yaml"
     for size, dpi in (("500x500", "50"), ("731x333", "37")):
         out = tmp_path / f"s{size}.png"
         result = run(
