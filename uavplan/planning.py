@@ -16,7 +16,14 @@ from typing import Any
 import numpy as np
 
 from uavplan.path.energy import energy_terms
-from uavplan.path.post import dedupe, resample_waypoints, simplify, smooth_route, tighten
+from uavplan.path.post import (
+    dedupe,
+    refine,
+    resample_waypoints,
+    simplify,
+    smooth_route,
+    tighten,
+)
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn
 from uavplan.planners.params import PostParams
 from uavplan.planners.registry import make_planner
@@ -125,13 +132,18 @@ def plan_route(
     cfg = scenario.planner
     world = world or World.from_scenario(scenario)
     problem = problem or PathProblem.build(
-        world, scenario.start_m, scenario.goal_m, cfg.grid, cfg.energy
+        world,
+        scenario.start_m,
+        scenario.goal_m,
+        cfg.grid,
+        cfg.energy,
+        cfg.search.fitness_smoothing,
     )
     planner = make_planner(cfg.algorithm, cfg.search, cfg.spsa, cfg.options)
     post = cfg.post
     if not planner.postprocess:
         # the paper's protocol post-processes SPSA only (section 4.5 is SPSA's contribution 5)
-        post = replace(post, simplify=False, tighten=False)
+        post = replace(post, simplify=False, refine=False, tighten=False)
 
     t0 = time.perf_counter()
     res = planner.solve(problem, np.random.default_rng(cfg.search.seed), progress)
@@ -152,7 +164,9 @@ def plan_route(
         vertices = nodes_pf[simplify(nodes_pf, wpf)]
         if post.select == "population" and res.population is not None:
             nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
-    if post.tighten:
+    if post.refine:
+        vertices = refine(vertices, wpf, cfg.energy)
+    elif post.tighten:
         vertices = tighten(vertices, wpf)
     route = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
     waypoints_pf = resample_waypoints(route, wpf, scenario.mission.spacing_m)

@@ -354,6 +354,7 @@ def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
         "energy",
         "t_max",
         "init_half_window",
+        "fitness_smoothing",
         "spsa",
         "post",
         "options",
@@ -364,7 +365,14 @@ def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
         algorithm = chk.string(raw["algorithm"], "planner.algorithm", ALGORITHMS)
     search_raw = {
         k: raw[k]
-        for k in ("population", "iterations", "seed", "t_max", "init_half_window")
+        for k in (
+            "population",
+            "iterations",
+            "seed",
+            "t_max",
+            "init_half_window",
+            "fitness_smoothing",
+        )
         if k in raw
     }
     search = _dataclass_section(chk, search_raw, "planner", SearchParams, {})

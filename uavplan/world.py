@@ -251,11 +251,13 @@ class World:
         margin = self.margin_m if margin_m is None else float(margin_m)
         return _geom.segments_free(p0, p1, self.kernel_args, margin)
 
-    def points_inside_bounds(self, points: np.ndarray) -> np.ndarray:
+    def points_inside_bounds(self, points: np.ndarray, tol_m: float = 1e-9) -> np.ndarray:
+        """(n,) bool: inside the bounds, allowing ``tol_m`` outside (e.g. for positions that
+        went through float32 / 1e-7° rounding)."""
         p = np.atleast_2d(np.asarray(points, dtype=float))
-        ok = (p[:, 2] >= self.zlim[0] - 1e-9) & (p[:, 2] <= self.zlim[1] + 1e-9)
+        ok = (p[:, 2] >= self.zlim[0] - tol_m) & (p[:, 2] <= self.zlim[1] + tol_m)
         for a, b, k in self.hp:
-            ok &= a * p[:, 0] + b * p[:, 1] <= k + 1e-9
+            ok &= a * p[:, 0] + b * p[:, 1] <= k + tol_m * math.hypot(a, b)
         return ok
 
     def points_clearance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

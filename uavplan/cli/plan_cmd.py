@@ -215,7 +215,7 @@ def validate_command(file: str, scenario_path: str | None) -> None:
     world = World.from_scenario(scn)
     dist, which = world.segments_clearance(poly[:-1], poly[1:])
     worst = int(np.argmin(dist))
-    inside = world.points_inside_bounds(poly)
+    inside = world.points_inside_bounds(poly, tol_m=0.05)  # files round to ~1 cm
     if not inside.all():
         k = int(np.flatnonzero(~inside)[0])
         raise NoPathError(

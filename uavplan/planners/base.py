@@ -48,6 +48,7 @@ class PathProblem:
     goal_u: np.ndarray  # (2,)
     line_u: np.ndarray  # (D + 1, 2) start-end line in grid units
     table: tuple[np.ndarray, np.ndarray]  # node clearance table (D+1, ny, nz), (y, z) offsets
+    fitness_smoothing: int = 0  # see population_energy: 0 = the paper's fitness
     memo: tuple[np.ndarray, np.ndarray] = field(default_factory=K.new_memo)
 
     @classmethod
@@ -58,6 +59,7 @@ class PathProblem:
         goal_enu: tuple[float, float, float],
         grid: GridSpec,
         energy: EnergyWeights,
+        fitness_smoothing: int = 0,
     ) -> PathProblem:
         frame = PathFrame.build(start_enu, goal_enu, grid)
         world = world_enu.in_frame(frame.origin_xy, frame.heading_rad)
@@ -75,6 +77,7 @@ class PathProblem:
             np.array(frame.goal_units),
             line,
             _clearance_table(world, frame),
+            fitness_smoothing,
         )
 
     @property
@@ -112,6 +115,7 @@ class PathProblem:
             w.k1,
             w.mu0,
             w.k2,
+            self.fitness_smoothing,
         )
 
     def fitness_of_changed(

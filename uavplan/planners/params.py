@@ -63,6 +63,9 @@ class SearchParams:
     seed: int = 1
     t_max: int = 10  # T_max, Table 1
     init_half_window: float = 10.0  # Δh, section 6
+    #: ours: the fitness spline runs through a moving average of the nodes (half-width in
+    #: columns) so the grid rounding's staircase does not dominate it; 0 = the paper's fitness
+    fitness_smoothing: int = 2
 
     def __post_init__(self) -> None:
         if not (isinstance(self.population, int) and self.population >= 4):
@@ -75,6 +78,8 @@ class SearchParams:
             raise ValueError("t_max must be an integer >= 1")
         if not (self.init_half_window > 0):
             raise ValueError("init_half_window must be > 0")
+        if not (isinstance(self.fitness_smoothing, int) and self.fitness_smoothing >= 0):
+            raise ValueError("fitness_smoothing must be an integer >= 0")
 
 
 @dataclass(frozen=True)
@@ -102,7 +107,7 @@ class SpsaParams:
     start_end_producer: bool = True  # contribution 2 (off: SSA's eq. 3 producer)
     escape: bool = True  # contribution 3 (adaptive variable-speed escape)
     oscillation: bool = True  # contribution 4
-    restarts: int = 1  # ours: split the iterations into this many independent searches
+    restarts: int = 4  # ours: split the iterations into this many independent searches (paper: 1)
 
     def __post_init__(self) -> None:
         for name in ("producer_ratio", "scrounger_ratio", "danger_ratio", "warning_value"):
@@ -145,13 +150,14 @@ class SpsaParams:
 class PostParams:
     """Post-processing of the best path into a flyable route (section 4.5 and SPEC §4).
 
-    ``simplify`` and ``smooth`` are SPSA's contribution 5. ``tighten`` is ours, not the
-    paper's: after node simplification, interior vertices are pulled off the grid toward the
-    straight chord while every leg keeps the margin. The paper's protocol post-processes
+    ``simplify`` and ``smooth`` are SPSA's contribution 5. ``refine`` (a pattern search on
+    the simplified polyline) and ``tighten`` (string pulling) are ours, not the paper's: they
+    move vertices off the grid while every leg keeps the margin. The paper's protocol post-processes
     SPSA's path only; baselines report their raw best path unless asked otherwise.
     """
 
     simplify: bool = True
+    refine: bool = True
     tighten: bool = True
     smooth: bool = True
     sample_step_m: float = 5.0  # resolution of the final smoothed curve

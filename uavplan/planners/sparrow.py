@@ -83,7 +83,10 @@ class SparrowPlanner(SwarmPlanner):
         f_prod = problem.fitness_of_changed(cand[producers], x[producers], f[producers])
         p_best = cand[producers[int(np.argmin(f_prod))]]
 
-        # --- scroungers: eq. 4, with the escape of eq. 12 ---------------------------------
+        # --- scroungers (eq. 4, escape of eq. 12) and danger-aware sparrows (eq. 5) ---------
+        # One kernel call: a danger-aware sparrow's new position replaces whatever its role
+        # would have given it, so a scrounger picked as danger-aware skips its eq. 4 update
+        # (a producer's update above still counts: it may be the best producer).
         rules = np.full(n_pop, -1, dtype=np.int64)
         if prm.scrounger_index == "scrounger":
             index, half = np.arange(1, scroungers.size + 1), scroungers.size / 2.0
@@ -98,30 +101,25 @@ class SparrowPlanner(SwarmPlanner):
             rules[near] = K.R_SCROUNGER_NEAR
             refs[near, 0] = p_best
             # |P − P_p|·A⁺·L with A a random ±1 row: A⁺ = Aᵀ/d, the same offset on every node
-            signs = rng.choice(np.array([-1.0, 1.0]), size=(near.size, n_inner, 2))
+            signs = 2.0 * rng.integers(0, 2, size=(near.size, n_inner, 2)) - 1.0
             scal[near, :2] = (np.abs(x[near] - p_best) * signs).sum(axis=1) / n_inner
         escape = np.zeros(n_pop, dtype=np.bool_)
         escape[scroungers] = prm.escape
-        cand_s, ok_s, escapes = problem.rebuild(
-            x, rules, refs, scal, escape, search.t_max, rng, v_range
-        )
-        cand[scroungers] = cand_s[scroungers]
-
-        # --- danger-aware sparrows: eq. 5 --------------------------------------------------
         n_danger = min(n_pop, round(prm.danger_ratio * n_pop))
+        aware = rng.permutation(n_pop)[:n_danger]
         if n_danger:
-            aware = rng.choice(n_pop, size=n_danger, replace=False)
-            rules = np.full(n_pop, -1, dtype=np.int64)
+            escape[aware] = False
             is_best = f[aware] <= f[best_i]
             rules[aware[~is_best]] = K.R_DANGER
             refs[aware[~is_best], 0] = x[best_i]
             rules[aware[is_best]] = K.R_DANGER_BEST
             refs[aware[is_best], 0] = x[worst_i]
             scal[aware[is_best], 0] = 1.0 / (f[aware[is_best]] - f[worst_i] + EPS)
-            cand_d, _, _ = problem.rebuild(
-                x, rules, refs, scal, no_escape, search.t_max, rng, v_range
-            )
-            cand[aware] = cand_d[aware]
+        cand_s, ok_s, escapes = problem.rebuild(
+            x, rules, refs, scal, escape, search.t_max, rng, v_range
+        )
+        moved = rules >= 0
+        cand[moved] = cand_s[moved]
 
         # --- adaptive oscillation optimisation: eq. 13 -----------------------------------
         if prm.oscillation:
