@@ -297,7 +297,7 @@ def _randn(st):
 
 def stream_seeds(rng: np.random.Generator, n: int) -> np.ndarray:
     """One seed per individual for the kernels' random streams, drawn from ``rng``."""
-    return rng.integers(0, np.iinfo(np.int64).max, size=n, dtype=np.int64).astype(np.uint64)
+    return rng.bit_generator.random_raw(n)
 
 
 @njit(cache=True, inline="always")
