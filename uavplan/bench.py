@@ -193,6 +193,7 @@ class RunRecord:
     runtime_s: float
     iterations: int
     deadlocks: int
+    stats: dict[str, float] = field(default_factory=dict)  # the planner's counters
     convergence: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0))
 
     def row(self) -> dict[str, Any]:
@@ -351,6 +352,7 @@ def run_job(job: BenchJob) -> RunRecord:
         runtime_s=float(res.runtime_s),
         iterations=int(pr.iterations),
         deadlocks=int(pr.deadlocks),
+        stats={k: float(v) for k, v in pr.stats.items() if isinstance(v, int | float)},
         convergence=np.asarray(pr.convergence, dtype=float),
     )
 
@@ -576,7 +578,8 @@ def write_outputs(
         written.append(out / name)
 
     rows = [r.row() for r in records]
-    put("runs.csv", _csv(rows, list(RunRecord.__dataclass_fields__)[:-1]))
+    columns = [c for c in RunRecord.__dataclass_fields__ if c != "convergence"]
+    put("runs.csv", _csv([{**r, "stats": json.dumps(r["stats"])} for r in rows], columns))
     srows = [{**dataclasses.asdict(s), "success_rate": s.success_rate} for s in summaries]
     put("summary.csv", _csv(srows, [*Summary.__dataclass_fields__, "success_rate"]))
     doc = {
