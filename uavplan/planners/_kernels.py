@@ -145,21 +145,19 @@ def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, geo, cap):
 
 
 @njit(cache=True, inline="always")
-def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
+def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
     """Reachability of the node of column ``j`` (1-based) at (y1, z1) from the node before it
-    at (y0, z0), both in grid units. Column 0 is the start; the node of the last inner
-    column must also reach the goal. ``start_m``/``goal_m``: (x, y, z) path-frame metres;
-    ``geo``: the world arrays in the path frame, the memo (keys, values), the clearance
-    table and its (y, z) index offsets.
+    at (y0, z0), both in grid units, from the cheap sources only: 1 free, 0 blocked, −1
+    unknown (call :func:`node_resolve`). ``lim`` is the margin (see :func:`margin_limit`).
 
-    Fast path (interior columns): a node closer than the margin (or outside the bounds) is
-    unreachable; the segment between nodes with clearances d0, d1 keeps the margin when
-    (d0 + d1 − length)/2 >= margin (distance is 1-Lipschitz). Otherwise the exact test
-    runs once and its answer is memoised.
+    Interior columns: a node closer than the margin (or outside the bounds) is unreachable;
+    the segment between nodes with clearances d0, d1 keeps the margin when
+    (d0 + d1 − length)/2 >= margin (distance is 1-Lipschitz). Otherwise the memo answers if
+    this segment was resolved before.
+
+    The hot kernels take the table, offsets and memo as separate arrays and call this
+    inline; handing numba the whole world tuple per call costs more than the test itself.
     """
-    keys = geo[11]
-    tab = geo[13]
-    off = geo[14]
     if 1 < j < tab.shape[0] - 2:
         a = int(y0) - off[0]
         b = int(z0) - off[1]
@@ -168,25 +166,19 @@ def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
         ny = tab.shape[1]
         nz = tab.shape[2]
         if a < 0 or a >= ny or c < 0 or c >= ny or b < 0 or b >= nz or d < 0 or d >= nz:
-            return False  # outside the bounds' bounding box
+            return 0  # outside the bounds' bounding box
         d0 = tab[j - 1, a, b]
         d1 = tab[j, c, d]
-        lim = margin - 1e-9
-        if lim < 1e-9:
-            lim = 1e-9
         if d0 < lim or d1 < lim:
-            return False
+            return 0
         ey = (y1 - y0) * dy
         ez = (z1 - z0) * dz
         length = math.sqrt(dx * dx + ey * ey + ez * ez)
         if d0 + d1 - length >= 2.0 * lim:
-            return True
-    if j == 1:
-        key = _memo_key(j, 0, 0, y1, z1)
-    else:
-        key = _memo_key(j, y0, z0, y1, z1)
+            return 1
+    key = _memo_key(j, 0, 0, y1, z1) if j == 1 else _memo_key(j, y0, z0, y1, z1)
     if key < 0:
-        return _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+        return -1
     mask = keys.shape[0] - 1
     h = key ^ (key >> 30)
     h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
@@ -195,15 +187,51 @@ def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
     for _probe in range(64):
         k = keys[h]
         if k == _EMPTY:
-            free = _segment_to_node_free(
-                j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin
-            )
-            keys[h] = 2 * key + (1 if free else 0)  # one store: a whole entry or none
-            return free
+            return -1
         if (k >> 1) == key:
-            return (k & 1) == 1
+            return k & 1
         h = (h + 1) & mask
-    return _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+    return -1
+
+
+@njit(cache=True)
+def node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
+    """The exact reachability test behind :func:`node_status`, memoised. Entries pack
+    ``key·2 + free`` into one int64 (a reader sees a whole entry or none)."""
+    free = _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+    key = _memo_key(j, 0, 0, y1, z1) if j == 1 else _memo_key(j, y0, z0, y1, z1)
+    if key >= 0:
+        keys = geo[11]
+        mask = keys.shape[0] - 1
+        h = key ^ (key >> 30)
+        h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
+        h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
+        h &= mask
+        for _probe in range(64):
+            k = keys[h]
+            if k == _EMPTY or (k >> 1) == key:
+                keys[h] = 2 * key + (1 if free else 0)
+                break
+            h = (h + 1) & mask
+    return 1 if free else 0
+
+
+@njit(cache=True, inline="always")
+def margin_limit(margin):
+    """The clearance a node must have: the margin (less a nanometre for rounding); a zero
+    margin still means not touching."""
+    lim = margin - 1e-9
+    return lim if lim >= 1e-9 else 1e-9
+
+
+@njit(cache=True)
+def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
+    """:func:`node_status` then, if needed, :func:`node_resolve` (for callers off the hot
+    path)."""
+    r = node_status(j, y0, z0, y1, z1, dx, dy, dz, margin_limit(margin), geo[13], geo[14], geo[11])
+    if r < 0:
+        r = node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+    return r == 1
 
 
 @njit(cache=True)
@@ -231,6 +259,7 @@ def init_population(
     ``t_max`` times, after which the individual is deadlocked and started again (at most
     ``max_attempts`` starts per individual). Returns (nodes, ok, deadlocks).
     """
+    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
     nodes = np.zeros((n_pop, n_inner, 2))
     ok = np.zeros(n_pop, dtype=np.bool_)
     deadlocks = 0
@@ -247,7 +276,12 @@ def init_population(
                 for _t in range(t_max):
                     ny = _round(ty + (2.0 * rng.random() - 1.0) * half_window)
                     nz = _round(tz + (2.0 * rng.random() - 1.0) * half_window)
-                    if node_free(j, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                    r = node_status(j, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+                    if r < 0:
+                        r = node_resolve(
+                            j, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                        )
+                    if r == 1:
                         placed = True
                         break
                 if not placed:
@@ -287,12 +321,65 @@ def _rand(st):
     return float(_next_u64(st) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
+def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tables of Marsaglia & Tsang's ziggurat (2000) for the standard normal, 128 layers."""
+    m1 = 2147483648.0
+    dn = 3.442619855899
+    tn = dn
+    vn = 9.91256303526217e-3
+    kn = np.zeros(128)
+    wn = np.zeros(128)
+    fn = np.zeros(128)
+    q = vn / math.exp(-0.5 * dn * dn)
+    kn[0] = (dn / q) * m1
+    kn[1] = 0.0
+    wn[0] = q / m1
+    wn[127] = dn / m1
+    fn[0] = 1.0
+    fn[127] = math.exp(-0.5 * dn * dn)
+    for i in range(126, 0, -1):
+        dn = math.sqrt(-2.0 * math.log(vn / dn + math.exp(-0.5 * dn * dn)))
+        kn[i + 1] = (dn / tn) * m1
+        tn = dn
+        fn[i] = math.exp(-0.5 * dn * dn)
+        wn[i] = dn / m1
+    return kn, wn, fn
+
+
+_ZKN, _ZWN, _ZFN = _ziggurat_tables()
+_ZR = 3.442619855899
+
+
+@njit(cache=True)
+def _randn_tail(st, hz, iz):
+    """The ziggurat's slow path (rare): wedges and the tail."""
+    while True:
+        x = hz * _ZWN[iz]
+        if iz == 0:
+            while True:
+                x = -math.log(1.0 - _rand(st)) / _ZR
+                y = -math.log(1.0 - _rand(st))
+                if y + y >= x * x:
+                    break
+            return _ZR + x if hz > 0 else -_ZR - x
+        if _ZFN[iz] + _rand(st) * (_ZFN[iz - 1] - _ZFN[iz]) < math.exp(-0.5 * x * x):
+            return x
+        u = _next_u64(st)
+        iz = int(u & np.uint64(127))
+        hz = float(np.int32(np.uint32(u >> np.uint64(32))))
+        if abs(hz) < _ZKN[iz]:
+            return hz * _ZWN[iz]
+
+
 @njit(cache=True, inline="always")
 def _randn(st):
-    """Standard normal (Box–Muller)."""
-    u1 = 1.0 - _rand(st)
-    u2 = _rand(st)
-    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)
+    """Standard normal: Marsaglia & Tsang's ziggurat (one 64-bit draw on the fast path)."""
+    u = _next_u64(st)
+    iz = int(u & np.uint64(127))
+    hz = float(np.int32(np.uint32(u >> np.uint64(32))))
+    if abs(hz) < _ZKN[iz]:
+        return hz * _ZWN[iz]
+    return _randn_tail(st, hz, iz)
 
 
 def stream_seeds(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -395,6 +482,7 @@ def rebuild(
     ``seeds`` (G,) uint64: each individual's random stream (see :func:`stream_seeds`).
     Returns (new positions, ok, escapes used).
     """
+    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
     n_pop = base.shape[0]
     n_inner = base.shape[1]
     out = base.copy()
@@ -419,7 +507,12 @@ def rebuild(
                 if same and ny == base[g, j, 0] and nz == base[g, j, 1]:
                     placed = True
                     break
-                if node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+                if r < 0:
+                    r = node_resolve(
+                        j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                    )
+                if r == 1:
                     placed = True
                     break
             if not placed and escape[g]:
@@ -427,9 +520,12 @@ def rebuild(
                     for _t in range(t_max):
                         ny = _round(base[g, j, 0] + (2.0 * _rand(st) - 1.0) * v)
                         nz = _round(base[g, j, 1] + (2.0 * _rand(st) - 1.0) * v)
-                        if node_free(
-                            j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                        ):
+                        r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+                        if r < 0:
+                            r = node_resolve(
+                                j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                            )
+                        if r == 1:
                             placed = True
                             break
                     if placed:
@@ -438,9 +534,14 @@ def rebuild(
             if not placed:
                 ny = base[g, j, 0]
                 nz = base[g, j, 1]
-                placed = same or node_free(
-                    j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                )
+                placed = same
+                if not placed:
+                    r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+                    if r < 0:
+                        r = node_resolve(
+                            j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                        )
+                    placed = r == 1
             if not placed:
                 ok[g] = False
                 break
@@ -465,6 +566,7 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
     below 3 the node is kept. Windows are cut at the goal. An individual whose kept node
     became unreachable is left as it was. Returns the number of nodes moved.
     """
+    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
     moved = np.zeros(n_pop, dtype=np.int64)
@@ -497,18 +599,26 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
                 if same and ny == nodes[g, j, 0] and nz == nodes[g, j, 1]:
                     placed = True
                     break
-                if node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+                r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+                if r < 0:
+                    r = node_resolve(
+                        j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                    )
+                if r == 1:
                     placed = True
                     break
             if not placed:
                 ny = nodes[g, j, 0]
                 nz = nodes[g, j, 1]
-                if not (
-                    same
-                    or node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin)
-                ):
-                    ok = False
-                    break
+                if not same:
+                    r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+                    if r < 0:
+                        r = node_resolve(
+                            j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
+                        )
+                    if r != 1:
+                        ok = False
+                        break
             same = ny == nodes[g, j, 0] and nz == nodes[g, j, 1]
             if not same:
                 count += 1
@@ -527,6 +637,7 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
 @njit(cache=True)
 def paths_feasible(nodes, dx, dy, dz, start_m, goal_m, geo, margin):
     """(G,) bool: every segment of every individual reachable (start → nodes → goal)."""
+    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
     out = np.ones(n_pop, dtype=np.bool_)
@@ -536,7 +647,10 @@ def paths_feasible(nodes, dx, dy, dz, start_m, goal_m, geo, margin):
         for j in range(n_inner):
             ny = nodes[g, j, 0]
             nz = nodes[g, j, 1]
-            if not node_free(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin):
+            r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
+            if r < 0:
+                r = node_resolve(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin)
+            if r != 1:
                 out[g] = False
                 break
             py = ny
