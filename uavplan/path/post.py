@@ -27,7 +27,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from uavplan.planners.params import EnergyWeights
 from uavplan.world import World
@@ -186,8 +185,43 @@ class SmoothRoute:
     vertex_index: np.ndarray  # (m,)
 
 
+class NaturalSpline:
+    """Natural cubic spline through points ``v`` (m, 3) at parameters ``s`` (m,), strictly
+    increasing. Small and dependency-free (importing scipy.interpolate costs half a second
+    of every ``uavplan plan``)."""
+
+    def __init__(self, s: np.ndarray, v: np.ndarray) -> None:
+        self.s = np.asarray(s, dtype=float)
+        self.v = np.asarray(v, dtype=float)
+        m = self.s.size
+        h = np.diff(self.s)
+        a = np.zeros((m, m))
+        rhs = np.zeros((m, self.v.shape[1]))
+        a[0, 0] = a[-1, -1] = 1.0  # natural ends: zero second derivative
+        for i in range(1, m - 1):
+            a[i, i - 1] = h[i - 1]
+            a[i, i] = 2.0 * (h[i - 1] + h[i])
+            a[i, i + 1] = h[i]
+            rhs[i] = 6.0 * (
+                (self.v[i + 1] - self.v[i]) / h[i] - (self.v[i] - self.v[i - 1]) / h[i - 1]
+            )
+        self.m2 = np.linalg.solve(a, rhs)  # second derivatives at the knots
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        i = np.clip(np.searchsorted(self.s, t, side="right") - 1, 0, self.s.size - 2)
+        h = (self.s[i + 1] - self.s[i])[:, None]
+        u = ((t - self.s[i]) / h[:, 0])[:, None]
+        w = 1.0 - u
+        return (
+            w * self.v[i]
+            + u * self.v[i + 1]
+            + (h * h / 6.0) * ((w**3 - w) * self.m2[i] + (u**3 - u) * self.m2[i + 1])
+        )
+
+
 def _leg_samples(
-    v: np.ndarray, spline: CubicSpline | None, s: np.ndarray, i: int, lam: float, step_m: float
+    v: np.ndarray, spline: NaturalSpline | None, s: np.ndarray, i: int, lam: float, step_m: float
 ) -> np.ndarray:
     """Dense samples of leg i (excluding its end vertex)."""
     a, b = v[i], v[i + 1]
@@ -211,7 +245,7 @@ def smooth_route(
     s = np.zeros(m)
     if smooth and m >= 3:
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(v, axis=0), axis=1))])
-        spline = CubicSpline(s, v, axis=0, bc_type="natural")
+        spline = NaturalSpline(s, v)
     blend = np.ones(m - 1) if spline is not None else np.zeros(m - 1)
     legs: list[np.ndarray] = []
     for i in range(m - 1):

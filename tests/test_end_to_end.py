@@ -1,0 +1,165 @@
+"""End to end: every bundled mission is planned by the CLI, written as a mission file, read
+back, and the polyline the autopilot would fly is checked against the scenario's obstacles
+with a distance computation written here from scratch (not the library's kernels)."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from uavplan.cli import main
+from uavplan.geo import EnuFrame
+from uavplan.mission.builder import mission_polyline_enu
+from uavplan.mission.io import load_mission
+from uavplan.mission.items import Autopilot, MavCmd
+from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+MISSIONS = sorted((ROOT / "missions").glob("*.yaml"))
+SAMPLE_M = 0.2  # spacing of the independent check; convex pieces cannot dip more than half
+
+
+def _inside(px: np.ndarray, py: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Even-odd ray casting, vectorised over points."""
+    inside = np.zeros(px.shape, dtype=bool)
+    n = len(poly)
+    for i in range(n):
+        (x1, y1), (x2, y2) = poly[i], poly[(i + 1) % n]
+        crosses = (y1 > py) != (y2 > py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_at = x1 + (py - y1) * (x2 - x1) / (y2 - y1)
+        inside ^= crosses & (px < x_at)
+    return inside
+
+
+def _edge_distance(px: np.ndarray, py: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    best = np.full(px.shape, np.inf)
+    n = len(poly)
+    for i in range(n):
+        a, b = poly[i], poly[(i + 1) % n]
+        ab = b - a
+        t = np.clip(((px - a[0]) * ab[0] + (py - a[1]) * ab[1]) / (ab @ ab), 0.0, 1.0)
+        best = np.minimum(best, np.hypot(px - (a[0] + t * ab[0]), py - (a[1] + t * ab[1])))
+    return best
+
+
+def independent_clearance(scenario, points: np.ndarray) -> np.ndarray:
+    """Distance from each point (n, 3) to the nearest obstacle solid (ground to height)."""
+    px, py, pz = points[:, 0], points[:, 1], points[:, 2]
+    best = np.full(len(points), np.inf)
+    for obs in scenario.obstacles:
+        if isinstance(obs, CylinderObstacle):
+            dh = np.maximum(np.hypot(px - obs.center_m[0], py - obs.center_m[1]) - obs.radius_m, 0)
+        else:
+            poly = np.array(obs.footprint() if isinstance(obs, BoxObstacle) else obs.polygon_m)
+            dh = np.where(_inside(px, py, poly), 0.0, _edge_distance(px, py, poly))
+        dz = np.maximum(pz - obs.height_m, 0.0) + np.maximum(-pz, 0.0)
+        best = np.minimum(best, np.hypot(dh, dz))
+    return best
+
+
+def densify(polyline: np.ndarray, step: float) -> np.ndarray:
+    pieces = []
+    for a, b in itertools.pairwise(polyline):
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / step)) + 1)
+        pieces.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+    return np.vstack(pieces)
+
+
+@pytest.mark.parametrize("mission", MISSIONS, ids=[m.stem for m in MISSIONS])
+@pytest.mark.timeout(300)
+def test_bundled_mission_flies_clear_of_every_obstacle(mission: Path, tmp_path: Path) -> None:
+    out = tmp_path / f"{mission.stem}.plan"
+    report = tmp_path / "report.json"
+    result = CliRunner().invoke(
+        main, ["plan", str(mission), "-o", str(out), "--report", str(report), "--quiet"]
+    )
+    assert result.exit_code == 0, result.output
+    scenario = load_scenario(mission)
+    plan = load_mission(out)
+    assert plan.autopilot == scenario.mission.autopilot
+    assert plan.items[0].command == MavCmd.NAV_TAKEOFF
+    flown = mission_polyline_enu(plan, EnuFrame.at(scenario.origin))
+    # the flown path starts on the ground at the start and reaches the goal
+    assert np.allclose(flown[0], [*scenario.start_m[:2], 0.0], atol=0.02)
+    assert np.min(np.linalg.norm(flown - np.array(scenario.goal_m), axis=1)) < 0.05
+    clearance = independent_clearance(scenario, densify(flown, SAMPLE_M))
+    assert clearance.min() >= scenario.safety_margin_m - SAMPLE_M / 2 - 0.02
+    # the report agrees with the independent check and has the SPEC's keys
+    rep = json.loads(report.read_text())
+    for key in (
+        "algorithm",
+        "seed",
+        "energy",
+        "energy_terms",
+        "length_m",
+        "runtime_s",
+        "iterations",
+        "convergence",
+        "waypoints",
+        "min_clearance_m",
+        "collision_free",
+    ):
+        assert key in rep
+    assert rep["collision_free"] is True
+    assert rep["min_clearance_m"] == pytest.approx(clearance.min(), abs=SAMPLE_M)
+    assert len(rep["convergence"]) == rep["iterations"]
+    assert set(rep["energy_terms"]) == {"path", "turning", "climb"}
+    assert rep["energy"] == pytest.approx(sum(rep["energy_terms"].values()))
+
+
+def test_both_autopilot_flavours_place_home_as_their_autopilot_expects(tmp_path: Path) -> None:
+    mission = ROOT / "missions" / "paper-env1.yaml"
+    for flavour, expected in (("px4", Autopilot.PX4), ("ardupilot", Autopilot.ARDUPILOT)):
+        out = tmp_path / f"{flavour}.plan"
+        result = CliRunner().invoke(
+            main,
+            [
+                "plan",
+                str(mission),
+                "-o",
+                str(out),
+                "--autopilot",
+                flavour,
+                "--iterations",
+                "150",
+                "--quiet",
+            ],
+        )
+        assert result.exit_code == 0, result.output
+        plan = load_mission(out)
+        assert plan.autopilot == expected
+        wire = plan.wire_items()
+        if expected == Autopilot.ARDUPILOT:
+            assert wire[0].command == MavCmd.NAV_WAYPOINT and wire[1].command == MavCmd.NAV_TAKEOFF
+        else:
+            assert wire[0].command == MavCmd.NAV_TAKEOFF
+
+
+def test_plan_exits_3_when_the_goal_is_walled_in(tmp_path: Path) -> None:
+    scenario = tmp_path / "walled.yaml"
+    scenario.write_text(
+        "origin: {lat: 47.0, lon: 8.0, alt: 400}\n"
+        "bounds: {x: [0, 1000], y: [-300, 300], z: [0, 200]}\n"
+        "start: [0, 0, 30]\n"
+        "goal: [900, 0, 30]\n"
+        "obstacles:\n"
+        "  - {type: box, center: [900, 80], size: [200, 20], height: 250}\n"
+        "  - {type: box, center: [900, -80], size: [200, 20], height: 250}\n"
+        "  - {type: box, center: [810, 0], size: [20, 180], height: 250}\n"
+        "  - {type: box, center: [990, 0], size: [20, 180], height: 250}\n"
+    )
+    out = tmp_path / "m.plan"
+    result = CliRunner().invoke(
+        main, ["plan", str(scenario), "-o", str(out), "--quiet", "--iterations", "20"]
+    )
+    assert result.exit_code == 3
+    assert "no collision-free path" in result.output
+    assert "Traceback" not in result.output
+    assert not out.exists()

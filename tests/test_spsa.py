@@ -1,0 +1,331 @@
+"""Every SPSA stage on small hand-made cases (paper sections 4.1–4.5).
+
+Worlds here are tiny (a few hundred metres, one or two obstacles) so each test runs in
+milliseconds once the kernels are compiled.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.path.energy import energy_terms
+from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
+from uavplan.planners import _kernels as K
+from uavplan.planners.base import PathProblem, PlanStatus, empty_refs
+from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams, SpsaParams
+from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner
+from uavplan.world import World
+
+GRID = GridSpec(20.0, 20.0, 10.0)
+W = EnergyWeights()
+
+
+def make_problem(
+    *obstacles, length: float = 400.0, margin: float = 10.0, smoothing: int = 0
+) -> PathProblem:
+    world = World.build(
+        list(obstacles),
+        bounds_xyz=((-50.0, length + 50.0), (-300.0, 300.0), (0.0, 200.0)),
+        margin_m=margin,
+    )
+    return PathProblem.build(world, (0.0, 0.0, 30.0), (length, 0.0, 30.0), GRID, W, smoothing)
+
+
+OPEN = make_problem()
+WALL = make_problem(BoxObstacle((200.0, 0.0), (40.0, 200.0), 150.0))
+
+
+def dense_clearance(world: World, points: np.ndarray, step: float = 0.5) -> float:
+    """Smallest exact point clearance sampled every ``step`` metres along a polyline."""
+    samples = []
+    for a, b in itertools.pairwise(points):
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / step)) + 1)
+        samples.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+    dist, _ = world.points_clearance(np.vstack(samples))
+    return float(dist.min())
+
+
+# --- 4.1 path initialisation (eq. 8–10) -----------------------------------------------------
+
+
+def test_initial_paths_are_feasible_and_stay_in_the_eq9_window() -> None:
+    search = SearchParams(population=20, init_half_window=3.0)
+    nodes, ok, _ = WALL.initial_population(20, search, np.random.default_rng(4))
+    assert ok.all()
+    assert WALL.feasible(nodes).all()
+    # eq. 8–10: |P_{a+1} − P_t| <= Δh (+ rounding) with P_t = P_a + (P_goal − P_a)/m
+    prev = np.repeat(WALL.start_u[None], nodes.shape[0], axis=0)
+    n_inner = nodes.shape[1]
+    for j in range(n_inner):
+        m = n_inner + 1 - j
+        target = prev + (WALL.goal_u - prev) / m
+        assert np.all(np.abs(nodes[:, j] - target) <= 3.0 + 0.5 + 1e-9)
+        prev = nodes[:, j]
+    assert np.all(nodes == np.round(nodes))  # on the grid
+
+
+def test_initialisation_is_seeded() -> None:
+    search = SearchParams(population=10)
+    a = WALL.initial_population(10, search, np.random.default_rng(7))[0]
+    b = WALL.initial_population(10, search, np.random.default_rng(7))[0]
+    c = WALL.initial_population(10, search, np.random.default_rng(8))[0]
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_walled_in_goal_deadlocks_and_reports_no_path() -> None:
+    ring = [
+        BoxObstacle((400.0, 60.0), (140.0, 20.0), 190.0),
+        BoxObstacle((400.0, -60.0), (140.0, 20.0), 190.0),
+        BoxObstacle((340.0, 0.0), (20.0, 140.0), 190.0),
+    ]
+    world = World.build(
+        ring, bounds_xyz=((-50.0, 460.0), (-300.0, 300.0), (0.0, 200.0)), margin_m=10.0
+    )
+    problem = PathProblem.build(world, (0.0, 0.0, 30.0), (420.0, 0.0, 30.0), GRID, W)
+    result = SparrowPlanner(SearchParams(population=6, iterations=5)).solve(problem)
+    assert result.status is PlanStatus.NO_PATH
+    assert result.deadlocks > 0
+    assert "deadlocked" in result.message
+
+
+# --- the shared update kernel: reachability, producers, scroungers, escape ------------------
+
+
+def _population(problem: PathProblem, n: int = 12, seed: int = 3) -> np.ndarray:
+    return problem.initial_population(n, SearchParams(population=n), np.random.default_rng(seed))[0]
+
+
+def test_producer_pulls_deviation_toward_the_start_end_line() -> None:
+    x = _population(OPEN)
+    refs, scal = empty_refs(*x.shape[:2])
+    rules = np.full(x.shape[0], K.R_SPSA_PRODUCER_BEST)
+    cand, ok, _ = OPEN.rebuild(
+        x, rules, refs, scal, np.zeros(x.shape[0], bool), 10, np.random.default_rng(0)
+    )
+    assert ok.all()
+    dev_before = np.abs(x - OPEN.line_u[1:-1])
+    dev_after = np.abs(cand - OPEN.line_u[1:-1])
+    assert np.all(dev_after <= dev_before + 0.5)  # rounding may keep a node where it was
+    assert dev_after.sum() < 0.8 * dev_before.sum()
+
+
+def test_deviation_producer_rule_contracts_and_literal_rule_drifts() -> None:
+    x = _population(OPEN, seed=5)
+    refs, scal = empty_refs(*x.shape[:2])
+    scal[:, 0] = 1.0  # e = exp(−i/(α·M)) close to 1
+    rng = np.random.default_rng(1)
+    no = np.zeros(x.shape[0], bool)
+    dev, _, _ = OPEN.rebuild(x, np.full(x.shape[0], K.R_SPSA_PRODUCER), refs, scal, no, 10, rng)
+    lit, _, _ = OPEN.rebuild(
+        x, np.full(x.shape[0], K.R_SPSA_PRODUCER_LITERAL), refs, scal, no, 10, rng
+    )
+    line = OPEN.line_u[1:-1]
+    assert np.abs(dev - line).sum() < np.abs(x - line).sum()
+    # the literal "+ exp(...)" adds about +1 to every coordinate: a drift upward and left
+    assert (lit - x).mean() > (dev - x).mean()
+
+
+def test_updates_respect_reachability_and_failed_updates_keep_the_old_path() -> None:
+    x = _population(WALL, n=16)
+    refs, scal = empty_refs(*x.shape[:2])
+    rules = np.full(x.shape[0], K.R_SPSA_PRODUCER_BEST)  # toward the line: into the wall
+    cand, ok, _ = WALL.rebuild(
+        x, rules, refs, scal, np.zeros(x.shape[0], bool), 10, np.random.default_rng(2)
+    )
+    assert WALL.feasible(cand).all()
+    assert np.array_equal(cand[~ok], x[~ok])
+
+
+def test_scrounger_escape_search_finds_reachable_nodes() -> None:
+    x = _population(WALL, n=16, seed=11)
+    refs, scal = empty_refs(*x.shape[:2])
+    refs[:, 0] = x[0]
+    scal[:, 0] = 1e6  # i² huge: Q·exp(~0) ≈ Q, i.e. onto the start-end line, into the wall
+    rules = np.full(x.shape[0], K.R_SCROUNGER_FAR)
+    rng = np.random.default_rng(3)
+    _, ok_off, esc_off = WALL.rebuild(x, rules, refs, scal, np.zeros(16, bool), 10, rng)
+    cand, ok_on, esc_on = WALL.rebuild(x, rules, refs, scal, np.ones(16, bool), 10, rng)
+    assert esc_off == 0 and esc_on > 0
+    assert ok_on.sum() >= ok_off.sum()
+    assert WALL.feasible(cand).all()
+
+
+def test_scrounger_near_rule_copies_the_best_producer_with_one_offset() -> None:
+    x = _population(OPEN, n=8)
+    refs, scal = empty_refs(*x.shape[:2])
+    refs[:, 0] = x[0]
+    scal[:, :2] = [2.0, -1.0]
+    rules = np.full(8, K.R_SCROUNGER_NEAR)
+    cand, ok, _ = OPEN.rebuild(
+        x, rules, refs, scal, np.zeros(8, bool), 10, np.random.default_rng(0)
+    )
+    assert ok.all()
+    assert np.array_equal(cand, np.broadcast_to(x[0] + [2.0, -1.0], cand.shape))
+
+
+# --- 4.4 adaptive oscillation optimisation (eq. 13) -----------------------------------------
+
+
+def roughness(nodes: np.ndarray) -> float:
+    return float((np.diff(nodes, n=2, axis=-2) ** 2).sum())
+
+
+def test_oscillation_optimisation_smooths_a_zigzag() -> None:
+    n = OPEN.n_inner
+    zig = np.zeros((1, n, 2))
+    zig[0, :, 0] = np.where(np.arange(n) % 2 == 0, 2.0, -2.0)
+    zig[0, :, 1] = 3.0
+    before = roughness(zig)
+    moved = OPEN.oscillate(zig, 5)
+    assert moved > 0
+    assert roughness(zig) < 0.2 * before
+    assert OPEN.feasible(zig).all()
+
+
+def test_oscillation_keeps_a_path_that_hugs_an_obstacle_feasible() -> None:
+    x = _population(WALL, n=10, seed=9)
+    y = x.copy()
+    WALL.oscillate(y, 5)
+    assert WALL.feasible(y).all()
+    # and it lowers the fitness of the jagged initial paths
+    assert WALL.fitness(y).mean() < WALL.fitness(x).mean()
+
+
+# --- the whole search: greedy, convergence, seeds, SSA vs SPSA ------------------------------
+
+
+def test_convergence_is_monotone_and_improves_on_the_initial_population() -> None:
+    planner = SparrowPlanner(
+        SearchParams(population=12, iterations=60, seed=2), SpsaParams(restarts=1)
+    )
+    result = planner.solve(WALL, np.random.default_rng(2))
+    c = result.convergence
+    assert c.shape == (60,)
+    assert np.all(np.diff(c) <= 1e-9)
+    x0, _, _ = WALL.initial_population(12, planner.search, np.random.default_rng(2))
+    assert result.best_fitness < WALL.fitness(x0).min()
+    assert WALL.feasible(result.best_nodes[None]).all()
+
+
+@pytest.mark.parametrize("planner_cls", [SparrowPlanner, SsaPlanner])
+def test_search_is_seeded(planner_cls) -> None:
+    def run(seed: int):
+        return planner_cls(SearchParams(population=10, iterations=30, seed=seed)).solve(
+            WALL, np.random.default_rng(seed)
+        )
+
+    a, b, c = run(5), run(5), run(6)
+    assert np.array_equal(a.best_nodes, b.best_nodes) and a.best_fitness == b.best_fitness
+    assert np.array_equal(a.convergence, b.convergence)
+    assert not np.array_equal(a.convergence, c.convergence)
+
+
+def test_restarts_split_the_iterations_and_pool_the_final_populations() -> None:
+    planner = SparrowPlanner(SearchParams(population=8, iterations=40), SpsaParams(restarts=4))
+    result = planner.solve(WALL, np.random.default_rng(0))
+    assert result.stats["rounds"] == 4
+    assert result.population.shape[0] == 4 * 8
+    assert result.convergence.shape == (40,)
+    assert np.all(np.diff(result.convergence) <= 1e-9)
+
+
+def test_smoothed_fitness_ignores_grid_staircase() -> None:
+    """A straight diagonal rounded to the grid is a staircase: the paper's fitness charges it
+    for the wiggles of its spline, the smoothed fitness (ours) much less."""
+    paper = OPEN
+    ours = make_problem(smoothing=2)
+    n = OPEN.n_inner
+    stair = np.zeros((1, n, 2))
+    stair[0, :, 0] = np.round(np.linspace(0, 6, n + 2)[1:-1])
+    stair[0, :, 1] = 3.0
+    straight = np.hypot(400.0, 120.0)
+    assert paper.fitness(stair)[0] - straight > 2 * (ours.fitness(stair)[0] - straight)
+
+
+# --- 4.5 node simplification, refinement, smoothing -----------------------------------------
+
+
+def test_simplification_jumps_to_the_farthest_reachable_node() -> None:
+    """Figure 4(b): A' sees B', C', D' and F' but not E': it jumps to F' directly."""
+    world = World.build(
+        [CylinderObstacle((250.0, 60.0), 15.0, 100.0)],
+        bounds_xyz=((-10.0, 500.0), (-200.0, 200.0), (0.0, 100.0)),
+        margin_m=5.0,
+    )
+    # E' sits behind the cylinder as seen from A'; F' is visible again
+    pts = np.array(
+        [[0, 0, 30], [100, 10, 30], [200, 20, 30], [250, 30, 30], [400, 120, 30], [450, 0, 30]],
+        dtype=float,
+    )
+    assert not world.segments_free(pts[:1], pts[4:5])[0]
+    assert world.segments_free(pts[:1], pts[5:6])[0]
+    assert simplify(pts, world).tolist() == [0, 5]
+
+
+def test_simplification_figure_4a() -> None:
+    """Figure 4(a): A reaches B, C, D only; from D, E and F: A → D → F."""
+    world = World.build(
+        [BoxObstacle((250.0, 40.0), (60.0, 60.0), 100.0)],
+        bounds_xyz=((-10.0, 600.0), (-200.0, 200.0), (0.0, 100.0)),
+        margin_m=5.0,
+    )
+    pts = np.array(
+        [[0, 0, 30], [80, 0, 30], [160, 0, 30], [240, -10, 30], [340, 10, 30], [420, 20, 30]],
+        dtype=float,
+    )
+    assert world.segments_free(pts[3:4], pts[4:5])[0]  # D sees E and F ...
+    assert not world.segments_free(pts[:1], pts[4:5])[0]  # ... A sees neither
+    assert simplify(pts, world).tolist() == [0, 3, 5]
+
+
+def test_tighten_and_refine_never_raise_energy_and_keep_the_margin() -> None:
+    rng = np.random.default_rng(1)
+    x = _population(WALL, n=6, seed=21)
+    for nodes in x:
+        pts = WALL.node_points(nodes)
+        v = pts[simplify(pts, WALL.world)]
+        e0 = sum(energy_terms(v, W))
+        t = tighten(v, WALL.world)
+        r = refine(v, WALL.world, W)
+        for poly in (t, r):
+            assert sum(energy_terms(poly, W)) <= e0 + 1e-6
+            assert dense_clearance(WALL.world, poly) >= 10.0 - 1e-3
+            assert np.allclose(poly[0], v[0]) and np.allclose(poly[-1], v[-1])
+    del rng
+
+
+def test_smoothing_and_resampling_keep_the_margin_on_every_leg() -> None:
+    x = _population(WALL, n=4, seed=8)
+    for nodes in x:
+        pts = WALL.node_points(nodes)
+        v = tighten(pts[simplify(pts, WALL.world)], WALL.world)
+        route = smooth_route(v, WALL.world, smooth=True, step_m=5.0)
+        for spacing in (30.0, 60.0, 150.0):
+            wps = resample_waypoints(route, WALL.world, spacing)
+            assert np.allclose(wps[0], v[0]) and np.allclose(wps[-1], v[-1])
+            dist, _ = WALL.world.segments_clearance(wps[:-1], wps[1:])
+            assert dist.min() >= 10.0 - 1e-6
+            for vert in v:  # every vertex of the simplified path is a waypoint
+                assert np.min(np.linalg.norm(wps - vert, axis=1)) < 1e-9
+
+
+def test_spline_smoothing_passes_through_the_vertices() -> None:
+    v = np.array([[0, 0, 30], [150, 80, 40], [300, -60, 35], [400, 0, 30]], dtype=float)
+    route = smooth_route(v, OPEN.world, smooth=True, step_m=5.0)
+    assert np.allclose(route.samples[route.vertex_index], v)
+    assert np.all(route.blend == 1.0)  # nothing to dodge in open space
+    flat = smooth_route(v, OPEN.world, smooth=False, step_m=5.0)
+    assert np.all(flat.blend == 0.0)
+
+
+def test_ssa_preset_switches_off_spsa_contributions() -> None:
+    ssa = SpsaParams.ssa()
+    assert not (ssa.start_end_producer or ssa.escape or ssa.oscillation)
+    assert ssa.producer_ratio == pytest.approx(0.2)
+    assert replace(ssa, escape=True).escape
