@@ -54,6 +54,9 @@ ABLATIONS: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
 #: the paper's six algorithms, in the order tables list them
 DEFAULT_ALGORITHMS: tuple[str, ...] = ("spsa", "ssa", "pso", "gwo", "de", "cso")
 
+#: how long to wait for a Dask scheduler before giving up (seconds)
+DASK_CONNECT_TIMEOUT_S = 10
+
 ProgressCallback = Callable[[int, int, "RunRecord"], None]  # (done, total, record)
 
 
@@ -431,7 +434,13 @@ def _run_dask(jobs: list[BenchJob], dask: Any, finished: Callable[[RunRecord], N
             "the Dask backend needs the optional extra: pip install 'uavplan[dask]'"
         ) from err
     own = not isinstance(dask, Client)
-    client = Client(dask) if own else dask
+    if own:
+        try:
+            client = Client(dask, timeout=DASK_CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError) as err:
+            raise ConnectionError(f"cannot reach the Dask scheduler at {dask}: {err}") from err
+    else:
+        client = dask
     try:
         futures = client.map(run_job, jobs, pure=False)
         for fut in as_completed(futures):

@@ -116,6 +116,8 @@ def bench_command(
     t0 = time.perf_counter()
     try:
         records = bench.run_jobs(jobs, workers=workers, dask=dask_address, progress=progress)
+    except ConnectionError as err:
+        raise InputError(str(err), key="--dask") from None
     except RuntimeError as err:
         if "uavplan[dask]" in str(err):
             raise InputError(str(err), key="--dask") from None
