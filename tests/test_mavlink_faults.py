@@ -342,6 +342,27 @@ def test_lost_final_ack_is_resolved_by_reading_back(autopilot: Autopilot, verify
     assert any("checked by reading back" in note for note in report.notes)
 
 
+def test_upload_right_after_a_download_whose_final_ack_was_lost() -> None:
+    """PX4 keeps a download open for 5 s when our final ACK is lost and answers a new
+    MISSION_COUNT with ERROR ("Busy"). We repeat that ACK and go on at once."""
+    plan = synthetic_mission(10, seed=54)
+    faults = LinkFaults(drop_rate=1.0, only=frozenset({"MISSION_ACK"}), direction="in")
+    with running_mock(MockConfig(link_faults=faults)) as vehicle:
+        vehicle.preload(MissionType.MISSION, list(plan.items))
+        with connected_client(vehicle, DEFAULT) as client:
+            assert client.download(MissionType.MISSION).ok
+            deadline = time.monotonic() + 2.0
+            while vehicle.stats().dropped_in < 1 and time.monotonic() < deadline:
+                time.sleep(0.005)  # wait until the vehicle has lost our final ACK
+            assert vehicle.busy  # still sending, as far as the vehicle knows
+            # from now on the vehicle hears our ACKs again
+            vehicle.set_link_faults(LinkFaults())
+            outcome = client.upload(MissionType.MISSION, list(plan.items))
+    assert outcome.ok, outcome.message
+    assert outcome.stats.elapsed_s < 1.0  # not the vehicle's 5 s timeout
+    assert outcome.stats.resent >= 2
+
+
 def test_a_read_back_that_differs_is_a_mismatch() -> None:
     """The vehicle stores something else than was sent (here: another GCS's plan landed in
     between); verification reports the first differing item."""

@@ -168,7 +168,7 @@ def bench_ours(conn: str, plan: MissionPlan, runs: int) -> tuple[Series, Series]
             try:
                 upload_plan(client, plan, verify=True)
             except Exception as err:  # a failed run is data here, not an error
-                verified.failures[type(err).__name__] += 1
+                verified.failures[f"{type(err).__name__}: {err}"] += 1
                 time.sleep(VEHICLE_IDLE_AFTER_FAILURE_S)
                 continue
             verified.times_s.append(time.perf_counter() - started)

@@ -148,12 +148,16 @@ class LinkFaults:
     reorder_rate: float = 0.0
     seed: int | None = 0
     only: frozenset[str] | None = None
+    #: "both", or only what the vehicle receives ("in") or sends ("out")
+    direction: str = "both"
 
     def __post_init__(self) -> None:
         for name in ("drop_rate", "duplicate_rate", "reorder_rate"):
             value = getattr(self, name)
             if not (0.0 <= value <= 1.0):
                 raise ValueError(f"{name} must be within [0, 1], got {value!r}")
+        if self.direction not in ("both", "in", "out"):
+            raise ValueError(f"direction must be both, in or out, got {self.direction!r}")
 
     @property
     def active(self) -> bool:
@@ -245,7 +249,7 @@ class _FaultInjector:
 
     def inbound_copies(self, message: Message) -> int:
         """How many times to process a received message: 0 (lost), 1 or 2 (duplicated)."""
-        if not self.applies(message):
+        if not self.applies(message) or self.faults.direction == "out":
             return 1
         if self.faults.drop_rate and self.rng_in.random() < self.faults.drop_rate:
             self.dropped_in += 1
@@ -257,7 +261,7 @@ class _FaultInjector:
 
     def outbound(self, message: Message) -> tuple[int, bool]:
         """(copies to send, hold back for reordering)."""
-        if not self.applies(message):
+        if not self.applies(message) or self.faults.direction == "in":
             return 1, False
         if self.faults.drop_rate and self.rng_out.random() < self.faults.drop_rate:
             self.dropped_out += 1
@@ -328,6 +332,10 @@ class MockVehicle:
         wire = [item_to_wire(it, seq, mission_type, sysid, compid) for seq, it in enumerate(items)]
         with self._lock:
             self._storage[int(mission_type)] = wire
+
+    def set_link_faults(self, faults: LinkFaults) -> None:
+        """Change the packet faults while running (the generators keep their state)."""
+        self._faults.faults = faults
 
     @property
     def busy(self) -> bool:

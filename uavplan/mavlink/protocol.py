@@ -13,7 +13,9 @@ Upload (the vehicle drives and retries)::
 
     WAIT_FIRST_REQUEST --REQUEST(0..n-1)--> SENDING --REQUEST(n-1)--> WAIT_FINAL_ACK
       | timeout: re-send COUNT (ControlSchedule), then TIMEOUT
-      | ERROR/DENIED before any request: "busy", re-send COUNT later (same budget)
+      | ERROR/DENIED before any request: "busy", re-send COUNT later (same budget); if our
+      |   own last download may be the cause (its final ACK lost: PX4 then refuses uploads
+      |   for 5 s), repeat that ACK first
       | NO_SPACE: fail at once
     SENDING: answer every in-range REQUEST / REQUEST_INT with MISSION_ITEM_INT (duplicates
       and older seqs too); seq >= count -> PROTOCOL_ERROR; no request for
@@ -373,6 +375,10 @@ def _reason_for_item(result: MissionResult | int, item: MissionItem | None) -> s
 # ---------------------------------------------------------------------------------------------
 
 
+#: how often a "busy" answer to MISSION_COUNT makes us repeat our last download's ACK
+BUSY_ACK_REPEATS = 4
+#: growth of a repeated item re-request interval (after three misses in a row)
+RETRY_BACKOFF = 1.5
 #: how long a failed transfer waits for the STATUSTEXT that may explain the vehicle's refusal
 STATUSTEXT_GRACE_S = 0.1
 _VEHICLE_REFUSALS = frozenset(
@@ -403,6 +409,8 @@ class MissionClient:
         self.rtt = RoundTripEstimator()
         if link.handshake_rtt_s is not None:
             self.rtt.add(link.handshake_rtt_s)
+        #: the final ACK of our last download, kept to repeat if the vehicle says busy
+        self._download_ack: MissionAck | None = None
 
     # -- helpers --------------------------------------------------------------------------
     @property
@@ -494,6 +502,8 @@ class MissionClient:
         except KeyboardInterrupt:
             self._cancel(_Counters(), mission_type)
             raise
+        finally:
+            self._download_ack = None
 
     def _upload(
         self,
@@ -516,6 +526,7 @@ class MissionClient:
         self._send(counters, count_message)
         schedule.sent()
         busy_result: MissionResult | int | None = None
+        ack_repeats = 0
         state = "WAIT_FIRST_REQUEST"
         deadline = schedule.deadline
         sent_seqs: set[int] = set()
@@ -669,6 +680,16 @@ class MissionClient:
                         # Busy with another transfer (PX4: ERROR, ArduPilot: DENIED). Try again
                         # when the COUNT timer runs out, within the same attempt budget.
                         busy_result = result
+                        if self._download_ack is not None and ack_repeats < BUSY_ACK_REPEATS:
+                            # Most likely our own last download: its final ACK was lost and
+                            # PX4 keeps sending for 5 s. Repeat the ACK, then the COUNT (a
+                            # few times only: if another GCS is the cause, this cannot help).
+                            ack_repeats += 1
+                            self._send(counters, self._download_ack)
+                            self._send(counters, count_message)
+                            counters.resent += 2
+                            schedule.sent()
+                            deadline = schedule.deadline
                         continue
                     return done(
                         TransferStatus.REJECTED,
@@ -783,8 +804,10 @@ class MissionClient:
             consecutive = 0
             got: MissionItemInt | None = None
             while got is None:
+                # gentle back-off after three misses in a row: doubling would make the
+                # expected wait per item grow without bound once loss nears 50 % per try
                 interval = self.rtt.timeout(t.item_s, t.min_retry_s) * (
-                    2.0 ** max(0, consecutive - 2)
+                    RETRY_BACKOFF ** max(0, consecutive - 3)
                 )
                 wait = min(interval, t.item_s) - (time.monotonic() - last_sent)
                 received = self._recv(wait, mission_type)
@@ -839,7 +862,8 @@ class MissionClient:
             if progress is not None:
                 progress(seq + 1, count)
 
-        self._send(counters, MissionAck(*self._target, MissionResult.ACCEPTED, mission_type))
+        self._download_ack = MissionAck(*self._target, MissionResult.ACCEPTED, mission_type)
+        self._send(counters, self._download_ack)
         return done(TransferStatus.SUCCESS, step="MISSION_ACK", items=tuple(items))
 
     # -- clear ----------------------------------------------------------------------------
