@@ -1,0 +1,5 @@
+"""``python -m uavplan`` runs the command line."""
+
+from uavplan.cli import main
+
+main()
