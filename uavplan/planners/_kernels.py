@@ -388,66 +388,61 @@ def stream_seeds(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def propose(rule, base, refs, scal, g, j, a, line, attempt, st):
-    """One proposal (before rounding) for axis ``a`` of node ``j`` (0-based inner index)."""
-    p = base[g, j, a]
-    ln = line[j + 1, a]
+def propose(rule, p, ln, r0, r1, r2, r3, s0, s1, s2, flat, attempt, st):
+    """One proposal (before rounding) for one axis of one node.
+
+    ``p``: the node's current value; ``ln``: the start-end line there; ``r0..r3``: the
+    rule's reference paths at this node and axis; ``s0..s2``: the rule's scalars (for the
+    near-scrounger rule ``s1`` is this axis' offset ``scal[g, a]``, see :func:`rebuild`);
+    ``flat``: node·2 + axis. Scalars only: handing numba arrays here costs more than the
+    arithmetic.
+    """
     if rule == R_SPSA_PRODUCER_BEST:
         return p + _rand(st) * (ln - p)
     if rule == R_SPSA_PRODUCER:
         d = p - ln
-        return ln + d * scal[g, 0] - _rand(st) * d
+        return ln + d * s0 - _rand(st) * d
     if rule == R_SPSA_PRODUCER_LITERAL:
-        return p + scal[g, 0] + _rand(st) * (ln - p)
+        return p + s0 + _rand(st) * (ln - p)
     if rule == R_SSA_PRODUCER:
-        return ln + (p - ln) * scal[g, 0]
+        return ln + (p - ln) * s0
     if rule == R_ALARM:
-        q = scal[g, 0] if attempt == 0 else _randn(st)
+        q = s0 if attempt == 0 else _randn(st)
         return p + q
     if rule == R_SCROUNGER_FAR:
-        dw = refs[g, 0, j, a] - ln
+        dw = r0 - ln
         d = p - ln
-        return ln + _randn(st) * math.exp(min((dw - d) / scal[g, 0], 50.0))
+        return ln + _randn(st) * math.exp(min((dw - d) / s0, 50.0))
     if rule == R_SCROUNGER_NEAR:
-        return refs[g, 0, j, a] + scal[g, a]
+        return r0 + s1  # s1 carries scal[g, a], the offset of this axis
     if rule == R_DANGER:
-        b = refs[g, 0, j, a]
+        b = r0
         return b + _randn(st) * abs(p - b)
     if rule == R_DANGER_BEST:
-        return p + (2.0 * _rand(st) - 1.0) * abs(p - refs[g, 0, j, a]) * scal[g, 0]
+        return p + (2.0 * _rand(st) - 1.0) * abs(p - r0) * s0
     if rule == R_PSO:
-        v = (
-            scal[g, 0] * refs[g, 0, j, a]
-            + scal[g, 1] * _rand(st) * (refs[g, 1, j, a] - p)
-            + scal[g, 2] * _rand(st) * (refs[g, 2, j, a] - p)
-        )
-        v_max = refs[g, 3, j, a]
+        v = s0 * r0 + s1 * _rand(st) * (r1 - p) + s2 * _rand(st) * (r2 - p)
+        v_max = r3
         if v_max > 0.0:
             v = min(max(v, -v_max), v_max)
         return p + v
     if rule == R_GWO:
         acc = 0.0
-        for r in range(3):
-            big_a = 2.0 * scal[g, 0] * _rand(st) - scal[g, 0]
+        for lead in (r0, r1, r2):
+            big_a = 2.0 * s0 * _rand(st) - s0
             big_c = 2.0 * _rand(st)
-            lead = refs[g, r, j, a]
             acc += lead - big_a * abs(big_c * lead - p)
         return acc / 3.0
     if rule == R_DE:
-        flat = j * 2 + a
-        if _rand(st) < scal[g, 1] or (attempt == 0 and flat == int(scal[g, 2])):
-            return refs[g, 0, j, a] + scal[g, 0] * (refs[g, 1, j, a] - refs[g, 2, j, a])
+        if _rand(st) < s1 or (attempt == 0 and flat == int(s2)):
+            return r0 + s0 * (r1 - r2)
         return p
     if rule == R_CSO_ROOSTER:
-        return ln + (p - ln) * (1.0 + scal[g, 0] * _randn(st))
+        return ln + (p - ln) * (1.0 + s0 * _randn(st))
     if rule == R_CSO_HEN:
-        return (
-            p
-            + scal[g, 0] * _rand(st) * (refs[g, 0, j, a] - p)
-            + scal[g, 1] * _rand(st) * (refs[g, 1, j, a] - p)
-        )
+        return p + s0 * _rand(st) * (r0 - p) + s1 * _rand(st) * (r1 - p)
     if rule == R_CSO_CHICK:
-        return p + scal[g, 0] * (refs[g, 0, j, a] - p)
+        return p + s0 * (r0 - p)
     return p
 
 
@@ -497,13 +492,34 @@ def rebuild(
         py = 0.0
         pz = 0.0
         same = True  # the previous node equals the base path's, whose segments are known free
+        s0 = scal[g, 0]
+        s2 = scal[g, 2]
+        # the near-scrounger rule reads a per-axis offset scal[g, a]; others read scal[g, 1]
+        sy = scal[g, 0] if rule == R_SCROUNGER_NEAR else scal[g, 1]
+        sz = scal[g, 1]
         for j in range(n_inner):
             placed = False
             ny = 0.0
             nz = 0.0
+            by = base[g, j, 0]
+            bz = base[g, j, 1]
+            ly = line[j + 1, 0]
+            lz = line[j + 1, 1]
+            ry0 = refs[g, 0, j, 0]
+            ry1 = refs[g, 1, j, 0]
+            ry2 = refs[g, 2, j, 0]
+            ry3 = refs[g, 3, j, 0]
+            rz0 = refs[g, 0, j, 1]
+            rz1 = refs[g, 1, j, 1]
+            rz2 = refs[g, 2, j, 1]
+            rz3 = refs[g, 3, j, 1]
             for attempt in range(t_max):
-                ny = _round(propose(rule, base, refs, scal, g, j, 0, line, attempt, st))
-                nz = _round(propose(rule, base, refs, scal, g, j, 1, line, attempt, st))
+                ny = _round(
+                    propose(rule, by, ly, ry0, ry1, ry2, ry3, s0, sy, s2, 2 * j, attempt, st)
+                )
+                nz = _round(
+                    propose(rule, bz, lz, rz0, rz1, rz2, rz3, s0, sz, s2, 2 * j + 1, attempt, st)
+                )
                 if same and ny == base[g, j, 0] and nz == base[g, j, 1]:
                     placed = True
                     break
