@@ -131,19 +131,23 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
     ``start_yz`` / ``goal_yz`` are the fixed end points in metres. ``smooth`` > 0 evaluates
     the spline through a centred moving average of the knots (half-width ``smooth``) instead
     of the knots themselves: the grid rounding of the encoding then no longer shows up as
-    staircase wiggles in the fitness (ours; 0 is the paper's fitness).
+    staircase wiggles in the fitness (ours; 0 is the paper's fitness). The spline samples
+    are summed as they are produced (same result as :func:`spline_points` followed by
+    :func:`polyline_energy`, without storing them).
     """
     g_count = nodes.shape[0]
     inner = nodes.shape[1]
     nk = inner + 2
     cp, den = _thomas_factors(max(inner, 1))
     out = np.empty(g_count)
+    ys = np.empty(nk)
+    zs = np.empty(nk)
+    sy = np.empty(nk)
+    sz = np.empty(nk)
+    my = np.empty(nk)
+    mz = np.empty(nk)
+    h2 = dx * dx / 6.0
     for g in range(g_count):
-        ys = np.empty(nk)
-        zs = np.empty(nk)
-        sy = np.empty(nk)
-        sz = np.empty(nk)
-        pts = np.empty(((nk - 1) * n_sub + 1, 3))
         ys[0] = start_yz[0]
         zs[0] = start_yz[1]
         ys[nk - 1] = goal_yz[0]
@@ -154,11 +158,59 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
         if smooth > 0:
             _moving_average(ys, smooth, sy)
             _moving_average(zs, smooth, sz)
-            spline_points(sy, sz, dx, n_sub, cp, den, pts)
         else:
-            spline_points(ys, zs, dx, n_sub, cp, den, pts)
-        e0, e1, e2 = polyline_energy(pts, k0, k1, mu0, k2)
-        out[g] = e0 + e1 + e2
+            sy[:] = ys
+            sz[:] = zs
+        _second_derivs(sy, dx, cp, den, my)
+        _second_derivs(sz, dx, cp, den, mz)
+        length = 0.0
+        turn = 0.0
+        climb = 0.0
+        px = 0.0
+        py = sy[0]
+        pz = sz[0]
+        pdx = 0.0
+        pdy = 0.0
+        pdz = 0.0
+        plen = 0.0
+        for i in range(nk - 1):
+            for k in range(n_sub):
+                if i == 0 and k == 0:
+                    continue
+                u = k / n_sub
+                a = 1.0 - u
+                c = h2 * (a * a * a - a)
+                d = h2 * (u * u * u - u)
+                x = (i + u) * dx
+                y = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1]
+                z = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1]
+                ex = x - px
+                ey = y - py
+                ez = z - pz
+                seg = math.sqrt(ex * ex + ey * ey + ez * ez)
+                if seg > 1e-12:
+                    length += seg
+                    climb += abs(ez)
+                    if plen > 0.0:
+                        turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg)
+                    pdx = ex
+                    pdy = ey
+                    pdz = ez
+                    plen = seg
+                px = x
+                py = y
+                pz = z
+        # the last sample: the goal knot
+        ex = (nk - 1) * dx - px
+        ey = sy[nk - 1] - py
+        ez = sz[nk - 1] - pz
+        seg = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if seg > 1e-12:
+            length += seg
+            climb += abs(ez)
+            if plen > 0.0:
+                turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg)
+        out[g] = k0 * length + k1 * mu0 * turn + k2 * climb
     return out
 
 
