@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 import time
 from dataclasses import replace
 
@@ -17,9 +18,11 @@ from mavlink_helpers import (
 )
 
 from uavplan.errors import InputError
+from uavplan.mavlink.link import VehicleLink
 from uavplan.mavlink.messages import Capability, MissionResult
-from uavplan.mavlink.mock_vehicle import MockConfig
+from uavplan.mavlink.mock_vehicle import MockConfig, MockVehicle
 from uavplan.mavlink.protocol import (
+    MissionClient,
     MissionTransferError,
     TransferStatus,
     item_from_wire,
@@ -280,3 +283,32 @@ def test_mission_transfer_error_names_the_step_and_exits_4() -> None:
     assert err.exit_code == 4
     assert str(err).startswith("upload fence: MISSION_ITEM_INT seq 0:")
     assert "MAV_MISSION_UNSUPPORTED" in str(err)
+
+
+def test_mock_sending_to_a_listening_ground_station_like_qgroundcontrol() -> None:
+    """QGroundControl listens on UDP 14550 and vehicles send to it: the mock on
+    ``udpout:`` reaches a ground station listening on ``udpin:``."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    vehicle = MockVehicle(f"udpout:127.0.0.1:{port}", MockConfig(heartbeat_period_s=0.1))
+    vehicle.start()
+    try:
+        with VehicleLink.connect(f"udpin:127.0.0.1:{port}") as link:
+            plan = synthetic_mission(12, seed=17)
+            report = upload_plan(MissionClient(link, FAST), plan)
+        assert report.verified
+        assert len(vehicle.items(MissionType.MISSION)) == len(plan.items)
+    finally:
+        vehicle.stop()
+
+
+def test_tcp_vehicle_like_mavproxy_or_sitl() -> None:
+    """A vehicle serving TCP (as SITL does on 5760); the ground station connects."""
+    plan = synthetic_mission(25, seed=18, with_fence=True)
+    with running_mock(conn="tcpin:127.0.0.1:0") as vehicle:
+        host, port = vehicle.address
+        with VehicleLink.connect(f"tcp://{host}:{port}") as link:
+            upload_plan(MissionClient(link, FAST), plan)
+            back = download_plan(MissionClient(link, FAST)).plan
+    assert_plans_match(plan, back)
