@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import math
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -222,7 +221,3 @@ def connected_client(
         yield MissionClient(link, timeouts)
     finally:
         link.close()
-
-
-def is_nan_or_none(value: float | None) -> bool:
-    return value is None or math.isnan(value)

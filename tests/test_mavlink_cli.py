@@ -205,7 +205,7 @@ def _start_mock(*extra: str) -> tuple[subprocess.Popen[str], str]:
     )
     assert proc.stderr is not None
     line = proc.stderr.readline()
-    match = re.search(r"listening on udpin:127\.0\.0\.1:(\d+)", line)
+    match = re.search(r"serving on udpin:127\.0\.0\.1:(\d+)", line)
     assert match, line
     return proc, f"udpout:127.0.0.1:{match.group(1)}"
 

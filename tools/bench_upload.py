@@ -105,7 +105,7 @@ def mock_process(loss: float, seed: int, autopilot: str, firmware_timing: bool) 
     try:
         assert proc.stderr is not None
         line = proc.stderr.readline()
-        match = re.search(r"listening on udpin:127\.0\.0\.1:(\d+)", line)
+        match = re.search(r"serving on udpin:127\.0\.0\.1:(\d+)", line)
         if not match:
             raise RuntimeError(f"mock vehicle did not start: {line!r}")
         yield f"udpout:127.0.0.1:{match.group(1)}"

@@ -362,7 +362,7 @@ def mock_vehicle_cmd(
                 else ""
             )
             click.echo(
-                f"mock {flavour.label} vehicle, system {system_id}, listening on {where}"
+                f"mock {flavour.label} vehicle, system {system_id}, serving on {where}"
                 f"{faults}; Ctrl-C to stop",
                 err=True,
             )

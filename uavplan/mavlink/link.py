@@ -78,7 +78,6 @@ class VehicleLink:
         self.vehicle = vehicle
         self.capabilities: Capability | None = None
         self.last_statustext: str | None = None
-        self.last_heard = time.monotonic()
         #: round trip of the AUTOPILOT_VERSION request (its COMMAND_ACK), once measured
         self.handshake_rtt_s: float | None = None
         self._capability_request_at: float | None = None
@@ -166,7 +165,6 @@ class VehicleLink:
         message = received.message
         if isinstance(message, StatusText):
             self.last_statustext = message.text
-            self.last_heard = time.monotonic()
             return True
         if received.component_id != self.vehicle.component_id:
             return False
@@ -176,7 +174,6 @@ class VehicleLink:
             return False
         if target_component not in (0, self.connection.component_id):
             return False
-        self.last_heard = time.monotonic()
         if isinstance(message, AutopilotVersion):
             self.capabilities = Capability(message.capabilities)
             self._time_handshake()

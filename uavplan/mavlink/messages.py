@@ -117,8 +117,7 @@ class MavCommand(enum.IntEnum):
 #: MAVLink message id of AUTOPILOT_VERSION (param1 of MAV_CMD_REQUEST_MESSAGE)
 AUTOPILOT_VERSION_ID = 148
 
-#: MAV_COMP_ID_AUTOPILOT1 and MAV_COMP_ID_MISSIONPLANNER
-COMP_ID_AUTOPILOT = 1
+#: MAV_COMP_ID_MISSIONPLANNER, the component id ground stations use
 COMP_ID_MISSIONPLANNER = 190
 
 # ---------------------------------------------------------------------------------------------
@@ -281,16 +280,6 @@ Message = (
     | AutopilotVersion
     | StatusText
     | UnknownMessage
-)
-
-#: message types that carry a ``mission_type`` field
-MISSION_PROTOCOL_TYPES = (
-    MissionCount,
-    MissionRequest,
-    MissionRequestList,
-    MissionItemInt,
-    MissionAck,
-    MissionClearAll,
 )
 
 

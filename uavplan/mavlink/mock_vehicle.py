@@ -735,7 +735,10 @@ class MockVehicle:
                 self._receiving = None
                 self._uploads_failed += 1
                 return
-        wire = [replace(i, seq=n, current=1 if n == 0 else 0) for n, i in enumerate(rx.items)]
+        wire = [
+            replace(i, seq=n, current=1 if n == 0 else 0, legacy_float=False)
+            for n, i in enumerate(rx.items)
+        ]
         with self._lock:
             self._storage[rx.mission_type] = wire
         if rx.mission_type == 0:

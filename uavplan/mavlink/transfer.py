@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 from uavplan.errors import InputError, LinkError
-from uavplan.mavlink.messages import Capability
+from uavplan.mavlink.messages import Capability, MissionResult
 from uavplan.mavlink.protocol import (
     MissionClient,
     MissionTransferError,
@@ -316,7 +316,10 @@ def download_plan(
                 notes.append(f"the vehicle does not support {type_label(mission_type)}")
                 continue
             outcome = fetch(mission_type)
-            if outcome.status is TransferStatus.REJECTED and outcome.vehicle_result in (3, 2):
+            if outcome.status is TransferStatus.REJECTED and outcome.vehicle_result in (
+                MissionResult.UNSUPPORTED,
+                MissionResult.UNSUPPORTED_FRAME,
+            ):
                 notes.append(f"the vehicle refused the {type_label(mission_type)} download")
                 continue
             outcome.raise_for_status()

@@ -51,10 +51,6 @@ class ConnectionSpec:
     device: str = ""
     baud: int = DEFAULT_BAUD
 
-    @property
-    def listens(self) -> bool:
-        return self.kind in ("udpin", "tcpin")
-
     def __str__(self) -> str:
         if self.kind == "serial":
             return f"{self.device},{self.baud}"
@@ -212,10 +208,6 @@ class UdpServer(Transport):
     def local_address(self) -> tuple[str, int]:
         host, port = self._sock.getsockname()[:2]
         return host, port
-
-    @property
-    def peers(self) -> list[tuple[str, int]]:
-        return list(self._peers)
 
     def send(self, data: bytes) -> None:
         now = time.monotonic()
