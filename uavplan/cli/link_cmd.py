@@ -40,14 +40,16 @@ def _link_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             type=click.FloatRange(min=0.01, max=600),
             default=1.5,
             show_default=True,
-            help="Per-step protocol timeout in seconds (item re-requests use 1/6 of it).",
+            help="Per-step protocol timeout in seconds (QGC's 1.5 by default). A download "
+            "item waits 1/6 of it, an upload waits twice it for the vehicle's next request; "
+            "re-sends come sooner on a link whose round trip is measured shorter.",
         ),
         click.option(
             "--retries",
             type=click.IntRange(0, 100),
             default=5,
             show_default=True,
-            help="Re-sends of a request before the step fails.",
+            help="Retry budget: a step fails after 1 + N timeouts without an answer.",
         ),
         click.option(
             "--target-system",
