@@ -97,6 +97,12 @@ def test_parameter_variants() -> None:
     ]:
         with pytest.raises(ValueError, match=message):
             bench.Variant.parse(bad)
+    v = bench.Variant.parse("ssa(fitness_smoothing=0)")
+    assert (v.algorithm, v.search_changes) == ("ssa", (("fitness_smoothing", 0),))
+    with pytest.raises(ValueError, match="seeds come from"):
+        bench.Variant.parse("pso(seed=3)")
+    with pytest.raises(ValueError, match="t_max must be"):
+        bench.Variant.parse("pso(t_max=0)")
     assert bench.split_labels("spsa, de(cr=0.1,f=0.6),pso") == ["spsa", "de(cr=0.1,f=0.6)", "pso"]
 
 
@@ -123,6 +129,19 @@ def test_job_scenario_applies_variant_and_seed(tiny_path: Path) -> None:
     (job,) = bench.make_jobs([scn], ["de(cr=0.1)"], runs=1)
     run = bench.job_scenario(job)
     assert (run.planner.algorithm, dict(run.planner.options)) == ("de", {"cr": 0.1})
+
+
+@pytest.mark.parametrize("label", ["spsa", "pso", "spsa(fitness_smoothing=0; restarts=1)"])
+def test_a_bench_run_is_what_plan_route_returns(tiny_path: Path, label: str) -> None:
+    """bench reuses the world and problem across runs; the result must not depend on it."""
+    from uavplan.planning import plan_route
+
+    (job,) = bench.make_jobs([load_scenario(tiny_path)], [label], runs=1, seed0=2)
+    rec = bench.run_job(job)
+    direct = plan_route(bench.job_scenario(job))
+    assert rec.energy == direct.energy
+    assert rec.search_fitness == direct.planner.best_fitness
+    np.testing.assert_array_equal(rec.convergence, direct.planner.convergence)
 
 
 # --- backends -----------------------------------------------------------------------------------

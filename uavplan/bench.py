@@ -68,7 +68,9 @@ class Variant:
     (``spsa-no-escape``, see :data:`ABLATIONS`); either with parameters in parentheses,
     ``de(cr=0.1)``, ``pso(v_max_fraction=0.1; c1=1.5)``, ``spsa(oscillation_window=4)``
     (``;`` or ``,`` between them; values read as YAML scalars). SPSA's parameters are
-    :class:`SpsaParams` or :class:`PostParams` fields, a baseline's its parameter dataclass's.
+    :class:`SpsaParams` or :class:`PostParams` fields, a baseline's its parameter dataclass's;
+    :class:`SearchParams` fields (``fitness_smoothing``, ``t_max``, …) work for every
+    algorithm.
     """
 
     label: str
@@ -76,6 +78,7 @@ class Variant:
     spsa_changes: tuple[tuple[str, Any], ...] = ()
     post_changes: tuple[tuple[str, Any], ...] = ()
     options: tuple[tuple[str, Any], ...] = ()  # a baseline's parameters
+    search_changes: tuple[tuple[str, Any], ...] = ()  # SearchParams fields, any algorithm
 
     @classmethod
     def parse(cls, label: str) -> Variant:
@@ -99,6 +102,23 @@ class Variant:
         return v._with_params(_parse_params(params), label)
 
     def _with_params(self, params: dict[str, Any], label: str) -> Variant:
+        from uavplan.planners.params import SearchParams
+
+        if "seed" in params:
+            raise ValueError(f"{label}: seeds come from --seed0 and --runs")
+        search_keys = set(field_names(SearchParams))
+        search = {k: v for k, v in params.items() if k in search_keys}
+        params = {k: v for k, v in params.items() if k not in search_keys}
+        try:
+            dataclasses.replace(SearchParams(), **search)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{label}: {err}") from None
+        v = dataclasses.replace(self, label=label, search_changes=tuple(search.items()))
+        if not params:
+            return v
+        return v._with_algorithm_params(params, label)
+
+    def _with_algorithm_params(self, params: dict[str, Any], label: str) -> Variant:
         from uavplan.planners.params import PostParams
         from uavplan.planners.registry import make_options
 
@@ -121,12 +141,14 @@ class Variant:
                 dataclasses.replace(PostParams(), **post)
             except (TypeError, ValueError) as err:
                 raise ValueError(f"{label}: {err}") from None
-            return Variant(label, "spsa", tuple(spsa.items()), tuple(post.items()))
+            return dataclasses.replace(
+                self, spsa_changes=tuple(spsa.items()), post_changes=tuple(post.items())
+            )
         try:
             make_options(self.algorithm, params)
         except (TypeError, ValueError) as err:
             raise ValueError(f"{label}: {err}") from None
-        return Variant(label, self.algorithm, options=tuple(params.items()))
+        return dataclasses.replace(self, options=tuple(params.items()))
 
 
 def _parse_params(text: str) -> dict[str, Any]:
@@ -294,10 +316,12 @@ _cache: dict[str, tuple[Any, Any]] = {}
 _cache_lock = threading.Lock()
 
 
-def _world_and_problem(job: BenchJob) -> tuple[Any, Any]:
-    """The scenario's world and path problem, built once per process. Each run gets its own
-    reachability memo: the memo is pure, but one that earlier runs filled up only slows
-    lookups down (it holds 2^20 entries and a GWO or DE run alone nearly fills it)."""
+def _world_and_problem(job: BenchJob, scn: Scenario) -> tuple[Any, Any]:
+    """The scenario's world and path problem as :func:`uavplan.planning.plan_route` would
+    build them for ``scn`` (the job's effective scenario), the geometry built once per
+    process. Each run gets its own reachability memo: the memo is pure, but one that earlier
+    runs filled up only slows lookups down (it holds 2^20 entries and a GWO or DE run alone
+    nearly fills it)."""
     from uavplan.planners import _kernels as K
     from uavplan.planners.base import PathProblem
     from uavplan.world import World
@@ -315,7 +339,11 @@ def _world_and_problem(job: BenchJob) -> tuple[Any, Any]:
                 _cache.pop(next(iter(_cache)))
             _cache[job.scenario_key] = hit
     world, problem = hit
-    return world, dataclasses.replace(problem, memo=K.new_memo())
+    return world, dataclasses.replace(
+        problem,
+        memo=K.new_memo(),
+        fitness_smoothing=scn.planner.search.fitness_smoothing,
+    )
 
 
 def job_scenario(job: BenchJob) -> Scenario:
@@ -326,7 +354,7 @@ def job_scenario(job: BenchJob) -> Scenario:
     options = {**(cfg.options if v.algorithm == cfg.algorithm else {}), **dict(v.options)}
     return scn.with_planner(
         algorithm=v.algorithm,
-        search=dataclasses.replace(cfg.search, seed=job.seed),
+        search=dataclasses.replace(cfg.search, seed=job.seed, **dict(v.search_changes)),
         spsa=dataclasses.replace(cfg.spsa, **dict(v.spsa_changes)),
         post=dataclasses.replace(cfg.post, **dict(v.post_changes)),
         options=options,
@@ -337,8 +365,8 @@ def run_job(job: BenchJob) -> RunRecord:
     """Run one job through :func:`uavplan.planning.plan_route` and record the outcome."""
     from uavplan.planning import plan_route
 
-    world, problem = _world_and_problem(job)
     scn = job_scenario(job)
+    world, problem = _world_and_problem(job, scn)
     res = plan_route(scn, world=world, problem=problem)
     pr = res.planner
     return RunRecord(
@@ -645,10 +673,7 @@ def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
             cfg = job.scenario.planner
             out["scenarios"][job.scenario.name] = {
                 "source": job.scenario.source,
-                "population": cfg.search.population,
-                "iterations": cfg.search.iterations,
-                "t_max": cfg.search.t_max,
-                "init_half_window": cfg.search.init_half_window,
+                "search": {k: v for k, v in dataclasses.asdict(cfg.search).items() if k != "seed"},
                 "grid": dataclasses.asdict(cfg.grid),
                 "energy": dataclasses.asdict(cfg.energy),
                 "safety_margin_m": job.scenario.safety_margin_m,
@@ -658,6 +683,8 @@ def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
     first = jobs[0].scenario if jobs else None
     for label, v in seen_v.items():
         entry: dict[str, Any] = {"algorithm": v.algorithm}
+        if v.search_changes:
+            entry["search_changes"] = dict(v.search_changes)
         if v.algorithm == "ssa":
             entry["spsa"] = dataclasses.asdict(SpsaParams.ssa())
         elif v.algorithm == "spsa" and first is not None:
