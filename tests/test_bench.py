@@ -115,6 +115,8 @@ def test_make_jobs_covers_every_scenario_variant_and_seed(tiny_path: Path) -> No
     assert {j.scenario.name for j in jobs} == {"tiny", "tiny#2"}
     assert all(j.scenario.planner.search.iterations == 2 for j in jobs)
     assert len({j.scenario_key for j in jobs}) == 1  # same geometry, one world per worker
+    jobs = bench.make_jobs([scn], ["ssa"], runs=1, search={"fitness_smoothing": 0})
+    assert jobs[0].scenario.planner.search.fitness_smoothing == 0
     with pytest.raises(ValueError, match="listed twice"):
         bench.make_jobs([scn], ["pso", "pso"])
 
@@ -241,6 +243,8 @@ def test_cli_bench_with_ablation(tiny_path: Path, tmp_path: Path) -> None:
             "2",
             "--seed0",
             "3",
+            "--fitness-smoothing",
+            "0",
             "--out",
             str(out),
             "-q",
@@ -251,6 +255,7 @@ def test_cli_bench_with_ablation(tiny_path: Path, tmp_path: Path) -> None:
     doc = json.loads((out / "bench.json").read_text())
     assert len(doc["runs"]) == 2 + len(bench.ABLATIONS)
     assert doc["config"]["seeds"] == [3]
+    assert doc["config"]["scenarios"]["tiny"]["search"]["fitness_smoothing"] == 0
     assert doc["config"]["algorithms"]["spsa-no-escape"]["spsa"]["escape"] is False
     assert doc["config"]["algorithms"]["pso"]["params"]["c1"] == 2.0
 

@@ -277,10 +277,13 @@ def make_jobs(
     seed0: int = 1,
     iterations: int | None = None,
     population: int | None = None,
+    search: Mapping[str, Any] | None = None,
 ) -> list[BenchJob]:
-    """Every (scenario, variant, seed) with seeds ``seed0 .. seed0 + runs − 1``; ``iterations``
-    and ``population`` override the scenarios' own settings when given. Jobs are ordered
-    scenario, seed, variant, so slow and fast algorithms interleave across workers."""
+    """Every (scenario, variant, seed) with seeds ``seed0 .. seed0 + runs − 1``.
+    ``iterations``, ``population`` and the :class:`SearchParams` fields in ``search`` (for
+    example ``{"fitness_smoothing": 0}``) override the scenarios' own settings for every
+    algorithm. Jobs are ordered scenario, seed, variant, so slow and fast algorithms
+    interleave across workers."""
     if runs < 1:
         raise ValueError("runs must be >= 1")
     vs = [v if isinstance(v, Variant) else Variant.parse(v) for v in variants]
@@ -293,6 +296,7 @@ def make_jobs(
     names: set[str] = set()
     for scn in scenarios:
         changes = {k: v for k, v in (("iterations", iterations), ("population", population)) if v}
+        changes.update(search or {})
         if changes:
             scn = scn.with_planner(search=dataclasses.replace(scn.planner.search, **changes))
         name = scn.name

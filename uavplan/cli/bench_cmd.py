@@ -32,6 +32,12 @@ _DEFAULT_ALGORITHMS = "spsa,ssa,pso,gwo,de,cso"
     "--population", type=click.IntRange(min=4), help="Population G (default: scenario's)."
 )
 @click.option(
+    "--fitness-smoothing",
+    type=click.IntRange(min=0),
+    help="Search fitness for every algorithm: 0 = the paper's (spline through the nodes), "
+    "N = through their moving average of half-width N (default: scenario's).",
+)
+@click.option(
     "--seed0",
     type=click.IntRange(min=0),
     default=1,
@@ -70,6 +76,7 @@ def bench_command(
     runs: int,
     iterations: int | None,
     population: int | None,
+    fitness_smoothing: int | None,
     seed0: int,
     workers: int,
     dask_address: str | None,
@@ -97,6 +104,7 @@ def bench_command(
             seed0=seed0,
             iterations=iterations,
             population=population,
+            search=None if fitness_smoothing is None else {"fitness_smoothing": fitness_smoothing},
         )
     except ValueError as err:
         raise InputError(str(err), key="--algorithms") from None
