@@ -18,7 +18,7 @@ from numba import njit
 from uavplan.planners.params import EnergyWeights
 
 #: spline samples per column interval used by the search fitness
-N_SUB = 4
+N_SUB = 3
 
 
 @njit(cache=True)

@@ -5,7 +5,7 @@
 2. :func:`refine` and :func:`tighten` — ours, not the paper's. ``refine`` is a pattern search
    on the simplified polyline in continuous space: legs are subdivided, and each vertex in
    turn moves to the best of its 26 neighbours at a step size that halves from 16 m to
-   0.5 m, whenever that lowers the energy and both legs keep the margin. ``tighten`` pulls
+   1 m, whenever that lowers the energy and both legs keep the margin. ``tighten`` pulls
    each interior vertex toward the chord of its neighbours as far as both legs stay clear
    (string pulling); it can only lower every energy term.
 3. :func:`smooth_route` — cubic spline through the vertices, parametrised by cumulative chord
@@ -60,8 +60,8 @@ def simplify(points: np.ndarray, world: World) -> np.ndarray:
 #: unit moves of the pattern search: the 26 neighbours of a grid cell
 _MOVES = np.array([m for m in itertools.product((-1.0, 0.0, 1.0), repeat=3) if any(m)])
 _MOVES /= np.linalg.norm(_MOVES, axis=1)[:, None]
-REFINE_STEPS_M = (16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
-REFINE_PASSES = 4
+REFINE_STEPS_M = (16.0, 4.0, 1.0)
+REFINE_PASSES = 3
 REFINE_LEG_M = 40.0
 
 
