@@ -28,6 +28,7 @@ from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn
 from uavplan.planners.params import PostParams
 from uavplan.planners.registry import make_planner
 from uavplan.scenario import Scenario
+from uavplan.warmup import warm_up
 from uavplan.world import World
 
 
@@ -145,6 +146,7 @@ def plan_route(
         # the paper's protocol post-processes SPSA only (section 4.5 is SPSA's contribution 5)
         post = replace(post, simplify=False, refine=False, tighten=False)
 
+    warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
     res = planner.solve(problem, np.random.default_rng(cfg.search.seed), progress)
     if not res.solved:

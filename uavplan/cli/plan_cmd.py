@@ -128,6 +128,14 @@ def plan_command(
     if autopilot:
         scn = replace(scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(autopilot)))
 
+    from uavplan.warmup import kernels_cached
+
+    if not quiet and not kernels_cached():
+        click.echo(
+            "first run after installation: compiling the planner's kernels "
+            "(about half a minute, cached for later runs)",
+            err=True,
+        )
     progress = _Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
     try:
         result = plan_route(scn, progress=progress)
