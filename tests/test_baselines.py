@@ -244,7 +244,9 @@ def test_pso_inertia_falls_linearly() -> None:
 
 def test_cso_group_sizes() -> None:
     planner = ChickenSwarmPlanner(SearchParams(), CsoParams())
-    assert planner.group_sizes(30) == (5, 21, 4, 11)  # MATLAB rounding, as Meng's code
+    assert planner.group_sizes(30) == (6, 18, 6, 3)  # RN = 0.2 N, HN = 0.6 N, MN = 0.1 N
+    code = ChickenSwarmPlanner(SearchParams(), CsoParams(0.15, 0.7, 0.5))
+    assert code.group_sizes(30) == (5, 21, 4, 11)  # MATLAB rounding, as Meng's code
     r, h, c, m = planner.group_sizes(4)
     assert r >= 1 and h >= 1 and r + h + c == 4 and 1 <= m <= h
 
