@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import sys
+import time
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -47,3 +48,49 @@ def handle_errors(fn: F) -> F:
 def show_progress(quiet: bool) -> bool:
     """Progress goes to stderr only when it is a terminal and the user did not ask quiet."""
     return not quiet and sys.stderr.isatty()
+
+
+def route_mission(scenario: Any, result: Any) -> Any:
+    """The mission items for a planned route, with the scenario's mission settings."""
+    from uavplan.geo import EnuFrame
+    from uavplan.mission.builder import build_mission
+
+    return build_mission(
+        result.waypoints_enu,
+        EnuFrame.at(scenario.origin),
+        autopilot=scenario.mission.autopilot,
+        end=scenario.mission.end,
+        takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
+        cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
+    )
+
+
+class Progress:
+    """A progress bar on stderr, throttled to about 10 updates a second."""
+
+    def __init__(self, enabled: bool, label: str) -> None:
+        self.enabled = enabled
+        self.label = label
+        self.bar = None
+        self.last = 0.0
+        self.done = 0
+
+    def __call__(self, iteration: int, total: int, best: float) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            self.bar = click.progressbar(
+                length=total, label=self.label, file=sys.stderr, show_pos=True, width=30
+            )
+            self.bar.__enter__()
+        now = time.monotonic()
+        if now - self.last >= 0.1 or iteration == total:
+            self.bar.label = f"{self.label} E={best:.1f}"
+            self.bar.update(iteration - self.done)
+            self.done = iteration
+            self.last = now
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+            self.bar = None

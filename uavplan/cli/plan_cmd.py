@@ -3,47 +3,14 @@
 from __future__ import annotations
 
 import json
-import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
 import click
 
 from uavplan.cli import main
-from uavplan.cli.common import handle_errors, show_progress
+from uavplan.cli.common import Progress, handle_errors, route_mission, show_progress
 from uavplan.errors import InputError, NoPathError
-
-
-class _Progress:
-    """A progress bar on stderr, throttled to about 10 updates a second."""
-
-    def __init__(self, enabled: bool, label: str) -> None:
-        self.enabled = enabled
-        self.label = label
-        self.bar = None
-        self.last = 0.0
-        self.done = 0
-
-    def __call__(self, iteration: int, total: int, best: float) -> None:
-        if not self.enabled:
-            return
-        if self.bar is None:
-            self.bar = click.progressbar(
-                length=total, label=self.label, file=sys.stderr, show_pos=True, width=30
-            )
-            self.bar.__enter__()
-        now = time.monotonic()
-        if now - self.last >= 0.1 or iteration == total:
-            self.bar.label = f"{self.label} E={best:.1f}"
-            self.bar.update(iteration - self.done)
-            self.done = iteration
-            self.last = now
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
-            self.bar = None
 
 
 def _load_scenario(path: str):
@@ -103,8 +70,6 @@ def plan_command(
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file."""
     from uavplan.fileio import atomic_write_text
-    from uavplan.geo import EnuFrame
-    from uavplan.mission.builder import build_mission
     from uavplan.mission.io import format_for, save_mission
     from uavplan.mission.items import Autopilot
     from uavplan.planning import plan_route
@@ -136,7 +101,7 @@ def plan_command(
             "(about half a minute, cached for later runs)",
             err=True,
         )
-    progress = _Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
+    progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
     try:
         result = plan_route(scn, progress=progress)
     finally:
@@ -150,14 +115,7 @@ def plan_command(
             f"{scn.name}: the route comes within {result.min_clearance_m:.2f} m of an obstacle "
             f"(safety margin {scn.safety_margin_m:g} m)"
         )
-    mission = build_mission(
-        result.waypoints_enu,
-        EnuFrame.at(scn.origin),
-        autopilot=scn.mission.autopilot,
-        end=scn.mission.end,
-        takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
-        cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
-    )
+    mission = route_mission(scn, result)
     if fence:
         from uavplan.mission.fence import geofence_for
 

@@ -16,7 +16,7 @@ from typing import Any
 import click
 
 from uavplan.cli import main
-from uavplan.cli.common import handle_errors, show_progress
+from uavplan.cli.common import Progress, handle_errors, route_mission, show_progress
 from uavplan.errors import InputError, NoPathError
 
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
@@ -160,9 +160,6 @@ def _render_planned(
     population: int | None,
     quiet: bool,
 ) -> str:
-    from uavplan.cli.plan_cmd import _Progress
-    from uavplan.geo import EnuFrame
-    from uavplan.mission.builder import build_mission
     from uavplan.planning import plan_route
     from uavplan.render import render_planned, render_scenario, route_subtitle
 
@@ -175,7 +172,7 @@ def _render_planned(
         scn = scn.with_planner(search=replace(scn.planner.search, **changes))
     if algorithm:
         scn = scn.with_planner(algorithm=algorithm)
-    progress = _Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
+    progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
     try:
         result = plan_route(scn, progress=progress)
     finally:
@@ -188,14 +185,7 @@ def _render_planned(
             f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
             f"in {output})"
         )
-    mission = build_mission(
-        result.waypoints_enu,
-        EnuFrame.at(scn.origin),
-        autopilot=scn.mission.autopilot,
-        end=scn.mission.end,
-        takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
-        cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
-    )
+    mission = route_mission(scn, result)
     render_planned(scn, result, mission, output, **picture)
     if not result.collision_free:
         raise NoPathError(
