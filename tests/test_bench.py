@@ -253,7 +253,8 @@ def test_cli_bench_with_ablation(tiny_path: Path, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert "| tiny | spsa | pso | spsa-no-start-end |" in result.output
     doc = json.loads((out / "bench.json").read_text())
-    assert len(doc["runs"]) == 2 + len(bench.ABLATIONS)
+    assert sum(row["runs"] for row in doc["summary"]) == 2 + len(bench.ABLATIONS)
+    assert len((out / "runs.csv").read_text().splitlines()) == 1 + 2 + len(bench.ABLATIONS)
     assert doc["config"]["seeds"] == [3]
     assert doc["config"]["scenarios"]["tiny"]["search"]["fitness_smoothing"] == 0
     assert doc["config"]["algorithms"]["spsa-no-escape"]["spsa"]["escape"] is False

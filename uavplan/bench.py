@@ -605,7 +605,7 @@ def write_outputs(
     plots: bool = True,
 ) -> list[Path]:
     """Write ``runs.csv`` (one row per run), ``summary.csv``, ``bench.json`` (configuration,
-    summary, runs and mean convergence curves), ``summary.md`` (the tables) and one
+    summary and mean convergence curves), ``summary.md`` (the tables) and one
     ``convergence-<scenario>.png`` per scenario. Every file is written atomically. Returns
     the paths written."""
     out = Path(out_dir)
@@ -626,13 +626,14 @@ def write_outputs(
     doc = {
         "config": dict(config or {}),
         "summary": srows,
-        "runs": rows,
         "mean_convergence": {
-            scn: {alg: [round(float(v), 4) for v in c] for alg, c in by.items()}
+            scn: {alg: [round(float(v), 2) for v in c] for alg, c in by.items()}
             for scn, by in curves.items()
         },
     }
-    put("bench.json", json.dumps(_jsonable(doc), indent=1) + "\n")
+    # one line per top-level key: the convergence curves (thousands of numbers) stay compact
+    parts = [f"{json.dumps(k)}: {json.dumps(v)}" for k, v in _jsonable(doc).items()]
+    put("bench.json", "{\n" + ",\n".join(parts) + "\n}\n")
     put("summary.md", format_tables(summaries) + "\n")
     if plots:
         for scn, by_alg in curves.items():
