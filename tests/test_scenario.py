@@ -219,7 +219,7 @@ def test_planner_overrides(tmp_path: Path) -> None:
         BASE
         + """\
 planner:
-  algorithm: ssa
+  algorithm: pso
   population: 12
   iterations: 50
   seed: 0
@@ -230,11 +230,11 @@ planner:
   spsa: {producer_ratio: 0.6, scrounger_ratio: 0.4, producer_rule: literal, oscillation: false,
          v_max: 3}
   post: {smooth: false, sample_step_m: 2.5}
-  options: {inertia: 0.7}
+  options: {w_start: 0.7}
 """,
     )
     cfg = load_scenario(path).planner
-    assert cfg.algorithm == "ssa"
+    assert cfg.algorithm == "pso"
     assert cfg.search == SearchParams(
         population=12, iterations=50, seed=0, t_max=3, init_half_window=4.5
     )
@@ -248,7 +248,7 @@ planner:
         v_max=3,
     )
     assert cfg.post == PostParams(smooth=False, sample_step_m=2.5)
-    assert dict(cfg.options) == {"inertia": 0.7}
+    assert dict(cfg.options) == {"w_start": 0.7}
 
 
 def test_start_and_goal_exactly_at_the_margin_are_accepted(tmp_path: Path) -> None:
@@ -455,6 +455,19 @@ def test_planner_value_errors_name_the_key(
     path = write(tmp_path, "pop.yaml", BASE + f"planner: {planner}\n")
     assert_rejected(path, key, reason)
     assert "dx_m" not in rejected(path).reason
+
+
+def test_unknown_algorithm_options_are_rejected_at_load(tmp_path: Path) -> None:
+    assert_rejected(
+        write(tmp_path, "opt.yaml", BASE + "planner: {algorithm: pso, options: {inertia: 1}}\n"),
+        "planner.options",
+        "unknown pso option(s) inertia",
+    )
+    assert_rejected(
+        write(tmp_path, "opt2.yaml", BASE + "planner: {algorithm: ssa, options: {w: 1}}\n"),
+        "planner.options",
+        "takes no options",
+    )
 
 
 def test_options_that_are_not_a_mapping_are_rejected(tmp_path: Path) -> None:

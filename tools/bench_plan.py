@@ -28,8 +28,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def bench_core(path: Path, runs: int) -> dict:
-    from uavplan.planners.base import PathProblem
-    from uavplan.planning import plan_route
+    from uavplan.planning import build_problem, plan_route
     from uavplan.scenario import load_scenario
     from uavplan.world import World
 
@@ -41,9 +40,7 @@ def bench_core(path: Path, runs: int) -> dict:
     core, search, energy, free = [], [], [], 0
     for seed in range(1, runs + 1):
         # a fresh problem per run: its reachability memo starts empty, as in a real run
-        problem = PathProblem.build(
-            world, scn.start_m, scn.goal_m, cfg.grid, cfg.energy, cfg.search.fitness_smoothing
-        )
+        problem = build_problem(scn, world)
         result = plan_route(
             scn.with_planner(search=replace(cfg.search, seed=seed)), world=world, problem=problem
         )

@@ -326,8 +326,7 @@ def _world_and_problem(job: BenchJob, scn: Scenario) -> tuple[Any, Any]:
     process. Each run gets its own reachability memo: the memo is pure, but one that earlier
     runs filled up only slows lookups down (it holds 2^20 entries and a GWO or DE run alone
     nearly fills it)."""
-    from uavplan.planners import _kernels as K
-    from uavplan.planners.base import PathProblem
+    from uavplan.planning import build_problem
     from uavplan.world import World
 
     with _cache_lock:
@@ -335,19 +334,14 @@ def _world_and_problem(job: BenchJob, scn: Scenario) -> tuple[Any, Any]:
     if hit is None:
         scn = job.scenario
         world = World.from_scenario(scn)
-        cfg = scn.planner
-        problem = PathProblem.build(world, scn.start_m, scn.goal_m, cfg.grid, cfg.energy)
+        problem = build_problem(scn, world)
         hit = (world, problem)
         with _cache_lock:
             if len(_cache) >= _CACHE_SIZE:
                 _cache.pop(next(iter(_cache)))
             _cache[job.scenario_key] = hit
     world, problem = hit
-    return world, dataclasses.replace(
-        problem,
-        memo=K.new_memo(),
-        fitness_smoothing=scn.planner.search.fitness_smoothing,
-    )
+    return world, problem.with_fresh_memo()
 
 
 def job_scenario(job: BenchJob) -> Scenario:

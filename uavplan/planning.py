@@ -115,6 +115,19 @@ def _best_simplified(
     return best[1], best[2]
 
 
+def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem:
+    """The path-frame problem of ``scenario`` (reusable across runs and algorithms; each run
+    sets its own fitness smoothing)."""
+    cfg = scenario.planner
+    return PathProblem.build(
+        world or World.from_scenario(scenario),
+        scenario.start_m,
+        scenario.goal_m,
+        cfg.grid,
+        cfg.energy,
+    )
+
+
 def takeoff_column(scenario: Scenario) -> np.ndarray:
     """The vertical climb from the ground to the start point, (2, 3)."""
     sx, sy, sz = scenario.start_m
@@ -132,15 +145,10 @@ def plan_route(
     :meth:`Scenario.with_planner`). ``world``/``problem`` may be passed to reuse them."""
     cfg = scenario.planner
     world = world or World.from_scenario(scenario)
-    problem = problem or PathProblem.build(
-        world,
-        scenario.start_m,
-        scenario.goal_m,
-        cfg.grid,
-        cfg.energy,
-        cfg.search.fitness_smoothing,
-    )
     planner = make_planner(cfg.algorithm, cfg.search, cfg.spsa, cfg.options)
+    problem = (problem or build_problem(scenario, world)).with_fitness_smoothing(
+        planner.fitness_smoothing()
+    )
     post = cfg.post
     if not planner.postprocess:
         # the paper's protocol post-processes SPSA only (section 4.5 is SPSA's contribution 5)

@@ -396,6 +396,12 @@ def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
         if not isinstance(opts, Mapping):
             raise chk.fail("planner.options", f"must be a mapping, got {_type_name(opts)}")
         options = dict(chk.mapping(opts, "planner.options", {str(k) for k in opts}))
+        from uavplan.planners.registry import make_options  # parameter classes only
+
+        try:
+            make_options(algorithm, options)
+        except (TypeError, ValueError) as err:
+            raise chk.fail("planner.options", str(err)) from None
     return PlannerConfig(algorithm, search, grid, energy, spsa, post, options)
 
 

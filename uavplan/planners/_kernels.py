@@ -53,7 +53,9 @@ def _round(v):
 
 
 #: memo table for node reachability (open addressing, linear probing)
-MEMO_BITS = 20
+MEMO_BITS = 21
+#: probes per lookup; a full neighbourhood means no memo entry (the exact test runs)
+MEMO_PROBES = 16
 _EMPTY = -1
 _MIX1 = np.int64(-4658895280553007687)  # splitmix64 finaliser constants as int64
 _MIX2 = np.int64(-7723592293110705685)
@@ -184,7 +186,7 @@ def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
     h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
     h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
     h &= mask
-    for _probe in range(64):
+    for _probe in range(MEMO_PROBES):
         k = keys[h]
         if k == _EMPTY:
             return -1
@@ -207,7 +209,7 @@ def node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
         h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
         h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
         h &= mask
-        for _probe in range(64):
+        for _probe in range(MEMO_PROBES):
             k = keys[h]
             if k == _EMPTY or (k >> 1) == key:
                 keys[h] = 2 * key + (1 if free else 0)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import enum
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -79,6 +79,17 @@ class PathProblem:
             _clearance_table(world, frame),
             fitness_smoothing,
         )
+
+    def with_fresh_memo(self) -> PathProblem:
+        """The same problem with an empty reachability memo (the memo is pure, but one that
+        earlier runs filled only slows lookups down)."""
+        return replace(self, memo=K.new_memo())
+
+    def with_fitness_smoothing(self, smoothing: int) -> PathProblem:
+        """The same problem (sharing its memo) with another fitness smoothing."""
+        if smoothing == self.fitness_smoothing:
+            return self
+        return replace(self, fitness_smoothing=smoothing)
 
     @property
     def n_inner(self) -> int:
@@ -300,6 +311,13 @@ class SwarmPlanner:
     #: independent searches the iteration budget is split into (fresh initialisation each);
     #: 1 is the paper's protocol
     rounds = 1
+    #: the fitness smoothing used when the search settings leave it unset (0: the paper's)
+    default_fitness_smoothing = 0
+
+    def fitness_smoothing(self) -> int:
+        """The moving-average half-width this planner's fitness uses."""
+        s = self.search.fitness_smoothing
+        return self.default_fitness_smoothing if s is None else s
 
     def __init__(self, search: SearchParams) -> None:
         self.search = search

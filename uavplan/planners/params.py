@@ -63,9 +63,10 @@ class SearchParams:
     seed: int = 1
     t_max: int = 10  # T_max, Table 1
     init_half_window: float = 10.0  # Δh, section 6
-    #: ours: the fitness spline runs through a moving average of the nodes (half-width in
-    #: columns) so the grid rounding's staircase does not dominate it; 0 = the paper's fitness
-    fitness_smoothing: int = 2
+    #: the fitness spline runs through a moving average of the nodes (half-width in columns)
+    #: so the grid rounding's staircase does not dominate it; 0 = the paper's fitness; None =
+    #: each algorithm's own default (SPSA 2, ours; every baseline 0, the paper's protocol)
+    fitness_smoothing: int | None = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.population, int) and self.population >= 4):
@@ -78,7 +79,10 @@ class SearchParams:
             raise ValueError("t_max must be an integer >= 1")
         if not (self.init_half_window > 0):
             raise ValueError("init_half_window must be > 0")
-        if not (isinstance(self.fitness_smoothing, int) and self.fitness_smoothing >= 0):
+        smoothing = self.fitness_smoothing
+        if smoothing is not None and not (
+            isinstance(smoothing, int) and not isinstance(smoothing, bool) and smoothing >= 0
+        ):
             raise ValueError("fitness_smoothing must be an integer >= 0")
 
 

@@ -29,6 +29,7 @@ EPS = 1e-50  # ε of eq. 5, as in the reference code
 class SparrowPlanner(SwarmPlanner):
     name = "spsa"
     postprocess = True
+    default_fitness_smoothing = 2  # ours (see SearchParams.fitness_smoothing)
 
     def __init__(self, search: SearchParams, params: SpsaParams | None = None) -> None:
         super().__init__(search)
@@ -139,6 +140,7 @@ class SsaPlanner(SparrowPlanner):
 
     name = "ssa"
     postprocess = False
+    default_fitness_smoothing = 0
 
     def __init__(self, search: SearchParams, params: SpsaParams | None = None) -> None:
         super().__init__(search, params or SpsaParams.ssa())
