@@ -576,19 +576,22 @@ def rebuild(
 
 
 @njit(cache=True)
-def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
-    """Adaptive oscillation optimisation (section 4.4, eq. 13), in place, every individual.
+def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin, skip):
+    """Adaptive oscillation optimisation (section 4.4, eq. 13), in place, every individual
+    except those with ``skip[g]`` (callers skip paths known to be fixed points).
 
     Node j becomes round(mean(P_{j−1}, P_j, …, P_{j+N_p−2})) with N_p = ``window``, the
     previous node already optimised; when that node is unreachable N_p drops by one, and
     below 3 the node is kept. Windows are cut at the goal. An individual whose kept node
-    became unreachable is left as it was. Returns the number of nodes moved.
+    became unreachable is left as it was. Returns the nodes moved per individual (G,).
     """
     tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
     moved = np.zeros(n_pop, dtype=np.int64)
     for g in range(n_pop):
+        if skip[g]:
+            continue
         new = np.empty((n_inner, 2))
         py = 0.0
         pz = 0.0
@@ -649,7 +652,7 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin):
                 nodes[g, j, 0] = new[j, 0]
                 nodes[g, j, 1] = new[j, 1]
             moved[g] = count
-    return moved.sum()
+    return moved
 
 
 @njit(cache=True)

@@ -217,8 +217,14 @@ class PathProblem:
             K.stream_seeds(rng, base.shape[0]),
         )
 
-    def oscillate(self, nodes: np.ndarray, window: int) -> int:
+    def oscillate(
+        self, nodes: np.ndarray, window: int, skip: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Oscillation optimisation in place; returns the nodes moved per individual.
+        Individuals with ``skip`` set are left alone."""
         dx, dy, dz = self.steps
+        if skip is None:
+            skip = np.zeros(nodes.shape[0], dtype=np.bool_)
         return K.oscillate(
             nodes,
             self.goal_u,
@@ -230,6 +236,7 @@ class PathProblem:
             self.goal_m,
             self.geo,
             self.margin_m,
+            skip,
         )
 
 

@@ -41,7 +41,10 @@ class SparrowPlanner(SwarmPlanner):
             # Algorithm 3: "Oscillation optimization of all individuals trajectories"
             moved = problem.oscillate(pop.x, self.params.oscillation_window)
             pop.f = problem.fitness(pop.x)
-            pop.extra["oscillated_nodes"] = moved
+            pop.extra["oscillated_nodes"] = int(moved.sum())
+            # a path the oscillation left unchanged is a fixed point of it (eq. 13 has no
+            # randomness): it need not be oscillated again until it changes
+            pop.extra["osc_fixed"] = moved == 0
         pop.extra.setdefault("escapes", 0)
         pop.extra.setdefault("failed_updates", 0)
 
@@ -123,14 +126,20 @@ class SparrowPlanner(SwarmPlanner):
         cand[moved] = cand_s[moved]
 
         # --- adaptive oscillation optimisation: eq. 13 -----------------------------------
+        unchanged = ~(cand != x).any(axis=(1, 2))
         if prm.oscillation:
-            problem.oscillate(cand, prm.oscillation_window)
+            fixed = pop.extra["osc_fixed"]
+            skip = unchanged & fixed
+            moved = problem.oscillate(cand, prm.oscillation_window, skip)
+            fixed[unchanged & ~skip] = moved[unchanged & ~skip] == 0
 
         # --- greedy selection ---------------------------------------------------------------
         f_cand = problem.fitness_of_changed(cand, x, f)
         better = f_cand < f
         x[better] = cand[better]
         f[better] = f_cand[better]
+        if prm.oscillation:
+            pop.extra["osc_fixed"][better] = False
         pop.extra["escapes"] += escapes
         pop.extra["failed_updates"] += int((~ok_p).sum() + (~ok_s).sum())
 
