@@ -163,3 +163,19 @@ def test_plan_exits_3_when_the_goal_is_walled_in(tmp_path: Path) -> None:
     assert "no collision-free path" in result.output
     assert "Traceback" not in result.output
     assert not out.exists()
+
+
+def test_a_route_at_the_margin_still_keeps_it_after_file_rounding(tmp_path: Path) -> None:
+    """Routes touch the margin; planning keeps 2 cm spare so the 8-decimal .waypoints file
+    (and MAVLink's 1e-7 degrees) still keep it when checked against the scenario."""
+    mission = ROOT / "missions" / "paper-env2.yaml"
+    for ext in ("waypoints", "plan"):
+        out = tmp_path / f"m.{ext}"
+        runner = CliRunner()
+        result = runner.invoke(
+            main, ["plan", str(mission), "-o", str(out), "--iterations", "150", "--quiet"]
+        )
+        assert result.exit_code == 0, result.output
+        check = runner.invoke(main, ["validate", str(out), "--scenario", str(mission)])
+        assert check.exit_code == 0, check.output
+        assert "min clearance 10.0" in check.output

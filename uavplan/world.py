@@ -194,9 +194,12 @@ class World:
             cells,
         )
 
-    def in_frame(self, origin_xy: Sequence[float], heading_rad: float) -> World:
+    def in_frame(
+        self, origin_xy: Sequence[float], heading_rad: float, margin_m: float | None = None
+    ) -> World:
         """The same world expressed in a frame whose origin is ``origin_xy`` and whose +x axis
-        points along ``heading_rad`` (counter-clockwise from this frame's +x)."""
+        points along ``heading_rad`` (counter-clockwise from this frame's +x), optionally
+        with another margin."""
         c, s = math.cos(heading_rad), math.sin(heading_rad)
         ox, oy = float(origin_xy[0]), float(origin_xy[1])
 
@@ -223,7 +226,7 @@ class World:
             self.owner.copy(),
             hp,
             self.zlim.copy(),
-            self.margin_m,
+            self.margin_m if margin_m is None else float(margin_m),
             self.n_obstacles,
         )
 

@@ -26,6 +26,10 @@ from uavplan.world import World
 
 #: starts per individual before the initialisation gives up on it
 INIT_MAX_ATTEMPTS = 25
+#: planning keeps this much more than the safety margin, so a route that touches the margin
+#: still keeps it after a mission file or MAVLink rounds its positions (1e-7 degrees is about
+#: 1.1 cm; ArduPilot stores centimetres)
+MARGIN_PAD_M = 0.02
 
 ProgressFn = Callable[[int, int, float], None]  # (iteration, iterations, best fitness)
 
@@ -62,7 +66,9 @@ class PathProblem:
         fitness_smoothing: int = 0,
     ) -> PathProblem:
         frame = PathFrame.build(start_enu, goal_enu, grid)
-        world = world_enu.in_frame(frame.origin_xy, frame.heading_rad)
+        world = world_enu.in_frame(
+            frame.origin_xy, frame.heading_rad, world_enu.margin_m + MARGIN_PAD_M
+        )
         start_m = np.array([0.0, 0.0, float(start_enu[2])])
         goal_m = np.array([frame.length_m, 0.0, float(goal_enu[2])])
         line = np.zeros((frame.n_cols + 1, 2))
