@@ -7,12 +7,11 @@ file QGC rejects must be rejected by our reader too.
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import json
 import math
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +19,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from mavsdk_offline import mavsdk_mission_raw
 
 from uavplan import fileio
 from uavplan.errors import EXIT_INPUT, MissionFileError
@@ -689,38 +689,6 @@ def test_no_home_is_read_as_none() -> None:
 
 # =============================================================================================
 # MAVSDK's importer (mavsdk 4.1 native binding) reads our files
-
-
-@contextlib.contextmanager
-def mavsdk_mission_raw(autopilot: Autopilot) -> Iterator[Any]:
-    """A MAVSDK MissionRaw plugin bound to a system that announced ``autopilot``.
-
-    The importer needs a System (it prepends ArduPilot's home itself). No vehicle or socket
-    is needed: one HEARTBEAT fed through a ``raw://`` connection creates the system.
-    """
-    from mavsdk.component_type import ComponentType
-    from mavsdk.mavsdk import Configuration, Mavsdk
-    from mavsdk.plugins.mission_raw.mission_raw import MissionRaw
-    from pymavlink.dialects.v20 import common as mavlink2
-
-    mavsdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    try:
-        mavsdk.add_any_connection("raw://")
-        mavsdk.subscribe_raw_bytes_to_be_sent(lambda _data: None)
-        mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
-        heartbeat = mav.heartbeat_encode(
-            mavlink2.MAV_TYPE_QUADROTOR, autopilot.value, 0, 0, mavlink2.MAV_STATE_STANDBY
-        )
-        mavsdk.pass_received_raw_bytes(heartbeat.pack(mav))
-        system = mavsdk.first_autopilot(2.0)
-        assert system is not None, "MAVSDK did not create a system from the heartbeat"
-        plugin = MissionRaw(system)
-        try:
-            yield plugin
-        finally:
-            plugin.destroy()
-    finally:
-        mavsdk.destroy()
 
 
 def from_mavsdk(raw: Any) -> MissionItem:

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from mavsdk_offline import mavsdk_mission_raw
 
 from uavplan.errors import MissionFileError
 from uavplan.geo import EnuFrame
@@ -354,34 +353,6 @@ def test_pymavlink_mavwp_loads_the_same_items(tmp_path: Path) -> None:
         ):
             assert math.isnan(got) if want is None else got == pytest.approx(want, abs=1e-8)
         assert (wp.x, wp.y, wp.z) == pytest.approx((item.x, item.y, item.z), abs=1e-8)
-
-
-@contextlib.contextmanager
-def mavsdk_mission_raw(autopilot: Autopilot) -> Iterator[Any]:
-    """MAVSDK MissionRaw bound to a system created by one HEARTBEAT over ``raw://``."""
-    from mavsdk.component_type import ComponentType
-    from mavsdk.mavsdk import Configuration, Mavsdk
-    from mavsdk.plugins.mission_raw.mission_raw import MissionRaw
-    from pymavlink.dialects.v20 import common as mavlink2
-
-    mavsdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    try:
-        mavsdk.add_any_connection("raw://")
-        mavsdk.subscribe_raw_bytes_to_be_sent(lambda _data: None)
-        mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
-        heartbeat = mav.heartbeat_encode(
-            mavlink2.MAV_TYPE_QUADROTOR, autopilot.value, 0, 0, mavlink2.MAV_STATE_STANDBY
-        )
-        mavsdk.pass_received_raw_bytes(heartbeat.pack(mav))
-        system = mavsdk.first_autopilot(2.0)
-        assert system is not None, "MAVSDK did not create a system from the heartbeat"
-        plugin = MissionRaw(system)
-        try:
-            yield plugin
-        finally:
-            plugin.destroy()
-    finally:
-        mavsdk.destroy()
 
 
 def raw_tuple(raw: Any) -> tuple[Any, ...]:
