@@ -16,7 +16,7 @@ from click.testing import CliRunner
 
 from uavplan.cli import main
 from uavplan.errors import MissionFileError
-from uavplan.geo import EnuFrame
+from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.builder import build_mission, mission_polyline_enu
 from uavplan.mission.export import (
     ALTITUDE_REFERENCE,
@@ -27,7 +27,7 @@ from uavplan.mission.export import (
 )
 from uavplan.mission.fence import build_geofence, footprints_of
 from uavplan.mission.io import FORMATS, load_mission, save_mission
-from uavplan.mission.items import Autopilot, GeoPoint, MissionPlan
+from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
 
 ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)

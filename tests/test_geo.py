@@ -13,8 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pyproj import Geod
 
-from uavplan.geo import EnuFrame
-from uavplan.mission.items import GeoPoint
+from uavplan.geo import EnuFrame, GeoPoint
 
 WGS84_A_M = 6378137.0
 WGS84_F = 1.0 / 298.257223563

@@ -9,7 +9,7 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from uavplan.mission.items import GeoPoint
+from uavplan.geo import GeoPoint
 from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, Obstacle
 from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame

@@ -18,6 +18,7 @@ from mavlink_helpers import (
 )
 
 from uavplan.errors import InputError
+from uavplan.geo import GeoPoint
 from uavplan.mavlink.link import VehicleLink
 from uavplan.mavlink.messages import Capability, MissionResult
 from uavplan.mavlink.mock_vehicle import MockConfig, MockVehicle
@@ -37,7 +38,6 @@ from uavplan.mavlink.transfer import (
 )
 from uavplan.mission.items import (
     Autopilot,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

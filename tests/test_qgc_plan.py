@@ -23,7 +23,7 @@ from mavsdk_offline import mavsdk_mission_raw
 
 from uavplan import fileio
 from uavplan.errors import EXIT_INPUT, MissionFileError
-from uavplan.geo import EnuFrame
+from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.builder import build_mission
 from uavplan.mission.io import FORMATS, format_for, load_mission, save_mission
 from uavplan.mission.items import (
@@ -31,7 +31,6 @@ from uavplan.mission.items import (
     FenceCircle,
     FencePolygon,
     GeoFence,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

@@ -13,7 +13,8 @@ from click.testing import CliRunner
 
 from uavplan.cli import main
 from uavplan.errors import EXIT_INPUT, ScenarioError
-from uavplan.mission.items import Autopilot, GeoPoint
+from uavplan.geo import GeoPoint
+from uavplan.mission.items import Autopilot
 from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, PrismObstacle
 from uavplan.planners.params import (
     EnergyWeights,

@@ -26,10 +26,26 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.mission.items import GeoPoint
-
 if TYPE_CHECKING:
     from pyproj import Transformer
+
+
+@dataclass(frozen=True)
+class GeoPoint:
+    """A WGS84 position. ``alt_m`` is AMSL unless a field's doc says otherwise."""
+
+    lat_deg: float
+    lon_deg: float
+    alt_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.lat_deg) and -90.0 <= self.lat_deg <= 90.0):
+            raise ValueError(f"latitude {self.lat_deg!r} is not within [-90, 90] degrees")
+        if not (math.isfinite(self.lon_deg) and -180.0 <= self.lon_deg <= 180.0):
+            raise ValueError(f"longitude {self.lon_deg!r} is not within [-180, 180] degrees")
+        if not math.isfinite(self.alt_m):
+            raise ValueError(f"altitude {self.alt_m!r} is not finite")
+
 
 #: geodetic 3-D (lat, lon, ellipsoidal height) and geocentric (ECEF) WGS84
 GEODETIC_CRS = "EPSG:4979"

@@ -16,7 +16,8 @@ from typing import Any
 import yaml
 
 from uavplan.errors import ScenarioError
-from uavplan.mission.items import Autopilot, GeoPoint
+from uavplan.geo import GeoPoint
+from uavplan.mission.items import Autopilot
 from uavplan.obstacles import (
     Bounds,
     BoxObstacle,

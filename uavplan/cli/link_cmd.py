@@ -259,7 +259,7 @@ def clear_cmd(
 def _parse_home(text: str | None) -> Any:
     if text is None:
         return None
-    from uavplan.mission.items import GeoPoint
+    from uavplan.geo import GeoPoint
 
     try:
         lat, lon, alt = (float(v) for v in text.split(","))

@@ -54,6 +54,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from uavplan.geo import GeoPoint
 from uavplan.mavlink.connection import MavlinkConnection
 from uavplan.mavlink.messages import (
     AUTOPILOT_VERSION_ID,
@@ -85,7 +86,6 @@ from uavplan.mavlink.protocol import RoundTripEstimator, item_from_wire, item_to
 from uavplan.mavlink.transport import ConnectionSpec
 from uavplan.mission.items import (
     Autopilot,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

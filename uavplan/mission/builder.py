@@ -20,10 +20,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.geo import EnuFrame
+from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.items import (
     Autopilot,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

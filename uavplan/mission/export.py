@@ -37,12 +37,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.errors import MissionFileError
-from uavplan.geo import EnuFrame
+from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.fence import Footprint, footprints_of
 from uavplan.mission.items import (
     GLOBAL_FRAMES,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

@@ -19,6 +19,8 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
+from uavplan.geo import GeoPoint
+
 # ---------------------------------------------------------------------------------------------
 # MAVLink enum values this project uses (common.xml). Kept here so the mission layer needs
 # no pymavlink import.
@@ -122,23 +124,6 @@ def e7_to_deg(value_e7: int) -> float:
 
 
 # ---------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class GeoPoint:
-    """A WGS84 position. ``alt_m`` is AMSL unless a field's doc says otherwise."""
-
-    lat_deg: float
-    lon_deg: float
-    alt_m: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.lat_deg) and -90.0 <= self.lat_deg <= 90.0):
-            raise ValueError(f"latitude {self.lat_deg!r} is not within [-90, 90] degrees")
-        if not (math.isfinite(self.lon_deg) and -180.0 <= self.lon_deg <= 180.0):
-            raise ValueError(f"longitude {self.lon_deg!r} is not within [-180, 180] degrees")
-        if not math.isfinite(self.alt_m):
-            raise ValueError(f"altitude {self.alt_m!r} is not finite")
 
 
 def _param(value: float | None) -> float | None:

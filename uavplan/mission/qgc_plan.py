@@ -28,12 +28,12 @@ from dataclasses import replace
 from typing import Any, NoReturn
 
 from uavplan.errors import MissionFileError
+from uavplan.geo import GeoPoint
 from uavplan.mission.items import (
     Autopilot,
     FenceCircle,
     FencePolygon,
     GeoFence,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

@@ -25,9 +25,9 @@ from dataclasses import dataclass, replace
 from typing import NoReturn
 
 from uavplan.errors import MissionFileError
+from uavplan.geo import GeoPoint
 from uavplan.mission.items import (
     Autopilot,
-    GeoPoint,
     MavCmd,
     MavFrame,
     MissionItem,

@@ -1,0 +1,107 @@
+"""A planned route: the one value carried from the planner to the mission builder, the
+geofence, the map exports and the pictures.
+
+Everything in it is in one local ENU frame (x east, y north, z up, metres), and the frame
+itself travels with it, so nobody rebuilds ENU points from mission items. The *flown*
+polyline is what the autopilot flies through the mission built from the route: the vertical
+take-off climb from the ground below the start, the straight legs between the waypoints and,
+when the mission ends with a landing, the descent at the goal. :func:`flown_polyline` is the
+single definition of it; the mission builder's inverse (items → ENU) produces the same line.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uavplan.geo import EnuFrame
+
+EndAction = Literal["rtl", "land", "none"]
+END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none")
+
+#: an altitude difference below this is "the same altitude" (ArduPilot stores centimetres)
+ALTITUDE_TOLERANCE_M = 0.01
+
+
+def flown_polyline(
+    waypoints_enu: NDArray[np.float64],
+    *,
+    takeoff_altitude_m: float | None = None,
+    end: EndAction = "rtl",
+) -> NDArray[np.float64]:
+    """The polyline the vehicle flies for these waypoints, ``(n, 3)`` ENU metres.
+
+    Row 0 of ``waypoints_enu`` is the start (the take-off x, y and the height to fly on from),
+    the last row the goal. The vehicle climbs vertically from the ground below the start to
+    ``takeoff_altitude_m`` (default: the start's height), flies to the start's height if that
+    differs, then straight from waypoint to waypoint; with ``end="land"`` it descends
+    vertically at the goal. The RTL leg home is the autopilot's and not part of the line.
+    """
+    w = np.asarray(waypoints_enu, dtype=np.float64)
+    sx, sy, sz = (float(v) for v in w[0])
+    takeoff_z = sz if takeoff_altitude_m is None else float(takeoff_altitude_m)
+    rows = [np.array([[sx, sy, 0.0], [sx, sy, takeoff_z]])]
+    rows.append(w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M else w[1:])
+    if end == "land":
+        gx, gy, _ = (float(v) for v in w[-1])
+        rows.append(np.array([[gx, gy, 0.0]]))
+    return drop_repeats(np.vstack(rows))
+
+
+def drop_repeats(points: NDArray[np.float64], tol_m: float = 1e-9) -> NDArray[np.float64]:
+    """Remove consecutive duplicate points (a zero-length leg says nothing about clearance)."""
+    p = np.asarray(points, dtype=np.float64)
+    if len(p) < 2:
+        return p
+    keep = np.ones(len(p), dtype=bool)
+    keep[1:] = np.any(np.abs(np.diff(p, axis=0)) > tol_m, axis=1)
+    return p[keep]
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedRoute:
+    """A collision-checked route in the local ENU frame ``frame``.
+
+    ``waypoints_enu`` (w, 3): what the autopilot flies between, start first, goal last.
+    ``path_enu`` (k, 3): the dense smoothed curve the waypoints were taken from.
+    ``vertices_enu`` (m, 3): the simplified polyline the curve passes through.
+    ``raw_path_enu`` (d, 3): the search's best node path (for pictures), or None.
+    ``flown_enu`` (f, 3): :func:`flown_polyline` of the waypoints (take-off and landing
+    included), the line whose clearance ``min_clearance_m`` is.
+    ``inside_bounds``: every flown point is inside the flight volume.
+    """
+
+    frame: EnuFrame
+    waypoints_enu: NDArray[np.float64]
+    path_enu: NDArray[np.float64]
+    vertices_enu: NDArray[np.float64]
+    raw_path_enu: NDArray[np.float64] | None
+    flown_enu: NDArray[np.float64]
+    min_clearance_m: float
+    safety_margin_m: float
+    inside_bounds: bool
+    takeoff_altitude_m: float | None = None
+    end: EndAction = "rtl"
+
+    #: clearance may fall short of the margin by this much (floating point, not rounding:
+    #: planning keeps a 2 cm pad so files that round positions still keep the margin)
+    CLEARANCE_TOL_M = 1e-6
+
+    @property
+    def collision_free(self) -> bool:
+        """Inside the bounds and never closer than the safety margin: the one decision."""
+        return self.inside_bounds and keeps_margin(self.min_clearance_m, self.safety_margin_m)
+
+    @property
+    def length_m(self) -> float:
+        """Length of the smoothed path (start to goal)."""
+        return float(np.linalg.norm(np.diff(self.path_enu, axis=0), axis=1).sum())
+
+
+def keeps_margin(clearance_m: float, margin_m: float) -> bool:
+    """Does a measured clearance keep the safety margin? (One tolerance for every check.)"""
+    return math.isfinite(margin_m) and clearance_m >= margin_m - PlannedRoute.CLEARANCE_TOL_M
