@@ -13,13 +13,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Population, empty_refs
+from uavplan.planners.base import PathProblem, Population
 from uavplan.planners.chicken_swarm import ChickenSwarmPlanner
-from uavplan.planners.differential_evolution import distinct_others
-from uavplan.planners.grey_wolf import best_distinct
-from uavplan.planners.params import CsoParams, PsoParams, SearchParams
+from uavplan.planners.differential_evolution import DifferentialEvolutionPlanner, distinct_others
+from uavplan.planners.grey_wolf import GreyWolfPlanner, best_distinct
+from uavplan.planners.params import CsoParams, DeParams, GwoParams, PsoParams, SearchParams
 from uavplan.planners.particle_swarm import ParticleSwarmPlanner
+from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.registry import available, make_planner, options_class
 from uavplan.scenario import load_scenario
 from uavplan.world import World
@@ -135,86 +135,92 @@ def _straight(problem: PathProblem, n_pop: int, dy: float = 0.0, dz: float = 0.0
     return np.round(x)
 
 
-def _rebuild(problem, base, rule, refs, scal, seed=0):
-    n_pop = base.shape[0]
-    rules = np.full(n_pop, rule, dtype=np.int64)
-    out, ok, _ = problem.rebuild(
-        base, rules, refs, scal, np.zeros(n_pop, bool), 10, np.random.default_rng(seed)
-    )
+def _apply(problem: PathProblem, base: np.ndarray, prop: Proposal, seed: int = 0) -> np.ndarray:
+    out, ok, _ = problem.propose(base, prop, 10, np.random.default_rng(seed))
     assert ok.all()
     return out
 
 
+def _pop(base: np.ndarray, iteration: int = 0, iterations: int = 10, **state) -> Population:
+    return Population(base.copy(), np.zeros(base.shape[0]), iteration, iterations, state=state)
+
+
 def test_pso_rule_is_inertia_plus_attraction_clamped_to_vmax(open_space: PathProblem) -> None:
     base = _straight(open_space, 3)
-    n = base.shape[1]
-    refs, scal = empty_refs(3, n)
-    refs[:, 0] = 1.0  # velocity
-    refs[:, 3] = 10.0  # Vmax
-    scal[:, 0] = 2.0  # w; c1 = c2 = 0: the move is w·v exactly
-    out = _rebuild(open_space, base, K.R_PSO, refs, scal)
+    rng = np.random.default_rng(0)
+    # w = 2, pbest = gbest = x: the move is w·v exactly, then clamped to Vmax
+    planner = ParticleSwarmPlanner(SEARCH, PsoParams(w_start=2.0, w_end=2.0))
+    pop = _pop(base, velocity=np.ones_like(base), pbest=base, gbest=base[0], v_max=np.full(2, 10.0))
+    out = _apply(open_space, base, planner.rule(open_space, pop, rng))
     np.testing.assert_array_equal(out - base, 2.0)
-    refs[:, 3] = 1.0  # the same velocity clamped to Vmax = 1
-    out = _rebuild(open_space, base, K.R_PSO, refs, scal)
+    pop.state["v_max"] = np.ones(2)
+    out = _apply(open_space, base, planner.rule(open_space, pop, rng))
     np.testing.assert_array_equal(out - base, 1.0)
     # c1 = 1, pbest 4 units away, no inertia: the move is r·4 with r ~ U(0, 1)
-    refs[:, 0] = 0.0
-    refs[:, 1] = base + 4.0
-    refs[:, 3] = 0.0  # no clamp
-    scal[:, 0], scal[:, 1] = 0.0, 1.0
-    step = _rebuild(open_space, base, K.R_PSO, refs, scal) - base
+    planner = ParticleSwarmPlanner(SEARCH, PsoParams(w_start=0.0, w_end=0.0, c1=1.0, c2=0.0))
+    pop = _pop(base, velocity=np.zeros_like(base), pbest=base + 4.0, gbest=base[0],
+               v_max=np.full(2, np.inf))  # fmt: skip
+    step = _apply(open_space, base, planner.rule(open_space, pop, rng)) - base
     assert step.min() >= 0 and step.max() <= 4 and step.std() > 0.5
 
 
 def test_gwo_rule_with_a_zero_is_the_mean_of_the_leaders(open_space: PathProblem) -> None:
     base = _straight(open_space, 2)
-    n = base.shape[1]
-    refs, scal = empty_refs(2, n)
-    refs[:, 0] = base + 3.0
-    refs[:, 1] = base + 6.0
-    refs[:, 2] = base  # α, β, δ; a = 0 → A = 0 → X = (X_α + X_β + X_δ)/3
-    out = _rebuild(open_space, base, K.R_GWO, refs, scal)
+    # α, β, δ; a = 0 → A = 0 → X = (X_α + X_β + X_δ)/3
+    leaders = np.stack([base[0] + 3.0, base[0] + 6.0, base[0]])
+    planner = GreyWolfPlanner(SEARCH, GwoParams(a_start=0.0, a_end=0.0))
+    pop = _pop(base, leaders=leaders, leaders_f=np.zeros(3))
+    out = _apply(open_space, base, planner.rule(open_space, pop, np.random.default_rng(0)))
     np.testing.assert_array_equal(out - base, 3.0)
 
 
 def test_de_rule_is_rand_1_bin(open_space: PathProblem) -> None:
-    base = _straight(open_space, 2)
-    n = base.shape[1]
-    refs, scal = empty_refs(2, n)
-    refs[:, 0] = base + 1.0
-    refs[:, 1] = base + 6.0
-    refs[:, 2] = base + 2.0
-    scal[:, 0] = 0.5  # F
-    scal[:, 1] = 1.0  # CR = 1: the trial is the mutant x_r1 + F·(x_r2 − x_r3)
-    out = _rebuild(open_space, base, K.R_DE, refs, scal)
-    np.testing.assert_array_equal(out - base, 3.0)
-    scal[:, 1] = 0.0  # CR = 0: only the j_rand coordinate comes from the mutant
-    scal[0, 2] = 7  # node 3, z
-    scal[1, 2] = 0  # node 0, y
-    out = _rebuild(open_space, base, K.R_DE, refs, scal)
-    changed = np.argwhere(out != base)
-    np.testing.assert_array_equal(changed, [[0, 3, 1], [1, 0, 0]])
+    base = _straight(open_space, 4)
+    base[1] += 1.0
+    base[2] += 6.0
+    base[3] += 2.0
+    rng = np.random.default_rng(0)
+    # CR = 1: every trial node is a mutant x_r1 + F·(x_r2 − x_r3) of three other individuals
+    planner = DifferentialEvolutionPlanner(SEARCH, DeParams(f=0.5, cr=1.0))
+    prop = planner.rule(open_space, _pop(base), rng)
+    assert prop.n_explicit.tolist() == [10] * 4
+    trial = prop.explicit[0]
+    for i in range(4):
+        others = [k for k in range(4) if k != i]
+        candidates = {
+            float(base[a, 0, 0] + 0.5 * (base[b, 0, 0] - base[c, 0, 0]))
+            for a in others for b in others for c in others if len({a, b, c}) == 3
+        }  # fmt: skip
+        assert float(trial[i, 0, 0]) in candidates
+    # CR = 0: only the j_rand coordinate comes from the mutant, on the first attempt only
+    planner = DifferentialEvolutionPlanner(SEARCH, DeParams(f=0.5, cr=0.0))
+    prop = planner.rule(open_space, _pop(base), rng)
+    assert ((prop.explicit[0] != base).reshape(4, -1).sum(axis=1) <= 1).all()
+    np.testing.assert_array_equal(prop.explicit[1:], np.broadcast_to(base, prop.explicit[1:].shape))
 
 
 def test_cso_rules(open_space: PathProblem) -> None:
-    base = _straight(open_space, 2, dy=4.0)
-    n = base.shape[1]
-    refs, scal = empty_refs(2, n)
-    # rooster with σ² = 0 stays; hen with S1 = S2 = 0 stays
-    np.testing.assert_array_equal(_rebuild(open_space, base, K.R_CSO_ROOSTER, refs, scal), base)
-    np.testing.assert_array_equal(_rebuild(open_space, base, K.R_CSO_HEN, refs, scal), base)
+    base = _straight(open_space, 6, dy=4.0)
+    planner = ChickenSwarmPlanner(SEARCH, CsoParams())
+    n_r, n_h, n_c, _ = planner.group_sizes(6)
+    order = np.arange(6)
+    state = {
+        "order": order,
+        "mate_rank": np.zeros(n_h, dtype=np.int64),
+        "mother_rank": np.full(n_c, n_r),
+        "fl": np.full(n_c, 0.5),
+    }
+    pop = _pop(base, **state)
+    base_m = base.copy()
+    base_m[n_r] += 8.0  # the chicks' mother
+    pop.x = base_m
+    prop = planner.rule(open_space, pop, np.random.default_rng(0))
+    chicks = order[n_r + n_h :]
     # chick: x + FL·(mother − x)
-    refs[:, 0] = base + 8.0
-    scal[:, 0] = 0.5
-    out = _rebuild(open_space, base, K.R_CSO_CHICK, refs, scal)
-    np.testing.assert_array_equal(out - base, 4.0)
-    # rooster noise is multiplicative in the deviation from the start-end line
-    scal[:, 0] = 0.5
-    dev = _rebuild(open_space, base, K.R_CSO_ROOSTER, refs, scal) - np.round(
-        open_space.line_u[1:-1]
-    )
-    assert np.abs(dev[..., 1]).max() == 0  # on the line in z: no z noise
-    assert dev[..., 0].std() > 0.5
+    np.testing.assert_array_equal(prop.anchor[chicks] - base_m[chicks], 4.0)
+    # rooster noise is multiplicative in the deviation from the start-end line: none in z
+    assert prop.draw[0] == Draw.NORMAL and np.abs(prop.spread[0][..., 1]).max() == 0
+    assert np.abs(prop.spread[0][..., 0]).min() > 0
 
 
 # --- population-level pieces ------------------------------------------------------------------

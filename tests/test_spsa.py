@@ -15,10 +15,10 @@ import pytest
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
 from uavplan.path.energy import energy_terms
 from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
-from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, PlanStatus, empty_refs
+from uavplan.planners.base import PathProblem, PlanStatus
 from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams, SpsaParams
-from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner
+from uavplan.planners.proposal import Draw, Proposal
+from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner, oscillate
 from uavplan.world import World
 
 GRID = GridSpec(20.0, 20.0, 10.0)
@@ -101,13 +101,29 @@ def _population(problem: PathProblem, n: int = 12, seed: int = 3) -> np.ndarray:
     return problem.initial_population(n, SearchParams(population=n), np.random.default_rng(seed))[0]
 
 
+def _proposal(x: np.ndarray, **fields) -> Proposal:
+    """All individuals active, with the given Proposal fields set."""
+    prop = Proposal.for_population(x)
+    prop.active[:] = True
+    for name, value in fields.items():
+        getattr(prop, name)[...] = value
+    return prop
+
+
+def _producer_rule(x: np.ndarray, e: float, rule: str) -> Proposal:
+    """SPSA's eq. 11 as SparrowPlanner.producers states it, with e = exp(−i/(α·M))."""
+    line = OPEN.line_u[1:-1]
+    if rule == "best":
+        return _proposal(x, anchor=x, spread=line - x, draw=Draw.UNIFORM)
+    if rule == "literal":
+        return _proposal(x, anchor=x + e, spread=line - x, draw=Draw.UNIFORM)
+    d = x - line
+    return _proposal(x, anchor=line + d * e, spread=-d, draw=Draw.UNIFORM)
+
+
 def test_producer_pulls_deviation_toward_the_start_end_line() -> None:
     x = _population(OPEN)
-    refs, scal = empty_refs(*x.shape[:2])
-    rules = np.full(x.shape[0], K.R_SPSA_PRODUCER_BEST)
-    cand, ok, _ = OPEN.rebuild(
-        x, rules, refs, scal, np.zeros(x.shape[0], bool), 10, np.random.default_rng(0)
-    )
+    cand, ok, _ = OPEN.propose(x, _producer_rule(x, 1.0, "best"), 10, np.random.default_rng(0))
     assert ok.all()
     dev_before = np.abs(x - OPEN.line_u[1:-1])
     dev_after = np.abs(cand - OPEN.line_u[1:-1])
@@ -117,14 +133,9 @@ def test_producer_pulls_deviation_toward_the_start_end_line() -> None:
 
 def test_deviation_producer_rule_contracts_and_literal_rule_drifts() -> None:
     x = _population(OPEN, seed=5)
-    refs, scal = empty_refs(*x.shape[:2])
-    scal[:, 0] = 1.0  # e = exp(−i/(α·M)) close to 1
     rng = np.random.default_rng(1)
-    no = np.zeros(x.shape[0], bool)
-    dev, _, _ = OPEN.rebuild(x, np.full(x.shape[0], K.R_SPSA_PRODUCER), refs, scal, no, 10, rng)
-    lit, _, _ = OPEN.rebuild(
-        x, np.full(x.shape[0], K.R_SPSA_PRODUCER_LITERAL), refs, scal, no, 10, rng
-    )
+    dev, _, _ = OPEN.propose(x, _producer_rule(x, 1.0, "deviation"), 10, rng)
+    lit, _, _ = OPEN.propose(x, _producer_rule(x, 1.0, "literal"), 10, rng)
     line = OPEN.line_u[1:-1]
     assert np.abs(dev - line).sum() < np.abs(x - line).sum()
     # the literal "+ exp(...)" adds about +1 to every coordinate: a drift upward and left
@@ -133,24 +144,21 @@ def test_deviation_producer_rule_contracts_and_literal_rule_drifts() -> None:
 
 def test_updates_respect_reachability_and_failed_updates_keep_the_old_path() -> None:
     x = _population(WALL, n=16)
-    refs, scal = empty_refs(*x.shape[:2])
-    rules = np.full(x.shape[0], K.R_SPSA_PRODUCER_BEST)  # toward the line: into the wall
-    cand, ok, _ = WALL.rebuild(
-        x, rules, refs, scal, np.zeros(x.shape[0], bool), 10, np.random.default_rng(2)
-    )
+    line = WALL.line_u[1:-1]
+    prop = _proposal(x, anchor=x, spread=line - x, draw=Draw.UNIFORM)  # into the wall
+    cand, ok, _ = WALL.propose(x, prop, 10, np.random.default_rng(2))
     assert WALL.feasible(cand).all()
     assert np.array_equal(cand[~ok], x[~ok])
 
 
 def test_scrounger_escape_search_finds_reachable_nodes() -> None:
     x = _population(WALL, n=16, seed=11)
-    refs, scal = empty_refs(*x.shape[:2])
-    refs[:, 0] = x[0]
-    scal[:, 0] = 1e6  # i² huge: Q·exp(~0) ≈ Q, i.e. onto the start-end line, into the wall
-    rules = np.full(x.shape[0], K.R_SCROUNGER_FAR)
+    # Q·exp(~0) about the start-end line: onto the line, into the wall
+    prop = _proposal(x, anchor=WALL.line_u[1:-1], spread=1.0, draw=Draw.NORMAL)
     rng = np.random.default_rng(3)
-    _, ok_off, esc_off = WALL.rebuild(x, rules, refs, scal, np.zeros(16, bool), 10, rng)
-    cand, ok_on, esc_on = WALL.rebuild(x, rules, refs, scal, np.ones(16, bool), 10, rng)
+    _, ok_off, esc_off = WALL.propose(x, prop, 10, rng)
+    prop.escape[:] = True
+    cand, ok_on, esc_on = WALL.propose(x, prop, 10, rng)
     assert esc_off == 0 and esc_on > 0
     assert ok_on.sum() >= ok_off.sum()
     assert WALL.feasible(cand).all()
@@ -158,15 +166,27 @@ def test_scrounger_escape_search_finds_reachable_nodes() -> None:
 
 def test_scrounger_near_rule_copies_the_best_producer_with_one_offset() -> None:
     x = _population(OPEN, n=8)
-    refs, scal = empty_refs(*x.shape[:2])
-    refs[:, 0] = x[0]
-    scal[:, :2] = [2.0, -1.0]
-    rules = np.full(8, K.R_SCROUNGER_NEAR)
-    cand, ok, _ = OPEN.rebuild(
-        x, rules, refs, scal, np.zeros(8, bool), 10, np.random.default_rng(0)
-    )
+    prop = _proposal(x, anchor=x[0] + np.array([2.0, -1.0]))
+    cand, ok, _ = OPEN.propose(x, prop, 10, np.random.default_rng(0))
     assert ok.all()
     assert np.array_equal(cand, np.broadcast_to(x[0] + [2.0, -1.0], cand.shape))
+
+
+def test_explicit_attempts_are_taken_in_order_until_one_is_reachable() -> None:
+    x = _population(WALL, n=4, seed=2)
+    prop = Proposal.for_population(x, n_explicit=2)
+    prop.active[:] = True
+    prop.n_explicit[:] = 2
+    prop.explicit[0] = WALL.line_u[1:-1]  # onto the line: into the wall, unreachable
+    prop.explicit[1] = x  # the old path: reachable
+    cand, ok, _ = WALL.propose(x, prop, 10, np.random.default_rng(0))
+    line = np.broadcast_to(WALL.line_u[1:-1], x.shape)
+    assert ((cand == x) | (cand == line)).all(axis=-1).all()  # nothing else was proposed
+    assert (cand != line).any(axis=(1, 2)).all()  # the line itself is blocked by the wall
+    assert WALL.feasible(cand).all() and np.array_equal(cand[~ok], x[~ok])
+    counts_before = WALL.reach_checks
+    WALL.propose(x, prop, 10, np.random.default_rng(0))
+    assert WALL.reach_checks[0] > counts_before[0]  # the budget is counted
 
 
 # --- 4.4 adaptive oscillation optimisation (eq. 13) -----------------------------------------
@@ -182,7 +202,7 @@ def test_oscillation_optimisation_smooths_a_zigzag() -> None:
     zig[0, :, 0] = np.where(np.arange(n) % 2 == 0, 2.0, -2.0)
     zig[0, :, 1] = 3.0
     before = roughness(zig)
-    moved = OPEN.oscillate(zig, 5)
+    moved = oscillate(OPEN, zig, 5)
     assert moved.sum() > 0
     assert roughness(zig) < 0.2 * before
     assert OPEN.feasible(zig).all()
@@ -192,21 +212,21 @@ def test_oscillation_fixed_points_stay_put_and_skipped_paths_are_untouched() -> 
     x = _population(WALL, n=6, seed=4)
     y = x.copy()
     for _ in range(30):  # iterate eq. 13 to its fixed points
-        if WALL.oscillate(y, 5).sum() == 0:
+        if oscillate(WALL, y, 5).sum() == 0:
             break
     z = y.copy()
-    assert WALL.oscillate(z, 5).sum() == 0 and np.array_equal(z, y)
+    assert oscillate(WALL, z, 5).sum() == 0 and np.array_equal(z, y)
     w = x.copy()
     skip = np.zeros(6, dtype=bool)
     skip[::2] = True
-    moved = WALL.oscillate(w, 5, skip)
+    moved = oscillate(WALL, w, 5, skip)
     assert np.array_equal(w[skip], x[skip]) and np.all(moved[skip] == 0)
 
 
 def test_oscillation_keeps_a_path_that_hugs_an_obstacle_feasible() -> None:
     x = _population(WALL, n=10, seed=9)
     y = x.copy()
-    WALL.oscillate(y, 5)
+    oscillate(WALL, y, 5)
     assert WALL.feasible(y).all()
     # and it lowers the fitness of the jagged initial paths
     assert WALL.fitness(y).mean() < WALL.fitness(x).mean()

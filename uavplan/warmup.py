@@ -28,8 +28,10 @@ def warm_up() -> None:
     """Run every compiled kernel once on a tiny problem (once per process)."""
     from uavplan.obstacles import BoxObstacle, CylinderObstacle
     from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route
-    from uavplan.planners.base import PathProblem, empty_refs
+    from uavplan.planners.base import PathProblem
     from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams
+    from uavplan.planners.proposal import Draw, Proposal
+    from uavplan.planners.sparrow import oscillate
     from uavplan.world import World
 
     world = World.build(
@@ -42,10 +44,12 @@ def warm_up() -> None:
     )
     rng = np.random.default_rng(0)
     x, _, _ = problem.initial_population(4, SearchParams(population=4), rng)
-    refs, scal = empty_refs(*x.shape[:2])
-    rules = np.zeros(x.shape[0], dtype=np.int64)
-    cand, _, _ = problem.rebuild(x, rules, refs, scal, np.ones(x.shape[0], bool), 10, rng)
-    problem.oscillate(cand, 5)
+    prop = Proposal.for_population(x, n_explicit=1)
+    prop.active[:] = True
+    prop.draw[:] = Draw.NORMAL
+    prop.escape[:] = True
+    cand, _, _ = problem.propose(x, prop, 10, rng)
+    oscillate(problem, cand, 5)
     problem.fitness_of_changed(cand, x, problem.fitness(x))
     problem.feasible(cand)
     pts = problem.node_points(cand[0])

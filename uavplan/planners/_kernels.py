@@ -1,45 +1,57 @@
-"""Compiled kernels shared by every planner: initialisation, per-node update with the
-reachability rule, adaptive escape and oscillation optimisation.
+"""Compiled kernels shared by every planner: the reachability rule, the initialisation, the
+generic proposal-and-repair step, the moving-average repair (eq. 13) and feasibility checks.
 
 Encoding (PAPER-NOTES "Path model"): an individual is ``nodes[j] = (y, z)`` in grid units
 for the inner columns ``j = 1..D−1`` (array index ``j − 1``); start and goal are fixed.
 A node is *reachable* when the straight segment from the previous node to it is inside the
 bounds and keeps the margin from every obstacle (for the last node, also the segment to the
-goal). Every algorithm proposes nodes through :func:`propose` and repairs them the same way
-(:func:`rebuild`), so differences between algorithms come from the search rules alone.
+goal). Every planner proposes nodes through one :class:`~uavplan.planners.proposal.Proposal`
+(its own update rule, computed in its own module) and :func:`rebuild` repairs them the same
+way for all, so differences between algorithms come from their update rules alone.
 
-Randomness comes only from the ``numpy.random.Generator`` passed in.
+Everything the reachability rule reads travels in one :class:`Reach` value (named fields,
+no positional slots). Randomness comes only from seeds drawn from the caller's
+``numpy.random.Generator``.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from uavplan._geom import point_piece_dist, segment_free
 
-# Update rules (one per individual and call). Reference paths ``refs[g, r]`` and scalars
-# ``scal[g, s]`` carry what each rule needs; "δ" is the deviation from the start-end line.
-R_SPSA_PRODUCER_BEST = 0  # eq. 11, f_i = f_g:  P + rand·(P_ST − P)
-R_SPSA_PRODUCER = 1  # eq. 11 "deviation" reading: δ·e − rand·δ,  scal0 = e
-R_SPSA_PRODUCER_LITERAL = 2  # eq. 11 as printed: P + e + rand·(P_ST − P),  scal0 = e
-R_SSA_PRODUCER = 3  # eq. 3, R2 < ST: δ·e,  scal0 = e
-R_ALARM = 4  # eq. 3, R2 >= ST: P + Q·L,  scal0 = Q
-R_SCROUNGER_FAR = 5  # eq. 4, i > n/2: Q·exp((δ_worst − δ)/i²),  ref0 = worst, scal0 = i²
-R_SCROUNGER_NEAR = 6  # eq. 4 else: P_p + |P − P_p|·A⁺·L,  ref0 = P_p, scal0/1 = offset y/z
-R_DANGER = 7  # eq. 5, f_i > f_g: P_best + β·|P − P_best|,  ref0 = best
-R_DANGER_BEST = 8  # eq. 5, f_i = f_g: P + K·|P − P_w|/(f_i − f_w + ε),  ref0 = worst, scal0
-R_PSO = 9  # ref0 = velocity, ref1 = pbest, ref2 = gbest, ref3 = Vmax; scal0..2 = w, c1, c2
-R_GWO = 10  # ref0..2 = alpha, beta, delta; scal0 = a
-R_DE = 11  # ref0..2 = x_r1, x_r2, x_r3; scal0 = F, scal1 = CR, scal2 = j_rand (flat index)
-R_CSO_ROOSTER = 12  # δ·(1 + σ²·N(0, 1)),  scal0 = σ² (Meng: "Randn(0, σ²), standard deviation σ²")
-R_CSO_HEN = 13  # P + S1·rand·(R1 − P) + S2·rand·(R2 − P); ref0 = R1, ref1 = R2; scal0/1 = S1/S2
-R_CSO_CHICK = 14  # P + FL·(M − P); ref0 = mother, scal0 = FL
+#: how a proposal draws its random term for every attempt (``Proposal.draw``)
+DRAW_NONE = 0  # no random term
+DRAW_UNIFORM = 1  # U[0, 1)
+DRAW_SYMMETRIC = 2  # U[−1, 1): 2·U − 1
+DRAW_NORMAL = 3  # N(0, 1)
 
-N_REFS = 4
-N_SCAL = 4
+
+class Reach(NamedTuple):
+    """Everything the reachability rule of one path problem reads (built by PathProblem).
+
+    ``world``: the world tuple of :mod:`uavplan._geom` (``World.kernel_args``, path frame);
+    ``memo``: the reachability memo (see :func:`new_memo`); ``table`` (D + 1, ny, nz): node
+    clearances over the grid, −1 outside the bounds; ``table_off`` (2,) int64: grid index of
+    ``table[:, 0, 0]`` in (y, z); ``steps`` (3,): column spacing dx and the grid's dy, dz (m);
+    ``start_m`` / ``goal_m`` (3,): the fixed ends in the path frame (m); ``margin``: metres to
+    keep; ``counts`` (2,) int64, incremented by the kernels: reachability checks made and
+    exact segment tests among them (the evaluation budget of the rule).
+    """
+
+    world: tuple
+    memo: np.ndarray
+    table: np.ndarray
+    table_off: np.ndarray
+    steps: np.ndarray
+    start_m: np.ndarray
+    goal_m: np.ndarray
+    margin: float
+    counts: np.ndarray
 
 
 @njit(cache=True, inline="always")
@@ -61,17 +73,21 @@ _MIX1 = np.int64(-4658895280553007687)  # splitmix64 finaliser constants as int6
 _MIX2 = np.int64(-7723592293110705685)
 
 
-def new_memo() -> tuple[np.ndarray, np.ndarray]:
+def new_memo() -> np.ndarray:
     """An empty reachability memo. Reachability of a node is a pure function of (column,
     previous node, node) for a fixed world, so it is computed once per run. Entries pack
     ``key·2 + free`` into one int64, so a reader on another thread sees either nothing or a
-    whole entry. The second array is unused (kept so the kernels' argument layout is fixed)."""
-    return np.full(1 << MEMO_BITS, _EMPTY, dtype=np.int64), np.zeros(1, np.int8)
+    whole entry."""
+    return np.full(1 << MEMO_BITS, _EMPTY, dtype=np.int64)
 
 
 @njit(cache=True, inline="always")
 def _memo_key(j, y0, z0, y1, z1):
-    """Pack (column, y0, z0, y1, z1) into 60 bits; −1 when a value does not fit."""
+    """Pack (column, y0, z0, y1, z1) into 60 bits; −1 when a value does not fit. The first
+    column's segment starts at the fixed start, so its previous node is not part of the key."""
+    if j == 1:
+        y0 = 0.0
+        z0 = 0.0
     a = int(y0) + 2048
     b = int(z0) + 2048
     c = int(y1) + 2048
@@ -83,9 +99,25 @@ def _memo_key(j, y0, z0, y1, z1):
     return (((((j << 12) | a) << 12 | b) << 12 | c) << 12) | d
 
 
+@njit(cache=True, inline="always")
+def _memo_slot(keys, key):
+    """Index of ``key``'s entry, or of the empty slot where it would go; −1 when the probe
+    neighbourhood is full. The one probe loop of the memo (lookups and inserts)."""
+    mask = keys.shape[0] - 1
+    h = key ^ (key >> 30)
+    h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
+    h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
+    h &= mask
+    for _probe in range(MEMO_PROBES):
+        k = keys[h]
+        if k == _EMPTY or (k >> 1) == key:
+            return h
+        h = (h + 1) & mask
+    return -1
+
+
 @njit(cache=True)
-def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
-    W = geo[:11]
+def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin):
     if j == 1:
         ax = start_m[0]
         ay = start_m[1]
@@ -97,10 +129,10 @@ def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, m
     bx = j * dx
     by = y1 * dy
     bz = z1 * dz
-    if not segment_free(ax, ay, az, bx, by, bz, W, margin):
+    if not segment_free(ax, ay, az, bx, by, bz, world, margin):
         return False
     if j == int(round(goal_m[0] / dx)) - 1:
-        return segment_free(bx, by, bz, goal_m[0], goal_m[1], goal_m[2], W, margin)
+        return segment_free(bx, by, bz, goal_m[0], goal_m[1], goal_m[2], world, margin)
     return True
 
 
@@ -109,11 +141,11 @@ TABLE_REACH_M = 60.0
 
 
 @njit(cache=True)
-def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, geo, cap):
+def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, world, cap):
     """Distance from every grid node (column, y, z) to the nearest piece, capped at ``cap``;
     −1 for nodes outside the bounds. Shape (n_cols + 1, iy_hi − iy_lo + 1, iz_hi − iz_lo + 1).
     Each piece only visits the nodes of its bounding box grown by ``cap``."""
-    poly_xy, poly_n, poly_h, circ, box, hp, zlim = geo[:7]
+    poly_xy, poly_n, poly_h, circ, box, hp, zlim = world[:7]
     ny = iy_hi - iy_lo + 1
     nz = iz_hi - iz_lo + 1
     tab = np.full((n_cols + 1, ny, nz), cap)
@@ -150,14 +182,15 @@ def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, geo, cap):
 def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
     """Reachability of the node of column ``j`` (1-based) at (y1, z1) from the node before it
     at (y0, z0), both in grid units, from the cheap sources only: 1 free, 0 blocked, −1
-    unknown (call :func:`node_resolve`). ``lim`` is the margin (see :func:`margin_limit`).
+    unknown (then :func:`node_resolve` decides). ``lim`` is the margin (see
+    :func:`margin_limit`).
 
     Interior columns: a node closer than the margin (or outside the bounds) is unreachable;
     the segment between nodes with clearances d0, d1 keeps the margin when
     (d0 + d1 − length)/2 >= margin (distance is 1-Lipschitz). Otherwise the memo answers if
     this segment was resolved before.
 
-    The hot kernels take the table, offsets and memo as separate arrays and call this
+    The hot kernels pass the table, offsets and memo as separate arrays and call this
     inline; handing numba the whole world tuple per call costs more than the test itself.
     """
     if 1 < j < tab.shape[0] - 2:
@@ -178,43 +211,24 @@ def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
         length = math.sqrt(dx * dx + ey * ey + ez * ez)
         if d0 + d1 - length >= 2.0 * lim:
             return 1
-    key = _memo_key(j, 0, 0, y1, z1) if j == 1 else _memo_key(j, y0, z0, y1, z1)
+    key = _memo_key(j, y0, z0, y1, z1)
     if key < 0:
         return -1
-    mask = keys.shape[0] - 1
-    h = key ^ (key >> 30)
-    h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
-    h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
-    h &= mask
-    for _probe in range(MEMO_PROBES):
-        k = keys[h]
-        if k == _EMPTY:
-            return -1
-        if (k >> 1) == key:
-            return k & 1
-        h = (h + 1) & mask
-    return -1
+    slot = _memo_slot(keys, key)
+    if slot < 0 or keys[slot] == _EMPTY:
+        return -1
+    return keys[slot] & 1
 
 
 @njit(cache=True)
-def node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
-    """The exact reachability test behind :func:`node_status`, memoised. Entries pack
-    ``key·2 + free`` into one int64 (a reader sees a whole entry or none)."""
-    free = _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
-    key = _memo_key(j, 0, 0, y1, z1) if j == 1 else _memo_key(j, y0, z0, y1, z1)
+def node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin, keys):
+    """The exact reachability test behind :func:`node_status`, memoised."""
+    free = _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin)
+    key = _memo_key(j, y0, z0, y1, z1)
     if key >= 0:
-        keys = geo[11]
-        mask = keys.shape[0] - 1
-        h = key ^ (key >> 30)
-        h = (h * _MIX1) ^ ((h * _MIX1) >> 27)
-        h = (h * _MIX2) ^ ((h * _MIX2) >> 31)
-        h &= mask
-        for _probe in range(MEMO_PROBES):
-            k = keys[h]
-            if k == _EMPTY or (k >> 1) == key:
-                keys[h] = 2 * key + (1 if free else 0)
-                break
-            h = (h + 1) & mask
+        slot = _memo_slot(keys, key)
+        if slot >= 0:
+            keys[slot] = 2 * key + (1 if free else 0)
     return 1 if free else 0
 
 
@@ -226,34 +240,47 @@ def margin_limit(margin):
     return lim if lim >= 1e-9 else 1e-9
 
 
-@njit(cache=True)
-def node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin):
-    """:func:`node_status` then, if needed, :func:`node_resolve` (for callers off the hot
-    path)."""
-    r = node_status(j, y0, z0, y1, z1, dx, dy, dz, margin_limit(margin), geo[13], geo[14], geo[11])
+@njit(cache=True, inline="always")
+def _reachable(
+    j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys, start_m, goal_m, world, margin, counts
+):
+    """:func:`node_status`, then :func:`node_resolve` when the cheap sources cannot tell;
+    counts the check (and the exact test)."""
+    counts[0] += 1
+    r = node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys)
     if r < 0:
-        r = node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, geo, margin)
+        counts[1] += 1
+        r = node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin, keys)
     return r == 1
 
 
 @njit(cache=True)
-def init_population(
-    n_pop,
-    n_inner,
-    start_u,
-    goal_u,
-    half_window,
-    t_max,
-    max_attempts,
-    dx,
-    dy,
-    dz,
-    start_m,
-    goal_m,
-    geo,
-    margin,
-    rng,
-):
+def node_free(j, y0, z0, y1, z1, reach):
+    """Is the node of column ``j`` at (y1, z1) reachable from (y0, z0)? (Off the hot path.)"""
+    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    return _reachable(
+        j,
+        y0,
+        z0,
+        y1,
+        z1,
+        dx,
+        dy,
+        dz,
+        margin_limit(reach.margin),
+        reach.table,
+        reach.table_off,
+        reach.memo,
+        reach.start_m,
+        reach.goal_m,
+        reach.world,
+        reach.margin,
+        reach.counts,
+    )
+
+
+@njit(cache=True)
+def init_population(n_pop, n_inner, start_u, goal_u, half_window, t_max, max_attempts, reach, rng):
     """Path initialisation of section 4.1 (eq. 8–10) for ``n_pop`` individuals.
 
     From the current node P_a the next is round(P_t + U(−Δh, Δh)) per axis with
@@ -261,7 +288,10 @@ def init_population(
     ``t_max`` times, after which the individual is deadlocked and started again (at most
     ``max_attempts`` starts per individual). Returns (nodes, ok, deadlocks).
     """
-    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
+    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
+    world, margin, counts = reach.world, reach.margin, reach.counts
+    start_m, goal_m = reach.start_m, reach.goal_m
     nodes = np.zeros((n_pop, n_inner, 2))
     ok = np.zeros(n_pop, dtype=np.bool_)
     deadlocks = 0
@@ -278,12 +308,25 @@ def init_population(
                 for _t in range(t_max):
                     ny = _round(ty + (2.0 * rng.random() - 1.0) * half_window)
                     nz = _round(tz + (2.0 * rng.random() - 1.0) * half_window)
-                    r = node_status(j, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-                    if r < 0:
-                        r = node_resolve(
-                            j, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                        )
-                    if r == 1:
+                    if _reachable(
+                        j,
+                        py,
+                        pz,
+                        ny,
+                        nz,
+                        dx,
+                        dy,
+                        dz,
+                        lim,
+                        tab,
+                        off,
+                        keys,
+                        start_m,
+                        goal_m,
+                        world,
+                        margin,
+                        counts,
+                    ):
                         placed = True
                         break
                 if not placed:
@@ -390,147 +433,120 @@ def stream_seeds(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def propose(rule, p, ln, r0, r1, r2, r3, s0, s1, s2, flat, attempt, st):
-    """One proposal (before rounding) for one axis of one node.
-
-    ``p``: the node's current value; ``ln``: the start-end line there; ``r0..r3``: the
-    rule's reference paths at this node and axis; ``s0..s2``: the rule's scalars (for the
-    near-scrounger rule ``s1`` is this axis' offset ``scal[g, a]``, see :func:`rebuild`);
-    ``flat``: node·2 + axis. Scalars only: handing numba arrays here costs more than the
-    arithmetic.
-    """
-    if rule == R_SPSA_PRODUCER_BEST:
-        return p + _rand(st) * (ln - p)
-    if rule == R_SPSA_PRODUCER:
-        d = p - ln
-        return ln + d * s0 - _rand(st) * d
-    if rule == R_SPSA_PRODUCER_LITERAL:
-        return p + s0 + _rand(st) * (ln - p)
-    if rule == R_SSA_PRODUCER:
-        return ln + (p - ln) * s0
-    if rule == R_ALARM:
-        q = s0 if attempt == 0 else _randn(st)
-        return p + q
-    if rule == R_SCROUNGER_FAR:
-        dw = r0 - ln
-        d = p - ln
-        return ln + _randn(st) * math.exp(min((dw - d) / s0, 50.0))
-    if rule == R_SCROUNGER_NEAR:
-        return r0 + s1  # s1 carries scal[g, a], the offset of this axis
-    if rule == R_DANGER:
-        b = r0
-        return b + _randn(st) * abs(p - b)
-    if rule == R_DANGER_BEST:
-        return p + (2.0 * _rand(st) - 1.0) * abs(p - r0) * s0
-    if rule == R_PSO:
-        v = s0 * r0 + s1 * _rand(st) * (r1 - p) + s2 * _rand(st) * (r2 - p)
-        v_max = r3
-        if v_max > 0.0:
-            v = min(max(v, -v_max), v_max)
-        return p + v
-    if rule == R_GWO:
-        acc = 0.0
-        for lead in (r0, r1, r2):
-            big_a = 2.0 * s0 * _rand(st) - s0
-            big_c = 2.0 * _rand(st)
-            acc += lead - big_a * abs(big_c * lead - p)
-        return acc / 3.0
-    if rule == R_DE:
-        if _rand(st) < s1 or (attempt == 0 and flat == int(s2)):
-            return r0 + s0 * (r1 - r2)
-        return p
-    if rule == R_CSO_ROOSTER:
-        return ln + (p - ln) * (1.0 + s0 * _randn(st))
-    if rule == R_CSO_HEN:
-        return p + s0 * _rand(st) * (r0 - p) + s1 * _rand(st) * (r1 - p)
-    if rule == R_CSO_CHICK:
-        return p + s0 * (r0 - p)
-    return p
+def _draw(kind, st):
+    """One draw of the given kind (see ``DRAW_*``); ``DRAW_NONE`` draws nothing."""
+    if kind == DRAW_UNIFORM:
+        return _rand(st)
+    if kind == DRAW_SYMMETRIC:
+        return 2.0 * _rand(st) - 1.0
+    if kind == DRAW_NORMAL:
+        return _randn(st)
+    return 0.0
 
 
 @njit(cache=True)
 def rebuild(
     base,
-    rules,
-    refs,
-    scal,
+    active,
+    anchor,
+    offset,
+    spread,
+    draw,
+    spread2,
+    draw2,
+    clamp,
+    first,
+    use_first,
+    explicit,
+    n_explicit,
     escape,
-    line,
     t_max,
     v_min,
     v_max,
-    dx,
-    dy,
-    dz,
-    start_m,
-    goal_m,
-    geo,
-    margin,
+    reach,
     seeds,
 ):
-    """Apply each individual's rule node by node, start to goal, with the reachability rule.
+    """Propose new nodes for every active individual, node by node from start to goal, under
+    the reachability rule (the generic step of every planner; see ``Proposal`` for the
+    meaning of the arrays).
 
-    base (G, n, 2) current positions; rules (G,) rule ids (−1: leave unchanged);
-    refs (G, N_REFS, n, 2); scal (G, N_SCAL); escape (G,) bool: after ``t_max`` failed
-    proposals try the adaptive variable-speed escape (eq. 12, Algorithm 2): P + (2·rand − 1)·V
-    for V = v_min..v_max, ``t_max`` tries per speed. If nothing is reachable the old node is
-    kept when it is reachable; otherwise the individual's update fails (``ok[g] = False``)
-    and it keeps its old path. ``line`` (D + 1, 2): the start-end line in grid units.
-    ``seeds`` (G,) uint64: each individual's random stream (see :func:`stream_seeds`).
+    Attempt ``t`` (0 ≤ t < ``t_max``) at node j, axis a of individual g proposes
+    ``explicit[t, g, j, a]`` when t < ``n_explicit[g]``; else ``first[g, j, a]`` when t = 0 and
+    ``use_first[g]``; else ``anchor + clip(offset + spread·X + spread2·Y, ±clamp[a])`` with X, Y
+    fresh draws of kinds ``draw[g]``, ``draw2[g]`` (y axis first). The value is rounded to the
+    grid; the first reachable attempt is taken. After ``t_max`` failures an individual with
+    ``escape[g]`` tries the adaptive variable-speed escape (eq. 12, Algorithm 2):
+    P + (2·rand − 1)·V around the old node for V = ``v_min..v_max``, ``t_max`` tries per speed.
+    If nothing is reachable the old node is kept when it is reachable from the new previous
+    node; otherwise the individual's update fails (``ok[g] = False``) and it keeps its old
+    path. ``seeds`` (G,) uint64: each individual's random stream (see :func:`stream_seeds`).
     Returns (new positions, ok, escapes used).
     """
-    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
+    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
+    world, margin, counts = reach.world, reach.margin, reach.counts
+    start_m, goal_m = reach.start_m, reach.goal_m
     n_pop = base.shape[0]
     n_inner = base.shape[1]
     out = base.copy()
     ok = np.ones(n_pop, dtype=np.bool_)
     esc = np.zeros(n_pop, dtype=np.int64)
     for g in range(n_pop):
-        rule = rules[g]
-        if rule < 0:
+        if not active[g]:
             continue
         st = np.empty(1, dtype=np.uint64)
         st[0] = seeds[g]
+        kind1 = draw[g]
+        kind2 = draw2[g]
+        n_exp = n_explicit[g]
         py = 0.0
         pz = 0.0
         same = True  # the previous node equals the base path's, whose segments are known free
-        s0 = scal[g, 0]
-        s2 = scal[g, 2]
-        # the near-scrounger rule reads a per-axis offset scal[g, a]; others read scal[g, 1]
-        sy = scal[g, 0] if rule == R_SCROUNGER_NEAR else scal[g, 1]
-        sz = scal[g, 1]
         for j in range(n_inner):
             placed = False
             ny = 0.0
             nz = 0.0
-            by = base[g, j, 0]
-            bz = base[g, j, 1]
-            ly = line[j + 1, 0]
-            lz = line[j + 1, 1]
-            ry0 = refs[g, 0, j, 0]
-            ry1 = refs[g, 1, j, 0]
-            ry2 = refs[g, 2, j, 0]
-            ry3 = refs[g, 3, j, 0]
-            rz0 = refs[g, 0, j, 1]
-            rz1 = refs[g, 1, j, 1]
-            rz2 = refs[g, 2, j, 1]
-            rz3 = refs[g, 3, j, 1]
             for attempt in range(t_max):
-                ny = _round(
-                    propose(rule, by, ly, ry0, ry1, ry2, ry3, s0, sy, s2, 2 * j, attempt, st)
-                )
-                nz = _round(
-                    propose(rule, bz, lz, rz0, rz1, rz2, rz3, s0, sz, s2, 2 * j + 1, attempt, st)
-                )
+                for a in range(2):
+                    if attempt < n_exp:
+                        v = explicit[attempt, g, j, a]
+                    elif attempt == 0 and use_first[g]:
+                        v = first[g, j, a]
+                    else:
+                        step = offset[g, j, a] + spread[g, j, a] * _draw(kind1, st)
+                        step = step + spread2[g, j, a] * _draw(kind2, st)
+                        c = clamp[a]
+                        if step > c:
+                            step = c
+                        elif step < -c:
+                            step = -c
+                        v = anchor[g, j, a] + step
+                    if a == 0:
+                        ny = _round(v)
+                    else:
+                        nz = _round(v)
                 if same and ny == base[g, j, 0] and nz == base[g, j, 1]:
                     placed = True
                     break
-                r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-                if r < 0:
-                    r = node_resolve(
-                        j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                    )
-                if r == 1:
+                if _reachable(
+                    j + 1,
+                    py,
+                    pz,
+                    ny,
+                    nz,
+                    dx,
+                    dy,
+                    dz,
+                    lim,
+                    tab,
+                    off,
+                    keys,
+                    start_m,
+                    goal_m,
+                    world,
+                    margin,
+                    counts,
+                ):
                     placed = True
                     break
             if not placed and escape[g]:
@@ -538,12 +554,25 @@ def rebuild(
                     for _t in range(t_max):
                         ny = _round(base[g, j, 0] + (2.0 * _rand(st) - 1.0) * v)
                         nz = _round(base[g, j, 1] + (2.0 * _rand(st) - 1.0) * v)
-                        r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-                        if r < 0:
-                            r = node_resolve(
-                                j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                            )
-                        if r == 1:
+                        if _reachable(
+                            j + 1,
+                            py,
+                            pz,
+                            ny,
+                            nz,
+                            dx,
+                            dy,
+                            dz,
+                            lim,
+                            tab,
+                            off,
+                            keys,
+                            start_m,
+                            goal_m,
+                            world,
+                            margin,
+                            counts,
+                        ):
                             placed = True
                             break
                     if placed:
@@ -552,14 +581,25 @@ def rebuild(
             if not placed:
                 ny = base[g, j, 0]
                 nz = base[g, j, 1]
-                placed = same
-                if not placed:
-                    r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-                    if r < 0:
-                        r = node_resolve(
-                            j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                        )
-                    placed = r == 1
+                placed = same or _reachable(
+                    j + 1,
+                    py,
+                    pz,
+                    ny,
+                    nz,
+                    dx,
+                    dy,
+                    dz,
+                    lim,
+                    tab,
+                    off,
+                    keys,
+                    start_m,
+                    goal_m,
+                    world,
+                    margin,
+                    counts,
+                )
             if not placed:
                 ok[g] = False
                 break
@@ -576,16 +616,20 @@ def rebuild(
 
 
 @njit(cache=True)
-def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin, skip):
-    """Adaptive oscillation optimisation (section 4.4, eq. 13), in place, every individual
-    except those with ``skip[g]`` (callers skip paths known to be fixed points).
+def moving_average_repair(nodes, goal_u, window, reach, skip):
+    """Replace every node by the rounded mean of a window of its path, under the
+    reachability rule, in place (SPSA's adaptive oscillation optimisation, section 4.4,
+    eq. 13); individuals with ``skip[g]`` are left alone (callers skip known fixed points).
 
     Node j becomes round(mean(P_{j−1}, P_j, …, P_{j+N_p−2})) with N_p = ``window``, the
-    previous node already optimised; when that node is unreachable N_p drops by one, and
+    previous node already replaced; when that node is unreachable N_p drops by one, and
     below 3 the node is kept. Windows are cut at the goal. An individual whose kept node
     became unreachable is left as it was. Returns the nodes moved per individual (G,).
     """
-    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
+    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
+    world, margin, counts = reach.world, reach.margin, reach.counts
+    start_m, goal_m = reach.start_m, reach.goal_m
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
     moved = np.zeros(n_pop, dtype=np.int64)
@@ -620,26 +664,51 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin, s
                 if same and ny == nodes[g, j, 0] and nz == nodes[g, j, 1]:
                     placed = True
                     break
-                r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-                if r < 0:
-                    r = node_resolve(
-                        j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                    )
-                if r == 1:
+                if _reachable(
+                    j + 1,
+                    py,
+                    pz,
+                    ny,
+                    nz,
+                    dx,
+                    dy,
+                    dz,
+                    lim,
+                    tab,
+                    off,
+                    keys,
+                    start_m,
+                    goal_m,
+                    world,
+                    margin,
+                    counts,
+                ):
                     placed = True
                     break
             if not placed:
                 ny = nodes[g, j, 0]
                 nz = nodes[g, j, 1]
-                if not same:
-                    r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-                    if r < 0:
-                        r = node_resolve(
-                            j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin
-                        )
-                    if r != 1:
-                        ok = False
-                        break
+                if not same and not _reachable(
+                    j + 1,
+                    py,
+                    pz,
+                    ny,
+                    nz,
+                    dx,
+                    dy,
+                    dz,
+                    lim,
+                    tab,
+                    off,
+                    keys,
+                    start_m,
+                    goal_m,
+                    world,
+                    margin,
+                    counts,
+                ):
+                    ok = False
+                    break
             same = ny == nodes[g, j, 0] and nz == nodes[g, j, 1]
             if not same:
                 count += 1
@@ -656,9 +725,12 @@ def oscillate(nodes, goal_u, window, dx, dy, dz, start_m, goal_m, geo, margin, s
 
 
 @njit(cache=True)
-def paths_feasible(nodes, dx, dy, dz, start_m, goal_m, geo, margin):
+def paths_feasible(nodes, reach):
     """(G,) bool: every segment of every individual reachable (start → nodes → goal)."""
-    tab, off, keys, lim = geo[13], geo[14], geo[11], margin_limit(margin)
+    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
+    world, margin, counts = reach.world, reach.margin, reach.counts
+    start_m, goal_m = reach.start_m, reach.goal_m
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
     out = np.ones(n_pop, dtype=np.bool_)
@@ -668,10 +740,25 @@ def paths_feasible(nodes, dx, dy, dz, start_m, goal_m, geo, margin):
         for j in range(n_inner):
             ny = nodes[g, j, 0]
             nz = nodes[g, j, 1]
-            r = node_status(j + 1, py, pz, ny, nz, dx, dy, dz, lim, tab, off, keys)
-            if r < 0:
-                r = node_resolve(j + 1, py, pz, ny, nz, dx, dy, dz, start_m, goal_m, geo, margin)
-            if r != 1:
+            if not _reachable(
+                j + 1,
+                py,
+                pz,
+                ny,
+                nz,
+                dx,
+                dy,
+                dz,
+                lim,
+                tab,
+                off,
+                keys,
+                start_m,
+                goal_m,
+                world,
+                margin,
+                counts,
+            ):
                 out[g] = False
                 break
             py = ny

@@ -22,6 +22,7 @@ from uavplan.path.energy import N_SUB, column_spline, population_energy
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
 from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams
+from uavplan.planners.proposal import Proposal
 from uavplan.world import World
 
 #: starts per individual before the initialisation gives up on it
@@ -53,7 +54,9 @@ class PathProblem:
     line_u: np.ndarray  # (D + 1, 2) start-end line in grid units
     table: tuple[np.ndarray, np.ndarray]  # node clearance table (D+1, ny, nz), (y, z) offsets
     fitness_smoothing: int = 0  # see population_energy: 0 = the paper's fitness
-    memo: tuple[np.ndarray, np.ndarray] = field(default_factory=K.new_memo)
+    memo: np.ndarray = field(default_factory=K.new_memo)
+    #: evaluation budget used so far: fitness evaluations, reachability checks, exact tests
+    counters: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int64))
 
     @classmethod
     def build(
@@ -89,7 +92,7 @@ class PathProblem:
     def with_fresh_memo(self) -> PathProblem:
         """The same problem with an empty reachability memo (the memo is pure, but one that
         earlier runs filled only slows lookups down)."""
-        return replace(self, memo=K.new_memo())
+        return replace(self, memo=K.new_memo(), counters=np.zeros(3, dtype=np.int64))
 
     def with_fitness_smoothing(self, smoothing: int) -> PathProblem:
         """The same problem (sharing its memo) with another fitness smoothing."""
@@ -102,10 +105,30 @@ class PathProblem:
         return self.frame.n_cols - 1
 
     @property
-    def geo(self) -> tuple:
-        """World arrays (path frame), reachability memo and clearance table, as the kernels
-        take them."""
-        return (*self.world.kernel_args, *self.memo, *self.table)
+    def reach(self) -> K.Reach:
+        """Everything the kernels' reachability rule reads, by name."""
+        dx, dy, dz = self.steps
+        return K.Reach(
+            self.world.kernel_args,
+            self.memo,
+            self.table[0],
+            self.table[1],
+            np.array([dx, dy, dz]),
+            self.start_m,
+            self.goal_m,
+            float(self.margin_m),
+            self.counters[1:],
+        )
+
+    @property
+    def evaluations(self) -> int:
+        """Fitness evaluations (individuals) made on this problem so far."""
+        return int(self.counters[0])
+
+    @property
+    def reach_checks(self) -> tuple[int, int]:
+        """(reachability checks, exact segment tests among them) made so far."""
+        return int(self.counters[1]), int(self.counters[2])
 
     @property
     def margin_m(self) -> float:
@@ -120,6 +143,7 @@ class PathProblem:
         """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
         w = self.energy
         dx, dy, dz = self.steps
+        self.counters[0] += nodes.shape[0]
         return population_energy(
             np.ascontiguousarray(nodes),
             self.start_m[1:],
@@ -146,17 +170,7 @@ class PathProblem:
         return out
 
     def feasible(self, nodes: np.ndarray) -> np.ndarray:
-        dx, dy, dz = self.steps
-        return K.paths_feasible(
-            np.ascontiguousarray(nodes),
-            dx,
-            dy,
-            dz,
-            self.start_m,
-            self.goal_m,
-            self.geo,
-            self.margin_m,
-        )
+        return K.paths_feasible(np.ascontiguousarray(nodes), self.reach)
 
     def node_points(self, nodes: np.ndarray) -> np.ndarray:
         """One individual's column polyline (D + 1, 3) in path-frame metres, with the ends."""
@@ -170,7 +184,6 @@ class PathProblem:
     def initial_population(
         self, n_pop: int, search: SearchParams, rng: np.random.Generator
     ) -> tuple[np.ndarray, np.ndarray, int]:
-        dx, dy, dz = self.steps
         return K.init_population(
             n_pop,
             self.n_inner,
@@ -179,70 +192,43 @@ class PathProblem:
             float(search.init_half_window),
             search.t_max,
             INIT_MAX_ATTEMPTS,
-            dx,
-            dy,
-            dz,
-            self.start_m,
-            self.goal_m,
-            self.geo,
-            self.margin_m,
+            self.reach,
             rng,
         )
 
-    def rebuild(
+    def propose(
         self,
         base: np.ndarray,
-        rules: np.ndarray,
-        refs: np.ndarray,
-        scal: np.ndarray,
-        escape: np.ndarray,
+        proposal: Proposal,
         t_max: int,
         rng: np.random.Generator,
         v_range: tuple[int, int] = (1, 5),
     ) -> tuple[np.ndarray, np.ndarray, int]:
-        """Candidates from ``rules`` under the shared reachability rule (see kernels).
-        ``rng`` seeds one random stream per individual."""
-        dx, dy, dz = self.steps
+        """New positions for ``base`` (G, n, 2) from ``proposal`` under the shared
+        reachability rule (:func:`~uavplan.planners._kernels.rebuild`): (positions, ok per
+        individual, escapes used). ``rng`` seeds one random stream per individual;
+        ``v_range`` is eq. 12's speed range for individuals that may escape."""
+        p = proposal
         return K.rebuild(
             base,
-            rules,
-            refs,
-            scal,
-            escape,
-            self.line_u,
+            p.active,
+            p.anchor,
+            p.offset,
+            p.spread,
+            p.draw,
+            p.spread2,
+            p.draw2,
+            p.clamp,
+            p.first,
+            p.use_first,
+            p.explicit,
+            p.n_explicit,
+            p.escape,
             t_max,
             v_range[0],
             v_range[1],
-            dx,
-            dy,
-            dz,
-            self.start_m,
-            self.goal_m,
-            self.geo,
-            self.margin_m,
+            self.reach,
             K.stream_seeds(rng, base.shape[0]),
-        )
-
-    def oscillate(
-        self, nodes: np.ndarray, window: int, skip: np.ndarray | None = None
-    ) -> np.ndarray:
-        """Oscillation optimisation in place; returns the nodes moved per individual.
-        Individuals with ``skip`` set are left alone."""
-        dx, dy, dz = self.steps
-        if skip is None:
-            skip = np.zeros(nodes.shape[0], dtype=np.bool_)
-        return K.oscillate(
-            nodes,
-            self.goal_u,
-            window,
-            dx,
-            dy,
-            dz,
-            self.start_m,
-            self.goal_m,
-            self.geo,
-            self.margin_m,
-            skip,
         )
 
 
@@ -277,23 +263,60 @@ def _clearance_table(world: World, frame: PathFrame) -> tuple[np.ndarray, np.nda
     return tab, np.array([iy_lo, iz_lo], dtype=np.int64)
 
 
+class Termination:
+    """When a run stops (STYLE: termination kept apart from the algorithm).
+
+    ``iterations``: the budget M of iterations (the paper's protocol runs all of them);
+    ``stall_iterations``: stop early once the best fitness has not improved for that many
+    iterations (None: never); ``should_stop``: polled once per iteration, e.g. a Ctrl-C flag
+    (the run then ends as "interrupted" and returns what it has).
+    """
+
+    def __init__(
+        self,
+        iterations: int,
+        stall_iterations: int | None = None,
+        should_stop: Callable[[], bool] | None = None,
+    ) -> None:
+        self.iterations = iterations
+        self.stall_iterations = stall_iterations
+        self.should_stop = should_stop
+
+
+#: why a run ended (``PlannerResult.termination``)
+TERMINATED_ITERATIONS = "iterations"  # the iteration budget was spent
+TERMINATED_STALLED = "stalled"  # no improvement for stall_iterations
+TERMINATED_INTERRUPTED = "interrupted"  # should_stop() said so
+TERMINATED_NO_PATH = "no_path"  # nothing could be initialised
+
+
 @dataclass
 class PlannerResult:
-    """What a planner returns: one record (STYLE: x, fun, nit, success, message)."""
+    """What a planner returns: one record (STYLE: x, fun, nit, success, message).
+
+    ``iterations`` counts the iterations actually run; ``termination`` says why the run
+    ended; ``evaluations`` counts fitness evaluations (individuals) and ``reach_checks`` /
+    ``exact_checks`` the reachability tests of the run (its budget); ``stats`` holds the
+    planner's own counters (escapes, failed updates, ...), numbers only.
+    """
 
     algorithm: str
     seed: int
     status: PlanStatus
     best_nodes: np.ndarray | None  # (D − 1, 2) grid units
     best_fitness: float
-    convergence: np.ndarray  # best fitness after each iteration
+    convergence: np.ndarray  # best fitness after each iteration run
     iterations: int
     runtime_s: float
     deadlocks: int = 0
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: dict[str, float] = field(default_factory=dict)
     message: str = ""
     population: np.ndarray | None = None  # final positions (G, D − 1, 2)
     population_fitness: np.ndarray | None = None
+    termination: str = TERMINATED_ITERATIONS
+    evaluations: int = 0
+    reach_checks: int = 0
+    exact_checks: int = 0
 
     @property
     def solved(self) -> bool:
@@ -302,17 +325,25 @@ class PlannerResult:
 
 @dataclass
 class Population:
-    """The state a step works on: positions ``x`` (G, n, 2) and their fitness ``f`` (G,)."""
+    """The state a step works on: positions ``x`` (G, n, 2) and their fitness ``f`` (G,).
+
+    ``state`` is the algorithm's own memory (velocities, personal bests, leaders, ...);
+    ``counters`` its numeric counters, summed over restarts into ``PlannerResult.stats``.
+    """
 
     x: np.ndarray
     f: np.ndarray
     iteration: int = 0
     iterations: int = 1
-    extra: dict[str, Any] = field(default_factory=dict)
+    state: dict[str, Any] = field(default_factory=dict)
+    counters: dict[str, int] = field(default_factory=dict)
 
     @property
     def best_index(self) -> int:
         return int(np.argmin(self.f))
+
+    def count(self, name: str, n: int) -> None:
+        self.counters[name] = self.counters.get(name, 0) + int(n)
 
 
 class SwarmPlanner:
@@ -354,41 +385,59 @@ class SwarmPlanner:
         problem: PathProblem,
         rng: np.random.Generator | None = None,
         progress: ProgressFn | None = None,
+        termination: Termination | None = None,
     ) -> PlannerResult:
         search = self.search
         rng = rng if rng is not None else np.random.default_rng(search.seed)
+        term = termination or Termination(search.iterations)
+        budget = term.iterations
         t0 = time.perf_counter()
-        rounds = max(1, min(self.rounds, search.iterations))
-        lengths = np.full(rounds, search.iterations // rounds)
-        lengths[: search.iterations % rounds] += 1
-        convergence = np.empty(search.iterations)
+        start_counts = problem.counters.copy()
+        rounds = max(1, min(self.rounds, budget))
+        lengths = np.full(rounds, budget // rounds)
+        lengths[: budget % rounds] += 1
+        convergence: list[float] = []
         finals_x: list[np.ndarray] = []
         finals_f: list[np.ndarray] = []
         best_x: np.ndarray | None = None
         best_f = float("inf")
         deadlocks = 0
-        stats: dict[str, Any] = {}
-        done = 0
+        stats: dict[str, float] = {}
+        reason = TERMINATED_ITERATIONS
+
+        def record(status: PlanStatus, message: str = "") -> PlannerResult:
+            used = problem.counters - start_counts
+            return PlannerResult(
+                self.name,
+                search.seed,
+                status,
+                best_x,
+                best_f,
+                np.array(convergence),
+                len(convergence),
+                time.perf_counter() - t0,
+                deadlocks,
+                {**stats, "rounds": float(rounds)},
+                message,
+                population=np.concatenate(finals_x) if finals_x else None,
+                population_fitness=np.concatenate(finals_f) if finals_f else None,
+                termination=reason if status is PlanStatus.SOLVED else TERMINATED_NO_PATH,
+                evaluations=int(used[0]),
+                reach_checks=int(used[1]),
+                exact_checks=int(used[2]),
+            )
+
         for n_iter in lengths:
             x, ok, dead = problem.initial_population(search.population, search, rng)
             deadlocks += dead
             if not ok.any():
                 if best_x is None:
-                    return PlannerResult(
-                        self.name,
-                        search.seed,
+                    return record(
                         PlanStatus.NO_PATH,
-                        None,
-                        float("inf"),
-                        np.empty(0),
-                        0,
-                        time.perf_counter() - t0,
-                        deadlocks,
-                        message="every initial path deadlocked: no reachable node sequence "
+                        "every initial path deadlocked: no reachable node sequence "
                         "from start to goal along the start→goal direction",
                     )
-                convergence[done : done + n_iter] = best_f
-                done += n_iter
+                convergence.extend([best_f] * int(n_iter))
                 continue
             if not ok.all():
                 # deadlocked individuals are replaced by copies of initialised ones
@@ -397,38 +446,29 @@ class SwarmPlanner:
                 x[bad] = x[rng.choice(good, size=bad.size)]
             pop = Population(x, problem.fitness(x), 0, int(n_iter))
             self.setup(problem, pop, rng)
+            stalled = 0
             for it in range(n_iter):
                 pop.iteration = it
                 self.step(problem, pop, rng)
                 bx, bf = self.best(pop)
                 if bf < best_f:
                     best_x, best_f = bx.copy(), bf
-                convergence[done] = best_f
-                done += 1
+                    stalled = 0
+                else:
+                    stalled += 1
+                convergence.append(best_f)
                 if progress is not None:
-                    progress(done, search.iterations, best_f)
+                    progress(len(convergence), budget, best_f)
+                if term.should_stop is not None and term.should_stop():
+                    reason = TERMINATED_INTERRUPTED
+                    break
+                if term.stall_iterations is not None and stalled >= term.stall_iterations:
+                    reason = TERMINATED_STALLED
+                    break
             finals_x.append(pop.x.copy())
             finals_f.append(pop.f.copy())
-            for k, v in pop.extra.items():
-                if isinstance(v, int | float):
-                    stats[k] = stats.get(k, 0) + v
-        stats["rounds"] = int(rounds)
-        return PlannerResult(
-            self.name,
-            search.seed,
-            PlanStatus.SOLVED,
-            best_x,
-            best_f,
-            convergence,
-            search.iterations,
-            time.perf_counter() - t0,
-            deadlocks,
-            stats,
-            population=np.concatenate(finals_x),
-            population_fitness=np.concatenate(finals_f),
-        )
-
-
-def empty_refs(n_pop: int, n_inner: int) -> tuple[np.ndarray, np.ndarray]:
-    """Zeroed reference-path and scalar arrays for :meth:`PathProblem.rebuild`."""
-    return np.zeros((n_pop, K.N_REFS, n_inner, 2)), np.zeros((n_pop, K.N_SCAL))
+            for k, v in pop.counters.items():
+                stats[k] = stats.get(k, 0.0) + float(v)
+            if reason == TERMINATED_INTERRUPTED:
+                break
+        return record(PlanStatus.SOLVED)

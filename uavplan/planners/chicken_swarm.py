@@ -3,14 +3,14 @@
 
 Every G iterations the swarm is ranked and split into roosters (best), hens and chicks; each
 hen joins a rooster's group and each chick follows a mother hen. Between updates the roles
-stay with the individuals. Per iteration, through the shared kernel rules:
+stay with the individuals. Per iteration, as one :class:`Proposal`:
   * rooster i: x·(1 + σ²·N(0, 1)) with σ² = 1 if f_i ≤ f_k, else exp((f_k − f_i)/(|f_i| + ε)),
-    k another random rooster (``R_CSO_ROOSTER``; the product acts on the deviation from the
-    start-end line, the path frame's natural origin, as SSA's eq. 3 does here);
+    k another random rooster (the product acts on the deviation from the start-end line, the
+    path frame's natural origin, as SSA's eq. 3 does here);
   * hen i: x + S1·rand·(x_r1 − x) + S2·rand·(x_r2 − x), r1 its rooster, r2 a random
     individual ranked no worse than i at the last update, r2 ≠ r1 (Meng's code),
-    S1 = exp((f_i − f_r1)/(|f_i| + ε)), S2 = exp(f_r2 − f_i) (``R_CSO_HEN``);
-  * chick i: x + FL·(x_m − x), m its mother, FL ~ U(fl_min, fl_max) (``R_CSO_CHICK``).
+    S1 = exp((f_i − f_r1)/(|f_i| + ε)), S2 = exp(f_r2 − f_i);
+  * chick i: x + FL·(x_m − x), m its mother, FL ~ U(fl_min, fl_max).
 Updates start from each individual's best position and replace it only when better, as in
 the authors' code (personal bests ``pX``), i.e. greedy selection.
 
@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
-from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Population, SwarmPlanner, empty_refs
+from uavplan.planners.base import PathProblem, Population, SwarmPlanner
 from uavplan.planners.params import CsoParams, SearchParams
+from uavplan.planners.proposal import Draw, Proposal
 
 EPS = float(np.finfo(float).tiny)  # ε (``realmin`` in the authors' code)
 
@@ -53,11 +53,11 @@ class ChickenSwarmPlanner(SwarmPlanner):
         return n_r, n_h, n_c, n_m
 
     def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
-        pop.extra["failed_updates"] = 0
+        pop.count("failed_updates", 0)
 
     def _rank(self, pop: Population, rng: np.random.Generator) -> None:
         """Establish the hierarchy (every G iterations): roles, groups, mothers, FL."""
-        prm, ex = self.params, pop.extra
+        prm, ex = self.params, pop.state
         n_r, n_h, n_c, n_m = self.group_sizes(pop.f.size)
         order = np.argsort(pop.f, kind="stable")  # population indices, best first
         ex["order"] = order
@@ -69,20 +69,19 @@ class ChickenSwarmPlanner(SwarmPlanner):
         ex["mother_rank"] = mothers[rng.integers(0, n_m, size=n_c)]
         ex["fl"] = rng.uniform(prm.fl_min, prm.fl_max, size=n_c)
 
-    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
-        ex = pop.extra
-        if pop.iteration % self.params.g == 0:
-            self._rank(pop, rng)
+    def rule(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> Proposal:
+        """Roosters, hens and chicks as the module doc says (ranks from the last update)."""
+        ex = pop.state
         x, f = pop.x, pop.f
-        n_pop, n_inner = x.shape[0], x.shape[1]
+        n_pop = x.shape[0]
         n_r, n_h, _, _ = self.group_sizes(n_pop)
         order = ex["order"]
         roosters, hens, chicks = order[:n_r], order[n_r : n_r + n_h], order[n_r + n_h :]
-        rules = np.full(n_pop, -1, dtype=np.int64)
-        refs, scal = empty_refs(n_pop, n_inner)
+        line = problem.line_u[1:-1]
+        prop = Proposal.for_population(x)
+        prop.active[:] = True
 
-        # roosters: another random rooster k decides the spread σ²
-        rules[roosters] = K.R_CSO_ROOSTER
+        # roosters: another random rooster k decides the spread σ²: x + (x − P_ST)·σ²·N(0, 1)
         if n_r > 1:
             shift = rng.integers(1, n_r, size=n_r)  # k ≠ i among the roosters
             k = roosters[(np.arange(n_r) + shift) % n_r]
@@ -90,31 +89,36 @@ class ChickenSwarmPlanner(SwarmPlanner):
             sigma2 = np.where(fi <= fk, 1.0, np.exp((fk - fi) / (np.abs(fi) + EPS)))
         else:
             sigma2 = np.ones(1)
-        scal[roosters, 0] = sigma2
+        prop.spread[roosters] = (x[roosters] - line) * sigma2[:, None, None]
+        prop.draw[roosters] = Draw.NORMAL
 
         # hens: follow their rooster r1 and steal from r2 (rank ≤ own rank, r2 ≠ r1)
-        rules[hens] = K.R_CSO_HEN
         own_rank = np.arange(n_r, n_r + n_h)
         mate_rank = ex["mate_rank"]
         u = np.floor(rng.random(n_h) * own_rank).astype(np.int64)  # 0..own_rank-1
         other_rank = u + (u >= mate_rank)
         r1, r2 = order[mate_rank], order[other_rank]
         fi = f[hens]
-        refs[hens, 0] = x[r1]
-        refs[hens, 1] = x[r2]
-        scal[hens, 0] = np.exp((fi - f[r1]) / (np.abs(fi) + EPS))
-        scal[hens, 1] = np.exp(np.minimum(f[r2] - fi, 0.0))
+        s1 = np.exp((fi - f[r1]) / (np.abs(fi) + EPS))[:, None, None]
+        s2 = np.exp(np.minimum(f[r2] - fi, 0.0))[:, None, None]
+        prop.spread[hens] = s1 * (x[r1] - x[hens])
+        prop.draw[hens] = Draw.UNIFORM
+        prop.spread2[hens] = s2 * (x[r2] - x[hens])
+        prop.draw2[hens] = Draw.UNIFORM
 
         # chicks: follow their mother
         if chicks.size:
-            rules[chicks] = K.R_CSO_CHICK
-            refs[chicks, 0] = x[order[ex["mother_rank"]]]
-            scal[chicks, 0] = ex["fl"]
+            mothers = order[ex["mother_rank"]]
+            prop.anchor[chicks] = x[chicks] + ex["fl"][:, None, None] * (x[mothers] - x[chicks])
+        return prop
 
-        no_escape = np.zeros(n_pop, dtype=np.bool_)
-        cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
+    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        if pop.iteration % self.params.g == 0:
+            self._rank(pop, rng)
+        x, f = pop.x, pop.f
+        cand, ok, _ = problem.propose(x, self.rule(problem, pop, rng), self.search.t_max, rng)
         f_cand = problem.fitness_of_changed(cand, x, f)
         better = f_cand < f
         x[better] = cand[better]
         f[better] = f_cand[better]
-        ex["failed_updates"] += int((~ok).sum())
+        pop.count("failed_updates", int((~ok).sum()))

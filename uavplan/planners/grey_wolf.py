@@ -1,10 +1,10 @@
 """Grey wolf optimiser (Mirjalili, Mirjalili & Lewis 2014) on the paper's path encoding.
 
 The leaders α, β, δ are the three best distinct positions found so far. Every wolf proposes
-each node through the shared kernel rule ``R_GWO``: the mean over the leaders of
-X_k − A·|C·X_k − X| with A = 2a·r1 − a, C = 2·r2 drawn per node, axis and leader (redrawn on
-each retry of the reachability rule), ``a`` falling linearly 2 → 0. Wolves move without
-selection, as in the original; the leaders are the memory.
+each node as the mean over the leaders of X_k − A·|C·X_k − X| with A = 2a·r1 − a, C = 2·r2
+drawn per node, axis and leader, redrawn for each retry of the reachability rule (the T_max
+attempts are given to the shared kernel explicitly), ``a`` falling linearly 2 → 0. Wolves move
+without selection, as in the original; the leaders are the memory.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import functools
 
 import numpy as np
 
-from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Population, SwarmPlanner, empty_refs
+from uavplan.planners.base import PathProblem, Population, SwarmPlanner
 from uavplan.planners.params import GwoParams, SearchParams
+from uavplan.planners.proposal import Proposal
 
 N_LEADERS = 3  # α, β, δ
 
@@ -45,36 +45,47 @@ class GreyWolfPlanner(SwarmPlanner):
 
     def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         lead = best_distinct(pop.x, pop.f, N_LEADERS)
-        pop.extra["leaders"] = pop.x[lead].copy()
-        pop.extra["leaders_f"] = pop.f[lead].copy()
-        pop.extra["failed_updates"] = 0
+        pop.state["leaders"] = pop.x[lead].copy()
+        pop.state["leaders_f"] = pop.f[lead].copy()
+        pop.count("failed_updates", 0)
 
     def a(self, pop: Population) -> float:
         """a, linear from ``a_start`` (first iteration) toward ``a_end`` (a = 2 − 2·t/M)."""
         prm = self.params
         return prm.a_start + (prm.a_end - prm.a_start) * pop.iteration / pop.iterations
 
-    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
-        ex = pop.extra
+    def rule(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> Proposal:
+        """Every wolf: T_max attempts of mean_k(X_k − A·|C·X_k − X|), fresh A, C each."""
+        st = pop.state
         x = pop.x
-        n_pop, n_inner = x.shape[0], x.shape[1]
-        leaders = ex["leaders"]
+        t_max = self.search.t_max
+        leaders = st["leaders"]
         # with fewer than three distinct leaders so far, the last one stands in for the rest
         pick = np.minimum(np.arange(N_LEADERS), leaders.shape[0] - 1)
-        rules = np.full(n_pop, K.R_GWO, dtype=np.int64)
-        refs, scal = empty_refs(n_pop, n_inner)
-        refs[:, :N_LEADERS] = leaders[pick]
-        scal[:, 0] = self.a(pop)
-        no_escape = np.zeros(n_pop, dtype=np.bool_)
-        cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
+        lead = leaders[pick][:, None, None]  # (3, 1, 1, n, 2)
+        a = self.a(pop)
+        shape = (N_LEADERS, t_max, *x.shape)
+        big_a = 2.0 * a * rng.random(shape) - a
+        big_c = 2.0 * rng.random(shape)
+        attempts = (lead - big_a * np.abs(big_c * lead - x[None, None])).mean(axis=0)
+        prop = Proposal.for_population(x, n_explicit=t_max)
+        prop.active[:] = True
+        prop.explicit = attempts
+        prop.n_explicit[:] = t_max
+        return prop
+
+    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        st, x = pop.state, pop.x
+        leaders = st["leaders"]
+        cand, ok, _ = problem.propose(x, self.rule(problem, pop, rng), self.search.t_max, rng)
         pop.x = cand
         pop.f = problem.fitness_of_changed(cand, x, pop.f)
         pool_x = np.concatenate([leaders, cand])
-        pool_f = np.concatenate([ex["leaders_f"], pop.f])
-        lead = best_distinct(pool_x, pool_f, N_LEADERS)
-        ex["leaders"] = pool_x[lead].copy()
-        ex["leaders_f"] = pool_f[lead].copy()
-        ex["failed_updates"] += int((~ok).sum())
+        pool_f = np.concatenate([st["leaders_f"], pop.f])
+        best = best_distinct(pool_x, pool_f, N_LEADERS)
+        st["leaders"] = pool_x[best].copy()
+        st["leaders_f"] = pool_f[best].copy()
+        pop.count("failed_updates", int((~ok).sum()))
 
     def best(self, pop: Population) -> tuple[np.ndarray, float]:
-        return pop.extra["leaders"][0], float(pop.extra["leaders_f"][0])
+        return pop.state["leaders"][0], float(pop.state["leaders_f"][0])

@@ -1,7 +1,7 @@
 """Particle swarm optimisation (Kennedy & Eberhart 1995) with a linearly decreasing inertia
 weight (Shi & Eberhart 1998, 1999), on the paper's path encoding.
 
-Every particle proposes all its nodes through the shared kernel rule ``R_PSO``
+Every particle proposes all its nodes as one :class:`Proposal`
 (v ← w·v + c1·r1·(pbest − x) + c2·r2·(gbest − x), clamped to ±Vmax, x ← x + v) under the
 reachability rule every planner follows: an unreachable node is re-proposed with fresh
 r1, r2 up to T_max times, then the old node is kept (paper section 6). Positions are not
@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Population, SwarmPlanner, empty_refs
+from uavplan.planners.base import PathProblem, Population, SwarmPlanner
 from uavplan.planners.params import PsoParams, SearchParams
+from uavplan.planners.proposal import Draw, Proposal
 
 
 def axis_ranges_units(problem: PathProblem) -> np.ndarray:
@@ -33,16 +33,19 @@ class ParticleSwarmPlanner(SwarmPlanner):
 
     def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         i = pop.best_index
-        pop.extra["velocity"] = np.zeros_like(pop.x)
-        pop.extra["pbest"] = pop.x.copy()
-        pop.extra["pbest_f"] = pop.f.copy()
-        pop.extra["gbest"] = pop.x[i].copy()
-        pop.extra["gbest_f"] = float(pop.f[i])
+        st = pop.state
+        st["velocity"] = np.zeros_like(pop.x)
+        st["pbest"] = pop.x.copy()
+        st["pbest_f"] = pop.f.copy()
+        st["gbest"] = pop.x[i].copy()
+        st["gbest_f"] = float(pop.f[i])
         frac = self.params.v_max_fraction
-        pop.extra["v_max"] = (
-            np.zeros(2) if frac is None else np.maximum(1.0, frac * axis_ranges_units(problem))
+        st["v_max"] = (
+            np.full(2, np.inf)
+            if frac is None
+            else np.maximum(1.0, frac * axis_ranges_units(problem))
         )
-        pop.extra["failed_updates"] = 0
+        pop.count("failed_updates", 0)
 
     def inertia(self, pop: Population) -> float:
         """w, linear from ``w_start`` at the first iteration to ``w_end`` at the last."""
@@ -50,32 +53,34 @@ class ParticleSwarmPlanner(SwarmPlanner):
         frac = pop.iteration / max(1, pop.iterations - 1)
         return prm.w_start + (prm.w_end - prm.w_start) * frac
 
-    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
-        prm, ex = self.params, pop.extra
+    def rule(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> Proposal:
+        """Every particle: x + clip(w·v + c1·r1·(pbest − x) + c2·r2·(gbest − x), ±Vmax)."""
+        prm, st = self.params, pop.state
         x = pop.x
-        n_pop, n_inner = x.shape[0], x.shape[1]
-        rules = np.full(n_pop, K.R_PSO, dtype=np.int64)
-        refs, scal = empty_refs(n_pop, n_inner)
-        refs[:, 0] = ex["velocity"]
-        refs[:, 1] = ex["pbest"]
-        refs[:, 2] = ex["gbest"]
-        refs[:, 3] = ex["v_max"]
-        scal[:, 0] = self.inertia(pop)
-        scal[:, 1] = prm.c1
-        scal[:, 2] = prm.c2
-        no_escape = np.zeros(n_pop, dtype=np.bool_)
-        cand, ok, _ = problem.rebuild(x, rules, refs, scal, no_escape, self.search.t_max, rng)
-        ex["velocity"] = cand - x
+        prop = Proposal.for_population(x)
+        prop.active[:] = True
+        prop.offset = self.inertia(pop) * st["velocity"]
+        prop.spread = prm.c1 * (st["pbest"] - x)
+        prop.draw[:] = Draw.UNIFORM
+        prop.spread2 = prm.c2 * (st["gbest"] - x)
+        prop.draw2[:] = Draw.UNIFORM
+        prop.clamp = st["v_max"]
+        return prop
+
+    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        st, x = pop.state, pop.x
+        cand, ok, _ = problem.propose(x, self.rule(problem, pop, rng), self.search.t_max, rng)
+        st["velocity"] = cand - x
         pop.x = cand
         pop.f = problem.fitness_of_changed(cand, x, pop.f)
-        better = pop.f < ex["pbest_f"]
-        ex["pbest"][better] = cand[better]
-        ex["pbest_f"][better] = pop.f[better]
-        i = int(np.argmin(ex["pbest_f"]))
-        if ex["pbest_f"][i] < ex["gbest_f"]:
-            ex["gbest"] = ex["pbest"][i].copy()
-            ex["gbest_f"] = float(ex["pbest_f"][i])
-        ex["failed_updates"] += int((~ok).sum())
+        better = pop.f < st["pbest_f"]
+        st["pbest"][better] = cand[better]
+        st["pbest_f"][better] = pop.f[better]
+        i = int(np.argmin(st["pbest_f"]))
+        if st["pbest_f"][i] < st["gbest_f"]:
+            st["gbest"] = st["pbest"][i].copy()
+            st["gbest_f"] = float(st["pbest_f"][i])
+        pop.count("failed_updates", int((~ok).sum()))
 
     def best(self, pop: Population) -> tuple[np.ndarray, float]:
-        return pop.extra["gbest"], pop.extra["gbest_f"]
+        return pop.state["gbest"], pop.state["gbest_f"]

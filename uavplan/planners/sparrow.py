@@ -20,10 +20,23 @@ from __future__ import annotations
 import numpy as np
 
 from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Population, SwarmPlanner, empty_refs
+from uavplan.planners.base import PathProblem, Population, SwarmPlanner
 from uavplan.planners.params import SearchParams, SpsaParams
+from uavplan.planners.proposal import Draw, Proposal
 
 EPS = 1e-50  # ε of eq. 5, as in the reference code
+
+
+def oscillate(
+    problem: PathProblem, nodes: np.ndarray, window: int, skip: np.ndarray | None = None
+) -> np.ndarray:
+    """Adaptive oscillation optimisation (section 4.4, eq. 13) of ``nodes`` (G, n, 2) in
+    place, individuals with ``skip`` set left alone; returns the nodes moved per individual.
+    Node j becomes the rounded mean of the window P_{j−1} .. P_{j+N_p−2}, N_p shrinking from
+    ``window`` to 3 while that node is unreachable (the kernel's moving-average repair)."""
+    if skip is None:
+        skip = np.zeros(nodes.shape[0], dtype=np.bool_)
+    return K.moving_average_repair(nodes, problem.goal_u, window, problem.reach, skip)
 
 
 class SparrowPlanner(SwarmPlanner):
@@ -39,98 +52,141 @@ class SparrowPlanner(SwarmPlanner):
     def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         if self.params.oscillation:
             # Algorithm 3: "Oscillation optimization of all individuals trajectories"
-            moved = problem.oscillate(pop.x, self.params.oscillation_window)
+            moved = oscillate(problem, pop.x, self.params.oscillation_window)
             pop.f = problem.fitness(pop.x)
-            pop.extra["oscillated_nodes"] = int(moved.sum())
+            pop.count("oscillated_nodes", int(moved.sum()))
             # a path the oscillation left unchanged is a fixed point of it (eq. 13 has no
             # randomness): it need not be oscillated again until it changes
-            pop.extra["osc_fixed"] = moved == 0
-        pop.extra.setdefault("escapes", 0)
-        pop.extra.setdefault("failed_updates", 0)
+            pop.state["osc_fixed"] = moved == 0
+        pop.count("escapes", 0)
+        pop.count("failed_updates", 0)
 
-    @staticmethod
-    def _buffers(pop: Population) -> tuple[np.ndarray, np.ndarray]:
-        """Reference-path and scalar arrays reused across calls; a rule reads only the
-        entries its own update sets, so they need no clearing."""
-        if "refs" not in pop.extra:
-            pop.extra["refs"], pop.extra["scal"] = empty_refs(pop.x.shape[0], pop.x.shape[1])
-        return pop.extra["refs"], pop.extra["scal"]
+    def producers(
+        self, problem: PathProblem, pop: Population, producers: np.ndarray, best_i: int,
+        rng: np.random.Generator,
+    ) -> Proposal:  # fmt: skip
+        """Eq. 11 (SPSA: pulled toward the start-end line P_ST) or eq. 3 (SSA). δ = P − P_ST.
 
-    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
-        prm, search = self.params, self.search
-        x, f = pop.x, pop.f
-        n_pop, n_inner = x.shape[0], x.shape[1]
-        order = np.argsort(f, kind="stable")
-        best_i, worst_i = order[0], order[-1]
-        n_prod = min(n_pop - 1, max(1, round(prm.producer_ratio * n_pop)))
-        producers, scroungers = order[:n_prod], order[n_prod:]
-        v_range = (prm.v_min, prm.v_max)
-
-        # --- producers: eq. 11 (SPSA) or eq. 3 (SSA) ---------------------------------------
-        rules = np.full(n_pop, -1, dtype=np.int64)
-        refs, scal = self._buffers(pop)
+        R2 < ST: the best producer P + rand·(P_ST − P); the others, "deviation" reading,
+        P_ST + δ·e − rand·δ (literal reading: P + e + rand·(P_ST − P)), e = exp(−i/(α·M)),
+        i the producer's rank; SSA's eq. 3: P_ST + δ·e. R2 >= ST (alarm): P + Q·L on the first
+        attempt, Q ~ N(0, 1) shared by the nodes, P + N(0, 1) on retries.
+        """
+        prm = self.params
+        x = pop.x
+        line = problem.line_u[1:-1]  # (n, 2) P_ST at every inner column
+        prop = Proposal.for_population(x)
+        prop.active[producers] = True
+        n_prod = producers.size
         if rng.random() < prm.warning_value:
             ranks = np.arange(1, n_prod + 1)
             alpha = 1.0 - rng.random(n_prod)  # α in (0, 1]
-            scal[producers, 0] = np.exp(-ranks / (alpha * pop.iterations))
+            e = np.exp(-ranks / (alpha * pop.iterations))[:, None, None]
+            p = x[producers]
             if prm.start_end_producer:
-                literal = prm.producer_rule == "literal"
-                rules[producers] = K.R_SPSA_PRODUCER_LITERAL if literal else K.R_SPSA_PRODUCER
-                rules[best_i] = K.R_SPSA_PRODUCER_BEST
+                if prm.producer_rule == "literal":
+                    prop.anchor[producers] = p + e
+                    prop.spread[producers] = line - p
+                else:
+                    d = p - line
+                    prop.anchor[producers] = line + d * e
+                    prop.spread[producers] = -d
+                prop.draw[producers] = Draw.UNIFORM
+                prop.anchor[best_i] = x[best_i]
+                prop.spread[best_i] = line - x[best_i]
             else:
-                rules[producers] = K.R_SSA_PRODUCER
+                prop.anchor[producers] = line + (p - line) * e
         else:
-            rules[producers] = K.R_ALARM
-            scal[producers, 0] = rng.standard_normal(n_prod)
-        no_escape = np.zeros(n_pop, dtype=np.bool_)
-        cand, ok_p, _ = problem.rebuild(x, rules, refs, scal, no_escape, search.t_max, rng, v_range)
-        f_prod = problem.fitness_of_changed(cand[producers], x[producers], f[producers])
-        p_best = cand[producers[int(np.argmin(f_prod))]]
+            q = rng.standard_normal(n_prod)[:, None, None]
+            prop.anchor[producers] = x[producers]
+            prop.spread[producers] = 1.0
+            prop.draw[producers] = Draw.NORMAL
+            prop.first[producers] = x[producers] + q
+            prop.use_first[producers] = True
+        return prop
 
-        # --- scroungers (eq. 4, escape of eq. 12) and danger-aware sparrows (eq. 5) ---------
-        # One kernel call: a danger-aware sparrow's new position replaces whatever its role
-        # would have given it, so a scrounger picked as danger-aware skips its eq. 4 update
-        # (a producer's update above still counts: it may be the best producer).
-        rules = np.full(n_pop, -1, dtype=np.int64)
+    def followers(
+        self, problem: PathProblem, pop: Population, scroungers: np.ndarray, n_prod: int,
+        p_best: np.ndarray, order: np.ndarray, rng: np.random.Generator,
+    ) -> Proposal:  # fmt: skip
+        """Scroungers (eq. 4, with eq. 12's escape) and danger-aware sparrows (eq. 5).
+
+        A danger-aware sparrow's move replaces whatever its role would have given it, so a
+        scrounger picked as danger-aware skips its eq. 4 update (a producer's update still
+        counts: it may be the best producer).
+        """
+        prm = self.params
+        x, f = pop.x, pop.f
+        n_pop, n_inner = x.shape[0], x.shape[1]
+        best_i, worst_i = order[0], order[-1]
+        line = problem.line_u[1:-1]
+        prop = Proposal.for_population(x)
         if prm.scrounger_index == "scrounger":
             index, half = np.arange(1, scroungers.size + 1), scroungers.size / 2.0
         else:
             index, half = np.arange(n_prod + 1, n_pop + 1), n_pop / 2.0
         far = index > half
-        rules[scroungers[far]] = K.R_SCROUNGER_FAR
-        refs[scroungers[far], 0] = x[worst_i]
-        scal[scroungers[far], 0] = index[far].astype(float) ** 2
+        # i > n/2: Q·exp((P_worst − P)/i²) about the line, Q ~ N(0, 1)
+        fs = scroungers[far]
+        prop.active[fs] = True
+        prop.anchor[fs] = line
+        dw = x[worst_i] - line
+        d = x[fs] - line
+        i2 = (index[far].astype(float) ** 2)[:, None, None]
+        prop.spread[fs] = np.exp(np.minimum((dw - d) / i2, 50.0))
+        prop.draw[fs] = Draw.NORMAL
         near = scroungers[~far]
         if near.size:
-            rules[near] = K.R_SCROUNGER_NEAR
-            refs[near, 0] = p_best
-            # |P − P_p|·A⁺·L with A a random ±1 row: A⁺ = Aᵀ/d, the same offset on every node
+            # P_p + |P − P_p|·A⁺·L with A a random ±1 row: A⁺ = Aᵀ/d, one offset per path
+            prop.active[near] = True
             signs = 2.0 * rng.integers(0, 2, size=(near.size, n_inner, 2)) - 1.0
-            scal[near, :2] = (np.abs(x[near] - p_best) * signs).sum(axis=1) / n_inner
-        escape = np.zeros(n_pop, dtype=np.bool_)
-        escape[scroungers] = prm.escape
+            shift = (np.abs(x[near] - p_best) * signs).sum(axis=1) / n_inner
+            prop.anchor[near] = p_best + shift[:, None, :]
+        prop.escape[scroungers] = prm.escape
         n_danger = min(n_pop, round(prm.danger_ratio * n_pop))
         aware = rng.permutation(n_pop)[:n_danger]
         if n_danger:
-            escape[aware] = False
+            prop.active[aware] = True
+            prop.escape[aware] = False
             is_best = f[aware] <= f[best_i]
-            rules[aware[~is_best]] = K.R_DANGER
-            refs[aware[~is_best], 0] = x[best_i]
-            rules[aware[is_best]] = K.R_DANGER_BEST
-            refs[aware[is_best], 0] = x[worst_i]
-            scal[aware[is_best], 0] = 1.0 / (f[aware[is_best]] - f[worst_i] + EPS)
-        cand_s, ok_s, escapes = problem.rebuild(
-            x, rules, refs, scal, escape, search.t_max, rng, v_range
-        )
-        moved = rules >= 0
+            others, best = aware[~is_best], aware[is_best]
+            # not the best: P_best + β·|P − P_best|, β ~ N(0, 1)
+            prop.anchor[others] = x[best_i]
+            prop.spread[others] = np.abs(x[others] - x[best_i])
+            prop.draw[others] = Draw.NORMAL
+            # the best: P + K·|P − P_worst|/(f_i − f_w + ε), K ~ U(−1, 1)
+            k = (1.0 / (f[best] - f[worst_i] + EPS))[:, None, None]
+            prop.anchor[best] = x[best]
+            prop.spread[best] = np.abs(x[best] - x[worst_i]) * k
+            prop.draw[best] = Draw.SYMMETRIC
+        return prop
+
+    def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        prm, search = self.params, self.search
+        x, f = pop.x, pop.f
+        n_pop = x.shape[0]
+        order = np.argsort(f, kind="stable")
+        best_i = order[0]
+        n_prod = min(n_pop - 1, max(1, round(prm.producer_ratio * n_pop)))
+        producers, scroungers = order[:n_prod], order[n_prod:]
+        v_range = (prm.v_min, prm.v_max)
+
+        prop = self.producers(problem, pop, producers, best_i, rng)
+        cand, ok_p, _ = problem.propose(x, prop, search.t_max, rng, v_range)
+        f_prod = problem.fitness_of_changed(cand[producers], x[producers], f[producers])
+        p_best = cand[producers[int(np.argmin(f_prod))]]
+
+        prop = self.followers(problem, pop, scroungers, n_prod, p_best, order, rng)
+        cand_s, ok_s, escapes = problem.propose(x, prop, search.t_max, rng, v_range)
+        moved = prop.active
         cand[moved] = cand_s[moved]
 
         # --- adaptive oscillation optimisation: eq. 13 -----------------------------------
         unchanged = ~(cand != x).any(axis=(1, 2))
         if prm.oscillation:
-            fixed = pop.extra["osc_fixed"]
+            fixed = pop.state["osc_fixed"]
             skip = unchanged & fixed
-            moved = problem.oscillate(cand, prm.oscillation_window, skip)
+            moved = oscillate(problem, cand, prm.oscillation_window, skip)
             fixed[unchanged & ~skip] = moved[unchanged & ~skip] == 0
 
         # --- greedy selection ---------------------------------------------------------------
@@ -139,9 +195,9 @@ class SparrowPlanner(SwarmPlanner):
         x[better] = cand[better]
         f[better] = f_cand[better]
         if prm.oscillation:
-            pop.extra["osc_fixed"][better] = False
-        pop.extra["escapes"] += escapes
-        pop.extra["failed_updates"] += int((~ok_p).sum() + (~ok_s).sum())
+            pop.state["osc_fixed"][better] = False
+        pop.count("escapes", escapes)
+        pop.count("failed_updates", int((~ok_p).sum() + (~ok_s).sum()))
 
 
 class SsaPlanner(SparrowPlanner):
