@@ -2,7 +2,7 @@
 
 For each scenario (default: every ``missions/*.yaml``):
 
-1. 3-D A* on the planner's path-frame grid (:mod:`uavplan.path.gridsearch`), 26-connected,
+1. 3-D A* on the planner's path-frame grid (:mod:`uavplan.planners.astar`), 26-connected,
    cost ``k0·L + k2·|Δz|``;
 2. line-of-sight shortcutting of that polyline (:func:`uavplan.path.post.simplify`, greedy
    farthest-visible), then optionally string pulling (:func:`uavplan.path.post.tighten`);
@@ -30,9 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from uavplan.path.energy import energy_terms
-from uavplan.path.gridsearch import astar_route
 from uavplan.path.post import simplify, tighten
-from uavplan.planning import plan_route
+from uavplan.planning import build_world, plan_route, reference_route
 from uavplan.scenario import Scenario, load_scenario
 from uavplan.world import World
 
@@ -73,13 +72,13 @@ def _keeps_margin(points: np.ndarray, world: World, margin_m: float) -> bool:
 
 def evaluate(path: Path, runs: int, do_tighten: bool) -> Row:
     scenario = load_scenario(path)
-    world = World.from_scenario(scenario)
+    world = build_world(scenario)
     margin = scenario.safety_margin_m
     straight = float(np.linalg.norm(np.subtract(scenario.goal_m, scenario.start_m)))
     nan = math.nan
 
-    route = astar_route(scenario, world=world)
-    if route is None:
+    route = reference_route(scenario, world=world)
+    if not route.found:
         return Row(
             scenario.name, straight, nan, nan, nan, np.empty(0), 0, nan, nan, nan, nan, False,
             "A*: no path",

@@ -1,8 +1,11 @@
-"""The main job as a library call: scenario → planner → post-processing → waypoints.
+"""The one wiring module: scenario → world → planner → post-processing → PlannedRoute.
 
 :func:`plan_route` wires the layers (world, path frame, planner, post-processing) and returns
-one :class:`RouteResult` with everything the CLI, the report and the benchmarks need. It
-does no file I/O and knows nothing of MAVLink; building mission items is the caller's step.
+one :class:`RouteResult`: the planner's record, the energy of the final path and the
+:class:`~uavplan.route.PlannedRoute` every consumer takes (mission builder, geofence, map
+exports, pictures). The adapters from a :class:`~uavplan.scenario.Scenario` to the layers
+(its world, its path problem, its mission settings) live here and nowhere else. It does no
+file I/O and knows nothing of MAVLink.
 """
 
 from __future__ import annotations
@@ -10,12 +13,15 @@ from __future__ import annotations
 import enum
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
+from uavplan.geo import EnuFrame
 from uavplan.path.energy import energy_terms
+from uavplan.path.frame import PathFrame
 from uavplan.path.post import (
     dedupe,
     refine,
@@ -24,9 +30,11 @@ from uavplan.path.post import (
     smooth_route,
     tighten,
 )
-from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn
+from uavplan.planners.astar import GridRoute, astar
+from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.params import PostParams
 from uavplan.planners.registry import make_planner
+from uavplan.route import PlannedRoute, flown_polyline
 from uavplan.scenario import Scenario
 from uavplan.warmup import warm_up
 from uavplan.world import World
@@ -35,37 +43,61 @@ from uavplan.world import World
 class RouteStatus(enum.Enum):
     OK = "ok"
     NO_PATH = "no_path"
+    INTERRUPTED = "interrupted"
 
 
 @dataclass
 class RouteResult:
-    """A planned route. Points are ENU metres; ``energy`` is E (eq. 1) of ``path_enu``."""
+    """A planning run: the planner's record and, when it found one, the planned route.
+
+    ``energy`` is E (eq. 1) of the final smoothed path; ``runtime_s`` covers the planner and
+    the post-processing, no start-up or I/O.
+    """
 
     status: RouteStatus
     algorithm: str
     seed: int
     planner: PlannerResult
     post: PostParams
-    raw_path_enu: np.ndarray | None = None  # best individual's column polyline
-    vertices_enu: np.ndarray | None = None  # after simplification / tightening
-    path_enu: np.ndarray | None = None  # final (smoothed) curve, dense
-    waypoints_enu: np.ndarray | None = None  # what the autopilot flies between
+    route: PlannedRoute | None = None
     energy: float = math.inf
     energy_terms: tuple[float, float, float] = (math.inf, math.inf, math.inf)
-    length_m: float = math.inf
-    min_clearance_m: float = -math.inf  # of the flown polyline (takeoff column included)
-    collision_free: bool = False
-    runtime_s: float = 0.0  # planner + post-processing, no start-up or I/O
+    runtime_s: float = 0.0
     message: str = ""
 
     @property
     def ok(self) -> bool:
         return self.status is RouteStatus.OK
 
+    @property
+    def collision_free(self) -> bool:
+        return self.route is not None and self.route.collision_free
+
+    @property
+    def min_clearance_m(self) -> float:
+        return -math.inf if self.route is None else self.route.min_clearance_m
+
+    @property
+    def length_m(self) -> float:
+        return math.inf if self.route is None else self.route.length_m
+
+    @property
+    def waypoints_enu(self) -> np.ndarray | None:
+        return None if self.route is None else self.route.waypoints_enu
+
+    @property
+    def path_enu(self) -> np.ndarray | None:
+        return None if self.route is None else self.route.path_enu
+
+    @property
+    def raw_path_enu(self) -> np.ndarray | None:
+        return None if self.route is None else self.route.raw_path_enu
+
     def report(self, scenario: Scenario) -> dict[str, Any]:
-        """The ``--report`` JSON (SPEC §3 keys, plus the resolved configuration)."""
+        """The ``--report`` JSON (SPEC §3 keys, the run's budget and the resolved
+        configuration)."""
         path, turning, climb = self.energy_terms
-        cfg = scenario.planner
+        pr = self.planner
         return {
             "scenario": scenario.name,
             "algorithm": self.algorithm,
@@ -73,30 +105,82 @@ class RouteResult:
             "status": self.status.value,
             "energy": self.energy,
             "energy_terms": {"path": path, "turning": turning, "climb": climb},
-            "search_fitness": self.planner.best_fitness,
+            "search_fitness": pr.best_fitness,
             "length_m": self.length_m,
             "runtime_s": self.runtime_s,
-            "iterations": self.planner.iterations,
-            "convergence": [float(v) for v in self.planner.convergence],
-            "waypoints": 0 if self.waypoints_enu is None else int(self.waypoints_enu.shape[0]),
+            "iterations": pr.iterations,
+            "termination": pr.termination,
+            "evaluations": pr.evaluations,
+            "reach_checks": pr.reach_checks,
+            "exact_reach_checks": pr.exact_checks,
+            "convergence": [float(v) for v in pr.convergence],
+            "waypoints": 0 if self.route is None else int(self.route.waypoints_enu.shape[0]),
             "min_clearance_m": self.min_clearance_m,
             "safety_margin_m": scenario.safety_margin_m,
             "collision_free": self.collision_free,
-            "deadlocks": self.planner.deadlocks,
-            "planner_stats": self.planner.stats,
+            "deadlocks": pr.deadlocks,
+            "planner_stats": pr.stats,
             "message": self.message,
-            "config": {
-                "population": cfg.search.population,
-                "iterations": cfg.search.iterations,
-                "t_max": cfg.search.t_max,
-                "init_half_window": cfg.search.init_half_window,
-                "grid": {"dx": cfg.grid.dx_m, "dy": cfg.grid.dy_m, "dz": cfg.grid.dz_m},
-                "energy": vars(cfg.energy),
-                "spsa": vars(cfg.spsa) if self.algorithm == "spsa" else None,
-                "post": vars(self.post),
-                "mission_spacing_m": scenario.mission.spacing_m,
-            },
+            "config": resolved_config(scenario, self.post),
         }
+
+
+def resolved_config(scenario: Scenario, post: PostParams | None = None) -> dict[str, Any]:
+    """The configuration a run of ``scenario`` used, as JSON-able values."""
+    cfg = scenario.planner
+    return {
+        "population": cfg.search.population,
+        "iterations": cfg.search.iterations,
+        "t_max": cfg.search.t_max,
+        "init_half_window": cfg.search.init_half_window,
+        "grid": {"dx": cfg.grid.dx_m, "dy": cfg.grid.dy_m, "dz": cfg.grid.dz_m},
+        "energy": vars(cfg.energy),
+        "spsa": vars(cfg.spsa) if cfg.algorithm == "spsa" else None,
+        "post": vars(post or cfg.post),
+        "mission_spacing_m": scenario.mission.spacing_m,
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Adapters: a Scenario's pieces for the layers
+
+
+def build_world(scenario: Scenario) -> World:
+    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`."""
+    b = scenario.bounds
+    return World.build(
+        scenario.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=scenario.safety_margin_m
+    )
+
+
+def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem:
+    """The path-frame problem of ``scenario`` (reusable across runs and algorithms; each run
+    sets its own fitness smoothing)."""
+    cfg = scenario.planner
+    return PathProblem.build(
+        world or build_world(scenario),
+        scenario.start_m,
+        scenario.goal_m,
+        cfg.grid,
+        cfg.energy,
+    )
+
+
+def enu_frame(scenario: Scenario) -> EnuFrame:
+    """The scenario's local ENU frame (one per scenario; its transformer is cached)."""
+    return _frames.setdefault(scenario.origin, EnuFrame.at(scenario.origin))
+
+
+_frames: dict[Any, EnuFrame] = {}
+
+
+def reference_route(scenario: Scenario, *, world: World | None = None) -> GridRoute:
+    """The grid A* route of ``scenario`` (its grid, margin and energy weights) in the path
+    frame of its start and goal: the independent reference (``route.found`` tells)."""
+    world = world or build_world(scenario)
+    frame = PathFrame.build(scenario.start_m, scenario.goal_m, scenario.planner.grid)
+    world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
+    return astar(world_pf, frame, scenario.planner.energy)
 
 
 def _best_simplified(
@@ -115,36 +199,20 @@ def _best_simplified(
     return best[1], best[2]
 
 
-def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem:
-    """The path-frame problem of ``scenario`` (reusable across runs and algorithms; each run
-    sets its own fitness smoothing)."""
-    cfg = scenario.planner
-    return PathProblem.build(
-        world or World.from_scenario(scenario),
-        scenario.start_m,
-        scenario.goal_m,
-        cfg.grid,
-        cfg.energy,
-    )
-
-
-def takeoff_column(scenario: Scenario) -> np.ndarray:
-    """The vertical climb from the ground to the start point, (2, 3)."""
-    sx, sy, sz = scenario.start_m
-    return np.array([[sx, sy, 0.0], [sx, sy, sz]])
-
-
 def plan_route(
     scenario: Scenario,
     *,
     progress: ProgressFn | None = None,
     world: World | None = None,
     problem: PathProblem | None = None,
+    should_stop: Callable[[], bool] | None = None,
 ) -> RouteResult:
     """Plan ``scenario`` with its planner configuration (apply CLI overrides first with
-    :meth:`Scenario.with_planner`). ``world``/``problem`` may be passed to reuse them."""
+    :meth:`Scenario.with_planner`). ``world``/``problem`` may be passed to reuse them;
+    ``should_stop`` is polled every iteration (a Ctrl-C flag): the run then ends as
+    ``RouteStatus.INTERRUPTED``."""
     cfg = scenario.planner
-    world = world or World.from_scenario(scenario)
+    world = world or build_world(scenario)
     planner = make_planner(cfg.algorithm, cfg.search, cfg.spsa, cfg.options)
     problem = (problem or build_problem(scenario, world)).with_fitness_smoothing(
         planner.fitness_smoothing()
@@ -156,16 +224,18 @@ def plan_route(
 
     warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
-    res = planner.solve(problem, np.random.default_rng(cfg.search.seed), progress)
-    if not res.solved:
+    termination = Termination(cfg.search.iterations, should_stop=should_stop)
+    res = planner.solve(problem, np.random.default_rng(cfg.search.seed), progress, termination)
+    status = RouteStatus.INTERRUPTED if res.termination == "interrupted" else RouteStatus.OK
+    if not res.solved or status is RouteStatus.INTERRUPTED:
         return RouteResult(
-            RouteStatus.NO_PATH,
+            RouteStatus.NO_PATH if not res.solved else status,
             cfg.algorithm,
             cfg.search.seed,
             res,
             post,
             runtime_s=time.perf_counter() - t0,
-            message=res.message,
+            message=res.message or "interrupted",
         )
     wpf = problem.world
     nodes_pf = problem.node_points(res.best_nodes)
@@ -178,32 +248,37 @@ def plan_route(
         vertices = refine(vertices, wpf, cfg.energy)
     elif post.tighten:
         vertices = tighten(vertices, wpf)
-    route = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
-    waypoints_pf = resample_waypoints(route, wpf, scenario.mission.spacing_m)
+    smoothed = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
+    waypoints_pf = resample_waypoints(smoothed, wpf, scenario.mission.spacing_m)
     runtime = time.perf_counter() - t0
 
     frame = problem.frame
-    path_enu = dedupe(frame.to_enu(route.samples))
+    path_enu = dedupe(frame.to_enu(smoothed.samples))
     waypoints_enu = dedupe(frame.to_enu(waypoints_pf))
     terms = energy_terms(path_enu, cfg.energy)
-    flown = np.vstack([takeoff_column(scenario)[:1], waypoints_enu])
-    clearance = world.polyline_clearance(flown)
-    inside = bool(world.points_inside_bounds(waypoints_enu).all())
-    collision_free = inside and clearance >= scenario.safety_margin_m - 1e-6
+    takeoff = scenario.vehicle.takeoff_altitude_m
+    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=scenario.mission.end)
+    route = PlannedRoute(
+        frame=enu_frame(scenario),
+        waypoints_enu=waypoints_enu,
+        path_enu=path_enu,
+        vertices_enu=frame.to_enu(smoothed.vertices),
+        raw_path_enu=frame.to_enu(nodes_pf),
+        flown_enu=flown,
+        min_clearance_m=world.polyline_clearance(flown),
+        safety_margin_m=scenario.safety_margin_m,
+        inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
+        takeoff_altitude_m=takeoff,
+        end=scenario.mission.end,  # type: ignore[arg-type]
+    )
     return RouteResult(
         RouteStatus.OK,
         cfg.algorithm,
         cfg.search.seed,
         res,
         post,
-        raw_path_enu=frame.to_enu(nodes_pf),
-        vertices_enu=frame.to_enu(route.vertices),
-        path_enu=path_enu,
-        waypoints_enu=waypoints_enu,
+        route=route,
         energy=float(sum(terms)),
         energy_terms=terms,
-        length_m=float(np.linalg.norm(np.diff(path_enu, axis=0), axis=1).sum()),
-        min_clearance_m=float(clearance),
-        collision_free=collision_free,
         runtime_s=runtime,
     )

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
 import click
 
-from uavplan.errors import EXIT_INTERNAL, UavplanError
+from uavplan.errors import EXIT_INTERNAL, InputError, UavplanError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -50,19 +51,68 @@ def show_progress(quiet: bool) -> bool:
     return not quiet and sys.stderr.isatty()
 
 
-def route_mission(scenario: Any, result: Any) -> Any:
-    """The mission items for a planned route, with the scenario's mission settings."""
-    from uavplan.geo import EnuFrame
+def route_mission(scenario: Any, route: Any) -> Any:
+    """The mission items for a :class:`~uavplan.route.PlannedRoute`, with the scenario's
+    mission settings."""
     from uavplan.mission.builder import build_mission
 
     return build_mission(
-        result.waypoints_enu,
-        EnuFrame.at(scenario.origin),
+        route.waypoints_enu,
+        route.frame,
         autopilot=scenario.mission.autopilot,
         end=scenario.mission.end,
         takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
         cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
     )
+
+
+def check_output_paths(*paths: str | None) -> None:
+    """Fail before any long work when an output file cannot be written: its folder is missing
+    or not writable, or the path is a folder. One message naming the user's path (exit 2)."""
+    import os
+    from pathlib import Path
+
+    for path in paths:
+        if not path:
+            continue
+        target = Path(path)
+        folder = target.parent if str(target.parent) else Path(".")
+        if target.is_dir():
+            raise InputError("is a folder, not a file", file=path)
+        if not folder.is_dir():
+            raise InputError(f"cannot write: folder {str(folder)!r} does not exist", file=path)
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise InputError(f"cannot write: folder {str(folder)!r} is not writable", file=path)
+        if target.exists() and not os.access(target, os.W_OK):
+            raise InputError("cannot write: the file is read-only", file=path)
+
+
+@contextlib.contextmanager
+def interruptible() -> Iterator[Callable[[], bool]]:
+    """While planning, Ctrl-C (SIGINT) sets a flag instead of raising inside a compiled kernel
+    (numba turns that into "SystemError: ... returned a result with an exception set"); the
+    planner polls the flag every iteration and stops, and the command exits 130. Yields the
+    poll function. A second Ctrl-C raises KeyboardInterrupt at once."""
+    import signal
+    import threading
+
+    hit = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield hit.is_set
+        return
+
+    def on_sigint(_signum: int, _frame: object) -> None:
+        if hit.is_set():
+            raise KeyboardInterrupt
+        hit.set()
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield hit.is_set
+        if hit.is_set():
+            raise KeyboardInterrupt
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class Progress:

@@ -5,12 +5,21 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import click
 
 from uavplan.cli import main
-from uavplan.cli.common import Progress, handle_errors, route_mission, show_progress
+from uavplan.cli.common import (
+    Progress,
+    check_output_paths,
+    handle_errors,
+    interruptible,
+    route_mission,
+    show_progress,
+)
 from uavplan.errors import InputError, NoPathError
+from uavplan.fileio import atomic_write_text
 
 
 def _load_scenario(path: str):
@@ -68,31 +77,98 @@ def plan_command(
     fence: bool,
     quiet: bool,
 ) -> None:
-    """Plan a collision-free route for SCENARIO and write it as a mission file."""
-    from uavplan.fileio import atomic_write_text
-    from uavplan.mission.io import format_for, save_mission
-    from uavplan.mission.items import Autopilot
+    """Plan a collision-free route for SCENARIO and write it as a mission file.
+
+    \b
+    Examples:
+      uavplan plan missions/paper-env1.yaml -o env1.plan
+      uavplan plan missions/paper-env3.yaml -o env3.plan --fence --plot env3.png
+      uavplan plan missions/paper-env2.yaml -o env2.waypoints --seed 7 --autopilot px4
+    """
     from uavplan.planning import plan_route
+
+    _check_outputs(output, report, plot, fence)
+    scn = overridden(_load_scenario(scenario), algorithm, seed, iterations, population)
+    if autopilot:
+        from uavplan.mission.items import Autopilot
+
+        scn = replace(scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(autopilot)))
+    _compile_notice(quiet)
+    progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
+    with interruptible() as stop_requested:
+        try:
+            result = plan_route(scn, progress=progress, should_stop=stop_requested)
+        finally:
+            progress.close()
+    if report:
+        atomic_write_text(report, json.dumps(result.report(scn), indent=2) + "\n")
+    route = require_route(scn, result)
+    mission = route_mission(scn, route)
+    mission = _write_mission(scn, result, mission, output, fence, quiet)
+    if plot:
+        from uavplan.render import render_planned
+
+        render_planned(scn, result, mission, plot)
+    if not quiet:
+        e_path, e_turn, e_climb = result.energy_terms
+        click.echo(
+            f"{Path(output).name}: {len(mission.items)} items, {route.waypoints_enu.shape[0]} "
+            f"waypoints, {route.length_m:.0f} m, energy {result.energy:.1f} "
+            f"(path {e_path:.1f}, turning {e_turn:.2f}, climb {e_climb:.1f}), "
+            f"min clearance {route.min_clearance_m:.2f} m, planned in {result.runtime_s:.2f} s",
+            err=True,
+        )
+
+
+def _check_outputs(output: str, report: str | None, plot: str | None, fence: bool) -> None:
+    """Everything about the outputs that can fail, checked before any planning."""
+    from uavplan.mission.io import format_for
 
     out_format = format_for(output)  # fail on an unknown extension before planning
     if plot and Path(plot).suffix.lower() != ".png":
         raise InputError("--plot writes a PNG picture; name the file *.png", file=plot)
     if fence and out_format.dumps_extras is None and Path(output).suffix.lower() != ".plan":
         raise InputError("a geofence needs a .plan (or .geojson / .kml) output", file=output)
-    scn = _load_scenario(scenario)
-    search = scn.planner.search
+    check_output_paths(output, report, plot)
+
+
+def overridden(
+    scn: Any,
+    algorithm: str | None,
+    seed: int | None,
+    iterations: int | None,
+    population: int | None,
+) -> Any:
+    """The scenario with the planner options given on the command line."""
     changes = {
         k: v
         for k, v in (("seed", seed), ("iterations", iterations), ("population", population))
         if v is not None
     }
     if changes:
-        scn = scn.with_planner(search=replace(search, **changes))
+        scn = scn.with_planner(search=replace(scn.planner.search, **changes))
     if algorithm:
         scn = scn.with_planner(algorithm=algorithm)
-    if autopilot:
-        scn = replace(scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(autopilot)))
+    return scn
 
+
+def require_route(scn: Any, result: Any) -> Any:
+    """The planned route, or the error that says why there is none (exit 3 / 130)."""
+    from uavplan.planning import RouteStatus
+
+    if result.status is RouteStatus.INTERRUPTED:
+        raise KeyboardInterrupt
+    if not result.ok:
+        raise NoPathError(f"{scn.name}: no collision-free path: {result.message}")
+    if not result.collision_free:
+        raise NoPathError(
+            f"{scn.name}: the route comes within {result.min_clearance_m:.2f} m of an obstacle "
+            f"(safety margin {scn.safety_margin_m:g} m)"
+        )
+    return result.route
+
+
+def _compile_notice(quiet: bool) -> None:
     from uavplan.warmup import kernels_cached
 
     if not quiet and not kernels_cached():
@@ -101,21 +177,15 @@ def plan_command(
             "(about half a minute, cached for later runs)",
             err=True,
         )
-    progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
-    try:
-        result = plan_route(scn, progress=progress)
-    finally:
-        progress.close()
-    if report:
-        atomic_write_text(report, json.dumps(result.report(scn), indent=2) + "\n")
-    if not result.ok:
-        raise NoPathError(f"{scn.name}: no collision-free path: {result.message}")
-    if not result.collision_free:
-        raise NoPathError(
-            f"{scn.name}: the route comes within {result.min_clearance_m:.2f} m of an obstacle "
-            f"(safety margin {scn.safety_margin_m:g} m)"
-        )
-    mission = route_mission(scn, result)
+
+
+def _write_mission(
+    scn: Any, result: Any, mission: Any, output: str, fence: bool, quiet: bool
+) -> Any:
+    """Add the geofence if asked and write ``output`` (its format from the extension)."""
+    from uavplan.mission.export import ExportExtras
+    from uavplan.mission.io import save_mission
+
     if fence:
         from uavplan.mission.fence import geofence_for
 
@@ -124,24 +194,10 @@ def plan_command(
         if not quiet:
             for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
                 click.echo(line, err=True)
-    from uavplan.mission.export import ExportExtras  # obstacles etc. for .geojson / .kml
-
     summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
     extras = ExportExtras.from_scenario(scn, planned_path_enu=result.path_enu, properties=summary)
     save_mission(mission, output, extras=extras)
-    if plot:
-        from uavplan.render import render_planned
-
-        render_planned(scn, result, mission, plot)
-    if not quiet:
-        e_path, e_turn, e_climb = result.energy_terms
-        click.echo(
-            f"{Path(output).name}: {len(mission.items)} items, {result.waypoints_enu.shape[0]} "
-            f"waypoints, {result.length_m:.0f} m, energy {result.energy:.1f} "
-            f"(path {e_path:.1f}, turning {e_turn:.2f}, climb {e_climb:.1f}), "
-            f"min clearance {result.min_clearance_m:.2f} m, planned in {result.runtime_s:.2f} s",
-            err=True,
-        )
+    return mission
 
 
 @main.command("validate")
@@ -164,21 +220,21 @@ def validate_command(file: str, scenario_path: str | None) -> None:
         return
     import numpy as np
 
-    from uavplan.geo import EnuFrame
     from uavplan.mission.builder import mission_polyline_enu
     from uavplan.mission.io import load_mission
-    from uavplan.world import World
+    from uavplan.planning import build_world, enu_frame
+    from uavplan.route import keeps_margin
 
     scn = _load_scenario(scenario_path)
     plan = load_mission(file)
-    frame = EnuFrame.at(scn.origin)
+    frame = enu_frame(scn)
     try:
         poly = mission_polyline_enu(plan, frame)
     except ValueError as err:
         raise InputError(str(err), file=file) from None
     if poly.shape[0] < 2:
         raise InputError("the mission has fewer than two positions to fly", file=file)
-    world = World.from_scenario(scn)
+    world = build_world(scn)
     dist, which = world.segments_clearance(poly[:-1], poly[1:])
     worst = int(np.argmin(dist))
     inside = world.points_inside_bounds(poly, tol_m=0.05)  # files round to ~1 cm
@@ -188,7 +244,7 @@ def validate_command(file: str, scenario_path: str | None) -> None:
             f"{file}: point {k} of the flown path {poly[k].round(1).tolist()} is outside the "
             "scenario bounds"
         )
-    if dist[worst] < scn.safety_margin_m - 1e-6:
+    if not keeps_margin(float(dist[worst]), scn.safety_margin_m):
         raise NoPathError(
             f"{file}: leg {worst} of the flown path comes within {dist[worst]:.2f} m of "
             f"obstacles[{which[worst]}] (safety margin {scn.safety_margin_m:g} m)"

@@ -16,7 +16,14 @@ from typing import Any
 import click
 
 from uavplan.cli import main
-from uavplan.cli.common import Progress, handle_errors, route_mission, show_progress
+from uavplan.cli.common import (
+    Progress,
+    check_output_paths,
+    handle_errors,
+    interruptible,
+    route_mission,
+    show_progress,
+)
 from uavplan.errors import InputError, NoPathError
 
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
@@ -92,6 +99,7 @@ def render_command(
     from uavplan.scenario import load_scenario
 
     _require_png(output, "render")
+    check_output_paths(output)
     if mission_path is not None and (no_plan or algorithm or seed is not None or iterations):
         raise click.UsageError("--mission draws a mission file; it takes no planner options")
     scn = load_scenario(scenario)
@@ -122,14 +130,14 @@ def _scenario_line(scn: Any) -> str:
 def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str, int]) -> str:
     import numpy as np
 
-    from uavplan.geo import EnuFrame
     from uavplan.mission.io import load_mission
+    from uavplan.planning import build_world, enu_frame
     from uavplan.render import RouteLayers, render_scenario
-    from uavplan.world import World
+    from uavplan.route import keeps_margin
 
     plan = load_mission(mission_path)
     try:
-        layers = RouteLayers.from_mission(plan, EnuFrame.at(scn.origin))
+        layers = RouteLayers.from_mission(plan, enu_frame(scn))
     except ValueError as err:
         raise InputError(str(err), file=mission_path) from None
     flown = layers.flown_enu
@@ -141,8 +149,8 @@ def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str,
         length = float(np.linalg.norm(np.diff(flown, axis=0), axis=1).sum())
         subtitle = f"{name}: {len(plan.items)} items, {length:.0f} m flown"
         if scn.obstacles:
-            clearance = World.from_scenario(scn).polyline_clearance(flown)
-            close = clearance < scn.safety_margin_m - 1e-6
+            clearance = build_world(scn).polyline_clearance(flown)
+            close = not keeps_margin(clearance, scn.safety_margin_m)
             subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
                 "  (closer than the margin!)" if close else ""
             )
@@ -160,24 +168,18 @@ def _render_planned(
     population: int | None,
     quiet: bool,
 ) -> str:
-    from uavplan.planning import plan_route
+    from uavplan.cli.plan_cmd import overridden, require_route
+    from uavplan.planning import RouteStatus, plan_route
     from uavplan.render import render_planned, render_scenario, route_subtitle
 
-    changes = {
-        k: v
-        for k, v in (("seed", seed), ("iterations", iterations), ("population", population))
-        if v is not None
-    }
-    if changes:
-        scn = scn.with_planner(search=replace(scn.planner.search, **changes))
-    if algorithm:
-        scn = scn.with_planner(algorithm=algorithm)
+    scn = overridden(scn, algorithm, seed, iterations, population)
     progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
-    try:
-        result = plan_route(scn, progress=progress)
-    finally:
-        progress.close()
-    if not result.ok:
+    with interruptible() as stop_requested:
+        try:
+            result = plan_route(scn, progress=progress, should_stop=stop_requested)
+        finally:
+            progress.close()
+    if result.status is RouteStatus.NO_PATH:
         render_scenario(
             scn, output, subtitle=f"no collision-free path: {result.message}", **picture
         )
@@ -185,13 +187,9 @@ def _render_planned(
             f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
             f"in {output})"
         )
-    mission = route_mission(scn, result)
-    render_planned(scn, result, mission, output, **picture)
-    if not result.collision_free:
-        raise NoPathError(
-            f"{scn.name}: the route comes within {result.min_clearance_m:.2f} m of an obstacle "
-            f"(safety margin {scn.safety_margin_m:g} m); drawn in {output}"
-        )
+    if result.route is not None:  # drawn even when it comes too close: the picture shows where
+        render_planned(scn, result, route_mission(scn, result.route), output, **picture)
+    require_route(scn, result)  # interrupted: exit 130; closer than the margin: exit 3
     return route_subtitle(result, scn.safety_margin_m)
 
 

@@ -1,4 +1,5 @@
-"""A* on the 3-D path-frame grid: a reference planner and a cheap "does any path exist" check.
+"""A* on the 3-D path-frame grid: an independent reference planner (grid A* + line of sight)
+and a cheap "does any path exist" check.
 
 The grid is the planner's (PAPER-NOTES "Path model"): nodes at ``(j·dx, iy·dy, iz·dz)`` in
 the path frame, ``dx`` the frame's column spacing (``PathFrame.dx_m``), ``dy``/``dz`` the
@@ -44,7 +45,6 @@ from uavplan.world import World
 
 if TYPE_CHECKING:
     from uavplan.planners.base import PathProblem
-    from uavplan.scenario import Scenario
 
 #: node clearances are computed up to margin + this (enough for the Lipschitz edge shortcut)
 CLEARANCE_REACH_M = 60.0
@@ -459,25 +459,6 @@ def astar_problem(problem: PathProblem) -> GridRoute:
     """:func:`astar` on a planner's :class:`~uavplan.planners.base.PathProblem` (same grid,
     world and energy weights as the swarm planners)."""
     return astar(problem.world, problem.frame, problem.energy)
-
-
-def astar_route(scenario: Scenario, *, world: World | None = None) -> GridRoute | None:
-    """The grid A* route of ``scenario`` (its grid, margin and energy weights), or ``None``
-    when no path exists on the grid. ``world`` (ENU) may be passed to reuse it."""
-    route = _search_scenario(scenario, world)
-    return route if route.found else None
-
-
-def path_exists(scenario: Scenario, *, world: World | None = None) -> bool:
-    """Is there any grid path from start to goal (26-connected, margin kept)?"""
-    return _search_scenario(scenario, world).found
-
-
-def _search_scenario(scenario: Scenario, world: World | None) -> GridRoute:
-    world = world or World.from_scenario(scenario)
-    frame = PathFrame.build(scenario.start_m, scenario.goal_m, scenario.planner.grid)
-    world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
-    return astar(world_pf, frame, scenario.planner.energy)
 
 
 def _dedupe(points: np.ndarray, tol_m: float = 1e-9) -> np.ndarray:
