@@ -15,7 +15,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.params import PostParams
 from uavplan.planners.registry import make_planner
-from uavplan.route import PlannedRoute, flown_polyline
+from uavplan.route import EndAction, PlannedRoute, flown_polyline
 from uavplan.scenario import Scenario
 from uavplan.warmup import warm_up
 from uavplan.world import World
@@ -257,7 +257,8 @@ def plan_route(
     waypoints_enu = dedupe(frame.to_enu(waypoints_pf))
     terms = energy_terms(path_enu, cfg.energy)
     takeoff = scenario.vehicle.takeoff_altitude_m
-    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=scenario.mission.end)
+    end = cast(EndAction, scenario.mission.end)
+    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end)
     route = PlannedRoute(
         frame=enu_frame(scenario),
         waypoints_enu=waypoints_enu,
@@ -269,7 +270,7 @@ def plan_route(
         safety_margin_m=scenario.safety_margin_m,
         inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
         takeoff_altitude_m=takeoff,
-        end=scenario.mission.end,  # type: ignore[arg-type]
+        end=end,
     )
     return RouteResult(
         RouteStatus.OK,

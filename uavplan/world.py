@@ -216,8 +216,8 @@ class World:
         if circ.shape[0]:
             circ[:, 0], circ[:, 1] = to_frame(self.circ[:, 0], self.circ[:, 1])
         # a·x + b·y <= k  with x = ox + c·u − s·v, y = oy + s·u + c·v
-        a, b, k = self.hp[:, 0], self.hp[:, 1], self.hp[:, 2]
-        hp = np.stack([a * c + b * s, -a * s + b * c, k - a * ox - b * oy], axis=1)
+        a, b, rhs = self.hp[:, 0], self.hp[:, 1], self.hp[:, 2]
+        hp = np.stack([a * c + b * s, -a * s + b * c, rhs - a * ox - b * oy], axis=1)
         return World._assemble(
             poly_xy,
             self.poly_n.copy(),

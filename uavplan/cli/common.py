@@ -121,7 +121,7 @@ class Progress:
     def __init__(self, enabled: bool, label: str) -> None:
         self.enabled = enabled
         self.label = label
-        self.bar = None
+        self.bar: Any = None  # a click progress bar once the first update arrives
         self.last = 0.0
         self.done = 0
 

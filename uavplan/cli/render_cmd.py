@@ -104,7 +104,7 @@ def render_command(
         raise click.UsageError("--mission draws a mission file; it takes no planner options")
     scn = load_scenario(scenario)
     width, height = size
-    picture = {"width_px": width, "height_px": height, "dpi": dpi}
+    picture: dict[str, Any] = {"width_px": width, "height_px": height, "dpi": dpi}
     if mission_path is not None:
         summary = _render_mission(scn, mission_path, output, picture)
     elif no_plan:
@@ -127,7 +127,7 @@ def _scenario_line(scn: Any) -> str:
     )
 
 
-def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str, int]) -> str:
+def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str, Any]) -> str:
     import numpy as np
 
     from uavplan.mission.io import load_mission
@@ -161,7 +161,7 @@ def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str,
 def _render_planned(
     scn: Any,
     output: str,
-    picture: dict[str, int],
+    picture: dict[str, Any],
     algorithm: str | None,
     seed: int | None,
     iterations: int | None,

@@ -39,9 +39,11 @@ class PathFrame:
         if length <= 0:
             raise ValueError("start and goal must differ horizontally")
         n_cols = max(2, round(length / grid.dx_m))
+        sx, sy, sz = (float(v) for v in start_enu)
+        gx, gy, gz = (float(v) for v in goal_enu)
         return cls(
-            tuple(map(float, start_enu)),
-            tuple(map(float, goal_enu)),
+            (sx, sy, sz),
+            (gx, gy, gz),
             math.atan2(dy, dx),
             length,
             n_cols,
