@@ -32,6 +32,7 @@ from uavplan.path.post import (
 )
 from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
+from uavplan.planners.guide import find_guide, guided_problem
 from uavplan.planners.params import PostParams
 from uavplan.planners.registry import make_planner
 from uavplan.route import EndAction, PlannedRoute, flown_polyline
@@ -64,6 +65,10 @@ class RouteResult:
     energy_terms: tuple[float, float, float] = (math.inf, math.inf, math.inf)
     runtime_s: float = 0.0
     message: str = ""
+    #: what the user should know about how the route was found (guide frame, fallback)
+    notes: tuple[str, ...] = ()
+    #: seconds of ``runtime_s`` spent in the global (guide) search; 0 when it did not run
+    guide_s: float = 0.0
 
     @property
     def ok(self) -> bool:
@@ -121,6 +126,8 @@ class RouteResult:
             "deadlocks": pr.deadlocks,
             "planner_stats": pr.stats,
             "message": self.message,
+            "notes": list(self.notes),
+            "guide_s": self.guide_s,
             "config": resolved_config(scenario, self.post),
         }
 
@@ -224,29 +231,53 @@ def plan_route(
 
     warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
+    rng = np.random.default_rng(cfg.search.seed)
     termination = Termination(cfg.search.iterations, should_stop=should_stop)
-    res = planner.solve(problem, np.random.default_rng(cfg.search.seed), progress, termination)
-    status = RouteStatus.INTERRUPTED if res.termination == "interrupted" else RouteStatus.OK
-    if not res.solved or status is RouteStatus.INTERRUPTED:
+    res = planner.solve(problem, rng, progress, termination)
+    notes: list[str] = []
+    guide_s = 0.0
+    route_pf: np.ndarray | None = None
+    if not res.solved:
+        # the straight start→goal columns cannot hold a path: search the whole volume
+        guide = find_guide(problem)
+        guide_s = guide.runtime_s
+        if not guide.found:
+            return RouteResult(
+                RouteStatus.NO_PATH, cfg.algorithm, cfg.search.seed, res, post,
+                runtime_s=time.perf_counter() - t0, message=guide.message, guide_s=guide_s,
+            )  # fmt: skip
+        guided = guided_problem(problem, guide)
+        res = planner.solve(guided, rng, progress, termination)
+        if res.solved:
+            problem = guided
+            notes.append(
+                f"planned along a guide route from a grid search ({len(guide.route_pf)} "
+                "vertices): the straight start→goal columns could not hold a path"
+            )
+        else:
+            route_pf = guide.route_pf
+            notes.append(
+                f"{cfg.algorithm} found no path even along the guide; flying the grid search's "
+                "route (shortened, smoothed and clearance-checked)"
+            )
+    if res.termination == "interrupted":
         return RouteResult(
-            RouteStatus.NO_PATH if not res.solved else status,
-            cfg.algorithm,
-            cfg.search.seed,
-            res,
-            post,
-            runtime_s=time.perf_counter() - t0,
-            message=res.message or "interrupted",
-        )
+            RouteStatus.INTERRUPTED, cfg.algorithm, cfg.search.seed, res, post,
+            runtime_s=time.perf_counter() - t0, message="interrupted",
+        )  # fmt: skip
     wpf = problem.world
-    nodes_pf = problem.node_points(res.best_nodes)
-    vertices = nodes_pf
-    if post.simplify:
-        vertices = nodes_pf[simplify(nodes_pf, wpf)]
-        if post.select == "population" and res.population is not None:
-            nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
+    if route_pf is None:
+        nodes_pf = problem.node_points(res.best_nodes)
+        vertices = nodes_pf
+        if post.simplify:
+            vertices = nodes_pf[simplify(nodes_pf, wpf)]
+            if post.select == "population" and res.population is not None:
+                nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
+    else:
+        nodes_pf = vertices = route_pf
     if post.refine:
         vertices = refine(vertices, wpf, cfg.energy)
-    elif post.tighten:
+    elif post.tighten or route_pf is not None:
         vertices = tighten(vertices, wpf)
     smoothed = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
     waypoints_pf = resample_waypoints(smoothed, wpf, scenario.mission.spacing_m)
@@ -282,4 +313,6 @@ def plan_route(
         energy=float(sum(terms)),
         energy_terms=terms,
         runtime_s=runtime,
+        notes=tuple(notes),
+        guide_s=guide_s,
     )

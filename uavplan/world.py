@@ -195,11 +195,15 @@ class World:
         )
 
     def in_frame(
-        self, origin_xy: Sequence[float], heading_rad: float, margin_m: float | None = None
+        self,
+        origin_xy: Sequence[float],
+        heading_rad: float,
+        margin_m: float | None = None,
+        floor_m: float | None = None,
     ) -> World:
         """The same world expressed in a frame whose origin is ``origin_xy`` and whose +x axis
         points along ``heading_rad`` (counter-clockwise from this frame's +x), optionally
-        with another margin."""
+        with another margin and a higher floor (lowest z allowed)."""
         c, s = math.cos(heading_rad), math.sin(heading_rad)
         ox, oy = float(origin_xy[0]), float(origin_xy[1])
 
@@ -225,7 +229,9 @@ class World:
             circ,
             self.owner.copy(),
             hp,
-            self.zlim.copy(),
+            self.zlim.copy()
+            if floor_m is None
+            else np.array([max(self.zlim[0], floor_m), self.zlim[1]]),
             self.margin_m if margin_m is None else float(margin_m),
             self.n_obstacles,
         )

@@ -103,6 +103,9 @@ def plan_command(
     if report:
         atomic_write_text(report, json.dumps(result.report(scn), indent=2) + "\n")
     route = require_route(scn, result)
+    if not quiet:
+        for note in result.notes:
+            click.echo(f"note: {note}", err=True)
     mission = route_mission(scn, route)
     mission = _write_mission(scn, result, mission, output, fence, quiet)
     if plot:

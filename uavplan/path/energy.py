@@ -125,7 +125,8 @@ def _moving_average(vals, half, out):
 
 
 @njit(cache=True)
-def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth=0):
+def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth,
+                      cols, straight):  # fmt: skip
     """Energy (G,) of every individual: nodes (G, D − 1, 2) in grid units (y, z).
 
     ``start_yz`` / ``goal_yz`` are the fixed end points in metres. ``smooth`` > 0 evaluates
@@ -134,6 +135,11 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
     staircase wiggles in the fitness (ours; 0 is the paper's fitness). The spline samples
     are summed as they are produced (same result as :func:`spline_points` followed by
     :func:`polyline_energy`, without storing them).
+
+    ``cols`` (D + 1, 4): the columns' origins and unit normals (see the path frame). With a
+    ``straight`` guide the columns are x = j·dx and the splines are y(x), z(x), as in the
+    paper; along a curved guide every knot is placed in the plane (origin + y·normal) and
+    x, y and z are splines of the column index.
     """
     g_count = nodes.shape[0]
     inner = nodes.shape[1]
@@ -144,8 +150,10 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
     zs = np.empty(nk)
     sy = np.empty(nk)
     sz = np.empty(nk)
+    sx = np.empty(nk)
     my = np.empty(nk)
     mz = np.empty(nk)
+    mx = np.zeros(nk)
     h2 = dx * dx / 6.0
     for g in range(g_count):
         ys[0] = start_yz[0]
@@ -161,12 +169,18 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
         else:
             sy[:] = ys
             sz[:] = zs
+        if not straight:
+            for j in range(nk):  # lateral offsets → positions in the plane
+                lat = sy[j]
+                sx[j] = cols[j, 0] + lat * cols[j, 2]
+                sy[j] = cols[j, 1] + lat * cols[j, 3]
+            _second_derivs(sx, dx, cp, den, mx)
         _second_derivs(sy, dx, cp, den, my)
         _second_derivs(sz, dx, cp, den, mz)
         length = 0.0
         turn = 0.0
         climb = 0.0
-        px = 0.0
+        px = 0.0 if straight else sx[0]
         py = sy[0]
         pz = sz[0]
         pdx = 0.0
@@ -181,7 +195,10 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
                 a = 1.0 - u
                 c = h2 * (a * a * a - a)
                 d = h2 * (u * u * u - u)
-                x = (i + u) * dx
+                if straight:
+                    x = (i + u) * dx
+                else:
+                    x = a * sx[i] + u * sx[i + 1] + c * mx[i] + d * mx[i + 1]
                 y = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1]
                 z = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1]
                 ex = x - px
@@ -201,7 +218,7 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
                 py = y
                 pz = z
         # the last sample: the goal knot
-        ex = (nk - 1) * dx - px
+        ex = ((nk - 1) * dx if straight else sx[nk - 1]) - px
         ey = sy[nk - 1] - py
         ez = sz[nk - 1] - pz
         seg = math.sqrt(ex * ex + ey * ey + ez * ez)

@@ -35,6 +35,8 @@ class Reach(NamedTuple):
     """Everything the reachability rule of one path problem reads (built by PathProblem).
 
     ``world``: the world tuple of :mod:`uavplan._geom` (``World.kernel_args``, path frame);
+    ``cols`` (D + 1, 4): every column's origin on the guide and its unit normal (cx, cy, nx,
+    ny; a straight guide has (j·dx, 0, 0, 1));
     ``memo``: the reachability memo (see :func:`new_memo`); ``table`` (D + 1, ny, nz): node
     clearances over the grid, −1 outside the bounds; ``table_off`` (2,) int64: grid index of
     ``table[:, 0, 0]`` in (y, z); ``steps`` (3,): column spacing dx and the grid's dy, dz (m);
@@ -44,6 +46,7 @@ class Reach(NamedTuple):
     """
 
     world: tuple
+    cols: np.ndarray
     memo: np.ndarray
     table: np.ndarray
     table_off: np.ndarray
@@ -116,22 +119,35 @@ def _memo_slot(keys, key):
     return -1
 
 
+@njit(cache=True, inline="always")
+def node_x(j, y, cols, dy):
+    """x (path frame, m) of column ``j``'s node at lateral offset ``y`` (grid units):
+    ``cols[j] = (cx, cy, nx, ny)``, the column's origin on the guide and its unit normal."""
+    return cols[j, 0] + y * dy * cols[j, 2]
+
+
+@njit(cache=True, inline="always")
+def node_y(j, y, cols, dy):
+    """y (path frame, m) of column ``j``'s node at lateral offset ``y`` (grid units)."""
+    return cols[j, 1] + y * dy * cols[j, 3]
+
+
 @njit(cache=True)
-def _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin):
+def _segment_to_node_free(j, y0, z0, y1, z1, cols, dy, dz, start_m, goal_m, world, margin):
     if j == 1:
         ax = start_m[0]
         ay = start_m[1]
         az = start_m[2]
     else:
-        ax = (j - 1) * dx
-        ay = y0 * dy
+        ax = node_x(j - 1, y0, cols, dy)
+        ay = node_y(j - 1, y0, cols, dy)
         az = z0 * dz
-    bx = j * dx
-    by = y1 * dy
+    bx = node_x(j, y1, cols, dy)
+    by = node_y(j, y1, cols, dy)
     bz = z1 * dz
     if not segment_free(ax, ay, az, bx, by, bz, world, margin):
         return False
-    if j == int(round(goal_m[0] / dx)) - 1:
+    if j == cols.shape[0] - 2:
         return segment_free(bx, by, bz, goal_m[0], goal_m[1], goal_m[2], world, margin)
     return True
 
@@ -141,37 +157,76 @@ TABLE_REACH_M = 60.0
 
 
 @njit(cache=True)
-def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, world, cap):
+def clearance_table(cols, ylim, iy_lo, iy_hi, iz_lo, iz_hi, dy, dz, world, cap):
     """Distance from every grid node (column, y, z) to the nearest piece, capped at ``cap``;
-    −1 for nodes outside the bounds. Shape (n_cols + 1, iy_hi − iy_lo + 1, iz_hi − iz_lo + 1).
-    Each piece only visits the nodes of its bounding box grown by ``cap``."""
+    −1 for nodes outside the bounds or outside their column's lateral window ``ylim[j]``
+    (grid units; where columns of a curved guide would fold over each other). Shape
+    (D + 1, iy_hi − iy_lo + 1, iz_hi − iz_lo + 1). A piece only visits the nodes of the
+    columns whose lateral line passes within ``cap`` of its bounding box."""
     poly_xy, poly_n, poly_h, circ, box, hp, zlim = world[:7]
+    n_cols = cols.shape[0] - 1
     ny = iy_hi - iy_lo + 1
     nz = iz_hi - iz_lo + 1
     tab = np.full((n_cols + 1, ny, nz), cap)
-    for k in range(box.shape[0]):
-        j0 = max(0, int(math.floor((box[k, 0] - cap) / dx)))
-        j1 = min(n_cols, int(math.ceil((box[k, 1] + cap) / dx)))
-        a0 = max(0, int(math.floor((box[k, 2] - cap) / dy)) - iy_lo)
-        a1 = min(ny - 1, int(math.ceil((box[k, 3] + cap) / dy)) - iy_lo)
-        c1 = min(nz - 1, int(math.ceil((box[k, 4] + cap) / dz)) - iz_lo)
-        for j in range(j0, j1 + 1):
+    t_lo = iy_lo * dy
+    t_hi = iy_hi * dy
+    for j in range(n_cols + 1):
+        cx, cy, nxx, nyy = cols[j, 0], cols[j, 1], cols[j, 2], cols[j, 3]
+        # the column's lateral line c + t·n, t in [t_lo, t_hi]: its bounding box
+        x_a = cx + t_lo * nxx
+        x_b = cx + t_hi * nxx
+        y_a = cy + t_lo * nyy
+        y_b = cy + t_hi * nyy
+        for k in range(box.shape[0]):
+            x0 = box[k, 0] - cap
+            x1 = box[k, 1] + cap
+            y0 = box[k, 2] - cap
+            y1 = box[k, 3] + cap
+            if max(x_a, x_b) < x0 or min(x_a, x_b) > x1 or max(y_a, y_b) < y0 or min(y_a, y_b) > y1:
+                continue
+            # slab test: the t-interval of the line inside the grown box
+            lo = t_lo
+            hi = t_hi
+            if abs(nxx) < 1e-12:
+                if cx < x0 or cx > x1:
+                    continue
+            else:
+                ta = (x0 - cx) / nxx
+                tb = (x1 - cx) / nxx
+                lo = max(lo, min(ta, tb))
+                hi = min(hi, max(ta, tb))
+            if abs(nyy) < 1e-12:
+                if cy < y0 or cy > y1:
+                    continue
+            else:
+                ta = (y0 - cy) / nyy
+                tb = (y1 - cy) / nyy
+                lo = max(lo, min(ta, tb))
+                hi = min(hi, max(ta, tb))
+            if lo > hi:
+                continue
+            a0 = max(0, int(math.floor(lo / dy)) - iy_lo)
+            a1 = min(ny - 1, int(math.ceil(hi / dy)) - iy_lo)
+            c1 = min(nz - 1, int(math.ceil((box[k, 4] + cap) / dz)) - iz_lo)
             for a in range(a0, a1 + 1):
+                px = node_x(j, a + iy_lo, cols, dy)
+                py = node_y(j, a + iy_lo, cols, dy)
                 for c in range(0, c1 + 1):
-                    d = point_piece_dist(
-                        j * dx, (a + iy_lo) * dy, (c + iz_lo) * dz, k, poly_xy, poly_n, poly_h, circ
-                    )
+                    d = point_piece_dist(px, py, (c + iz_lo) * dz, k, poly_xy, poly_n, poly_h, circ)
                     if d < tab[j, a, c]:
                         tab[j, a, c] = d
     eps = 1e-9
     for j in range(n_cols + 1):
         for a in range(ny):
-            y = (a + iy_lo) * dy
+            yu = a + iy_lo
+            px = node_x(j, yu, cols, dy)
+            py = node_y(j, yu, cols, dy)
+            lateral_ok = ylim[j, 0] - eps <= yu <= ylim[j, 1] + eps
             for c in range(nz):
                 z = (c + iz_lo) * dz
-                inside = zlim[0] - eps <= z <= zlim[1] + eps
+                inside = lateral_ok and zlim[0] - eps <= z <= zlim[1] + eps
                 for i in range(hp.shape[0]):
-                    if hp[i, 0] * j * dx + hp[i, 1] * y > hp[i, 2] + eps:
+                    if hp[i, 0] * px + hp[i, 1] * py > hp[i, 2] + eps:
                         inside = False
                 if not inside:
                     tab[j, a, c] = -1.0
@@ -179,7 +234,7 @@ def clearance_table(n_cols, iy_lo, iy_hi, iz_lo, iz_hi, dx, dy, dz, world, cap):
 
 
 @njit(cache=True, inline="always")
-def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
+def node_status(j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys):
     """Reachability of the node of column ``j`` (1-based) at (y1, z1) from the node before it
     at (y0, z0), both in grid units, from the cheap sources only: 1 free, 0 blocked, −1
     unknown (then :func:`node_resolve` decides). ``lim`` is the margin (see
@@ -193,22 +248,27 @@ def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
     The hot kernels pass the table, offsets and memo as separate arrays and call this
     inline; handing numba the whole world tuple per call costs more than the test itself.
     """
+    ny = tab.shape[1]
+    nz = tab.shape[2]
+    c = int(y1) - off[0]
+    d = int(z1) - off[1]
+    if c < 0 or c >= ny or d < 0 or d >= nz:
+        return 0  # outside the bounds' bounding box
+    d1 = tab[j, c, d]
+    if d1 < lim:
+        return 0  # too close, outside the bounds or outside the column's window
     if 1 < j < tab.shape[0] - 2:
         a = int(y0) - off[0]
         b = int(z0) - off[1]
-        c = int(y1) - off[0]
-        d = int(z1) - off[1]
-        ny = tab.shape[1]
-        nz = tab.shape[2]
-        if a < 0 or a >= ny or c < 0 or c >= ny or b < 0 or b >= nz or d < 0 or d >= nz:
-            return 0  # outside the bounds' bounding box
-        d0 = tab[j - 1, a, b]
-        d1 = tab[j, c, d]
-        if d0 < lim or d1 < lim:
+        if a < 0 or a >= ny or b < 0 or b >= nz:
             return 0
-        ey = (y1 - y0) * dy
+        d0 = tab[j - 1, a, b]
+        if d0 < lim:
+            return 0
+        ex = node_x(j, y1, cols, dy) - node_x(j - 1, y0, cols, dy)
+        ey = node_y(j, y1, cols, dy) - node_y(j - 1, y0, cols, dy)
         ez = (z1 - z0) * dz
-        length = math.sqrt(dx * dx + ey * ey + ez * ez)
+        length = math.sqrt(ex * ex + ey * ey + ez * ez)
         if d0 + d1 - length >= 2.0 * lim:
             return 1
     key = _memo_key(j, y0, z0, y1, z1)
@@ -221,9 +281,9 @@ def node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys):
 
 
 @njit(cache=True)
-def node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin, keys):
+def node_resolve(j, y0, z0, y1, z1, cols, dy, dz, start_m, goal_m, world, margin, keys):
     """The exact reachability test behind :func:`node_status`, memoised."""
-    free = _segment_to_node_free(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin)
+    free = _segment_to_node_free(j, y0, z0, y1, z1, cols, dy, dz, start_m, goal_m, world, margin)
     key = _memo_key(j, y0, z0, y1, z1)
     if key >= 0:
         slot = _memo_slot(keys, key)
@@ -242,29 +302,29 @@ def margin_limit(margin):
 
 @njit(cache=True, inline="always")
 def _reachable(
-    j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys, start_m, goal_m, world, margin, counts
+    j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys, start_m, goal_m, world, margin, counts
 ):
     """:func:`node_status`, then :func:`node_resolve` when the cheap sources cannot tell;
     counts the check (and the exact test)."""
     counts[0] += 1
-    r = node_status(j, y0, z0, y1, z1, dx, dy, dz, lim, tab, off, keys)
+    r = node_status(j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys)
     if r < 0:
         counts[1] += 1
-        r = node_resolve(j, y0, z0, y1, z1, dx, dy, dz, start_m, goal_m, world, margin, keys)
+        r = node_resolve(j, y0, z0, y1, z1, cols, dy, dz, start_m, goal_m, world, margin, keys)
     return r == 1
 
 
 @njit(cache=True)
 def node_free(j, y0, z0, y1, z1, reach):
     """Is the node of column ``j`` at (y1, z1) reachable from (y0, z0)? (Off the hot path.)"""
-    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     return _reachable(
         j,
         y0,
         z0,
         y1,
         z1,
-        dx,
+        cols,
         dy,
         dz,
         margin_limit(reach.margin),
@@ -279,16 +339,43 @@ def node_free(j, y0, z0, y1, z1, reach):
     )
 
 
+@njit(cache=True, inline="always")
+def _window_draw(t, h, lo, hi, rng):
+    """t + U(−h, h), the window moved inside [lo, hi] (shrunk to it when it is narrower)."""
+    u = rng.random()
+    if t - h >= lo and t + h <= hi:
+        return t + (2.0 * u - 1.0) * h
+    a = t - h
+    b = t + h
+    if b - a >= hi - lo:
+        a = lo
+        b = hi
+    elif a < lo:
+        a = lo
+        b = lo + 2.0 * h
+    else:
+        b = hi
+        a = hi - 2.0 * h
+    return a + u * (b - a)
+
+
 @njit(cache=True)
-def init_population(n_pop, n_inner, start_u, goal_u, half_window, t_max, max_attempts, reach, rng):
+def init_population(
+    n_pop, n_inner, start_u, goal_u, half_window, t_max, max_attempts, window, reach, rng
+):
     """Path initialisation of section 4.1 (eq. 8–10) for ``n_pop`` individuals.
 
     From the current node P_a the next is round(P_t + U(−Δh, Δh)) per axis with
     P_t = P_a + (P_goal − P_a)/m, m the columns left; an unreachable node is reselected up to
     ``t_max`` times, after which the individual is deadlocked and started again (at most
     ``max_attempts`` starts per individual). Returns (nodes, ok, deadlocks).
+
+    The window fits the flight volume: where [P_t − Δh, P_t + Δh] leaves a column's valid
+    range ``window[j]`` = (y_lo, y_hi, z_lo, z_hi) (grid units), the draw is uniform over
+    the window shifted (or shrunk) into that range, so a shallow volume or a long route does
+    not send every draw outside the bounds; inside the range the draw is the paper's.
     """
-    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
     start_m, goal_m = reach.start_m, reach.goal_m
@@ -306,15 +393,15 @@ def init_population(n_pop, n_inner, start_u, goal_u, half_window, t_max, max_att
                 tz = pz + (goal_u[1] - pz) / m
                 placed = False
                 for _t in range(t_max):
-                    ny = _round(ty + (2.0 * rng.random() - 1.0) * half_window)
-                    nz = _round(tz + (2.0 * rng.random() - 1.0) * half_window)
+                    ny = _round(_window_draw(ty, half_window, window[j, 0], window[j, 1], rng))
+                    nz = _round(_window_draw(tz, half_window, window[j, 2], window[j, 3], rng))
                     if _reachable(
                         j,
                         py,
                         pz,
                         ny,
                         nz,
-                        dx,
+                        cols,
                         dy,
                         dz,
                         lim,
@@ -482,7 +569,7 @@ def rebuild(
     path. ``seeds`` (G,) uint64: each individual's random stream (see :func:`stream_seeds`).
     Returns (new positions, ok, escapes used).
     """
-    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
     start_m, goal_m = reach.start_m, reach.goal_m
@@ -534,7 +621,7 @@ def rebuild(
                     pz,
                     ny,
                     nz,
-                    dx,
+                    cols,
                     dy,
                     dz,
                     lim,
@@ -560,7 +647,7 @@ def rebuild(
                             pz,
                             ny,
                             nz,
-                            dx,
+                            cols,
                             dy,
                             dz,
                             lim,
@@ -587,7 +674,7 @@ def rebuild(
                     pz,
                     ny,
                     nz,
-                    dx,
+                    cols,
                     dy,
                     dz,
                     lim,
@@ -626,7 +713,7 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
     below 3 the node is kept. Windows are cut at the goal. An individual whose kept node
     became unreachable is left as it was. Returns the nodes moved per individual (G,).
     """
-    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
     start_m, goal_m = reach.start_m, reach.goal_m
@@ -670,7 +757,7 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
                     pz,
                     ny,
                     nz,
-                    dx,
+                    cols,
                     dy,
                     dz,
                     lim,
@@ -694,7 +781,7 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
                     pz,
                     ny,
                     nz,
-                    dx,
+                    cols,
                     dy,
                     dz,
                     lim,
@@ -727,7 +814,7 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
 @njit(cache=True)
 def paths_feasible(nodes, reach):
     """(G,) bool: every segment of every individual reachable (start → nodes → goal)."""
-    dx, dy, dz = reach.steps[0], reach.steps[1], reach.steps[2]
+    cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
     start_m, goal_m = reach.start_m, reach.goal_m
@@ -746,7 +833,7 @@ def paths_feasible(nodes, reach):
                 pz,
                 ny,
                 nz,
-                dx,
+                cols,
                 dy,
                 dz,
                 lim,

@@ -416,14 +416,25 @@ def _grid_extent(world: World, steps: tuple[float, float, float]) -> tuple[np.nd
     return lo.astype(np.int64), np.maximum(hi - lo + 1, 1).astype(np.int64)
 
 
-def astar(world: World, frame: PathFrame, energy: EnergyWeights) -> GridRoute:
-    """A* from ``frame``'s start to its goal; ``world`` must be in the path frame
-    (``world_enu.in_frame(frame.origin_xy, frame.heading_rad)``)."""
+def astar(
+    world: World,
+    frame: PathFrame,
+    energy: EnergyWeights,
+    steps: tuple[float, float, float] | None = None,
+    *,
+    reverse: bool = False,
+) -> GridRoute:
+    """A* from ``frame``'s start to its goal (``reverse``: from the goal to the start);
+    ``world`` must be in the path frame (``world_enu.in_frame(frame.origin_xy,
+    frame.heading_rad)``). ``steps``: grid spacing (default: the frame's dx and the grid's
+    dy, dz)."""
     t0 = time.perf_counter()
-    steps = (frame.dx_m, frame.grid.dy_m, frame.grid.dz_m)
+    steps = steps or (frame.dx_m, frame.grid.dy_m, frame.grid.dz_m)
     lo, shape = _grid_extent(world, steps)
     start = np.array([0.0, 0.0, frame.start_enu[2]])
     goal = np.array([frame.length_m, 0.0, frame.goal_enu[2]])
+    if reverse:
+        start, goal = goal, start
     code, nodes, expanded, cost = _astar_kernel(
         lo,
         shape,

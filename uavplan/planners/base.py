@@ -11,6 +11,7 @@ come from their update rules alone (the paper's protocol, section 6).
 from __future__ import annotations
 
 import enum
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -18,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from uavplan.path.energy import N_SUB, column_spline, population_energy
+from uavplan.path.energy import N_SUB, population_energy
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
 from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams
@@ -53,6 +54,8 @@ class PathProblem:
     goal_u: np.ndarray  # (2,)
     line_u: np.ndarray  # (D + 1, 2) start-end line in grid units
     table: tuple[np.ndarray, np.ndarray]  # node clearance table (D+1, ny, nz), (y, z) offsets
+    #: (D + 1, 4) per column the valid node range in grid units: y_lo, y_hi, z_lo, z_hi
+    window: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     fitness_smoothing: int = 0  # see population_energy: 0 = the paper's fitness
     memo: np.ndarray = field(default_factory=K.new_memo)
     #: evaluation budget used so far: fitness evaluations, reachability checks, exact tests
@@ -68,14 +71,27 @@ class PathProblem:
         energy: EnergyWeights,
         fitness_smoothing: int = 0,
     ) -> PathProblem:
+        """The problem from ``start_enu`` to ``goal_enu`` in ``world_enu``, in the paper's
+        straight frame. The route keeps the margin from the ground too: it never flies lower
+        than the margin, or than the start or goal when they are lower (the flight volume's
+        floor, if higher, stands)."""
         frame = PathFrame.build(start_enu, goal_enu, grid)
+        floor = min(world_enu.margin_m, float(start_enu[2]), float(goal_enu[2]))
         world = world_enu.in_frame(
-            frame.origin_xy, frame.heading_rad, world_enu.margin_m + MARGIN_PAD_M
+            frame.origin_xy, frame.heading_rad, world_enu.margin_m + MARGIN_PAD_M, floor
         )
-        start_m = np.array([0.0, 0.0, float(start_enu[2])])
-        goal_m = np.array([frame.length_m, 0.0, float(goal_enu[2])])
+        return cls.in_frame(world, frame, energy, fitness_smoothing)
+
+    @classmethod
+    def in_frame(
+        cls, world: World, frame: PathFrame, energy: EnergyWeights, fitness_smoothing: int = 0
+    ) -> PathProblem:
+        """The problem of ``frame``'s columns in ``world`` (already in the path frame)."""
+        start_m = np.array([0.0, 0.0, float(frame.start_enu[2])])
+        goal_m = np.array([frame.length_m, 0.0, float(frame.goal_enu[2])])
         line = np.zeros((frame.n_cols + 1, 2))
         line[:, 1] = frame.line_z_units
+        table, window = _clearance_table(world, frame)
         return cls(
             frame,
             world,
@@ -85,9 +101,16 @@ class PathProblem:
             np.array(frame.start_units),
             np.array(frame.goal_units),
             line,
-            _clearance_table(world, frame),
+            table,
+            window,
             fitness_smoothing,
         )
+
+    def along(self, guide_xy: np.ndarray) -> PathProblem:
+        """The same problem with its columns along ``guide_xy`` (k, 2), a polyline in the path
+        frame from the start to the goal (see :meth:`PathFrame.along`); fresh memo."""
+        frame = self.frame.along(guide_xy)
+        return PathProblem.in_frame(self.world, frame, self.energy, self.fitness_smoothing)
 
     def with_fresh_memo(self) -> PathProblem:
         """The same problem with an empty reachability memo (the memo is pure, but one that
@@ -110,6 +133,7 @@ class PathProblem:
         dx, dy, dz = self.steps
         return K.Reach(
             self.world.kernel_args,
+            self.frame.cols,
             self.memo,
             self.table[0],
             self.table[1],
@@ -157,6 +181,8 @@ class PathProblem:
             w.mu0,
             w.k2,
             self.fitness_smoothing,
+            self.frame.cols,
+            self.frame.straight,
         )
 
     def fitness_of_changed(
@@ -176,11 +202,6 @@ class PathProblem:
         """One individual's column polyline (D + 1, 3) in path-frame metres, with the ends."""
         return self.frame.nodes_to_points(nodes)
 
-    def spline_points(self, nodes: np.ndarray) -> np.ndarray:
-        """The dense cubic spline the fitness is evaluated on, (D·N_SUB + 1, 3)."""
-        pts = self.node_points(nodes)
-        return column_spline(pts[:, 1:], self.frame.dx_m)
-
     def initial_population(
         self, n_pop: int, search: SearchParams, rng: np.random.Generator
     ) -> tuple[np.ndarray, np.ndarray, int]:
@@ -192,6 +213,7 @@ class PathProblem:
             float(search.init_half_window),
             search.t_max,
             INIT_MAX_ATTEMPTS,
+            self.window,
             self.reach,
             rng,
         )
@@ -232,35 +254,67 @@ class PathProblem:
         )
 
 
-def _clearance_table(world: World, frame: PathFrame) -> tuple[np.ndarray, np.ndarray]:
-    """Node clearances over the grid that covers the bounds (see ``K.clearance_table``)."""
+def _column_ranges_m(world: World, frame: PathFrame) -> np.ndarray:
+    """(D + 1, 2) lateral offsets (m) of each column's line inside the bounds and inside its
+    fold window."""
+    cols = frame.cols
+    lo = frame.lateral_limits_m[:, 0].copy()
+    hi = frame.lateral_limits_m[:, 1].copy()
+    for a, b, k in world.hp:  # a·x + b·y <= k along c + t·n
+        rate = a * cols[:, 2] + b * cols[:, 3]
+        room = k - a * cols[:, 0] - b * cols[:, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = room / rate
+        hi = np.where(rate > 1e-12, np.minimum(hi, t), hi)
+        lo = np.where(rate < -1e-12, np.maximum(lo, t), lo)
+    return np.column_stack([lo, hi])
+
+
+def _clearance_table(
+    world: World, frame: PathFrame
+) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """Node clearances over the grid that covers the bounds (see ``K.clearance_table``) and
+    every column's valid node range in grid units (y_lo, y_hi, z_lo, z_hi)."""
     g = frame.grid
-    # corners of the bounds polygon: intersect consecutive half-planes (a box: 4 corners)
-    ys = []
-    hp = world.hp
-    for i in range(hp.shape[0]):
-        for k in range(i + 1, hp.shape[0]):
-            m = np.array([hp[i, :2], hp[k, :2]])
-            if abs(np.linalg.det(m)) > 1e-12:
-                x, y = np.linalg.solve(m, [hp[i, 2], hp[k, 2]])
-                if world.points_inside_bounds(np.array([[x, y, world.zlim[0]]]))[0]:
-                    ys.append(y)
-    iy_lo, iy_hi = int(np.floor(min(ys) / g.dy_m)), int(np.ceil(max(ys) / g.dy_m))
+    ranges = _column_ranges_m(world, frame)
+    if frame.straight:
+        # corners of the bounds polygon: intersect consecutive half-planes (a box: 4 corners)
+        ys = []
+        hp = world.hp
+        for i in range(hp.shape[0]):
+            for k in range(i + 1, hp.shape[0]):
+                m = np.array([hp[i, :2], hp[k, :2]])
+                if abs(np.linalg.det(m)) > 1e-12:
+                    x, y = np.linalg.solve(m, [hp[i, 2], hp[k, 2]])
+                    if world.points_inside_bounds(np.array([[x, y, world.zlim[0]]]))[0]:
+                        ys.append(y)
+        y_min, y_max = min(ys), max(ys)
+    else:
+        y_min, y_max = float(ranges[:, 0].min()), float(ranges[:, 1].max())
+    iy_lo, iy_hi = int(np.floor(y_min / g.dy_m)), int(np.ceil(y_max / g.dy_m))
     iz_lo, iz_hi = int(np.floor(world.zlim[0] / g.dz_m)), int(np.ceil(world.zlim[1] / g.dz_m))
+    ylim = np.column_stack(
+        [np.ceil(ranges[:, 0] / g.dy_m - 1e-9), np.floor(ranges[:, 1] / g.dy_m + 1e-9)]
+    )
+    ylim = np.clip(ylim, iy_lo, iy_hi)
     cap = world.margin_m + K.TABLE_REACH_M
     tab = K.clearance_table(
-        frame.n_cols,
+        frame.cols,
+        ylim,
         iy_lo,
         iy_hi,
         iz_lo,
         iz_hi,
-        frame.dx_m,
         g.dy_m,
         g.dz_m,
         world.kernel_args,
         cap,
     )
-    return tab, np.array([iy_lo, iz_lo], dtype=np.int64)
+    window = np.empty((frame.n_cols + 1, 4))
+    window[:, :2] = ylim
+    window[:, 2] = math.ceil(world.zlim[0] / g.dz_m - 1e-9)
+    window[:, 3] = math.floor(world.zlim[1] / g.dz_m + 1e-9)
+    return (tab, np.array([iy_lo, iz_lo], dtype=np.int64)), window
 
 
 class Termination:
