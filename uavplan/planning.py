@@ -69,6 +69,8 @@ class RouteResult:
     notes: tuple[str, ...] = ()
     #: seconds of ``runtime_s`` spent in the global (guide) search; 0 when it did not run
     guide_s: float = 0.0
+    #: the legs between consecutive route points (one without via points)
+    legs: tuple[Leg, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -128,6 +130,7 @@ class RouteResult:
             "message": self.message,
             "notes": list(self.notes),
             "guide_s": self.guide_s,
+            "legs": [leg.summary() for leg in self.legs],
             "config": resolved_config(scenario, self.post),
         }
 
@@ -206,6 +209,58 @@ def _best_simplified(
     return best[1], best[2]
 
 
+@dataclass(frozen=True, eq=False)
+class Leg:
+    """One planned leg between consecutive route points (start, via points, goal), ENU."""
+
+    start_m: tuple[float, float, float]
+    goal_m: tuple[float, float, float]
+    planner: PlannerResult
+    path_enu: np.ndarray  # dense smoothed curve
+    waypoints_enu: np.ndarray
+    vertices_enu: np.ndarray
+    raw_path_enu: np.ndarray
+    energy_terms: tuple[float, float, float]
+    min_clearance_m: float
+    guide_s: float = 0.0
+    notes: tuple[str, ...] = ()
+
+    @property
+    def energy(self) -> float:
+        return float(sum(self.energy_terms))
+
+    @property
+    def length_m(self) -> float:
+        return float(np.linalg.norm(np.diff(self.path_enu, axis=0), axis=1).sum())
+
+    def summary(self) -> dict[str, Any]:
+        pr = self.planner
+        return {
+            "start": list(self.start_m),
+            "goal": list(self.goal_m),
+            "energy": self.energy,
+            "length_m": self.length_m,
+            "min_clearance_m": self.min_clearance_m,
+            "iterations": pr.iterations,
+            "termination": pr.termination,
+            "evaluations": pr.evaluations,
+            "guide_s": self.guide_s,
+            "notes": list(self.notes),
+        }
+
+
+class _LegFailed(Exception):
+    def __init__(self, status: RouteStatus, planner: PlannerResult, message: str, guide_s: float):
+        super().__init__(message)
+        self.status, self.planner, self.message, self.guide_s = status, planner, message, guide_s
+
+
+def route_points(scenario: Scenario) -> list[tuple[float, float, float]]:
+    """Start, the via points in order, goal: the points the route passes through exactly."""
+    via = getattr(scenario, "via_m", ()) or ()
+    return [scenario.start_m, *(tuple(v) for v in via), scenario.goal_m]
+
+
 def plan_route(
     scenario: Scenario,
     *,
@@ -215,24 +270,100 @@ def plan_route(
     should_stop: Callable[[], bool] | None = None,
 ) -> RouteResult:
     """Plan ``scenario`` with its planner configuration (apply CLI overrides first with
-    :meth:`Scenario.with_planner`). ``world``/``problem`` may be passed to reuse them;
-    ``should_stop`` is polled every iteration (a Ctrl-C flag): the run then ends as
-    ``RouteStatus.INTERRUPTED``."""
+    :meth:`Scenario.with_planner`): one leg per pair of consecutive route points (start, via
+    points, goal), in one world and one random stream. ``world``/``problem`` may be passed to
+    reuse them (``problem`` only for a single leg); ``should_stop`` is polled every
+    iteration (a Ctrl-C flag): the run then ends as ``RouteStatus.INTERRUPTED``."""
     cfg = scenario.planner
     world = world or build_world(scenario)
     planner = make_planner(cfg.algorithm, cfg.search, cfg.spsa, cfg.options)
-    problem = (problem or build_problem(scenario, world)).with_fitness_smoothing(
-        planner.fitness_smoothing()
-    )
     post = cfg.post
     if not planner.postprocess:
         # the paper's protocol post-processes SPSA only (section 4.5 is SPSA's contribution 5)
         post = replace(post, simplify=False, refine=False, tighten=False)
+    points = route_points(scenario)
+    n_legs = len(points) - 1
 
     warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.search.seed)
     termination = Termination(cfg.search.iterations, should_stop=should_stop)
+    legs: list[Leg] = []
+    for i in range(n_legs):
+        if problem is not None and n_legs == 1:
+            leg_problem = problem
+        else:
+            leg_problem = PathProblem.build(world, points[i], points[i + 1], cfg.grid, cfg.energy)
+        leg_problem = leg_problem.with_fitness_smoothing(planner.fitness_smoothing())
+        leg_progress = None
+        if progress is not None:
+            done, total = i * cfg.search.iterations, n_legs * cfg.search.iterations
+
+            def leg_progress(it: int, _n: int, best: float, done: int = done, total: int = total):
+                progress(done + it, total, best)
+
+        try:
+            legs.append(
+                _plan_leg(scenario, world, leg_problem, planner, post, rng, termination,
+                          leg_progress)
+            )  # fmt: skip
+        except _LegFailed as failed:
+            where = f"leg {i + 1} of {n_legs}: " if n_legs > 1 else ""
+            return RouteResult(
+                failed.status, cfg.algorithm, cfg.search.seed, failed.planner, post,
+                runtime_s=time.perf_counter() - t0, message=where + failed.message,
+                guide_s=failed.guide_s,
+            )  # fmt: skip
+    runtime = time.perf_counter() - t0
+
+    waypoints_enu = np.vstack([legs[0].waypoints_enu, *(leg.waypoints_enu[1:] for leg in legs[1:])])
+    path_enu = np.vstack([legs[0].path_enu, *(leg.path_enu[1:] for leg in legs[1:])])
+    takeoff = scenario.vehicle.takeoff_altitude_m
+    end = cast(EndAction, scenario.mission.end)
+    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end)
+    route = PlannedRoute(
+        frame=enu_frame(scenario),
+        waypoints_enu=waypoints_enu,
+        path_enu=path_enu,
+        vertices_enu=np.vstack([legs[0].vertices_enu, *(g.vertices_enu[1:] for g in legs[1:])]),
+        raw_path_enu=np.vstack([legs[0].raw_path_enu, *(g.raw_path_enu[1:] for g in legs[1:])]),
+        flown_enu=flown,
+        min_clearance_m=world.polyline_clearance(flown),
+        safety_margin_m=scenario.safety_margin_m,
+        inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
+        takeoff_altitude_m=takeoff,
+        end=end,
+    )
+    terms = tuple(float(sum(leg.energy_terms[k] for leg in legs)) for k in range(3))
+    return RouteResult(
+        RouteStatus.OK,
+        cfg.algorithm,
+        cfg.search.seed,
+        legs[0].planner,
+        post,
+        route=route,
+        energy=float(sum(terms)),
+        energy_terms=(terms[0], terms[1], terms[2]),
+        runtime_s=runtime,
+        notes=tuple(n for leg in legs for n in leg.notes),
+        guide_s=sum(leg.guide_s for leg in legs),
+        legs=tuple(legs),
+    )
+
+
+def _plan_leg(
+    scenario: Scenario,
+    world: World,
+    problem: PathProblem,
+    planner: Any,
+    post: PostParams,
+    rng: np.random.Generator,
+    termination: Termination,
+    progress: ProgressFn | None,
+) -> Leg:
+    """Search one leg (straight frame first, a guide frame when that cannot hold a path,
+    the grid route when the swarm still fails) and post-process it into waypoints."""
+    cfg = scenario.planner
     res = planner.solve(problem, rng, progress, termination)
     notes: list[str] = []
     guide_s = 0.0
@@ -242,10 +373,8 @@ def plan_route(
         guide = find_guide(problem)
         guide_s = guide.runtime_s
         if not guide.found:
-            return RouteResult(
-                RouteStatus.NO_PATH, cfg.algorithm, cfg.search.seed, res, post,
-                runtime_s=time.perf_counter() - t0, message=guide.message, guide_s=guide_s,
-            )  # fmt: skip
+            raise _LegFailed(RouteStatus.NO_PATH, res, guide.message, guide_s)
+        assert guide.route_pf is not None
         guided = guided_problem(problem, guide)
         res = planner.solve(guided, rng, progress, termination)
         if res.solved:
@@ -261,10 +390,7 @@ def plan_route(
                 "route (shortened, smoothed and clearance-checked)"
             )
     if res.termination == "interrupted":
-        return RouteResult(
-            RouteStatus.INTERRUPTED, cfg.algorithm, cfg.search.seed, res, post,
-            runtime_s=time.perf_counter() - t0, message="interrupted",
-        )  # fmt: skip
+        raise _LegFailed(RouteStatus.INTERRUPTED, res, "interrupted", guide_s)
     wpf = problem.world
     if route_pf is None:
         nodes_pf = problem.node_points(res.best_nodes)
@@ -281,38 +407,19 @@ def plan_route(
         vertices = tighten(vertices, wpf)
     smoothed = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
     waypoints_pf = resample_waypoints(smoothed, wpf, scenario.mission.spacing_m)
-    runtime = time.perf_counter() - t0
-
     frame = problem.frame
     path_enu = dedupe(frame.to_enu(smoothed.samples))
     waypoints_enu = dedupe(frame.to_enu(waypoints_pf))
-    terms = energy_terms(path_enu, cfg.energy)
-    takeoff = scenario.vehicle.takeoff_altitude_m
-    end = cast(EndAction, scenario.mission.end)
-    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end)
-    route = PlannedRoute(
-        frame=enu_frame(scenario),
-        waypoints_enu=waypoints_enu,
+    return Leg(
+        start_m=frame.start_enu,
+        goal_m=frame.goal_enu,
+        planner=res,
         path_enu=path_enu,
+        waypoints_enu=waypoints_enu,
         vertices_enu=frame.to_enu(smoothed.vertices),
         raw_path_enu=frame.to_enu(nodes_pf),
-        flown_enu=flown,
-        min_clearance_m=world.polyline_clearance(flown),
-        safety_margin_m=scenario.safety_margin_m,
-        inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
-        takeoff_altitude_m=takeoff,
-        end=end,
-    )
-    return RouteResult(
-        RouteStatus.OK,
-        cfg.algorithm,
-        cfg.search.seed,
-        res,
-        post,
-        route=route,
-        energy=float(sum(terms)),
-        energy_terms=terms,
-        runtime_s=runtime,
-        notes=tuple(notes),
+        energy_terms=energy_terms(path_enu, cfg.energy),
+        min_clearance_m=world.polyline_clearance(waypoints_enu),
         guide_s=guide_s,
+        notes=tuple(notes),
     )
