@@ -8,7 +8,6 @@ The seed sweeps use a small iteration budget: whether a path is found does not d
 
 from __future__ import annotations
 
-import copy
 from dataclasses import replace
 from pathlib import Path
 
@@ -104,9 +103,9 @@ def test_a_shallow_volume_or_a_long_route_is_no_reason_to_fail(
 
 
 def test_via_points_are_waypoints_exactly_and_legs_are_reported() -> None:
-    scn = copy.copy(quick(load_scenario(ROOT / "missions" / "paper-env1.yaml"), 3, 30))
+    scn = quick(load_scenario(ROOT / "missions" / "paper-env1.yaml"), 3, 30)
     via = ((700.0, 300.0, 60.0), (1400.0, -200.0, 40.0))
-    object.__setattr__(scn, "via_m", via)
+    scn = replace(scn, via_m=via)
     res = plan_route(scn)
     assert res.ok and res.collision_free and len(res.legs) == 3
     w = res.route.waypoints_enu

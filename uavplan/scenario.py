@@ -7,6 +7,7 @@ naming the file, the key path (``obstacles[2].radius``) and the reason.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -73,6 +74,8 @@ class Scenario:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     mission: MissionConfig = field(default_factory=MissionConfig)
     source: str | None = None
+    #: points the route passes through, in order, between start and goal (ENU m)
+    via_m: tuple[tuple[float, float, float], ...] = ()
 
     @classmethod
     def from_file(cls, path: str | Path) -> Scenario:
@@ -93,6 +96,7 @@ _SCENARIO_KEYS = {
     "bounds",
     "start",
     "goal",
+    "via",
     "map",
     "obstacles",
     "safety_margin",
@@ -487,6 +491,10 @@ def load_scenario(path: str | Path) -> Scenario:
         margin = chk.number(raw["safety_margin"], "safety_margin", minimum=0)
     start = chk.vector(raw["start"], "start", 3)
     goal = chk.vector(raw["goal"], "goal", 3)
+    via_raw = raw.get("via", [])
+    if not isinstance(via_raw, list):
+        raise chk.fail("via", f"must be a list of [x, y, z] points, got {_type_name(via_raw)}")
+    via = tuple(chk.vector(p, f"via[{i}]", 3) for i, p in enumerate(via_raw))
     name = chk.string(raw["name"], "name") if "name" in raw else path.stem
     vehicle = _vehicle(chk, raw["vehicle"]) if "vehicle" in raw else VehicleConfig()
     planner = _planner(chk, raw["planner"]) if "planner" in raw else PlannerConfig()
@@ -498,6 +506,7 @@ def load_scenario(path: str | Path) -> Scenario:
         bounds=bounds,
         start_m=(start[0], start[1], start[2]),
         goal_m=(goal[0], goal[1], goal[2]),
+        via_m=tuple((p[0], p[1], p[2]) for p in via),
         obstacles=obstacles,
         safety_margin_m=margin,
         vehicle=vehicle,
@@ -521,14 +530,19 @@ def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | Non
             return f"obstacle #{index} of map {map_ref}"
         return f"obstacles[{index - n_map}]"
 
-    for key, point in (("start", scn.start_m), ("goal", scn.goal_m)):
+    ends = [("start", scn.start_m), *((f"via[{i}]", p) for i, p in enumerate(scn.via_m))]
+    ends.append(("goal", scn.goal_m))
+    for key, point in ends:
+        if point[2] <= 0:
+            raise chk.fail(key, f"{list(point)} is not above the ground (z must be > 0)")
         if not scn.bounds.contains(point):
             raise chk.fail(key, f"{list(point)} is outside the bounds")
-    if math.hypot(scn.goal_m[0] - scn.start_m[0], scn.goal_m[1] - scn.start_m[1]) < 1.0:
-        raise chk.fail("goal", "must be at least 1 m away from the start horizontally")
+    for (_, a), (key, b) in itertools.pairwise(ends):
+        if math.hypot(b[0] - a[0], b[1] - a[1]) < 1.0:
+            raise chk.fail(key, "must be at least 1 m away from the point before it horizontally")
     world = World.from_scenario(scn)
     margin = scn.safety_margin_m
-    for key, point in (("start", scn.start_m), ("goal", scn.goal_m)):
+    for key, point in ends:
         clearance, index = world.nearest_obstacle(point)
         if index >= 0 and clearance < margin - 1e-9:
             inside = "inside" if clearance <= 0 else f"{clearance:.1f} m from"
