@@ -36,7 +36,7 @@ def _cell_size(box: np.ndarray) -> float:
     return float(max(25.0, 1.5 * np.median(sizes)))
 
 
-def _convex_pieces(obstacle: Obstacle) -> list[list[tuple[float, float]]]:
+def _convex_pieces(obstacle: BoxObstacle | PrismObstacle) -> list[list[tuple[float, float]]]:
     """Counter-clockwise convex pieces of a box or prism footprint (the kernels' polygons)."""
     return convex_pieces(obstacle.footprint(), MAX_VERTS)
 
