@@ -271,9 +271,8 @@ def test_mission_polyline_is_the_routes_flown_polyline(
 def test_mission_polyline_is_the_flown_polyline_for_any_path(
     path: np.ndarray, takeoff_m: float | None, end: str
 ) -> None:
-    plan = build_mission(
-        path, FRAME, autopilot=Autopilot.ARDUPILOT, end=end, takeoff_altitude_m=takeoff_m
-    )  # type: ignore[arg-type]
+    kwargs: dict = {"end": end, "takeoff_altitude_m": takeoff_m}
+    plan = build_mission(path, FRAME, autopilot=Autopilot.ARDUPILOT, **kwargs)
     flown = flown_polyline(path, takeoff_altitude_m=takeoff_m, end=end)  # type: ignore[arg-type]
     from_items = mission_polyline_enu(plan, FRAME)
     assert from_items.shape == flown.shape
