@@ -6,8 +6,9 @@ solids coloured by height, the start and the goal, and whatever :class:`RouteLay
 given: the planner's raw best path (its node polyline), the smoothed path, and the route the
 autopilot flies. For a route that was just planned that is its
 :class:`~uavplan.route.PlannedRoute` (:meth:`RouteLayers.from_route`); for a mission file it
-is traced from the items (:meth:`RouteLayers.from_mission`). The top view adds each obstacle's safety margin (dashed outline of the footprint
-grown by the margin), the bounds and, if the mission has one, the geofence.
+is traced from the items (:meth:`RouteLayers.from_mission`). The top view adds each
+obstacle's safety margin (dashed outline of the footprint grown by the margin), the bounds
+and, if there is one, the geofence.
 
 The 3-D view's vertical scale is stretched when the scene is much wider than it is high
 (the factor is printed on the z axis), otherwise a 250 m tall scene 2 km wide is a flat
