@@ -207,3 +207,78 @@ def plan_route(
         collision_free=collision_free,
         runtime_s=runtime,
     )
+
+
+# ---------------------------------------------------------------------------------------------
+# Adapters: a Scenario's values for the fence, the map exports and the pictures. The layers
+# below take plain values and the PlannedRoute; only this wiring module knows Scenario.
+# (Imported here, not at the top: the lead is rewriting the top of this file.)
+
+from collections.abc import Mapping  # noqa: E402
+from typing import TYPE_CHECKING  # noqa: E402
+
+if TYPE_CHECKING:
+    from uavplan.mission.export import ExportExtras
+    from uavplan.mission.fence import FenceBuild
+    from uavplan.mission.items import MissionPlan
+    from uavplan.render import Scene
+    from uavplan.route import PlannedRoute
+
+
+def fence_for(
+    scenario: Scenario,
+    route: PlannedRoute,
+    mission: MissionPlan,
+    *,
+    max_items: int | None = None,
+) -> tuple[MissionPlan, FenceBuild]:
+    """``mission`` with the geofence for ``route`` flown through ``scenario``'s obstacles and
+    bounds (at most ``max_items`` fence items, default PX4's 63), and how it was built."""
+    from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
+
+    built = geofence_for_route(
+        route,
+        scenario.obstacles,
+        scenario.bounds,
+        max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
+    )
+    return replace(mission, fence=built.fence), built
+
+
+def export_extras(
+    scenario: Scenario,
+    route: PlannedRoute | None = None,
+    properties: Mapping[str, Any] | None = None,
+) -> ExportExtras:
+    """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
+    and margin, and with a just-planned ``route`` its smoothed path and flown line."""
+    from uavplan.geo import EnuFrame
+    from uavplan.mission.export import ExportExtras
+
+    if route is not None:
+        return ExportExtras.for_route(
+            route, scenario.obstacles, name=scenario.name, properties=properties
+        )
+    return ExportExtras(
+        frame=EnuFrame.at(scenario.origin),
+        obstacles=scenario.obstacles,
+        name=scenario.name,
+        safety_margin_m=scenario.safety_margin_m,
+        properties=dict(properties or {}),
+    )
+
+
+def scene_for(scenario: Scenario) -> Scene:
+    """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
+    from uavplan.render import Scene
+
+    sx, sy, sz = (float(v) for v in scenario.start_m)
+    gx, gy, gz = (float(v) for v in scenario.goal_m)
+    return Scene(
+        name=scenario.name,
+        bounds=scenario.bounds,
+        obstacles=scenario.obstacles,
+        safety_margin_m=scenario.safety_margin_m,
+        start_enu=(sx, sy, sz),
+        goal_enu=(gx, gy, gz),
+    )
