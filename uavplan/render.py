@@ -141,11 +141,13 @@ class RouteLayers:
 
 
 def _build_outlines(fence: FenceBuild) -> tuple[FenceOutline, ...]:
+    """A fence build's zones in ENU, in the fence's order: polygons first, then circles."""
+    zones = [z for z in fence.zones if z.status is ZoneStatus.EXCLUDED]
     out = [FenceOutline(True, polygon_enu=fence.inclusion_enu)]
-    for zone in fence.zones:
-        if zone.status is not ZoneStatus.EXCLUDED:
-            continue
-        out.append(FenceOutline(False, polygon_enu=zone.polygon_enu, circle_enu=zone.circle_enu))
+    out += [
+        FenceOutline(False, polygon_enu=z.polygon_enu) for z in zones if z.polygon_enu is not None
+    ]
+    out += [FenceOutline(False, circle_enu=z.circle_enu) for z in zones if z.circle_enu is not None]
     return tuple(out)
 
 
