@@ -329,9 +329,8 @@ def test_kml_parses_and_flies_relative_to_ground() -> None:
     route = lines[0]
     assert route.findtext(f"{KML}altitudeMode") == "relativeToGround"
     assert route.findtext(f"{KML}extrude") == "1"
-    coords = np.array(
-        [[float(v) for v in t.split(",")] for t in route.findtext(f"{KML}coordinates").split()]
-    )
+    text = route.findtext(f"{KML}coordinates") or ""
+    coords = np.array([[float(v) for v in t.split(",")] for t in text.split()])
     flown = mission_polyline_enu(plan, FRAME)
     assert coords.shape == (len(flown), 3)
     assert coords[0] == pytest.approx([ORIGIN.lon_deg, ORIGIN.lat_deg, 0.0], abs=1e-8)
@@ -347,12 +346,12 @@ def test_kml_parses_and_flies_relative_to_ground() -> None:
     assert len(obstacles) == 2
     poly = obstacles[0].find(f"{KML}Polygon")
     assert poly is not None and poly.findtext(f"{KML}extrude") == "1"
-    ring = poly.findtext(f".//{KML}coordinates").split()
+    ring = (poly.findtext(f".//{KML}coordinates") or "").split()
     assert ring[0] == ring[-1] and all(t.endswith(",90.000") for t in ring)
     fences = [p for p in placemarks if (p.findtext(f"{KML}name") or "").startswith("fence")]
     assert len(fences) == len(plan.fence.polygons) + len(plan.fence.circles)
     style_ids = {s.get("id") for s in doc.findall(f"{KML}Style")}
-    assert {p.findtext(f"{KML}styleUrl")[1:] for p in placemarks} <= style_ids
+    assert {(p.findtext(f"{KML}styleUrl") or "")[1:] for p in placemarks} <= style_ids
 
 
 def test_kml_also_parses_with_lxml_and_escapes_names() -> None:

@@ -44,7 +44,7 @@ from uavplan.mission.items import (
     MissionType,
     items_equal,
 )
-from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, PrismObstacle
+from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.route import PlannedRoute, flown_polyline
 
 ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
@@ -53,7 +53,8 @@ BOUNDS = ((0.0, 1000.0), (-300.0, 300.0))
 
 
 def box(index: int, cx: float, cy: float, sx: float, sy: float, h: float, yaw: float = 0.0):
-    return Footprint(index, "box", h, ring_enu=BoxObstacle((cx, cy), (sx, sy), h, yaw).footprint())
+    ring = tuple(BoxObstacle((cx, cy), (sx, sy), h, yaw).footprint())
+    return Footprint(index, "box", h, ring_enu=ring)
 
 
 def circle(index: int, cx: float, cy: float, r: float, h: float) -> Footprint:
@@ -181,6 +182,7 @@ def test_zones_by_hand() -> None:
     assert [p.inclusion for p in fence.polygons] == [True, False, False]
     assert [c.inclusion for c in fence.circles] == [False]
     assert fence.circles[0].radius_m == pytest.approx(30.0)
+    assert z[2].polygon_enu is not None
     assert built.item_count == 4 + 4 + len(z[2].polygon_enu) + 1
     assert "obstacles 1 flown over" in built.summary()
     assert any("obstacles 2" in note for note in built.notes())
@@ -199,9 +201,9 @@ def test_fence_vertices_are_the_enu_zones_in_wgs84_clockwise() -> None:
         atol=1e-3,
     )
     lat, lon = np.asarray(exclusion.vertices).T
-    np.testing.assert_allclose(
-        FRAME.to_enu_xy(lat, lon)[::-1], built.zones[0].polygon_enu, atol=1e-3
-    )
+    zone_ring = built.zones[0].polygon_enu
+    assert zone_ring is not None
+    np.testing.assert_allclose(FRAME.to_enu_xy(lat, lon)[::-1], zone_ring, atol=1e-3)
     # QGC's convention: clockwise (negative signed area in x east / y north)
     x, y = FRAME.to_enu_xy(lat, lon).T
     assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0
@@ -236,7 +238,7 @@ def test_forty_obstacles_still_fit_px4s_fence_storage() -> None:
 
 
 def test_footprints_of_scenario_obstacles() -> None:
-    obstacles = [
+    obstacles: list[Obstacle] = [
         BoxObstacle((10, 20), (4, 6), 30, 90),
         CylinderObstacle((0, 0), 5, 12),
         PrismObstacle(((0, 0), (10, 0), (0, 10)), 7),
@@ -244,6 +246,7 @@ def test_footprints_of_scenario_obstacles() -> None:
     fps = footprints_of(obstacles)
     assert [f.kind for f in fps] == ["box", "cylinder", "prism"]
     assert fps[1].is_circle and fps[1].radius_m == 5 and fps[1].center_enu == (0, 0)
+    assert fps[0].ring_enu is not None
     np.testing.assert_allclose(
         sorted(fps[0].ring_enu), sorted([(13, 18), (13, 22), (7, 18), (7, 22)]), atol=1e-9
     )
@@ -299,7 +302,7 @@ def test_fence_is_capped_at_63_items_for_px4_before_1_15() -> None:
 
 
 def test_fence_takes_obstacle_values_or_footprints_alike() -> None:
-    obstacles = [
+    obstacles: list[Obstacle] = [
         BoxObstacle((300.0, 100.0), (100.0, 100.0), 50.0),
         CylinderObstacle((500.0, -200.0), 20.0, 40.0),
     ]
@@ -372,9 +375,9 @@ def test_plan_fence_writes_the_bounds_and_the_obstacles_flown_around(
     for ours, theirs in zip(plan.fence.polygons, built.fence.polygons, strict=True):
         assert ours.inclusion == theirs.inclusion
         np.testing.assert_allclose(ours.vertices, theirs.vertices, rtol=0, atol=1e-9)  # deg
-    for ours, theirs in zip(plan.fence.circles, built.fence.circles, strict=True):
-        np.testing.assert_allclose(ours.center, theirs.center, rtol=0, atol=1e-9)
-        assert ours.radius_m == pytest.approx(theirs.radius_m, abs=1e-6)
+    for mine, other in zip(plan.fence.circles, built.fence.circles, strict=True):
+        np.testing.assert_allclose(mine.center, other.center, rtol=0, atol=1e-9)
+        assert mine.radius_m == pytest.approx(other.radius_m, abs=1e-6)
     assert plan.fence.polygons[0].inclusion
     assert "geofence: inclusion polygon + " in output
     assert "of at most 63 fence items" in output
@@ -401,10 +404,12 @@ def test_plan_fence_needs_a_format_that_holds_one(tmp_path: Path) -> None:
 @contextlib.contextmanager
 def mavsdk_mission_raw() -> Iterator[Any]:
     """MAVSDK's MissionRaw plugin on a system created from one PX4 HEARTBEAT (no socket)."""
-    from mavsdk.component_type import ComponentType
-    from mavsdk.mavsdk import Configuration, Mavsdk
-    from mavsdk.plugins.mission_raw.mission_raw import MissionRaw
-    from pymavlink.dialects.v20 import common as mavlink2
+    from mavsdk.component_type import ComponentType  # type: ignore[import-untyped]
+    from mavsdk.mavsdk import Configuration, Mavsdk  # type: ignore[import-untyped]
+    from mavsdk.plugins.mission_raw.mission_raw import (  # type: ignore[import-untyped]
+        MissionRaw,
+    )
+    from pymavlink.dialects.v20 import common as mavlink2  # type: ignore[import-untyped]
 
     mavsdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     try:

@@ -181,7 +181,8 @@ def test_route_layers_from_a_planned_route_use_its_own_lines_and_fence() -> None
 
     plan = replace(build_mission(waypoints, frame, autopilot=Autopilot.PX4), fence=built.fence)
     traced = RouteLayers.from_mission(plan, frame)
-    assert traced.flown_enu is not None and layers.waypoints_enu is not None
+    assert traced.flown_enu is not None and layers.flown_enu is not None
+    assert traced.waypoints_enu is not None and layers.waypoints_enu is not None
     np.testing.assert_allclose(traced.flown_enu, layers.flown_enu, atol=1e-3)
     np.testing.assert_allclose(traced.waypoints_enu, layers.waypoints_enu, atol=1e-3)
     for a, b in zip(traced.fence, layers.fence, strict=True):
