@@ -235,6 +235,20 @@ def test_offset_contains_the_exact_offset(seed: int, offset: float, step: float)
     assert reach.max() <= offset / math.cos(math.radians(step) / 2) + 1e-6
 
 
+def test_round_offset_outline_for_pictures() -> None:
+    (outline,) = g2.round_offset_outline(SQUARE, 2.0, quad_segs=8)
+    # every vertex on the rounded offset, exactly 2 m from the square
+    np.testing.assert_allclose(g2.points_polygon_distance(outline, SQUARE), 2.0, atol=1e-9)
+    # area: the square, four 10 x 2 strips, and a disc of radius 2 (a 32-gon, slightly less)
+    exact = 100.0 + 4 * 20.0 + math.pi * 4.0
+    inscribed = 100.0 + 4 * 20.0 + 0.5 * 32 * 4.0 * math.sin(2 * math.pi / 32)
+    assert g2.signed_area(outline) == pytest.approx(inscribed, abs=1e-9) and inscribed < exact
+    # a concave footprint keeps its notch (inflate_polygon would take the hull at 16 m)
+    (grown,) = g2.round_offset_outline(L_RING, 5.0)
+    assert not g2.points_in_polygon(np.array([[25.0, 25.0]]), grown)[0]
+    assert g2.points_in_polygon(np.array([[14.0, 14.0]]), grown)[0]
+
+
 # ---------------------------------------------------------------------------------------------
 # convex pieces (the world's decomposition)
 

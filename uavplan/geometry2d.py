@@ -8,10 +8,12 @@ decomposition, the geofence, the map exports and the pictures.
 The small kernels (areas, orientation, crossings, distances, the tangent-cut offset) are numpy:
 they run on a handful of vertices and their exact floating-point behaviour is part of the
 planner's and the fence's reproducible results. shapely 2 is used where a full geometry
-engine earns its keep: :func:`polygon_problem` (why a ring is not a valid polygon, and where)
-and :func:`covers` (a containment check, used to verify offsets). It is imported lazily
-(``python -X importtime -c "import numpy; import shapely"``: shapely adds 85-105 ms to numpy's
-400-500 ms on the busy 2-core build machine), so importing this module costs only numpy.
+engine earns its keep: :func:`polygon_problem` (why a ring is not a valid polygon, and where),
+:func:`covers` (a containment check, used to verify offsets) and :func:`round_offset_outline`
+(the exact rounded offset of any polygon, concave ones included, for pictures). It is
+imported lazily (``python -X importtime -c "import numpy; import shapely"``: shapely adds
+85-105 ms to numpy's 400-500 ms on the busy 2-core build machine), so importing this module
+costs only numpy.
 
 The offset (:func:`offset_ring`, :func:`inflate_polygon`) is conservative: the polygon it
 returns *contains* the ring grown by the offset in every direction (the Minkowski sum with a
@@ -205,6 +207,22 @@ def covers(outer_ring: ArrayLike, inner: ArrayLike, tol_m: float = 1e-9) -> bool
     pts = as_ring(inner)
     target = _shapely_polygon(pts) if len(pts) >= 3 else shapely.multipoints(pts)
     return bool(shapely.covers(outer, target))
+
+
+def round_offset_outline(ring: ArrayLike, offset_m: float, *, quad_segs: int = 8) -> list[_Arr]:
+    """The ring grown by ``offset_m`` with round corners, as shapely buffers it: the outer
+    ring(s) ``(k, 2)`` of the result, counter-clockwise.
+
+    For *drawing* the true offset (a concave footprint keeps its notch, where
+    :func:`inflate_polygon` falls back to the hull). Its vertices lie on the rounded offset
+    and its chords inside it, by up to ``offset_m * (1 - cos(pi / (4 * quad_segs)))``: it is
+    not conservative, so a fence never uses it.
+    """
+    import shapely
+
+    grown = shapely.buffer(_shapely_polygon(orient_ccw(ring)), offset_m, quad_segs=quad_segs)
+    parts = getattr(grown, "geoms", [grown])
+    return [orient_ccw(np.asarray(part.exterior.coords)[:-1]) for part in parts]
 
 
 def _shapely_polygon(ring: _Arr) -> Polygon:

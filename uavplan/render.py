@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.geo import EnuFrame
-from uavplan.geometry2d import inflate_polygon
+from uavplan.geometry2d import round_offset_outline
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.fence import FenceBuild, Footprint, ZoneStatus, footprints_of
 from uavplan.mission.items import MissionPlan
@@ -306,7 +306,8 @@ def _margin_outline(fp: Footprint, margin_m: float) -> NDArray[np.float64]:
             center_enu=fp.center_enu,
             radius_m=fp.radius_m + margin_m,
         ).outline_enu(72)
-    return inflate_polygon(_outline(fp), margin_m, max_step_deg=10.0)
+    # the true rounded offset (a concave footprint keeps its notch); a picture, not a fence
+    return round_offset_outline(_outline(fp), margin_m)[0]
 
 
 def _draw_3d(
