@@ -314,6 +314,17 @@ def test_fence_takes_obstacle_values_or_footprints_alike() -> None:
     assert [z.status for z in a.zones] == [ZoneStatus.EXCLUDED, ZoneStatus.EXCLUDED]
 
 
+def test_the_fence_we_write_has_reserved_params_0_as_qgc_sends() -> None:
+    """Issue 12: reserved fence params are 0 (QGroundControl's value), never NaN / unset.
+    The wire encoding is items.py's (GeoFence.wire_items, another helper's change)."""
+    footprints = [box(0, 300, 100, 100, 100, 50), circle(1, 500, -200, 20, 40)]
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10)
+    items = built.fence.wire_items()
+    assert len(items) == 4 + 4 + 1
+    for item in items:
+        assert all(p == 0.0 for p in item.params[1:]), (item.command, item.params)
+
+
 def test_fence_module_knows_no_scenario() -> None:
     source = Path(__file__).resolve().parent.parent / "uavplan" / "mission" / "fence.py"
     text = source.read_text(encoding="utf-8")
