@@ -29,6 +29,7 @@ from uavplan.mission.fence import build_geofence, footprints_of
 from uavplan.mission.io import FORMATS, load_mission, save_mission
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.route import PlannedRoute, flown_polyline
 
 ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
 FRAME = EnuFrame.at(ORIGIN)
@@ -251,6 +252,65 @@ def test_extras_need_a_frame_for_enu_layers() -> None:
         ExportExtras(obstacles=footprints_of(OBSTACLES))
 
 
+def planned_route() -> PlannedRoute:
+    planned = np.vstack([np.linspace(a, b, 20) for a, b in itertools.pairwise(WAYPOINTS)])
+    return PlannedRoute(
+        frame=FRAME,
+        waypoints_enu=WAYPOINTS,
+        path_enu=planned,
+        vertices_enu=WAYPOINTS,
+        raw_path_enu=None,
+        flown_enu=flown_polyline(WAYPOINTS, takeoff_altitude_m=12.0, end="land"),
+        min_clearance_m=10.0,
+        safety_margin_m=10.0,
+        inside_bounds=True,
+        takeoff_altitude_m=12.0,
+        end="land",
+    )
+
+
+def test_extras_for_a_planned_route_draw_its_own_flown_line() -> None:
+    """A just-planned route is drawn from its PlannedRoute (nothing rebuilt from items), and
+    that is the line the items trace, to the 1e-8 degree the file keeps."""
+    route = planned_route()
+    plan = build_mission(
+        WAYPOINTS, FRAME, autopilot=Autopilot.PX4, end="land", takeoff_altitude_m=12.0
+    )
+    extras_ = ExportExtras.for_route(route, OBSTACLES, name="r", properties={"seed": 3})
+    assert extras_.safety_margin_m == 10.0 and extras_.frame is FRAME
+    doc = to_geojson(plan, extras_)
+    assert rfc7946_errors(doc) == []
+    (line,) = by_kind(doc, "route")
+    coords = np.asarray(line["geometry"]["coordinates"])
+    lat, lon, _ = FRAME.to_geodetic(
+        np.column_stack((route.flown_enu[:, :2], np.zeros(len(coords))))
+    )
+    np.testing.assert_allclose(coords[:, 0], lon, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(coords[:, 1], lat, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(coords[:, 2], route.flown_enu[:, 2], rtol=0, atol=1e-3)
+    assert line["properties"]["seed"] == 3
+    # traced from the items instead (what `convert` does): the same line
+    (traced,) = by_kind(to_geojson(plan), "route")
+    np.testing.assert_allclose(traced["geometry"]["coordinates"], coords, rtol=0, atol=2e-8)
+    assert line["properties"]["route_length_m"] == pytest.approx(
+        traced["properties"]["route_length_m"], abs=2e-3
+    )
+
+
+def test_extras_take_obstacle_values_or_footprints() -> None:
+    a = ExportExtras(frame=FRAME, obstacles=OBSTACLES)
+    b = ExportExtras(frame=FRAME, obstacles=footprints_of(OBSTACLES))
+    assert a.footprints == b.footprints
+    assert to_geojson(mission(), a) == to_geojson(mission(), b)
+
+
+def test_export_module_knows_no_scenario() -> None:
+    import uavplan.mission.export as export
+
+    text = Path(export.__file__).read_text(encoding="utf-8")
+    assert "uavplan.scenario" not in text and "from_scenario" not in text
+
+
 # ---------------------------------------------------------------------------------------------
 # KML
 
@@ -269,9 +329,8 @@ def test_kml_parses_and_flies_relative_to_ground() -> None:
     route = lines[0]
     assert route.findtext(f"{KML}altitudeMode") == "relativeToGround"
     assert route.findtext(f"{KML}extrude") == "1"
-    coords = np.array(
-        [[float(v) for v in t.split(",")] for t in route.findtext(f"{KML}coordinates").split()]
-    )
+    text = route.findtext(f"{KML}coordinates") or ""
+    coords = np.array([[float(v) for v in t.split(",")] for t in text.split()])
     flown = mission_polyline_enu(plan, FRAME)
     assert coords.shape == (len(flown), 3)
     assert coords[0] == pytest.approx([ORIGIN.lon_deg, ORIGIN.lat_deg, 0.0], abs=1e-8)
@@ -287,12 +346,12 @@ def test_kml_parses_and_flies_relative_to_ground() -> None:
     assert len(obstacles) == 2
     poly = obstacles[0].find(f"{KML}Polygon")
     assert poly is not None and poly.findtext(f"{KML}extrude") == "1"
-    ring = poly.findtext(f".//{KML}coordinates").split()
+    ring = (poly.findtext(f".//{KML}coordinates") or "").split()
     assert ring[0] == ring[-1] and all(t.endswith(",90.000") for t in ring)
     fences = [p for p in placemarks if (p.findtext(f"{KML}name") or "").startswith("fence")]
     assert len(fences) == len(plan.fence.polygons) + len(plan.fence.circles)
     style_ids = {s.get("id") for s in doc.findall(f"{KML}Style")}
-    assert {p.findtext(f"{KML}styleUrl")[1:] for p in placemarks} <= style_ids
+    assert {(p.findtext(f"{KML}styleUrl") or "")[1:] for p in placemarks} <= style_ids
 
 
 def test_kml_also_parses_with_lxml_and_escapes_names() -> None:

@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 
 from uavplan.cli import main
 from uavplan.geo import EnuFrame
-from uavplan.mission.builder import build_mission, mission_polyline_enu
+from uavplan.geometry2d import convex_hull, inflate_polygon, points_in_polygon
+from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.fence import (
     DEFAULT_MAX_ITEMS,
     INCLUSION_BUFFER_M,
@@ -30,11 +31,8 @@ from uavplan.mission.fence import (
     Footprint,
     ZoneStatus,
     build_geofence,
-    convex_hull,
     footprints_of,
-    geofence_for,
-    inflate_polygon,
-    points_in_polygon,
+    geofence_for_route,
 )
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import (
@@ -46,7 +44,8 @@ from uavplan.mission.items import (
     MissionType,
     items_equal,
 )
-from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
+from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
+from uavplan.route import PlannedRoute, flown_polyline
 
 ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
 FRAME = EnuFrame.at(ORIGIN)
@@ -54,7 +53,8 @@ BOUNDS = ((0.0, 1000.0), (-300.0, 300.0))
 
 
 def box(index: int, cx: float, cy: float, sx: float, sy: float, h: float, yaw: float = 0.0):
-    return Footprint(index, "box", h, ring_enu=BoxObstacle((cx, cy), (sx, sy), h, yaw).footprint())
+    ring = tuple(BoxObstacle((cx, cy), (sx, sy), h, yaw).footprint())
+    return Footprint(index, "box", h, ring_enu=ring)
 
 
 def circle(index: int, cx: float, cy: float, r: float, h: float) -> Footprint:
@@ -182,6 +182,7 @@ def test_zones_by_hand() -> None:
     assert [p.inclusion for p in fence.polygons] == [True, False, False]
     assert [c.inclusion for c in fence.circles] == [False]
     assert fence.circles[0].radius_m == pytest.approx(30.0)
+    assert z[2].polygon_enu is not None
     assert built.item_count == 4 + 4 + len(z[2].polygon_enu) + 1
     assert "obstacles 1 flown over" in built.summary()
     assert any("obstacles 2" in note for note in built.notes())
@@ -200,9 +201,9 @@ def test_fence_vertices_are_the_enu_zones_in_wgs84_clockwise() -> None:
         atol=1e-3,
     )
     lat, lon = np.asarray(exclusion.vertices).T
-    np.testing.assert_allclose(
-        FRAME.to_enu_xy(lat, lon)[::-1], built.zones[0].polygon_enu, atol=1e-3
-    )
+    zone_ring = built.zones[0].polygon_enu
+    assert zone_ring is not None
+    np.testing.assert_allclose(FRAME.to_enu_xy(lat, lon)[::-1], zone_ring, atol=1e-3)
     # QGC's convention: clockwise (negative signed area in x east / y north)
     x, y = FRAME.to_enu_xy(lat, lon).T
     assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0
@@ -237,7 +238,7 @@ def test_forty_obstacles_still_fit_px4s_fence_storage() -> None:
 
 
 def test_footprints_of_scenario_obstacles() -> None:
-    obstacles = [
+    obstacles: list[Obstacle] = [
         BoxObstacle((10, 20), (4, 6), 30, 90),
         CylinderObstacle((0, 0), 5, 12),
         PrismObstacle(((0, 0), (10, 0), (0, 10)), 7),
@@ -245,32 +246,89 @@ def test_footprints_of_scenario_obstacles() -> None:
     fps = footprints_of(obstacles)
     assert [f.kind for f in fps] == ["box", "cylinder", "prism"]
     assert fps[1].is_circle and fps[1].radius_m == 5 and fps[1].center_enu == (0, 0)
+    assert fps[0].ring_enu is not None
     np.testing.assert_allclose(
         sorted(fps[0].ring_enu), sorted([(13, 18), (13, 22), (7, 18), (7, 22)]), atol=1e-9
     )
     assert fps[2].height_m == 7
 
 
-def test_geofence_for_a_mission_uses_its_flown_route() -> None:
-    """The route includes the takeoff climb from home: a zone must leave home outside."""
-
-    class Scn:  # the few scenario fields geofence_for reads
-        origin = ORIGIN
-        bounds = type("B", (), {"x_m": BOUNDS[0], "y_m": BOUNDS[1], "z_m": (0.0, 150.0)})()
-        obstacles = (BoxObstacle((0.0, 25.0), (20.0, 10.0), 60.0),)  # 20 m north of home
-        safety_margin_m = 10.0
-
-    plan = build_mission(
-        np.array([[0.0, 0.0, 30.0], [0.0, -200.0, 30.0], [400.0, -200.0, 30.0]]),
-        FRAME,
-        autopilot=Autopilot.PX4,
+def planned(waypoints: np.ndarray, margin_m: float = 10.0) -> PlannedRoute:
+    """A PlannedRoute by hand (only the fields the fence reads matter)."""
+    w = np.asarray(waypoints, dtype=float)
+    return PlannedRoute(
+        frame=FRAME,
+        waypoints_enu=w,
+        path_enu=w,
+        vertices_enu=w,
+        raw_path_enu=None,
+        flown_enu=flown_polyline(w),
+        min_clearance_m=margin_m,
+        safety_margin_m=margin_m,
+        inside_bounds=True,
     )
-    built = geofence_for(Scn(), plan)
+
+
+def test_geofence_for_route_uses_its_flown_line() -> None:
+    """The flown line includes the takeoff climb from the ground: a zone must leave the
+    take-off point outside, and the route's frame and margin are used."""
+    route = planned(np.array([[0.0, 0.0, 30.0], [0.0, -200.0, 30.0], [400.0, -200.0, 30.0]]))
+    bounds = Bounds(BOUNDS[0], BOUNDS[1], (0.0, 150.0))
+    obstacles = (BoxObstacle((0.0, 25.0), (20.0, 10.0), 60.0),)  # 20 m north of take-off
+    built = geofence_for_route(route, obstacles, bounds)
     zone = built.zones[0]
     assert zone.status is ZoneStatus.EXCLUDED
     assert zone.route_distance_m == pytest.approx(20.0)
-    assert route_to_zone_distance(mission_polyline_enu(plan, FRAME), zone) >= ROUTE_GAP_M - 1e-6
+    assert zone.offset_m == 10.0  # the route's margin: 20 m leaves room for 10 + the 2 m gap
+    assert route_to_zone_distance(route.flown_enu, zone) >= ROUTE_GAP_M - 1e-6
     assert "150 m" in built.notes()[-1]
+    assert built.max_items == DEFAULT_MAX_ITEMS == 63
+
+
+def test_fence_is_capped_at_63_items_for_px4_before_1_15() -> None:
+    """PX4 < 1.15 keeps 63 fence items: 4 inclusion vertices + 15 mitred boxes would be 64,
+    so the zone farthest from the route is left out and the summary says so."""
+    footprints = [box(i, 40 + 60 * i, 60 + (i % 2) * 100, 10, 10, 50) for i in range(15)]
+    unlimited = build_geofence(
+        footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=5, max_items=1000
+    )
+    assert unlimited.item_count == 4 + 15 * 4 == 64
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=5)
+    assert built.item_count == 60 <= 63
+    # the farthest zones first to go: odd boxes are 100 m farther; the last of them is dropped
+    assert built.with_status(ZoneStatus.OVER_LIMIT) == [13]
+    assert "left out (over the 63-item limit)" in built.summary()
+    assert "60 of at most 63 fence items" in built.summary()
+
+
+def test_fence_takes_obstacle_values_or_footprints_alike() -> None:
+    obstacles: list[Obstacle] = [
+        BoxObstacle((300.0, 100.0), (100.0, 100.0), 50.0),
+        CylinderObstacle((500.0, -200.0), 20.0, 40.0),
+    ]
+    a = build_geofence(obstacles, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10)
+    b = build_geofence(
+        footprints_of(obstacles), straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10
+    )
+    assert a.fence == b.fence
+    assert [z.status for z in a.zones] == [ZoneStatus.EXCLUDED, ZoneStatus.EXCLUDED]
+
+
+def test_the_fence_we_write_has_reserved_params_0_as_qgc_sends() -> None:
+    """Issue 12: reserved fence params are 0 (QGroundControl's value), never NaN / unset.
+    The wire encoding is items.py's (GeoFence.wire_items, another helper's change)."""
+    footprints = [box(0, 300, 100, 100, 100, 50), circle(1, 500, -200, 20, 40)]
+    built = build_geofence(footprints, straight_route(), FRAME, bounds_xy_m=BOUNDS, margin_m=10)
+    items = built.fence.wire_items()
+    assert len(items) == 4 + 4 + 1
+    for item in items:
+        assert all(p == 0.0 for p in item.params[1:]), (item.command, item.params)
+
+
+def test_fence_module_knows_no_scenario() -> None:
+    source = Path(__file__).resolve().parent.parent / "uavplan" / "mission" / "fence.py"
+    text = source.read_text(encoding="utf-8")
+    assert "uavplan.scenario" not in text and "Scenario" not in text
 
 
 # ---------------------------------------------------------------------------------------------
@@ -312,11 +370,28 @@ def test_plan_fence_writes_the_bounds_and_the_obstacles_flown_around(
     scenario_path, plan_path, output = fenced_plan
     plan = load_mission(plan_path)
     scn = load_scenario(scenario_path)
-    built = geofence_for(scn, plan)
-    assert plan.fence == built.fence  # what went into the file is the fence of its own route
+    # a file's route comes from its items; the fence in it was built from the planned route's
+    # own flown line, which is the same line to well under a millimetre
+    route = mission_polyline_enu(plan, FRAME)
+    built = build_geofence(
+        scn.obstacles,
+        route,
+        FRAME,
+        bounds_xy_m=(scn.bounds.x_m, scn.bounds.y_m),
+        margin_m=scn.safety_margin_m,
+        ceiling_m=scn.bounds.z_m[1],
+    )
+    assert len(plan.fence.polygons) == len(built.fence.polygons)
+    assert len(plan.fence.circles) == len(built.fence.circles)
+    for ours, theirs in zip(plan.fence.polygons, built.fence.polygons, strict=True):
+        assert ours.inclusion == theirs.inclusion
+        np.testing.assert_allclose(ours.vertices, theirs.vertices, rtol=0, atol=1e-9)  # deg
+    for mine, other in zip(plan.fence.circles, built.fence.circles, strict=True):
+        np.testing.assert_allclose(mine.center, other.center, rtol=0, atol=1e-9)
+        assert mine.radius_m == pytest.approx(other.radius_m, abs=1e-6)
     assert plan.fence.polygons[0].inclusion
     assert "geofence: inclusion polygon + " in output
-    route = mission_polyline_enu(plan, FRAME)
+    assert "of at most 63 fence items" in output
     for zone in built.zones:
         assert zone.status in (ZoneStatus.EXCLUDED, ZoneStatus.FLOWN_OVER)
         if zone.status is ZoneStatus.EXCLUDED:
@@ -340,10 +415,12 @@ def test_plan_fence_needs_a_format_that_holds_one(tmp_path: Path) -> None:
 @contextlib.contextmanager
 def mavsdk_mission_raw() -> Iterator[Any]:
     """MAVSDK's MissionRaw plugin on a system created from one PX4 HEARTBEAT (no socket)."""
-    from mavsdk.component_type import ComponentType
-    from mavsdk.mavsdk import Configuration, Mavsdk
-    from mavsdk.plugins.mission_raw.mission_raw import MissionRaw
-    from pymavlink.dialects.v20 import common as mavlink2
+    from mavsdk.component_type import ComponentType  # type: ignore[import-untyped]
+    from mavsdk.mavsdk import Configuration, Mavsdk  # type: ignore[import-untyped]
+    from mavsdk.plugins.mission_raw.mission_raw import (  # type: ignore[import-untyped]
+        MissionRaw,
+    )
+    from pymavlink.dialects.v20 import common as mavlink2  # type: ignore[import-untyped]
 
     mavsdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     try:

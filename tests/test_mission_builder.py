@@ -21,6 +21,7 @@ from uavplan.mission.items import (
     MissionPlan,
     MissionType,
 )
+from uavplan.route import flown_polyline
 
 ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
 FRAME = EnuFrame.at(ORIGIN)
@@ -233,3 +234,46 @@ def test_polyline_reproduces_the_planned_path(
     # drop the zero-length legs the polyline drops
     keep = [0] + [i for i in range(1, len(expected)) if expected[i] != expected[i - 1]]
     np.testing.assert_allclose(line, [expected[i] for i in keep], atol=1e-5)
+
+
+# --- one definition of the flown line: items -> ENU equals route.flown_polyline -----------------
+
+
+@pytest.mark.parametrize("end", ["rtl", "land", "none"])
+@pytest.mark.parametrize("takeoff_altitude_m", [None, 10.0, 30.0, 75.0])
+def test_mission_polyline_is_the_routes_flown_polyline(
+    end: str, takeoff_altitude_m: float | None
+) -> None:
+    """build_mission(waypoints) -> items -> ENU is flown_polyline(waypoints) to < 1 mm, for
+    every end action and take-off altitudes below, equal to and above the start height (30)."""
+    plan = build_mission(
+        PATH,
+        FRAME,
+        autopilot=Autopilot.PX4,
+        end=end,  # type: ignore[arg-type]
+        takeoff_altitude_m=takeoff_altitude_m,
+    )
+    from_items = mission_polyline_enu(plan, FRAME)
+    flown = flown_polyline(PATH, takeoff_altitude_m=takeoff_altitude_m, end=end)  # type: ignore[arg-type]
+    assert from_items.shape == flown.shape
+    assert np.abs(from_items - flown).max() < 1e-3
+    # and the two really differ where they should: a different take-off height adds a leg
+    if takeoff_altitude_m not in (None, 30.0):
+        assert len(flown) == len(PATH) + 2 + (end == "land")
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    path=paths,
+    takeoff_m=st.one_of(st.none(), st.integers(1, 400).map(float)),
+    end=st.sampled_from(["rtl", "land", "none"]),
+)
+def test_mission_polyline_is_the_flown_polyline_for_any_path(
+    path: np.ndarray, takeoff_m: float | None, end: str
+) -> None:
+    kwargs: dict = {"end": end, "takeoff_altitude_m": takeoff_m}
+    plan = build_mission(path, FRAME, autopilot=Autopilot.ARDUPILOT, **kwargs)
+    flown = flown_polyline(path, takeoff_altitude_m=takeoff_m, end=end)  # type: ignore[arg-type]
+    from_items = mission_polyline_enu(plan, FRAME)
+    assert from_items.shape == flown.shape
+    assert np.abs(from_items - flown).max() < 1e-3

@@ -18,10 +18,14 @@ from PIL import Image
 
 from uavplan.cli import main
 from uavplan.geo import EnuFrame
+from uavplan.geometry2d import orient_ccw
 from uavplan.mission.builder import build_mission
+from uavplan.mission.fence import build_geofence, geofence_for_route
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot
-from uavplan.render import RouteLayers, render_scenario
+from uavplan.planning import scene_for
+from uavplan.render import RouteLayers, Scene, render_scene
+from uavplan.route import PlannedRoute, flown_polyline
 from uavplan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -121,15 +125,22 @@ def test_plan_plot_draws_the_planned_route(tmp_path: Path) -> None:
 
 
 def test_route_layers_from_a_mission_with_fence() -> None:
-    from uavplan.mission.fence import geofence_for
-
     scn = load_scenario(ROOT / "missions" / "paper-env1.yaml")
     frame = EnuFrame.at(scn.origin)
     waypoints = np.array([[0, 0, 30], [300, 300, 40], [1700, 300, 40], [2000, 100, 40.0]])
     plan = build_mission(waypoints, frame, autopilot=Autopilot.ARDUPILOT)
     from dataclasses import replace
 
-    plan = replace(plan, fence=geofence_for(scn, plan).fence)
+    from uavplan.mission.builder import mission_polyline_enu
+
+    built = build_geofence(
+        scn.obstacles,
+        mission_polyline_enu(plan, frame),
+        frame,
+        bounds_xy_m=(scn.bounds.x_m, scn.bounds.y_m),
+        margin_m=scn.safety_margin_m,
+    )
+    plan = replace(plan, fence=built.fence)
     layers = RouteLayers.from_mission(plan, frame)
     assert layers.flown_enu is not None and layers.waypoints_enu is not None
     np.testing.assert_allclose(layers.flown_enu[0], [0, 0, 0], atol=1e-6)
@@ -137,6 +148,87 @@ def test_route_layers_from_a_mission_with_fence() -> None:
     assert layers.fence[0].inclusion
     assert layers.fence[0].polygon_enu is not None
     np.testing.assert_allclose(layers.fence[0].polygon_enu.min(axis=0), [-5, -605], atol=1e-3)
+
+
+def test_route_layers_from_a_planned_route_use_its_own_lines_and_fence() -> None:
+    """A just-planned route is drawn from its PlannedRoute and the fence built for it, in
+    ENU, nothing traced back from mission items; the same picture as from its mission."""
+    scn = load_scenario(ROOT / "missions" / "paper-env1.yaml")
+    frame = EnuFrame.at(scn.origin)
+    waypoints = np.array([[0, 0, 30], [300, 300, 40], [1700, 300, 40], [2000, 100, 40.0]])
+    raw = waypoints + np.array([0.0, 5.0, 0.0])
+    route = PlannedRoute(
+        frame=frame,
+        waypoints_enu=waypoints,
+        path_enu=waypoints,
+        vertices_enu=waypoints,
+        raw_path_enu=raw,
+        flown_enu=flown_polyline(waypoints),
+        min_clearance_m=20.0,
+        safety_margin_m=scn.safety_margin_m,
+        inside_bounds=True,
+    )
+    built = geofence_for_route(route, scn.obstacles, scn.bounds)
+    layers = RouteLayers.from_route(route, built)
+    assert layers.flown_enu is route.flown_enu and layers.raw_path_enu is raw
+    assert layers.smoothed_path_enu is route.path_enu
+    assert layers.fence[0].inclusion and layers.fence[0].polygon_enu is built.inclusion_enu
+    excluded = [z for z in built.zones if z.polygon_enu is not None or z.circle_enu is not None]
+    excluded = [z for z in excluded if z.status.value == "excluded"]
+    assert len(layers.fence) == 1 + len(excluded)
+    # the mission built from it draws the same line and the same fence (to < 1 mm)
+    from dataclasses import replace
+
+    plan = replace(build_mission(waypoints, frame, autopilot=Autopilot.PX4), fence=built.fence)
+    traced = RouteLayers.from_mission(plan, frame)
+    assert traced.flown_enu is not None and layers.flown_enu is not None
+    assert traced.waypoints_enu is not None and layers.waypoints_enu is not None
+    np.testing.assert_allclose(traced.flown_enu, layers.flown_enu, atol=1e-3)
+    np.testing.assert_allclose(traced.waypoints_enu, layers.waypoints_enu, atol=1e-3)
+    for a, b in zip(traced.fence, layers.fence, strict=True):
+        assert a.inclusion == b.inclusion
+        if a.polygon_enu is not None:
+            assert b.polygon_enu is not None
+            # the file keeps QGC's clockwise order; the fence build is counter-clockwise
+            np.testing.assert_allclose(orient_ccw(a.polygon_enu), b.polygon_enu, atol=1e-3)
+        else:
+            assert a.circle_enu == pytest.approx(b.circle_enu, abs=1e-3)
+
+
+def test_render_a_scene_of_plain_values(tmp_path: Path) -> None:
+    from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle
+
+    scene = Scene(
+        name="plain values",
+        bounds=Bounds((0.0, 400.0), (-100.0, 100.0), (0.0, 80.0)),
+        obstacles=(
+            BoxObstacle((150.0, 0.0), (40.0, 60.0), 50.0, 20.0),
+            CylinderObstacle((300.0, 40.0), 15.0, 70.0),
+        ),
+        safety_margin_m=5.0,
+        start_enu=(0.0, 0.0, 30.0),
+        goal_enu=(400.0, 0.0, 30.0),
+    )
+    line = np.array([[0.0, 0.0, 30.0], [150.0, -60.0, 30.0], [400.0, 0.0, 30.0]])
+    layers = RouteLayers(flown_enu=line, waypoints_enu=line)
+    out = tmp_path / "plain.png"
+    render_scene(scene, out, layers, width_px=800, height_px=400, dpi=50)
+    image = png_ok(out, (800, 400))
+    without = tmp_path / "without.png"
+    render_scene(scene, without, width_px=800, height_px=400, dpi=50)
+    # the route's colour appears only with the route drawn
+    drawn = colour_pixels(image, FLOWN_RGB)
+    assert drawn >= 20 > colour_pixels(png_ok(without, (800, 400)), FLOWN_RGB)
+    assert [fp.kind for fp in scene.footprints] == ["box", "cylinder"]
+
+
+def test_scene_for_a_scenario_is_its_plain_values() -> None:
+    scn = load_scenario(ROOT / "missions" / "paper-env1.yaml")
+    scene = scene_for(scn)
+    assert scene.name == scn.name and scene.bounds == scn.bounds
+    assert scene.safety_margin_m == scn.safety_margin_m
+    assert scene.start_enu == tuple(scn.start_m) and scene.goal_enu == tuple(scn.goal_m)
+    assert len(scene.footprints) == len(scn.obstacles)
 
 
 def test_render_rejects_bad_input(tmp_path: Path) -> None:
@@ -163,7 +255,7 @@ def test_render_rejects_bad_input(tmp_path: Path) -> None:
 def test_render_size_must_be_sane() -> None:
     scn = load_scenario(ROOT / "missions" / "paper-env1.yaml")
     with pytest.raises(ValueError, match="at least"):
-        render_scenario(scn, "/nonexistent/x.png", width_px=100, height_px=100)
+        render_scene(scene_for(scn), "/nonexistent/x.png", width_px=100, height_px=100)
 
 
 def test_importing_render_needs_no_matplotlib() -> None:

@@ -13,9 +13,9 @@ from __future__ import annotations
 import enum
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -39,6 +39,12 @@ from uavplan.route import EndAction, PlannedRoute, flown_polyline
 from uavplan.scenario import Scenario
 from uavplan.warmup import warm_up
 from uavplan.world import World
+
+if TYPE_CHECKING:
+    from uavplan.mission.export import ExportExtras
+    from uavplan.mission.fence import FenceBuild
+    from uavplan.mission.items import MissionPlan
+    from uavplan.render import Scene
 
 
 class RouteStatus(enum.Enum):
@@ -422,4 +428,81 @@ def _plan_leg(
         min_clearance_m=world.polyline_clearance(waypoints_enu),
         guide_s=guide_s,
         notes=tuple(notes),
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Adapters: a Scenario's values for the fence, the map exports and the pictures. The layers
+# below take plain values and the PlannedRoute; only this wiring module knows Scenario.
+
+
+def fence_for(
+    scenario: Scenario,
+    route: PlannedRoute,
+    mission: MissionPlan,
+    *,
+    max_items: int | None = None,
+) -> tuple[MissionPlan, FenceBuild]:
+    """``mission`` with the geofence for ``route`` flown through ``scenario``'s obstacles and
+    bounds (at most ``max_items`` fence items, default PX4's 63), and how it was built."""
+    from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
+
+    built = geofence_for_route(
+        route,
+        scenario.obstacles,
+        scenario.bounds,
+        max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
+    )
+    return replace(mission, fence=built.fence), built
+
+
+def export_extras(
+    scenario: Scenario,
+    route: PlannedRoute | None = None,
+    properties: Mapping[str, Any] | None = None,
+) -> ExportExtras:
+    """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
+    and margin, and with a just-planned ``route`` its smoothed path and flown line."""
+    from uavplan.mission.export import ExportExtras
+
+    if route is not None:
+        return ExportExtras.for_route(
+            route, scenario.obstacles, name=scenario.name, properties=properties
+        )
+    return ExportExtras(
+        frame=enu_frame(scenario),
+        obstacles=scenario.obstacles,
+        name=scenario.name,
+        safety_margin_m=scenario.safety_margin_m,
+        properties=dict(properties or {}),
+    )
+
+
+def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
+    """The mission items for ``route`` with ``scenario``'s mission and vehicle settings."""
+    from uavplan.mission.builder import build_mission
+
+    return build_mission(
+        route.waypoints_enu,
+        route.frame,
+        autopilot=scenario.mission.autopilot,
+        end=cast(EndAction, scenario.mission.end),
+        takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
+        cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
+    )
+
+
+def scene_for(scenario: Scenario) -> Scene:
+    """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
+    from uavplan.render import Scene
+
+    sx, sy, sz = (float(v) for v in scenario.start_m)
+    gx, gy, gz = (float(v) for v in scenario.goal_m)
+    return Scene(
+        name=scenario.name,
+        bounds=scenario.bounds,
+        obstacles=scenario.obstacles,
+        safety_margin_m=scenario.safety_margin_m,
+        start_enu=(sx, sy, sz),
+        goal_enu=(gx, gy, gz),
     )

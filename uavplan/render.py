@@ -1,10 +1,14 @@
 """Pictures of a scenario and a route: a 3-D view and a top view side by side (PNG).
 
-:func:`render_scenario` draws the obstacles as solids coloured by height, the start and
-the goal, and whatever :class:`RouteLayers` it is given: the planner's raw best path (its
-node polyline), the smoothed path, and the route the autopilot flies through the mission's
-waypoints. The top view adds each obstacle's safety margin (dashed outline of the footprint
-grown by the margin), the bounds and, if the mission has one, the geofence.
+:func:`render_scene` draws a :class:`Scene` (plain values: obstacles, bounds, margin, start
+and goal; ``uavplan.planning.scene_for`` makes one from a scenario) with the obstacles as
+solids coloured by height, the start and the goal, and whatever :class:`RouteLayers` it is
+given: the planner's raw best path (its node polyline), the smoothed path, and the route the
+autopilot flies. For a route that was just planned that is its
+:class:`~uavplan.route.PlannedRoute` (:meth:`RouteLayers.from_route`); for a mission file it
+is traced from the items (:meth:`RouteLayers.from_mission`). The top view adds each
+obstacle's safety margin (dashed outline of the footprint grown by the margin), the bounds
+and, if there is one, the geofence.
 
 The 3-D view's vertical scale is stretched when the scene is much wider than it is high
 (the factor is printed on the z axis), otherwise a 250 m tall scene 2 km wide is a flat
@@ -18,22 +22,22 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.geo import EnuFrame
+from uavplan.geometry2d import round_offset_outline
 from uavplan.mission.builder import mission_polyline_enu
-from uavplan.mission.fence import Footprint, footprints_of, inflate_polygon
+from uavplan.mission.fence import FenceBuild, Footprint, ZoneStatus, footprints_of
 from uavplan.mission.items import MissionPlan
+from uavplan.obstacles import Bounds, Obstacle
+from uavplan.route import PlannedRoute
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
-
-    from uavplan.planning import RouteResult
-    from uavplan.scenario import Scenario
 
 #: default picture size (pixels) and resolution
 DEFAULT_WIDTH_PX = 1600
@@ -62,6 +66,30 @@ _COLORS = {
 _OBSTACLE_CMAP = "Greys"
 _LIGHT_XY = np.array([-0.55, -0.83])  # walls facing south-west are lit
 _OBSTACLE_SHADES = (0.25, 0.7)  # the part of the colour map used, low to high obstacles
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What a picture shows besides the route: plain values in one ENU frame (metres).
+
+    ``obstacles``: :mod:`uavplan.obstacles` values or footprints (kept as footprints);
+    ``start_enu`` / ``goal_enu``: ``(x, y, z)``. ``uavplan.planning.scene_for`` makes one
+    from a scene.
+    """
+
+    name: str
+    bounds: Bounds
+    obstacles: Sequence[Obstacle | Footprint]
+    safety_margin_m: float
+    start_enu: tuple[float, float, float]
+    goal_enu: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
+
+    @property
+    def footprints(self) -> tuple[Footprint, ...]:
+        return footprints_of(self.obstacles)
 
 
 @dataclass(frozen=True)
@@ -99,12 +127,28 @@ class RouteLayers:
         return cls(flown_enu=flown, waypoints_enu=waypoints, fence=_fence_outlines(plan, frame))
 
     @classmethod
-    def from_route(
-        cls, result: RouteResult, plan: MissionPlan | None, frame: EnuFrame
-    ) -> RouteLayers:
-        """A planned route: raw and smoothed paths, plus the mission built from it."""
-        base = cls.from_mission(plan, frame) if plan is not None else cls()
-        return replace(base, raw_path_enu=result.raw_path_enu, smoothed_path_enu=result.path_enu)
+    def from_route(cls, route: PlannedRoute, fence: FenceBuild | None = None) -> RouteLayers:
+        """A route that was just planned: its raw and smoothed paths and its flown line (in
+        the route's own frame, nothing rebuilt from mission items), and the fence built for
+        it (its ENU zones)."""
+        return cls(
+            raw_path_enu=route.raw_path_enu,
+            smoothed_path_enu=route.path_enu,
+            flown_enu=route.flown_enu,
+            waypoints_enu=route.flown_enu[1:],
+            fence=() if fence is None else _build_outlines(fence),
+        )
+
+
+def _build_outlines(fence: FenceBuild) -> tuple[FenceOutline, ...]:
+    """A fence build's zones in ENU, in the fence's order: polygons first, then circles."""
+    zones = [z for z in fence.zones if z.status is ZoneStatus.EXCLUDED]
+    out = [FenceOutline(True, polygon_enu=fence.inclusion_enu)]
+    out += [
+        FenceOutline(False, polygon_enu=z.polygon_enu) for z in zones if z.polygon_enu is not None
+    ]
+    out += [FenceOutline(False, circle_enu=z.circle_enu) for z in zones if z.circle_enu is not None]
+    return tuple(out)
 
 
 def _fence_outlines(plan: MissionPlan, frame: EnuFrame) -> tuple[FenceOutline, ...]:
@@ -121,8 +165,8 @@ def _fence_outlines(plan: MissionPlan, frame: EnuFrame) -> tuple[FenceOutline, .
 # ---------------------------------------------------------------------------------------------
 
 
-def render_scenario(
-    scenario: Scenario,
+def render_scene(
+    scene: Scene,
     output: str | os.PathLike[str],
     layers: RouteLayers | None = None,
     *,
@@ -132,7 +176,7 @@ def render_scenario(
     title: str | None = None,
     subtitle: str | None = None,
 ) -> None:
-    """Draw ``scenario`` (and ``layers``) into the PNG file ``output``, exactly
+    """Draw ``scene`` (and ``layers``) into the PNG file ``output``, exactly
     ``width_px`` × ``height_px`` pixels.
 
     Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi, ``OSError``
@@ -146,7 +190,7 @@ def render_scenario(
     from matplotlib.figure import Figure
 
     layers = layers or RouteLayers()
-    footprints = footprints_of(scenario.obstacles)
+    footprints = scene.footprints
     heights = [fp.height_m for fp in footprints] or [1.0]
     shade = _HeightShade(min(heights), max(heights))
 
@@ -158,7 +202,7 @@ def render_scenario(
     header = ((72 if subtitle else 48) * px) / height_px
     side_by_side = width_px / height_px >= 1.5
     columns = 5 if side_by_side else 3
-    rows = -(-len(_legend_handles(scenario, layers, scale)) // columns)
+    rows = -(-len(_legend_handles(scene, layers, scale)) // columns)
     footer = ((22 + 20 * rows) * px) / height_px
     if side_by_side:
         grid = fig.add_gridspec(
@@ -192,14 +236,14 @@ def render_scenario(
     cell_w, cell_h = cell.width * width_px, cell.height * height_px
     side = min(cell_w, cell_h)
     zoom = min(cell_w / side, _BOX_ASPECT_ON_SCREEN * cell_h / side) / 1.05
-    _draw_3d(ax3d, scenario, footprints, layers, shade, scale, zoom)
-    mappable = _draw_top(ax2d, scenario, footprints, layers, shade, scale)
+    _draw_3d(ax3d, scene, footprints, layers, shade, scale, zoom)
+    mappable = _draw_top(ax2d, scene, footprints, layers, shade, scale)
     # the colour bar rides on the top view (whatever its aspect leaves of the panel)
     bar = fig.colorbar(mappable, cax=ax2d.inset_axes((1.03, 0.0, 0.03, 1.0)))
     bar.set_label("obstacle height (m)", fontsize=9 * scale)
     bar.ax.tick_params(labelsize=8 * scale)
 
-    handles = _legend_handles(scenario, layers, scale)
+    handles = _legend_handles(scene, layers, scale)
     fig.legend(
         handles=handles,
         loc="lower center",
@@ -211,7 +255,7 @@ def render_scenario(
     fig.text(
         0.5,
         1.0 - 6 * px / height_px,
-        title or scenario.name,
+        title or scene.name,
         ha="center",
         va="top",
         fontsize=14 * scale,
@@ -262,26 +306,27 @@ def _margin_outline(fp: Footprint, margin_m: float) -> NDArray[np.float64]:
             center_enu=fp.center_enu,
             radius_m=fp.radius_m + margin_m,
         ).outline_enu(72)
-    return inflate_polygon(_outline(fp), margin_m, max_step_deg=10.0)
+    # the true rounded offset (a concave footprint keeps its notch); a picture, not a fence
+    return round_offset_outline(_outline(fp), margin_m)[0]
 
 
 def _draw_3d(
     ax: Any,
-    scenario: Scenario,
+    scene: Scene,
     footprints: Sequence[Footprint],
     layers: RouteLayers,
     shade: _HeightShade,
     scale: float,
     zoom: float,
 ) -> None:
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # type: ignore[import-untyped]
 
     ax.computed_zorder = False  # the route stays visible behind the obstacles
     faces: list[NDArray[np.float64]] = []
     face_colors: list[Any] = []
     edge_colors: list[Any] = []
     outline = (0.17, 0.17, 0.17, 1.0)
-    ceiling = scenario.bounds.z_m[1]
+    ceiling = scene.bounds.z_m[1]
     for fp in footprints:
         ring = _outline(fp)
         h = min(fp.height_m, ceiling)  # drawn up to the top of the box, coloured by height
@@ -312,9 +357,9 @@ def _draw_3d(
         ax.add_collection3d(solids, autolim=False)
 
     _draw_paths(ax, layers, scale, three_d=True)
-    _start_goal(ax, scenario, scale, three_d=True)
+    _start_goal(ax, scene, scale, three_d=True)
 
-    (x0, x1), (y0, y1), (z0, z1) = scenario.bounds.x_m, scenario.bounds.y_m, scenario.bounds.z_m
+    (x0, x1), (y0, y1), (z0, z1) = scene.bounds.x_m, scene.bounds.y_m, scene.bounds.z_m
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_zlim(z0, z1)
@@ -332,7 +377,7 @@ def _draw_3d(
 
 def _draw_top(
     ax: Axes,
-    scenario: Scenario,
+    scene: Scene,
     footprints: Sequence[Footprint],
     layers: RouteLayers,
     shade: _HeightShade,
@@ -342,7 +387,7 @@ def _draw_top(
     from matplotlib.collections import PolyCollection
     from matplotlib.patches import Circle, Polygon, Rectangle
 
-    (x0, x1), (y0, y1) = scenario.bounds.x_m, scenario.bounds.y_m
+    (x0, x1), (y0, y1) = scene.bounds.x_m, scene.bounds.y_m
     ax.add_patch(
         Rectangle(
             (x0, y0),
@@ -355,7 +400,7 @@ def _draw_top(
             zorder=0,
         )
     )
-    margin = scenario.safety_margin_m
+    margin = scene.safety_margin_m
     if footprints:  # collections: hundreds of buildings draw fast
         ax.add_collection(
             PolyCollection(
@@ -406,7 +451,7 @@ def _draw_top(
             ax.add_patch(Circle((x, y), r, **style))
 
     _draw_paths(ax, layers, scale, three_d=False)
-    _start_goal(ax, scenario, scale, three_d=False)
+    _start_goal(ax, scene, scale, three_d=False)
 
     pad = 0.02 * max(x1 - x0, y1 - y0)
     ax.set_xlim(x0 - pad, x1 + pad)
@@ -452,9 +497,9 @@ def _draw_paths(ax: Any, layers: RouteLayers, scale: float, *, three_d: bool) ->
         ax.scatter(*p, s=9 * scale, color=_COLORS["flown"], zorder=8, **common, **extra)
 
 
-def _start_goal(ax: Any, scenario: Scenario, scale: float, *, three_d: bool) -> None:
+def _start_goal(ax: Any, scene: Scene, scale: float, *, three_d: bool) -> None:
     size = 90 * scale
-    for point, marker, key in ((scenario.start_m, "^", "start"), (scenario.goal_m, "*", "goal")):
+    for point, marker, key in ((scene.start_enu, "^", "start"), (scene.goal_enu, "*", "goal")):
         coords = point if three_d else point[:2]
         kwargs: dict[str, Any] = {"depthshade": False} if three_d else {}
         ax.scatter(
@@ -470,7 +515,7 @@ def _start_goal(ax: Any, scenario: Scenario, scale: float, *, three_d: bool) -> 
         )
 
 
-def _legend_handles(scenario: Scenario, layers: RouteLayers, scale: float) -> list[Any]:
+def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any]:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -483,7 +528,7 @@ def _legend_handles(scenario: Scenario, layers: RouteLayers, scale: float) -> li
             ls=(0, (3, 2)),
             color=_COLORS["margin"],
             lw=0.8,
-            label=f"safety margin ({scenario.safety_margin_m:g} m)",
+            label=f"safety margin ({scene.safety_margin_m:g} m)",
         ),
     ]
     if layers.raw_path_enu is not None:
@@ -562,24 +607,10 @@ def _legend_handles(scenario: Scenario, layers: RouteLayers, scale: float) -> li
     return handles
 
 
-def route_subtitle(result: RouteResult, margin_m: float) -> str:
+def route_subtitle(route: PlannedRoute, *, algorithm: str, seed: int, energy: float) -> str:
     """One line describing a planned route (algorithm, seed, length, energy, clearance)."""
     return (
-        f"{result.algorithm}, seed {result.seed}: {result.length_m:.0f} m, "
-        f"energy {result.energy:.1f}, min clearance {result.min_clearance_m:.2f} m "
-        f"(margin {margin_m:g} m)"
+        f"{algorithm}, seed {seed}: {route.length_m:.0f} m, "
+        f"energy {energy:.1f}, min clearance {route.min_clearance_m:.2f} m "
+        f"(margin {route.safety_margin_m:g} m)"
     )
-
-
-def render_planned(
-    scenario: Scenario,
-    result: RouteResult,
-    plan: MissionPlan | None,
-    output: str | os.PathLike[str],
-    **kwargs: Any,
-) -> None:
-    """The picture ``uavplan plan --plot`` draws: a planned route and its mission."""
-    frame = EnuFrame.at(scenario.origin)
-    layers = RouteLayers.from_route(result, plan, frame)
-    subtitle = route_subtitle(result, scenario.safety_margin_m) if result.ok else None
-    render_scenario(scenario, output, layers, subtitle=subtitle, **kwargs)

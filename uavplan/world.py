@@ -19,58 +19,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from uavplan import _geom
+from uavplan.geometry2d import convex_pieces
 from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 
 if TYPE_CHECKING:
     from uavplan.scenario import Scenario
 
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
-
-
-def _is_convex_ccw(poly: Sequence[tuple[float, float]]) -> bool:
-    n = len(poly)
-    for i in range(n):
-        ax, ay = poly[i]
-        bx, by = poly[(i + 1) % n]
-        cx, cy = poly[(i + 2) % n]
-        if (bx - ax) * (cy - by) - (by - ay) * (cx - bx) < -1e-12:
-            return False
-    return True
-
-
-def _triangulate(poly: Sequence[tuple[float, float]]) -> list[list[tuple[float, float]]]:
-    """Ear clipping of a simple CCW polygon into CCW triangles."""
-    pts = list(poly)
-    idx = list(range(len(pts)))
-    tris: list[list[tuple[float, float]]] = []
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    def inside(p, a, b, c):
-        return cross(a, b, p) >= 0 and cross(b, c, p) >= 0 and cross(c, a, p) >= 0
-
-    guard = 0
-    while len(idx) > 3 and guard < 10_000:
-        guard += 1
-        for k in range(len(idx)):
-            i0, i1, i2 = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
-            a, b, c = pts[i0], pts[i1], pts[i2]
-            if cross(a, b, c) <= 1e-12:
-                continue
-            if any(inside(pts[j], a, b, c) for j in idx if j not in (i0, i1, i2)):
-                continue
-            tris.append([a, b, c])
-            idx.pop(k)
-            break
-        else:  # numerically degenerate remainder: fan it
-            break
-    if len(idx) >= 3:
-        for k in range(1, len(idx) - 1):
-            a, b, c = pts[idx[0]], pts[idx[k]], pts[idx[k + 1]]
-            if cross(a, b, c) > 1e-12:
-                tris.append([a, b, c])
-    return tris
 
 
 def _cell_size(box: np.ndarray) -> float:
@@ -81,17 +36,9 @@ def _cell_size(box: np.ndarray) -> float:
     return float(max(25.0, 1.5 * np.median(sizes)))
 
 
-def _convex_pieces(obstacle: Obstacle) -> list[list[tuple[float, float]]]:
-    poly = obstacle.footprint()
-    area2 = sum(
-        poly[i][0] * poly[(i + 1) % len(poly)][1] - poly[(i + 1) % len(poly)][0] * poly[i][1]
-        for i in range(len(poly))
-    )
-    if area2 < 0:  # the kernels and the ear clipping expect counter-clockwise polygons
-        poly = poly[::-1]
-    if len(poly) <= MAX_VERTS and _is_convex_ccw(poly):
-        return [poly]
-    return _triangulate(poly)
+def _convex_pieces(obstacle: BoxObstacle | PrismObstacle) -> list[list[tuple[float, float]]]:
+    """Counter-clockwise convex pieces of a box or prism footprint (the kernels' polygons)."""
+    return convex_pieces(obstacle.footprint(), MAX_VERTS)
 
 
 @dataclass(frozen=True, eq=False)

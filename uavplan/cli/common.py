@@ -51,21 +51,6 @@ def show_progress(quiet: bool) -> bool:
     return not quiet and sys.stderr.isatty()
 
 
-def route_mission(scenario: Any, route: Any) -> Any:
-    """The mission items for a :class:`~uavplan.route.PlannedRoute`, with the scenario's
-    mission settings."""
-    from uavplan.mission.builder import build_mission
-
-    return build_mission(
-        route.waypoints_enu,
-        route.frame,
-        autopilot=scenario.mission.autopilot,
-        end=scenario.mission.end,
-        takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
-        cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
-    )
-
-
 def check_output_paths(*paths: str | None) -> None:
     """Fail before any long work when an output file cannot be written: its folder is missing
     or not writable, or the path is a folder. One message naming the user's path (exit 2)."""

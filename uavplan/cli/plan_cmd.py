@@ -15,7 +15,6 @@ from uavplan.cli.common import (
     check_output_paths,
     handle_errors,
     interruptible,
-    route_mission,
     show_progress,
 )
 from uavplan.errors import InputError, NoPathError
@@ -106,12 +105,15 @@ def plan_command(
     if not quiet:
         for note in result.notes:
             click.echo(f"note: {note}", err=True)
-    mission = route_mission(scn, route)
-    mission = _write_mission(scn, result, mission, output, fence, quiet)
+    mission, built = _write_mission(scn, result, route, output, fence, quiet)
     if plot:
-        from uavplan.render import render_planned
+        from uavplan.planning import scene_for
+        from uavplan.render import RouteLayers, render_scene, route_subtitle
 
-        render_planned(scn, result, mission, plot)
+        subtitle = route_subtitle(
+            route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+        )
+        render_scene(scene_for(scn), plot, RouteLayers.from_route(route, built), subtitle=subtitle)
     if not quiet:
         e_path, e_turn, e_climb = result.energy_terms
         click.echo(
@@ -183,24 +185,22 @@ def _compile_notice(quiet: bool) -> None:
 
 
 def _write_mission(
-    scn: Any, result: Any, mission: Any, output: str, fence: bool, quiet: bool
-) -> Any:
-    """Add the geofence if asked and write ``output`` (its format from the extension)."""
-    from uavplan.mission.export import ExportExtras
+    scn: Any, result: Any, route: Any, output: str, fence: bool, quiet: bool
+) -> tuple[Any, Any]:
+    """Build the mission, add the geofence if asked and write ``output`` (its format from the
+    extension): (the mission, the fence build or None)."""
     from uavplan.mission.io import save_mission
+    from uavplan.planning import export_extras, fence_for, mission_for
 
+    mission, built = mission_for(scn, route), None
     if fence:
-        from uavplan.mission.fence import geofence_for
-
-        built = geofence_for(scn, mission)
-        mission = replace(mission, fence=built.fence)
+        mission, built = fence_for(scn, route, mission)
         if not quiet:
             for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
                 click.echo(line, err=True)
     summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
-    extras = ExportExtras.from_scenario(scn, planned_path_enu=result.path_enu, properties=summary)
-    save_mission(mission, output, extras=extras)
-    return mission
+    save_mission(mission, output, extras=export_extras(scn, route, summary))
+    return mission, built
 
 
 @main.command("validate")

@@ -21,7 +21,6 @@ from uavplan.cli.common import (
     check_output_paths,
     handle_errors,
     interruptible,
-    route_mission,
     show_progress,
 )
 from uavplan.errors import InputError, NoPathError
@@ -108,9 +107,10 @@ def render_command(
     if mission_path is not None:
         summary = _render_mission(scn, mission_path, output, picture)
     elif no_plan:
-        from uavplan.render import render_scenario
+        from uavplan.planning import scene_for
+        from uavplan.render import render_scene
 
-        render_scenario(scn, output, subtitle=_scenario_line(scn), **picture)
+        render_scene(scene_for(scn), output, subtitle=_scenario_line(scn), **picture)
         summary = "scenario only"
     else:
         summary = _render_planned(
@@ -131,8 +131,8 @@ def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str,
     import numpy as np
 
     from uavplan.mission.io import load_mission
-    from uavplan.planning import build_world, enu_frame
-    from uavplan.render import RouteLayers, render_scenario
+    from uavplan.planning import build_world, enu_frame, scene_for
+    from uavplan.render import RouteLayers, render_scene
     from uavplan.route import keeps_margin
 
     plan = load_mission(mission_path)
@@ -154,7 +154,7 @@ def _render_mission(scn: Any, mission_path: str, output: str, picture: dict[str,
             subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
                 "  (closer than the margin!)" if close else ""
             )
-    render_scenario(scn, output, layers, subtitle=subtitle, **picture)
+    render_scene(scene_for(scn), output, layers, subtitle=subtitle, **picture)
     return subtitle
 
 
@@ -169,8 +169,8 @@ def _render_planned(
     quiet: bool,
 ) -> str:
     from uavplan.cli.plan_cmd import overridden, require_route
-    from uavplan.planning import RouteStatus, plan_route
-    from uavplan.render import render_planned, render_scenario, route_subtitle
+    from uavplan.planning import RouteStatus, plan_route, scene_for
+    from uavplan.render import RouteLayers, render_scene, route_subtitle
 
     scn = overridden(scn, algorithm, seed, iterations, population)
     progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
@@ -180,17 +180,22 @@ def _render_planned(
         finally:
             progress.close()
     if result.status is RouteStatus.NO_PATH:
-        render_scenario(
-            scn, output, subtitle=f"no collision-free path: {result.message}", **picture
+        render_scene(
+            scene_for(scn), output, subtitle=f"no collision-free path: {result.message}", **picture
         )
         raise NoPathError(
             f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
             f"in {output})"
         )
+    subtitle = ""
     if result.route is not None:  # drawn even when it comes too close: the picture shows where
-        render_planned(scn, result, route_mission(scn, result.route), output, **picture)
+        subtitle = route_subtitle(
+            result.route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+        )
+        layers = RouteLayers.from_route(result.route)
+        render_scene(scene_for(scn), output, layers, subtitle=subtitle, **picture)
     require_route(scn, result)  # interrupted: exit 130; closer than the margin: exit 3
-    return route_subtitle(result, scn.safety_margin_m)
+    return subtitle
 
 
 @main.command("convert")
@@ -230,12 +235,12 @@ def convert_command(
             plan = replace(plan, fence=GeoFence(), rally=())
     extras = None
     if scenario_path is not None:
-        from uavplan.mission.export import ExportExtras
+        from uavplan.planning import export_extras
         from uavplan.scenario import load_scenario
 
         if out_format.dumps_extras is None:
             raise click.UsageError("--scenario only adds obstacles to a .geojson or .kml")
-        extras = ExportExtras.from_scenario(load_scenario(scenario_path))
+        extras = export_extras(load_scenario(scenario_path))
     save_mission(plan, output, extras=extras)
     for note in notes:
         click.echo(f"note: {note}", err=True)

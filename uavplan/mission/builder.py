@@ -5,8 +5,10 @@ becomes a NAV_WAYPOINT in MAV_FRAME_GLOBAL_RELATIVE_ALT at the latitude/longitud
 ground point ``(x, y, 0)`` with altitude ``z`` above home (home is the ground point below
 the start). Taking lat/lon from the ground point keeps the model's verticals vertical: a
 building at ENU (x, y) stands on the ellipsoid normal through that ground point, and so does
-the waypoint. :func:`mission_polyline_enu` inverts this exactly, so the polyline that others
-check for clearance is the planned one (to well under a millimetre).
+the waypoint. :func:`mission_polyline_enu` inverts this exactly: for a mission built from
+waypoints it is :func:`uavplan.route.flown_polyline` of them (to well under a millimetre).
+It is for mission *files*; a route that was just planned carries its flown polyline in its
+:class:`~uavplan.route.PlannedRoute`.
 
 The items are the same for every autopilot; ArduPilot's home at seq 0 is added by
 :meth:`MissionPlan.wire_items`, never here.
@@ -15,7 +17,6 @@ The items are the same for every autopilot; ArduPilot's home at seq 0 is added b
 from __future__ import annotations
 
 import math
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -29,16 +30,20 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
+from uavplan.route import ALTITUDE_TOLERANCE_M, END_ACTIONS, EndAction, drop_repeats
 
-EndAction = Literal["rtl", "land", "none"]
-END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none")
+__all__ = [
+    "ALTITUDE_TOLERANCE_M",
+    "END_ACTIONS",
+    "EndAction",
+    "build_mission",
+    "mission_polyline_enu",
+]
 
 #: DO_CHANGE_SPEED param1: speed type 1 = ground speed (common.xml SPEED_TYPE_GROUNDSPEED)
 SPEED_TYPE_GROUND = 1.0
 #: DO_CHANGE_SPEED param3: -1 = leave the throttle unchanged
 THROTTLE_NO_CHANGE = -1.0
-#: an altitude difference below this is "the same altitude" (ArduPilot stores centimetres)
-ALTITUDE_TOLERANCE_M = 0.01
 
 
 def build_mission(
@@ -226,7 +231,7 @@ def mission_polyline_enu(plan: MissionPlan, frame: EnuFrame) -> NDArray[np.float
         if item.command == MavCmd.NAV_LAND and points:
             points.append((float(x), float(y), points[-1][2]))
         points.append((float(x), float(y), z))
-    return _drop_repeats(np.array(points, dtype=np.float64).reshape(-1, 3))
+    return drop_repeats(np.array(points, dtype=np.float64).reshape(-1, 3))
 
 
 def _height_above_ground(item: MissionItem, home_alt_m: float | None) -> float:
@@ -238,12 +243,3 @@ def _height_above_ground(item: MissionItem, home_alt_m: float | None) -> float:
             raise ValueError("an AMSL (frame 0) item needs the plan's home altitude")
         return item.alt_m - home_alt_m
     raise ValueError(f"frame {item.frame} is not a global frame")  # pragma: no cover
-
-
-def _drop_repeats(points: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Remove consecutive duplicates (a zero-length leg says nothing about clearance)."""
-    if len(points) < 2:
-        return points
-    keep = np.ones(len(points), dtype=bool)
-    keep[1:] = np.any(np.abs(np.diff(points, axis=0)) > 1e-9, axis=1)
-    return points[keep]

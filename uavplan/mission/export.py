@@ -1,15 +1,18 @@
 """Route exports for maps and globes: GeoJSON (RFC 7946) and KML 2.2.
 
 Both take a :class:`MissionPlan`, which is all ``uavplan convert`` has, plus optional
-:class:`ExportExtras` that ``uavplan plan`` knows as well: the obstacle footprints and the
-planned (smoothed) path, in the scenario's ENU frame.
+:class:`ExportExtras` that ``uavplan plan`` knows as well: the obstacle footprints, the planned
+(smoothed) path and the flown polyline, in the scenario's ENU frame
+(:meth:`ExportExtras.for_route` takes them from the :class:`~uavplan.route.PlannedRoute`).
 
 What is drawn:
 
-* the **route**: the polyline the vehicle flies through the mission items (home on the
-  ground, the takeoff climb, straight legs between waypoints, a landing descent), as
-  :func:`~uavplan.mission.builder.mission_polyline_enu` defines it; the RTL leg home is the
-  autopilot's and is not drawn;
+* the **route**: the polyline the vehicle flies (home on the ground, the takeoff climb,
+  straight legs between waypoints, a landing descent): a just-planned route's own
+  :attr:`~uavplan.route.PlannedRoute.flown_enu` when the extras carry it, otherwise traced
+  from the mission items by :func:`~uavplan.mission.builder.mission_polyline_enu` (the same
+  line for a mission built from the route); the RTL leg home is the autopilot's and is not
+  drawn;
 * the **waypoints**: every mission item with a position, with its sequence number, command
   and altitude; and the home position;
 * with extras: the **planned path** (the smooth curve the waypoints were sampled from) and
@@ -27,17 +30,17 @@ ground and obstacles are extruded to their heights, so Google Earth shows a 3-D 
 from __future__ import annotations
 
 import json
-import math
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.errors import MissionFileError
 from uavplan.geo import EnuFrame, GeoPoint
+from uavplan.geometry2d import circle_ring, orient_ccw
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.fence import Footprint, footprints_of
 from uavplan.mission.items import (
@@ -48,9 +51,8 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
-
-if TYPE_CHECKING:
-    from uavplan.scenario import Scenario
+from uavplan.obstacles import Obstacle
+from uavplan.route import PlannedRoute
 
 #: value of every feature's ``altitude_reference`` property
 ALTITUDE_REFERENCE = "height above home (the takeoff point on flat ground), metres"
@@ -66,45 +68,58 @@ KML_NAMESPACE = "http://www.opengis.net/kml/2.2"
 class ExportExtras:
     """What an export can show beyond the mission itself (everything optional).
 
-    ``frame``: the scenario's ENU frame; required for ``obstacles`` and ``planned_path_enu``
-    (``(n, 3)`` ENU metres). ``properties`` are copied onto the route feature / document
-    (scenario name, algorithm, energy...).
+    ``frame``: the ENU frame of the planning; required for ``obstacles`` (:mod:`uavplan.obstacles`
+    values or :class:`~uavplan.mission.fence.Footprint`\\ s), ``planned_path_enu`` and
+    ``flown_enu`` (``(n, 3)`` ENU metres). ``flown_enu``, when given, is drawn as the route
+    instead of tracing it from the mission items. ``properties`` are copied onto the route
+    feature / document (scenario name, algorithm, energy...).
     """
 
     frame: EnuFrame | None = None
-    obstacles: tuple[Footprint, ...] = ()
+    obstacles: Sequence[Obstacle | Footprint] = ()
     planned_path_enu: NDArray[np.float64] | None = None
+    flown_enu: NDArray[np.float64] | None = None
     name: str | None = None
     safety_margin_m: float | None = None
     properties: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "obstacles", tuple(self.obstacles))
-        if self.frame is None and (self.obstacles or self.planned_path_enu is not None):
-            raise ValueError("obstacles and a planned path need the scenario's ENU frame")
-        if self.planned_path_enu is not None:
-            path = np.asarray(self.planned_path_enu, dtype=np.float64)
-            if path.ndim != 2 or path.shape[1] != 3:
-                raise ValueError(f"planned_path_enu must have shape (n, 3), got {path.shape}")
-            object.__setattr__(self, "planned_path_enu", path)
+        object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
+        needs_frame = self.planned_path_enu is not None or self.flown_enu is not None
+        if self.frame is None and (self.obstacles or needs_frame):
+            raise ValueError("obstacles and planned or flown paths need their ENU frame")
+        for name in ("planned_path_enu", "flown_enu"):
+            value = getattr(self, name)
+            if value is not None:
+                path = np.asarray(value, dtype=np.float64)
+                if path.ndim != 2 or path.shape[1] != 3:
+                    raise ValueError(f"{name} must have shape (n, 3), got {path.shape}")
+                object.__setattr__(self, name, path)
 
     @classmethod
-    def from_scenario(
+    def for_route(
         cls,
-        scenario: Scenario,
+        route: PlannedRoute,
+        obstacles: Sequence[Obstacle | Footprint] = (),
         *,
-        planned_path_enu: NDArray[np.float64] | None = None,
+        name: str | None = None,
         properties: Mapping[str, Any] | None = None,
     ) -> ExportExtras:
-        """The scenario's frame, obstacles, name and margin (and a planned path, if given)."""
+        """A planned route's frame, smoothed path, flown line and margin, plus obstacles."""
         return cls(
-            frame=EnuFrame.at(scenario.origin),
-            obstacles=footprints_of(scenario.obstacles),
-            planned_path_enu=planned_path_enu,
-            name=scenario.name,
-            safety_margin_m=scenario.safety_margin_m,
+            frame=route.frame,
+            obstacles=obstacles,
+            planned_path_enu=route.path_enu,
+            flown_enu=route.flown_enu,
+            name=name,
+            safety_margin_m=route.safety_margin_m,
             properties=dict(properties or {}),
         )
+
+    @property
+    def footprints(self) -> tuple[Footprint, ...]:
+        """The obstacles as footprints (``__post_init__`` converted them)."""
+        return footprints_of(self.obstacles)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -142,12 +157,18 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
     extras = extras or ExportExtras()
     home_alt = plan.home.alt_m if plan.home is not None else None
     waypoints = _waypoints(plan, home_alt)
-    route_enu = _route_enu(plan)
     route = None
-    if len(route_enu) >= 2:
-        frame = _route_frame(plan)
-        assert frame is not None
-        route = _enu_to_lonlatalt(route_enu, frame)
+    if extras.flown_enu is not None:  # a planned route's own line: not rebuilt from items
+        assert extras.frame is not None
+        route_enu = extras.flown_enu
+        if len(route_enu) >= 2:
+            route = _enu_to_lonlatalt(route_enu, extras.frame)
+    else:
+        route_enu = _route_enu(plan)
+        if len(route_enu) >= 2:
+            frame = _route_frame(plan)
+            assert frame is not None
+            route = _enu_to_lonlatalt(route_enu, frame)
     planned = None
     if extras.planned_path_enu is not None and len(extras.planned_path_enu) >= 2:
         assert extras.frame is not None
@@ -155,7 +176,7 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
     areas: list[_Area] = []
     if extras.obstacles:
         assert extras.frame is not None
-        for fp in extras.obstacles:
+        for fp in extras.footprints:
             props: dict[str, Any] = {
                 "kind": "obstacle",
                 "index": fp.index,
@@ -240,23 +261,16 @@ def _xy_to_lonlat(ring_enu: NDArray[np.float64], frame: EnuFrame) -> NDArray[np.
     return np.column_stack((lon, lat))
 
 
-def _counter_clockwise(ring: NDArray[np.float64]) -> NDArray[np.float64]:
-    x, y = ring[:, 0], ring[:, 1]
-    area = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-    return ring if area >= 0 else ring[::-1]
-
-
 def _fence_areas(plan: MissionPlan) -> list[_Area]:
     areas = []
     for i, poly in enumerate(plan.fence.polygons):
         ring = np.array([(lon, lat) for lat, lon in poly.vertices])
         props = {"kind": "fence", "shape": "polygon", "inclusion": poly.inclusion, "index": i}
-        areas.append(_Area("fence", _counter_clockwise(ring), props))
+        areas.append(_Area("fence", orient_ccw(ring), props))
     for i, circle in enumerate(plan.fence.circles):
         lat, lon = circle.center
         local = EnuFrame.at(GeoPoint(lat, lon, 0.0))
-        angles = np.linspace(0.0, 2 * math.pi, CIRCLE_SEGMENTS, endpoint=False)
-        ring_enu = circle.radius_m * np.column_stack((np.cos(angles), np.sin(angles)))
+        ring_enu = circle_ring((0.0, 0.0), circle.radius_m, CIRCLE_SEGMENTS)
         props = {
             "kind": "fence",
             "shape": "circle",
@@ -476,7 +490,7 @@ def _extended_data(mark: ET.Element, values: Mapping[str, Any]) -> None:
         _sub(_sub(data, "Data", name=str(key)), "value", str(value))
 
 
-def _coordinates(points: Sequence[Sequence[float]]) -> str:
+def _coordinates(points: Sequence[Sequence[float]] | NDArray[np.float64]) -> str:
     return " ".join(",".join(f"{v:.{_decimals(i)}f}" for i, v in enumerate(p)) for p in points)
 
 

@@ -28,10 +28,14 @@ A concave prism whose offset would fold over itself is fenced by its convex hull
 The bounds' horizontal rectangle, grown by :data:`INCLUSION_BUFFER_M`, is the inclusion
 polygon (a start or goal on the bounds' edge would otherwise sit on the fence line).
 
-Autopilots hold few fence items (PX4: 64 in total; one per polygon vertex, one per circle).
+Autopilots hold few fence items (one per polygon vertex, one per circle): PX4 releases
+before 1.15 keep 63 (:data:`DEFAULT_MAX_ITEMS`; their first of 64 slots holds statistics).
 Zones closest to the route come first; the rest are left out (``OVER_LIMIT``) and reported.
 
-Nothing here plans or imports a planner: the inputs are footprints, heights and a polyline.
+This module is fence *policy*; the polygon geometry is :mod:`uavplan.geometry2d`. Nothing
+here plans or reads a scenario: the inputs are plain values (obstacles or footprints, the
+flown polyline in ENU or the :class:`~uavplan.route.PlannedRoute` carrying it, its
+:class:`~uavplan.geo.EnuFrame`, the margin and the bounds).
 """
 
 from __future__ import annotations
@@ -41,22 +45,25 @@ import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uavplan import geometry2d as g2
 from uavplan.geo import EnuFrame
-from uavplan.mission.builder import mission_polyline_enu
-from uavplan.mission.items import FenceCircle, FencePolygon, GeoFence, MissionPlan
-
-if TYPE_CHECKING:
-    from uavplan.scenario import Scenario
+from uavplan.mission.items import FenceCircle, FencePolygon, GeoFence
+from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle
+from uavplan.route import PlannedRoute
 
 _Arr = NDArray[np.float64]
 
-#: fence items a PX4 vehicle stores (dataman.h); ArduPilot holds at least as many
-DEFAULT_MAX_ITEMS = 64
+#: fence items we write at most: PX4 releases before 1.15 reserve 64 fence slots in dataman
+#: and keep their statistics in the first, so 63 items fit (1.15 and later, and ArduPilot,
+#: hold more). The inclusion polygon's 4 vertices count too.
+DEFAULT_MAX_ITEMS = 63
+#: rally points the same PX4 releases store (8 slots, the first holds the statistics); we
+#: write none, the constant is here so the limit is written down next to the fence's
+PX4_MAX_RALLY_POINTS = 7
 #: the route stays at least this far (horizontally) outside every exclusion zone: about a
 #: multirotor's GNSS tracking error, and ArduPilot's default FENCE_MARGIN
 ROUTE_GAP_M = 2.0
@@ -98,7 +105,7 @@ class Footprint:
             ring = tuple((float(x), float(y)) for x, y in self.ring_enu)
             if len(ring) < 3:
                 raise ValueError("a footprint polygon needs at least 3 vertices")
-            if _signed_area(np.asarray(ring)) < 0:
+            if g2.signed_area(ring) < 0:
                 ring = ring[::-1]
             object.__setattr__(self, "ring_enu", ring)
         elif self.center_enu is None or self.radius_m is None or not self.radius_m > 0:
@@ -113,28 +120,30 @@ class Footprint:
         if self.ring_enu is not None:
             return np.asarray(self.ring_enu, dtype=np.float64)
         assert self.center_enu is not None and self.radius_m is not None
-        return _circle_ring(self.center_enu, self.radius_m, segments)
+        return g2.circle_ring(self.center_enu, self.radius_m, segments)
 
 
-def footprints_of(obstacles: Iterable[object]) -> tuple[Footprint, ...]:
-    """Footprints of scenario obstacles (:mod:`uavplan.obstacles` values), in order."""
+def footprints_of(obstacles: Iterable[Obstacle | Footprint]) -> tuple[Footprint, ...]:
+    """Footprints of obstacle values (:mod:`uavplan.obstacles`), in order; footprints pass
+    through unchanged (their ``index`` kept)."""
     out: list[Footprint] = []
     for index, obstacle in enumerate(obstacles):
-        kind = str(getattr(obstacle, "kind", "prism"))
-        height = float(obstacle.height_m)  # type: ignore[attr-defined]
-        if hasattr(obstacle, "radius_m"):
+        if isinstance(obstacle, Footprint):
+            out.append(obstacle)
+        elif isinstance(obstacle, CylinderObstacle):
+            cx, cy = obstacle.center_m
             out.append(
                 Footprint(
                     index,
-                    kind,
-                    height,
-                    center_enu=tuple(obstacle.center_m),  # type: ignore[attr-defined]
-                    radius_m=float(obstacle.radius_m),  # type: ignore[attr-defined]
+                    obstacle.kind,
+                    float(obstacle.height_m),
+                    center_enu=(float(cx), float(cy)),
+                    radius_m=float(obstacle.radius_m),
                 )
             )
         else:
-            ring = tuple(obstacle.footprint())  # type: ignore[attr-defined]
-            out.append(Footprint(index, kind, height, ring_enu=ring))
+            ring = tuple(obstacle.footprint())
+            out.append(Footprint(index, obstacle.kind, float(obstacle.height_m), ring_enu=ring))
     return tuple(out)
 
 
@@ -204,7 +213,10 @@ class FenceBuild:
             indices = self.with_status(status)
             if indices:
                 parts.append(f"obstacles {_ranges(indices)} {label}")
-        return f"geofence: inclusion polygon + {', '.join(parts)}; {self.item_count} fence items"
+        return (
+            f"geofence: inclusion polygon + {', '.join(parts)}; "
+            f"{self.item_count} of at most {self.max_items} fence items"
+        )
 
     def notes(self) -> list[str]:
         """Things an operator must know before flying with this fence."""
@@ -234,7 +246,7 @@ class FenceBuild:
 
 
 def build_geofence(
-    footprints: Sequence[Footprint],
+    obstacles: Sequence[Obstacle | Footprint],
     route_enu: ArrayLike,
     frame: EnuFrame,
     *,
@@ -247,11 +259,13 @@ def build_geofence(
 ) -> FenceBuild:
     """The geofence for a route flown through obstacles.
 
-    ``route_enu``: ``(n, 3)`` the flown polyline (home on the ground, takeoff climb, the
-    straight legs between waypoints), ENU metres in ``frame``. ``bounds_xy_m``:
-    ``((x_min, x_max), (y_min, y_max))``. ``max_items`` counts every fence item (polygon
-    vertices, circles) including the 4 of the inclusion polygon.
+    ``obstacles``: :mod:`uavplan.obstacles` values or :class:`Footprint`\\ s, ENU metres in
+    ``frame``. ``route_enu``: ``(n, 3)`` the flown polyline (the take-off climb from the
+    ground, the straight legs between waypoints; :attr:`PlannedRoute.flown_enu`).
+    ``bounds_xy_m``: ``((x_min, x_max), (y_min, y_max))``. ``max_items`` counts every fence
+    item (polygon vertices, circles) including the 4 of the inclusion polygon.
     """
+    footprints = footprints_of(obstacles)
     route = np.asarray(route_enu, dtype=np.float64)
     if route.ndim != 2 or route.shape[1] != 3 or route.shape[0] < 1:
         raise ValueError(f"route_enu must have shape (n >= 1, 3), got {route.shape}")
@@ -265,7 +279,7 @@ def build_geofence(
     b = float(inclusion_buffer_m)
     inclusion = np.array([[x0 - b, y0 - b], [x1 + b, y0 - b], [x1 + b, y1 + b], [x0 - b, y1 + b]])
 
-    seg_a, seg_b = _segments_xy(route)
+    seg_a, seg_b = g2.polyline_segments(route)
     candidates = [_zone(fp, route, seg_a, seg_b, margin_m, route_gap_m) for fp in footprints]
 
     # The fence item budget: zones nearest the route first (they matter most).
@@ -288,22 +302,23 @@ def build_geofence(
     return FenceBuild(fence, inclusion, zones, float(margin_m), int(max_items), ceiling_m)
 
 
-def geofence_for(
-    scenario: Scenario, plan: MissionPlan, *, max_items: int = DEFAULT_MAX_ITEMS
+def geofence_for_route(
+    route: PlannedRoute,
+    obstacles: Sequence[Obstacle | Footprint],
+    bounds: Bounds,
+    *,
+    max_items: int = DEFAULT_MAX_ITEMS,
 ) -> FenceBuild:
-    """The geofence for ``plan`` flown through ``scenario``'s obstacles, bounds and margin.
-
-    The route is the mission's flown polyline (:func:`mission_polyline_enu`). Raises
-    ``ValueError`` if the mission's altitudes cannot be placed (AMSL items without a home).
-    """
-    frame = EnuFrame.at(scenario.origin)
+    """The geofence for a planned route: its flown polyline, frame and safety margin, the
+    obstacles it was planned through and the flight volume ``bounds`` (its top becomes the
+    altitude note)."""
     return build_geofence(
-        footprints_of(scenario.obstacles),
-        mission_polyline_enu(plan, frame),
-        frame,
-        bounds_xy_m=(scenario.bounds.x_m, scenario.bounds.y_m),
-        margin_m=scenario.safety_margin_m,
-        ceiling_m=scenario.bounds.z_m[1],
+        obstacles,
+        route.flown_enu,
+        route.frame,
+        bounds_xy_m=(bounds.x_m, bounds.y_m),
+        margin_m=route.safety_margin_m,
+        ceiling_m=bounds.z_m[1],
         max_items=max_items,
     )
 
@@ -341,14 +356,14 @@ def _zone(
         )
 
     ring = fp.outline_enu()
-    for outline in (ring, convex_hull(ring)):  # the hull if the ring's offset folds
+    for outline in (ring, g2.convex_hull(ring)):  # the hull if the ring's offset folds
         made = _polygon_zone(outline, margin_m, seg_a, seg_b, gap_m)
         if made is None:
             break  # no room between the route and the footprint
         polygon, offset = made
         if polygon is None:
             continue
-        if _segments_polygon_distance(seg_a, seg_b, polygon).min() < gap_m - 1e-6:
+        if g2.segments_polygon_distance(seg_a, seg_b, polygon).min() < gap_m - 1e-6:
             break  # pragma: no cover - the construction guarantees the gap
         return ObstacleZone(
             fp.index, ZoneStatus.EXCLUDED, distance, offset_m=offset, polygon_enu=polygon
@@ -367,17 +382,17 @@ def _polygon_zone(
     as few cuts as its own distance to the route allows (a mitre when the route is far).
     Returns None if no positive offset fits, ``(None, offset)`` if the offset folds over.
     """
-    distance = float(_segments_polygon_distance(seg_a, seg_b, ring).min())
+    distance = float(g2.segments_polygon_distance(seg_a, seg_b, ring).min())
     offset = min(margin_m, distance - gap_m)
     if offset <= 0:
         return None
-    turns = _turn_angles(ring)
-    corner_room = _point_segment_distance(ring[:, None, :], seg_a[None], seg_b[None]).min(axis=1)
+    turns = g2.turn_angles(ring)
+    corner_room = g2.point_segment_distance(ring[:, None, :], seg_a[None], seg_b[None]).min(axis=1)
     corner_room = corner_room - gap_m  # how far each corner's cuts may reach
     finest = math.radians(MIN_CORNER_STEP_DEG)
     convex = turns > 1e-12
     # Corners the route passes so close that even the finest cuts reach too far set the offset.
-    worst = np.where(convex, corner_room * np.cos(_step(turns, finest) / 2.0), np.inf)
+    worst = np.where(convex, corner_room * np.cos(g2.cut_step_angles(turns, finest) / 2.0), np.inf)
     offset = float(min(offset, worst.min()))
     if offset <= 0:
         return None
@@ -386,13 +401,7 @@ def _polygon_zone(
     allowed = np.clip(np.nan_to_num(allowed, nan=finest), finest, math.radians(90.0))
     steps = np.where(convex, np.ceil(turns / allowed - 1e-9), 1).astype(int)
     steps = np.maximum(steps, 1)
-    return _offset_ring(ring, offset, steps), offset
-
-
-def _step(turns: _Arr, max_step: float) -> _Arr:
-    """The angle of each cut when a turn is split into cuts of at most ``max_step``."""
-    n = np.maximum(np.ceil(np.abs(turns) / max_step - 1e-9), 1.0)
-    return np.abs(turns) / n
+    return g2.offset_ring(ring, offset, steps), offset
 
 
 def _to_geofence(
@@ -420,192 +429,7 @@ def _latlon_clockwise(ring_enu: NDArray[np.float64], frame: EnuFrame) -> tuple:
 
 
 # ---------------------------------------------------------------------------------------------
-# 2-D geometry (ENU metres). Small and vectorised; rings are counter-clockwise, not closed.
-
-
-def inflate_polygon(
-    ring_enu: ArrayLike, offset_m: float, *, max_step_deg: float = 90.0
-) -> NDArray[np.float64]:
-    """A polygon containing ``ring`` grown by ``offset_m`` in every direction.
-
-    Edges move out by ``offset_m``; each convex corner is cut by tangents to the rounded
-    offset, one per ``max_step_deg`` of turn (90: a mitred corner of a box); a reflex corner
-    is where the two moved edges meet. The result contains the exact offset (the Minkowski
-    sum with a disc) and is counter-clockwise. If the offset of a concave ring folds over
-    itself, the convex hull is offset instead (still containing the exact offset).
-    """
-    ring = np.asarray(ring_enu, dtype=np.float64)
-    if _signed_area(ring) < 0:
-        ring = ring[::-1]
-    if offset_m <= 0:
-        return ring.copy()
-    step = math.radians(max_step_deg)
-    for outline in (ring, convex_hull(ring)):
-        turns = _turn_angles(outline)
-        steps = np.where(turns > 1e-12, np.ceil(turns / step - 1e-9), 1).astype(int)
-        out = _offset_ring(outline, offset_m, np.maximum(steps, 1))
-        if out is not None:
-            return out
-    raise AssertionError("the offset of a convex ring cannot fold")  # pragma: no cover
-
-
-def _turn_angles(ring: _Arr) -> _Arr:
-    """Turn at each vertex of a counter-clockwise ring, radians in (-pi, pi] (> 0: convex)."""
-    edges = np.roll(ring, -1, axis=0) - ring
-    heading = np.arctan2(edges[:, 1], edges[:, 0])
-    return (heading - np.roll(heading, 1) + math.pi) % (2 * math.pi) - math.pi
-
-
-def _offset_ring(ring: _Arr, offset: float, steps: NDArray[np.int_]) -> _Arr | None:
-    """Offset ``ring`` by ``offset``, cutting convex corner i with ``steps[i]`` tangents.
-
-    None when the result folds over itself (an edge reverses or two edges cross).
-    """
-    edges = np.roll(ring, -1, axis=0) - ring  # edge i: ring[i] -> ring[i+1]
-    normal = np.arctan2(-edges[:, 0], edges[:, 1])  # outward normal (dy, -dx) of each edge
-    turns = _turn_angles(ring)
-    vertices: list[tuple[float, float]] = []
-    starts: list[int] = []
-    ends: list[int] = []
-    n = len(ring)
-    for i in range(n):
-        count = int(steps[i]) if turns[i] > 1e-12 else 1
-        delta = float(turns[i]) / count
-        reach = offset / math.cos(delta / 2.0)
-        starts.append(len(vertices))
-        for j in range(count):
-            angle = normal[i - 1] + (j + 0.5) * delta
-            vertices.append(
-                (ring[i, 0] + reach * math.cos(angle), ring[i, 1] + reach * math.sin(angle))
-            )
-        ends.append(len(vertices) - 1)
-    out = np.asarray(vertices)
-    # Edge i now runs from the last cut of corner i to the first of corner i+1; if it
-    # points backwards, the offset has folded over itself.
-    for i in range(n):
-        p, q = out[ends[i]], out[starts[(i + 1) % n]]
-        if float(np.dot(q - p, edges[i])) < -1e-9:
-            return None
-    if _self_intersects(out):
-        return None
-    return out
-
-
-def convex_hull(points: ArrayLike) -> NDArray[np.float64]:
-    """Counter-clockwise convex hull ``(k, 2)`` (Andrew's monotone chain)."""
-    pts = sorted({(float(x), float(y)) for x, y in np.asarray(points, dtype=np.float64)})
-    if len(pts) < 3:
-        return np.asarray(pts)
-
-    def cross(o, a, b) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[tuple[float, float]] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[tuple[float, float]] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.asarray(lower[:-1] + upper[:-1])
-
-
-def _signed_area(ring: NDArray[np.float64]) -> float:
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
-def _self_intersects(ring: NDArray[np.float64]) -> bool:
-    """Do two non-adjacent edges of the closed ring cross or touch?"""
-    n = len(ring)
-    a, b = ring, np.roll(ring, -1, axis=0)
-    i, j = np.triu_indices(n, k=2)
-    adjacent = (i == 0) & (j == n - 1)
-    i, j = i[~adjacent], j[~adjacent]
-    return bool(_segments_intersect(a[i], b[i], a[j], b[j]).any())
-
-
-def _cross2(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
-
-
-def _segments_intersect(p0: _Arr, p1: _Arr, q0: _Arr, q1: _Arr) -> NDArray[np.bool_]:
-    """Element-wise: does segment p0-p1 meet segment q0-q1 (touching counts)?"""
-    d1 = _cross2(q1 - q0, p0 - q0)
-    d2 = _cross2(q1 - q0, p1 - q0)
-    d3 = _cross2(p1 - p0, q0 - p0)
-    d4 = _cross2(p1 - p0, q1 - p0)
-    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
-    eps = 1e-12
-    touch = (
-        ((np.abs(d1) <= eps) & _on_segment(q0, q1, p0))
-        | ((np.abs(d2) <= eps) & _on_segment(q0, q1, p1))
-        | ((np.abs(d3) <= eps) & _on_segment(p0, p1, q0))
-        | ((np.abs(d4) <= eps) & _on_segment(p0, p1, q1))
-    )
-    return proper | touch
-
-
-def _on_segment(a: NDArray[np.float64], b: NDArray[np.float64], p: NDArray[np.float64]):
-    lo, hi = np.minimum(a, b) - 1e-12, np.maximum(a, b) + 1e-12
-    return np.all((p >= lo) & (p <= hi), axis=-1)
-
-
-def _point_segment_distance(
-    p: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Broadcast distance from points ``p`` to segments ``a``-``b`` (zero-length allowed)."""
-    ab = b - a
-    denom = np.sum(ab * ab, axis=-1)
-    t = np.where(denom > 0, np.sum((p - a) * ab, axis=-1) / np.where(denom > 0, denom, 1.0), 0.0)
-    t = np.clip(t, 0.0, 1.0)
-    closest = a + t[..., None] * ab
-    return np.sqrt(np.sum((p - closest) ** 2, axis=-1))
-
-
-def points_in_polygon(points: ArrayLike, ring: ArrayLike) -> NDArray[np.bool_]:
-    """Even-odd rule: which of ``points`` ``(n, 2)`` lie inside ``ring`` ``(k, 2)``."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    r = np.asarray(ring, dtype=np.float64)
-    a, b = r, np.roll(r, -1, axis=0)
-    px, py = p[:, None, 0], p[:, None, 1]
-    straddles = (a[None, :, 1] > py) != (b[None, :, 1] > py)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_cross = a[None, :, 0] + (py - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (
-            b[None, :, 1] - a[None, :, 1]
-        )
-    hits = straddles & (px < x_cross)
-    return (np.count_nonzero(hits, axis=1) % 2) == 1
-
-
-def _segments_xy(route: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    xy = route[:, :2]
-    if len(xy) == 1:
-        return xy, xy
-    return xy[:-1], xy[1:]
-
-
-def _segments_polygon_distance(
-    seg_a: NDArray[np.float64], seg_b: NDArray[np.float64], ring: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Per segment ``(n,)``: its distance to the polygon region (0 if it enters it)."""
-    e0, e1 = ring, np.roll(ring, -1, axis=0)
-    A, B = seg_a[:, None, :], seg_b[:, None, :]
-    E0, E1 = e0[None, :, :], e1[None, :, :]
-    dist = np.minimum.reduce(
-        [
-            _point_segment_distance(A, E0, E1),
-            _point_segment_distance(B, E0, E1),
-            _point_segment_distance(E0, A, B),
-            _point_segment_distance(E1, A, B),
-        ]
-    ).min(axis=1)
-    crossing = _segments_intersect(A, B, E0, E1).any(axis=1)
-    inside = points_in_polygon(seg_a, ring)
-    return np.where(crossing | inside, 0.0, dist)
+# Distances and heights between a footprint and the flown route
 
 
 def _footprint_distance(
@@ -615,9 +439,9 @@ def _footprint_distance(
     if fp.is_circle:
         assert fp.center_enu is not None and fp.radius_m is not None
         center = np.asarray(fp.center_enu, dtype=np.float64)
-        d = _point_segment_distance(center[None, :], seg_a, seg_b) - fp.radius_m
+        d = g2.point_segment_distance(center[None, :], seg_a, seg_b) - fp.radius_m
         return float(max(d.min(), 0.0))
-    return float(_segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
+    return float(g2.segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
 
 
 def _densify(route: NDArray[np.float64], step_m: float) -> NDArray[np.float64]:
@@ -640,35 +464,19 @@ def _height_above_top(fp: Footprint, route: NDArray[np.float64], margin_m: float
         assert fp.center_enu is not None and fp.radius_m is not None
         d = np.hypot(*(xy - np.asarray(fp.center_enu)).T) - fp.radius_m
     else:
-        ring = fp.outline_enu()
-        e0, e1 = ring[None, :, :], np.roll(ring, -1, axis=0)[None, :, :]
-        d = _point_segment_distance(xy[:, None, :], e0, e1).min(axis=1)
-        d[points_in_polygon(xy, ring)] = 0.0
+        d = g2.points_polygon_distance(xy, fp.outline_enu())
     near = d < margin_m - DISTANCE_TOL_M
     if not near.any():  # only a segment interior comes close; take its nearer end
         near = d <= d.min() + 1e-9
     return float((samples[near, 2] - fp.height_m).min())
 
 
-def _circle_ring(center: Sequence[float], radius: float, segments: int) -> NDArray[np.float64]:
-    angles = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
-    return np.column_stack(
-        (center[0] + radius * np.cos(angles), center[1] + radius * np.sin(angles))
-    )
-
-
 def _ranges(indices: Sequence[int]) -> str:
     """[0, 1, 2, 5] -> '0-2, 5'."""
-    out: list[str] = []
-    start = prev = None
+    runs: list[list[int]] = []
     for i in sorted(indices):
-        if start is None:
-            start = prev = i
-        elif i == prev + 1:
-            prev = i
+        if runs and i == runs[-1][1] + 1:
+            runs[-1][1] = i
         else:
-            out.append(f"{start}-{prev}" if prev != start else f"{start}")
-            start = prev = i
-    if start is not None:
-        out.append(f"{start}-{prev}" if prev != start else f"{start}")
-    return ", ".join(out)
+            runs.append([i, i])
+    return ", ".join(f"{a}-{b}" if b != a else f"{a}" for a, b in runs)
