@@ -190,11 +190,20 @@ def enu_frame(scenario: Scenario) -> EnuFrame:
 _frames: dict[Any, EnuFrame] = {}
 
 
-def reference_route(scenario: Scenario, *, world: World | None = None) -> GridRoute:
+def reference_route(
+    scenario: Scenario,
+    *,
+    world: World | None = None,
+    start_m: tuple[float, float, float] | None = None,
+    goal_m: tuple[float, float, float] | None = None,
+) -> GridRoute:
     """The grid A* route of ``scenario`` (its grid, margin and energy weights) in the path
-    frame of its start and goal: the independent reference (``route.found`` tells)."""
+    frame of its start and goal (or of ``start_m`` → ``goal_m``, one leg): the independent
+    reference (``route.found`` tells)."""
     world = world or build_world(scenario)
-    frame = PathFrame.build(scenario.start_m, scenario.goal_m, scenario.planner.grid)
+    start = scenario.start_m if start_m is None else start_m
+    goal = scenario.goal_m if goal_m is None else goal_m
+    frame = PathFrame.build(start, goal, scenario.planner.grid)
     world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
     return astar(world_pf, frame, scenario.planner.energy)
 
