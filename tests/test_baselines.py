@@ -9,6 +9,7 @@ repaired and each proposal can be computed directly.
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,8 +22,11 @@ from uavplan.planners.params import CsoParams, DeParams, GwoParams, PsoParams, S
 from uavplan.planners.particle_swarm import ParticleSwarmPlanner
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.registry import available, make_planner, options_class
+from uavplan.planning import build_world
 from uavplan.scenario import load_scenario
 from uavplan.world import World
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 
 BASELINES = ("pso", "gwo", "de", "cso")
 
@@ -192,11 +196,13 @@ def test_de_rule_is_rand_1_bin(open_space: PathProblem) -> None:
             for a in others for b in others for c in others if len({a, b, c}) == 3
         }  # fmt: skip
         assert float(trial[i, 0, 0]) in candidates
-    # CR = 0: only the j_rand coordinate comes from the mutant, on the first attempt only
+    # every retry is a fresh trial: new donors, so the attempts differ
+    assert len({float(prop.explicit[t, 0, 0, 0]) for t in range(10)}) > 1
+    # CR = 0: only each trial's j_rand coordinate comes from its mutant
     planner = DifferentialEvolutionPlanner(SEARCH, DeParams(f=0.5, cr=0.0))
     prop = planner.rule(open_space, _pop(base), rng)
-    assert ((prop.explicit[0] != base).reshape(4, -1).sum(axis=1) <= 1).all()
-    np.testing.assert_array_equal(prop.explicit[1:], np.broadcast_to(base, prop.explicit[1:].shape))
+    changed = (prop.explicit != base[None]).reshape(10, 4, -1).sum(axis=2)
+    assert (changed <= 1).all() and changed.sum() > 0
 
 
 def test_cso_rules(open_space: PathProblem) -> None:
@@ -265,3 +271,21 @@ def test_options_fill_the_parameter_dataclass() -> None:
         make_planner("de", SEARCH, options={"F": 0.5})
     with pytest.raises(ValueError, match="cr must be"):
         make_planner("de", SEARCH, options={"cr": 2.0})
+
+
+@pytest.mark.parametrize("name", ["ssa", "pso", "gwo", "cso"])
+def test_baselines_improve_on_their_initial_population(name: str) -> None:
+    """On paper-env1, the best path after 60 iterations beats the best after the first.
+    (DE at its default F = 0.5, CR = 0.9 still accepts no trial here, even with fresh donors
+    on every retry: its trials mix two random-walk paths node by node and are always worse
+    than their parent; F = 0.1 does improve. Open in the benchmark issue.)"""
+    scn = load_scenario(MISSIONS / "paper-env1.yaml")
+    world = build_world(scn)
+    problem = PathProblem.build(
+        world, scn.start_m, scn.goal_m, scn.planner.grid, scn.planner.energy
+    )
+    search = SearchParams(population=12, iterations=60, seed=4, fitness_smoothing=0)
+    planner = make_planner(name, search)
+    res = planner.solve(problem, np.random.default_rng(4))
+    assert res.solved
+    assert res.convergence[-1] < 0.98 * res.convergence[0]

@@ -294,8 +294,11 @@ def plan_route(
     planner = make_planner(cfg.algorithm, cfg.search, cfg.spsa, cfg.options)
     post = cfg.post
     if not planner.postprocess:
-        # the paper's protocol post-processes SPSA only (section 4.5 is SPSA's contribution 5)
-        post = replace(post, simplify=False, refine=False, tighten=False)
+        # every algorithm's best path goes through the same chain (node simplification,
+        # spline, waypoints); our own additions (refinement, string pulling, choosing among
+        # the final population) are SPSA's variant. The paper's protocol compares the raw
+        # search result: PlannerResult.best_fitness, reported apart as "search_fitness".
+        post = replace(post, refine=False, tighten=False, select="best")
     points = route_points(scenario)
     n_legs = len(points) - 1
 

@@ -323,7 +323,8 @@ class Termination:
     ``iterations``: the budget M of iterations (the paper's protocol runs all of them);
     ``stall_iterations``: stop early once the best fitness has not improved for that many
     iterations (None: never); ``should_stop``: polled once per iteration, e.g. a Ctrl-C flag
-    (the run then ends as "interrupted" and returns what it has).
+    (the run then ends as "interrupted" and returns what it has); ``max_evaluations``: stop
+    once this many fitness evaluations were made (a budget every algorithm can share).
     """
 
     def __init__(
@@ -331,16 +332,19 @@ class Termination:
         iterations: int,
         stall_iterations: int | None = None,
         should_stop: Callable[[], bool] | None = None,
+        max_evaluations: int | None = None,
     ) -> None:
         self.iterations = iterations
         self.stall_iterations = stall_iterations
         self.should_stop = should_stop
+        self.max_evaluations = max_evaluations
 
 
 #: why a run ended (``PlannerResult.termination``)
 TERMINATED_ITERATIONS = "iterations"  # the iteration budget was spent
 TERMINATED_STALLED = "stalled"  # no improvement for stall_iterations
 TERMINATED_INTERRUPTED = "interrupted"  # should_stop() said so
+TERMINATED_BUDGET = "budget"  # the evaluation budget was spent
 TERMINATED_NO_PATH = "no_path"  # nothing could be initialised
 
 
@@ -519,10 +523,14 @@ class SwarmPlanner:
                 if term.stall_iterations is not None and stalled >= term.stall_iterations:
                     reason = TERMINATED_STALLED
                     break
+                used = problem.counters[0] - start_counts[0]
+                if term.max_evaluations is not None and used >= term.max_evaluations:
+                    reason = TERMINATED_BUDGET
+                    break
             finals_x.append(pop.x.copy())
             finals_f.append(pop.f.copy())
             for k, v in pop.counters.items():
                 stats[k] = stats.get(k, 0.0) + float(v)
-            if reason == TERMINATED_INTERRUPTED:
+            if reason in (TERMINATED_INTERRUPTED, TERMINATED_BUDGET):
                 break
         return record(PlanStatus.SOLVED)

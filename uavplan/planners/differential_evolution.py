@@ -1,10 +1,11 @@
 """Differential evolution DE/rand/1/bin (Storn & Price 1997) on the paper's path encoding.
 
 For every target x_i: three distinct others r1, r2, r3 ≠ i, mutant x_r1 + F·(x_r2 − x_r3),
-binomial crossover with rate CR and one forced coordinate j_rand (a node axis). The trial is
-given to the shared kernel as explicit attempts: when a trial node is unreachable the
-crossover draw is repeated (up to T_max times; j_rand forced on the first only) before the
-old node is kept. Greedy one-to-one selection.
+binomial crossover with rate CR and one forced coordinate j_rand (a node axis). Reachability
+(paper section 6: an unreachable node is proposed again, up to T_max times): the T_max
+attempts are T_max independent trials (fresh donors, coin and j_rand), given to the shared
+kernel explicitly; after T_max unreachable values the old node is kept. Greedy one-to-one
+selection.
 """
 
 from __future__ import annotations
@@ -35,22 +36,24 @@ class DifferentialEvolutionPlanner(SwarmPlanner):
         pop.count("failed_updates", 0)
 
     def rule(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> Proposal:
-        """Every target: its T_max trials x_r1 + F·(x_r2 − x_r3) crossed with x (binomial CR;
-        j_rand forced on the first), as explicit attempts."""
+        """Every target: T_max trials, each a fresh DE/rand/1/bin trial — new donors r1, r2,
+        r3, mutant x_r1 + F·(x_r2 − x_r3), binomial crossover CR with its own j_rand — given
+        to the kernel as explicit attempts: a node whose trial value is unreachable is retried
+        with the next trial's value (redrawing only the crossover coin, as before, retried a
+        blocked mutant node against itself, and DE accepted almost no trial)."""
         prm = self.params
         x = pop.x
         n_pop, n_inner = x.shape[0], x.shape[1]
         t_max = self.search.t_max
-        r = distinct_others(n_pop, 3, rng)
-        mutant = x[r[:, 0]] + prm.f * (x[r[:, 1]] - x[r[:, 2]])
-        j_rand = rng.integers(0, 2 * n_inner, size=n_pop)
-        cross = rng.random((t_max, n_pop, n_inner, 2)) < prm.cr
-        forced = np.zeros((n_pop, n_inner * 2), dtype=bool)
-        forced[np.arange(n_pop), j_rand] = True
-        cross[0] |= forced.reshape(n_pop, n_inner, 2)
+        r = np.stack([distinct_others(n_pop, 3, rng) for _ in range(t_max)])  # (t, G, 3)
+        mutant = x[r[..., 0]] + prm.f * (x[r[..., 1]] - x[r[..., 2]])  # (t, G, n, 2)
+        cross = (rng.random((t_max, n_pop, n_inner, 2)) < prm.cr).reshape(t_max, n_pop, -1)
+        j_rand = rng.integers(0, 2 * n_inner, size=(t_max, n_pop))
+        cross[np.arange(t_max)[:, None], np.arange(n_pop)[None, :], j_rand] = True
+        cross = cross.reshape(t_max, n_pop, n_inner, 2)
         prop = Proposal.for_population(x, n_explicit=t_max)
         prop.active[:] = True
-        prop.explicit = np.where(cross, mutant[None], x[None])
+        prop.explicit = np.where(cross, mutant, x[None])
         prop.n_explicit[:] = t_max
         return prop
 

@@ -6,7 +6,9 @@ Every particle proposes all its nodes as one :class:`Proposal`
 reachability rule every planner follows: an unreachable node is re-proposed with fresh
 r1, r2 up to T_max times, then the old node is kept (paper section 6). Positions are not
 selected greedily (PSO has no selection); memory lives in the personal and global bests.
-The velocity carried forward is the displacement the particle actually made.
+The velocity carried forward is the displacement the particle actually made; where a node
+could not move (every proposal unreachable) it keeps its inertia w·v rather than dropping to
+zero, so a blocked particle is not stopped dead.
 """
 
 from __future__ import annotations
@@ -69,8 +71,13 @@ class ParticleSwarmPlanner(SwarmPlanner):
 
     def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         st, x = pop.state, pop.x
+        w = self.inertia(pop)
         cand, ok, _ = problem.propose(x, self.rule(problem, pop, rng), self.search.t_max, rng)
-        st["velocity"] = cand - x
+        # the velocity carried on is the move made; where a node could not move (its
+        # proposals were unreachable, or the whole update failed) the particle keeps its
+        # inertia w·v instead of stopping dead (zeroing it dropped 76–95 % of the updates)
+        moved = cand != x
+        st["velocity"] = np.where(moved, cand - x, w * st["velocity"])
         pop.x = cand
         pop.f = problem.fitness_of_changed(cand, x, pop.f)
         better = pop.f < st["pbest_f"]
