@@ -144,17 +144,23 @@ def upload_cmd(
     read-back matches item for item.
     """
     from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import upload_plan
+    from uavplan.mavlink.transfer import check_plan_fits_wire, upload_plan
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import MissionType
 
     plan = load_mission(mission)
+    check_plan_fits_wire(plan, file=mission)
     with (
         _connect(conn, target_system, heartbeat_timeout_s) as link,
         _progress(quiet) as progress,
     ):
         client = MissionClient(link, _timeouts(timeout_s, retries))
-        report = upload_plan(client, plan, verify=not no_verify, progress=progress)
+        try:
+            report = upload_plan(client, plan, verify=not no_verify, progress=progress)
+        except InputError as err:
+            if err.file is not None:
+                raise
+            raise InputError(err.reason, file=mission, key=err.key) from None
         counts = report.item_counts
         parts = [f"{counts[MissionType.MISSION]} mission items"]
         if MissionType.FENCE in counts:

@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 import threading
+from struct import error as struct_error
 import time
 from dataclasses import dataclass, field, replace
 
@@ -64,6 +65,7 @@ from uavplan.mavlink.messages import (
     CommandAck,
     CommandLong,
     Heartbeat,
+    MalformedMessage,
     MavAutopilotId,
     MavCommand,
     MavResult,
@@ -235,6 +237,13 @@ class MockStats:
     reordered: int
 
 
+def _whole_number(value: float) -> int | None:
+    """A COMMAND_LONG param that must hold a whole number, or ``None`` (NaN, inf, 2.5)."""
+    if not math.isfinite(value) or value != math.floor(value) or abs(value) > 2**31:
+        return None
+    return int(value)
+
+
 class _FaultInjector:
     def __init__(self, faults: LinkFaults) -> None:
         self.faults = faults
@@ -302,6 +311,9 @@ class MockVehicle:
         self._rtt = RoundTripEstimator()
         self._uploads_accepted = self._uploads_failed = self._downloads = self._clears = 0
         self.error: BaseException | None = None
+        #: messages whose handling failed (hostile or broken input), and the last reason
+        self.rejected_messages = 0
+        self.last_rejection: str | None = None
 
     # -- public ---------------------------------------------------------------------------
     @property
@@ -407,7 +419,16 @@ class MockVehicle:
                 continue
             copies = self._faults.inbound_copies(received.message)
             for _ in range(copies):
-                self._handle(received)
+                self._handle_safely(received)
+
+    def _handle_safely(self, received: Received) -> None:
+        """One message; anything it could break is caught here so the vehicle keeps serving
+        (a hostile packet costs that packet only, never the stored plans)."""
+        try:
+            self._handle(received)
+        except (ArithmeticError, ValueError, TypeError, struct_error) as err:
+            self.rejected_messages += 1
+            self.last_rejection = f"{message_name(received.message)}: {err}"
 
     # -- sending --------------------------------------------------------------------------
     def _send(self, message: Message) -> None:
@@ -494,6 +515,8 @@ class MockVehicle:
             self._on_count(partner, message)
         elif isinstance(message, MissionItemInt):
             self._on_item(partner, message)
+        elif isinstance(message, MalformedMessage):
+            self._on_malformed(partner, message)
         elif isinstance(message, MissionRequestList):
             self._on_request_list(partner, message)
         elif isinstance(message, MissionRequest):
@@ -507,14 +530,19 @@ class MockVehicle:
         def ack(result: MavResult) -> None:
             self._send(CommandAck(cmd.command, int(result), partner[0], partner[1]))
 
-        wants_version = (
-            cmd.command == MavCommand.REQUEST_MESSAGE and int(cmd.param1) == AUTOPILOT_VERSION_ID
-        ) or cmd.command == MavCommand.REQUEST_AUTOPILOT_CAPABILITIES
-        if wants_version:
+        wanted = _whole_number(cmd.param1)
+        if cmd.command == MavCommand.REQUEST_MESSAGE and wanted is None:
+            ack(MavResult.DENIED)  # param1 NaN / inf / fractional: names no message
+        elif (
+            cmd.command == MavCommand.REQUEST_MESSAGE and wanted == AUTOPILOT_VERSION_ID
+        ) or cmd.command == MavCommand.REQUEST_AUTOPILOT_CAPABILITIES:
             ack(MavResult.ACCEPTED)
             self._send(self._autopilot_version())
         elif cmd.command == MavCommand.DO_SET_MISSION_CURRENT:
-            seq = int(cmd.param1)
+            if wanted is None:
+                ack(MavResult.DENIED)
+                return
+            seq = wanted
             count = len(self._storage[0])
             if seq == -1 or 0 <= seq < count:
                 if seq >= 0:
@@ -726,6 +754,24 @@ class MockVehicle:
             self._request(rx, retry=False, seq=rx.count + 2)
             return
         self._request(rx, retry=False)
+
+    def _on_malformed(self, partner: tuple[int, int], msg: MalformedMessage) -> None:
+        """A mission item whose fields cannot be stored (x = NaN): the item it stands for is
+        invalid, so the running upload from that partner is refused, the stored plan kept."""
+        self.rejected_messages += 1
+        self.last_rejection = f"{msg.name}: {msg.reason}"
+        rx = self._receiving
+        if (
+            rx is None
+            or partner != rx.partner
+            or msg.name not in ("MISSION_ITEM", "MISSION_ITEM_INT")
+            or msg.mission_type != rx.mission_type
+            or msg.seq != rx.next_seq
+        ):
+            return
+        self._ack(partner, MissionResult.INVALID_PARAM5_X, rx.mission_type)
+        self._receiving = None  # atomic: the stored plan is untouched
+        self._uploads_failed += 1
 
     def _commit(self, rx: _Receiving) -> None:
         if rx.mission_type == 1 and self.config.autopilot == Autopilot.ARDUPILOT:

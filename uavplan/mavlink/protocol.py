@@ -295,6 +295,30 @@ class MissionTransferError(LinkError):
 # Wire conversion
 
 
+#: the largest finite float32, the type of MISSION_ITEM_INT's params and z
+FLOAT32_MAX = 3.4028234663852886e38
+INT32_RANGE = (-(2**31), 2**31 - 1)
+
+
+def wire_range_problem(item: MissionItem) -> str | None:
+    """Why ``item`` cannot be carried by MISSION_ITEM_INT (a param or z beyond float32, x/y
+    beyond int32), or ``None`` when it can."""
+    for name, value in zip(("param1", "param2", "param3", "param4"), item.params, strict=True):
+        if value is not None and math.isfinite(value) and abs(value) > FLOAT32_MAX:
+            return f"{name} = {value!r} does not fit the wire's 32-bit float"
+    if math.isfinite(item.z) and abs(item.z) > FLOAT32_MAX:
+        return f"z (altitude) = {item.z!r} does not fit the wire's 32-bit float"
+    for name, value in (("x", item.x), ("y", item.y)):
+        if not math.isfinite(value):
+            return f"{name} = {value!r} is not a number the wire can carry"
+    x, y = item.wire_xy()
+    for name, value in (("x", x), ("y", y)):
+        if not INT32_RANGE[0] <= value <= INT32_RANGE[1]:
+            shown = getattr(item, name)
+            return f"{name} = {shown!r} does not fit the wire's 32-bit integer"
+    return None
+
+
 def item_to_wire(
     item: MissionItem,
     seq: int,
@@ -302,7 +326,12 @@ def item_to_wire(
     target_system: int,
     target_component: int,
 ) -> MissionItemInt:
-    """MissionItem -> MISSION_ITEM_INT; ``current`` is 1 on seq 0 only (reference §4.4)."""
+    """MissionItem -> MISSION_ITEM_INT; ``current`` is 1 on seq 0 only (reference §4.4).
+
+    Raises ValueError for an item the wire cannot carry (:func:`wire_range_problem`)."""
+    problem = wire_range_problem(item)
+    if problem is not None:
+        raise ValueError(f"item {seq}: {problem}")
     x, y = item.wire_xy()
     params = [math.nan if p is None else float(p) for p in item.params]
     return MissionItemInt(

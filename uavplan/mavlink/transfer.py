@@ -33,6 +33,7 @@ from uavplan.mavlink.protocol import (
     TransferStatus,
     describe_item,
     type_label,
+    wire_range_problem,
 )
 from uavplan.mission.items import (
     Autopilot,
@@ -113,6 +114,19 @@ def sanitise_item(item: MissionItem, autopilot: Autopilot) -> MissionItem:
     return replace(item, param1=params[0], param2=params[1], param3=params[2], param4=params[3])
 
 
+def check_plan_fits_wire(plan: MissionPlan, *, file: str | None = None) -> None:
+    """Raise :class:`InputError` (exit 2, naming ``file`` and the item) for a value no
+    MISSION_ITEM_INT can carry; checked before connecting, so nothing is sent."""
+    for mission_type in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
+        for seq, item in enumerate(plan.wire_items(mission_type)):
+            problem = wire_range_problem(item)
+            if problem is not None:
+                raise InputError(
+                    f"{type_label(mission_type)} item {seq} ({describe_item(item)}): {problem}",
+                    file=file,
+                )
+
+
 def plan_wire_items(
     plan: MissionPlan, mission_type: MissionType, autopilot: Autopilot
 ) -> list[MissionItem]:
@@ -122,6 +136,10 @@ def plan_wire_items(
     """
     laid_out = retarget(plan, autopilot) if mission_type == MissionType.MISSION else plan
     items = [sanitise_item(it, autopilot) for it in laid_out.wire_items(mission_type)]
+    for seq, item in enumerate(items):
+        problem = wire_range_problem(item)
+        if problem is not None:
+            raise InputError(f"{type_label(mission_type)} item {seq} ({describe_item(item)}): {problem}")
     allowed = SUPPORTED_FRAMES.get(autopilot)
     if allowed is not None:
         for seq, item in enumerate(items):
