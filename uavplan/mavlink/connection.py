@@ -20,7 +20,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-from pymavlink.dialects.v20 import common as _mav
+from pymavlink.dialects.v20 import common as _mav  # type: ignore[import-untyped]
 
 from uavplan.errors import LinkError
 from uavplan.mavlink.messages import (

@@ -49,9 +49,9 @@ from __future__ import annotations
 
 import math
 import threading
-from struct import error as struct_error
 import time
 from dataclasses import dataclass, field, replace
+from struct import error as struct_error
 
 import numpy as np
 

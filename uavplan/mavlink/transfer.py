@@ -139,7 +139,9 @@ def plan_wire_items(
     for seq, item in enumerate(items):
         problem = wire_range_problem(item)
         if problem is not None:
-            raise InputError(f"{type_label(mission_type)} item {seq} ({describe_item(item)}): {problem}")
+            raise InputError(
+                f"{type_label(mission_type)} item {seq} ({describe_item(item)}): {problem}"
+            )
     allowed = SUPPORTED_FRAMES.get(autopilot)
     if allowed is not None:
         for seq, item in enumerate(items):

@@ -407,7 +407,7 @@ class SerialPort(Transport):
         self._serial = None
         self._fd: int | None = None
         try:
-            import serial  # type: ignore[import-not-found]
+            import serial  # type: ignore[import-not-found,import-untyped,unused-ignore]
         except ImportError:
             serial = None
         if serial is not None:
