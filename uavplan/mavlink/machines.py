@@ -496,7 +496,6 @@ class UploadMachine(Machine):
             return
         if self.suspect is not None:
             self.suspect = None  # the vehicle is still receiving: that error ACK was stale
-            self.counters.ignored += 1
         self.requests_per_seq[seq] += 1
         if self.requests_per_seq[seq] > 1:
             self.counters.repeat_requests += 1
