@@ -319,7 +319,8 @@ def test_vehicle_busy_with_another_ground_station() -> None:
             other.close()
     assert outcome.status is TransferStatus.BUSY
     assert outcome.vehicle_result == MissionResult.ERROR
-    assert "vehicle stayed busy through 3 MISSION_COUNT attempts" in outcome.message
+    assert "another upload took over" in outcome.message
+    assert "through 3 MISSION_COUNT attempts" in outcome.message
     assert "MAV_MISSION_ERROR" in outcome.message
 
 
@@ -378,7 +379,9 @@ def test_a_read_back_that_differs_is_a_mismatch() -> None:
         with pytest.raises(MissionTransferError) as info:
             upload_plan(client, plan)
     assert info.value.outcome.status is TransferStatus.MISMATCH
-    assert str(info.value).startswith("verify mission: read-back: read-back differs: item 4")
+    message = str(info.value)
+    assert message.startswith("verify mission: read-back: another upload took over")
+    assert "read-back differs: item 4" in message
 
 
 def test_fence_upload_to_a_vehicle_without_fence_support_is_refused() -> None:
@@ -466,6 +469,7 @@ def test_download_keeps_only_the_requested_item() -> None:
     items = list(synthetic_mission(4, seed=71).items)
     wire = [item_to_wire(it, seq, MissionType.MISSION, 255, 190) for seq, it in enumerate(items)]
     acks: list[MissionAck] = []
+    acked = threading.Event()
 
     def script(conn: MavlinkConnection, stop: threading.Event) -> None:
         while not stop.is_set():
@@ -488,12 +492,13 @@ def test_download_keeps_only_the_requested_item() -> None:
                 conn.send(wire[seq])  # duplicate
             elif isinstance(msg, MissionAck):
                 acks.append(msg)
+                acked.set()
 
     with scripted_vehicle(script) as conn_str:
-        link = VehicleLink.connect(conn_str)
+        link = VehicleLink.connect(conn_str, component_id=190)  # the identity it addresses
         try:
             outcome = MissionClient(link, FAST).download(MissionType.MISSION)
-            time.sleep(0.1)
+            assert acked.wait(5.0)  # the final ACK reached the vehicle
         finally:
             link.close()
     assert outcome.ok
@@ -529,7 +534,7 @@ def test_upload_answers_float_requests_with_item_int_and_ignores_other_types() -
                     conn.send(MissionAck(255, 190, MissionResult.ACCEPTED, 0))
 
     with scripted_vehicle(script) as conn_str:
-        link = VehicleLink.connect(conn_str)
+        link = VehicleLink.connect(conn_str, component_id=190)  # the identity it addresses
         try:
             outcome = MissionClient(link, FAST).upload(MissionType.MISSION, items)
         finally:

@@ -424,9 +424,9 @@ class UploadMachine(Machine):
                     self._finish(
                         TransferStatus.BUSY,
                         step="MISSION_COUNT",
-                        detail=f"vehicle stayed busy through {schedule.sends} MISSION_COUNT "
-                        "attempts: another upload or download is running (another ground "
-                        "station?)",
+                        detail=f"another upload took over: the vehicle stayed busy with "
+                        f"another transfer through {schedule.sends} MISSION_COUNT attempts "
+                        "and kept its plan",
                         vehicle_result=self.busy_result,
                     )
                     return

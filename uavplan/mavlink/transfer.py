@@ -267,15 +267,30 @@ def upload_plan(
         )
         outcome = replace(outcome, operation=Operation.VERIFY)
         outcomes.append(outcome)
+        if outcome.status is TransferStatus.BUSY:
+            # the vehicle took our plan whole, then started receiving someone else's
+            raise MissionTransferError(
+                replace(
+                    outcome,
+                    detail="another upload took over: the vehicle accepted our plan, then "
+                    f"refused the read-back while busy with another transfer ({outcome.detail})",
+                )
+            )
         outcome.raise_for_status()
         difference = compare_items(wire[mission_type], outcome.items, mission_type, autopilot)
         if difference is not None:
+            took_over = outcomes[types.index(mission_type)].ok
             raise MissionTransferError(
                 replace(
                     outcome,
                     status=TransferStatus.MISMATCH,
                     step="read-back",
-                    detail=f"read-back differs: {difference}",
+                    detail=(
+                        "another upload took over: the vehicle accepted our plan but now "
+                        f"holds a different one (read-back differs: {difference})"
+                        if took_over
+                        else f"read-back differs: {difference}"
+                    ),
                 )
             )
     return PlanTransferReport(
