@@ -375,3 +375,23 @@ def test_machines_never_read_a_clock() -> None:
 
     assert run(0.0) == run(1e6)
     assert not math.isnan(T.ack_s)
+
+
+def test_a_download_that_goes_silent_mid_way_starts_over_then_ends_on_a_dead_link() -> None:
+    """PX4 ended the download and its error ACK was lost: our re-requests draw nothing.
+    We start over from REQUEST_LIST; if the link is dead, that step's budget ends it."""
+    wire = _wire(_items(3))
+    s = _download()
+    s.give(_count(3))
+    s.give(_item_from_vehicle(wire, 0))
+    silent_from = s.now
+    while not isinstance(s.sent[-1], MissionRequestList):
+        s.expire()
+    assert s.machine.finished is None
+    while s.machine.finished is None:
+        s.expire()
+    finished = s.machine.finished
+    assert finished.status is TransferStatus.TIMEOUT
+    assert finished.step == "MISSION_REQUEST_LIST"
+    # bound: one item budget, then one REQUEST_LIST budget
+    assert s.now - silent_from <= T.item_s * (T.retries + 2) + (T.retries + 2) * T.ack_s

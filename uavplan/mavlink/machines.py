@@ -758,6 +758,17 @@ class DownloadMachine(Machine):
             self._restart(now, self.suspect)  # refused, and the re-request drew no item
             return
         if now - self.first_sent >= t.item_s * (t.retries + 1) and self.sends > t.retries:
+            if self.seq > 0 and self.restarts < t.retries:
+                # PX4 ends a download silently for us when its error ACK is lost (a late
+                # duplicate of our own request reached it out of order): start over. On a
+                # dead link the REQUEST_LIST budget then ends it.
+                self.restarts += 1
+                self.items = []
+                self.state = "WAIT_COUNT"
+                self.suspect = None
+                self.schedule = ControlSchedule(self.timeouts, self.rtt, now)
+                self._send_list(now)
+                return
             self._finish(
                 TransferStatus.TIMEOUT,
                 cancel=True,

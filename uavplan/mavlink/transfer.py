@@ -212,6 +212,44 @@ def _check_capability(client: MissionClient, mission_type: MissionType) -> None:
         )
 
 
+_PLAN_NAMES = {MissionType.FENCE: "geofence", MissionType.RALLY: "rally points"}
+_CLEAR_OPTION = {MissionType.FENCE: "fence", MissionType.RALLY: "rally"}
+
+
+def _untouched_plan_notes(client: MissionClient, uploaded: Sequence[MissionType]) -> list[str]:
+    """What stays on the vehicle of the plan types this upload did not send (a mission
+    without a fence leaves the vehicle's old fence active): read its count, or say that it
+    was not checked. Never fails the upload."""
+    notes = []
+    for mission_type in (MissionType.FENCE, MissionType.RALLY):
+        if mission_type in uploaded:
+            continue
+        name = _PLAN_NAMES[mission_type]
+        flag = _CAPABILITY_OF[mission_type]
+        caps = client.link.capabilities
+        if caps is not None and not caps & flag:
+            continue  # the vehicle has no such plan type: nothing can be left over
+        verb, pronoun = ("were", "them") if mission_type == MissionType.RALLY else ("was", "it")
+        outcome: TransferOutcome | None = None
+        try:
+            outcome = client.download(mission_type)
+            reason = outcome.message
+        except LinkError as err:
+            reason = str(err)
+        if outcome is None or not outcome.ok:
+            notes.append(
+                f"the plan has no {name}; the vehicle's {name}, if any, {verb} left unchanged "
+                f"(not checked: {reason})"
+            )
+        elif outcome.items:
+            notes.append(
+                f"the plan has no {name}; the vehicle's {name} ({len(outcome.items)} items) "
+                f"{verb} left unchanged (uavplan clear --type {_CLEAR_OPTION[mission_type]} "
+                f"removes {pronoun})"
+            )
+    return notes
+
+
 def upload_plan(
     client: MissionClient,
     plan: MissionPlan,
@@ -293,6 +331,7 @@ def upload_plan(
                     ),
                 )
             )
+    notes.extend(_untouched_plan_notes(client, types))
     return PlanTransferReport(
         outcomes=tuple(outcomes),
         autopilot=autopilot,
