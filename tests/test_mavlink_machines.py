@@ -98,10 +98,6 @@ def _upload(n: int) -> tuple[Script, list[MissionItemInt]]:
     return Script(machine), wire
 
 
-def _stored(wire: list[MissionItemInt], seq: int) -> MissionItemInt:
-    return wire[seq]
-
-
 # ---------------------------------------------------------------------------------------------
 # upload
 
@@ -187,7 +183,7 @@ def test_upload_to_a_busy_vehicle_retries_count_then_says_busy() -> None:
 
 def test_upload_ignores_an_accepted_ack_before_its_first_request() -> None:
     """PX4 re-acks a late duplicate of our previous upload's last item with ACCEPTED."""
-    s, wire = _upload(2)
+    s, _wire_items = _upload(2)
     s.give(ack(MissionResult.ACCEPTED))
     assert s.machine.finished is None
     s.give(request(0))
@@ -195,6 +191,29 @@ def test_upload_ignores_an_accepted_ack_before_its_first_request() -> None:
     s.give(ack(MissionResult.ACCEPTED))
     assert s.machine.finished is not None
     assert s.machine.finished.status is TransferStatus.SUCCESS
+
+
+def test_upload_vehicle_that_stops_requesting_times_out_after_the_silence_budget() -> None:
+    s, _ = _upload(10)
+    for seq in range(5):
+        s.give(request(seq))
+    last = s.now
+    s.expire()
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.TIMEOUT
+    assert finished.step == "MISSION_REQUEST seq 5"
+    assert s.now - last == pytest.approx(T.upload_silence_s)
+
+
+def test_upload_lost_final_ack_re_sends_the_last_item_then_asks_for_a_read_back() -> None:
+    s, wire = _upload(2)
+    s.give(request(0))
+    s.give(request(1))
+    assert s.expire() == [wire[1]]
+    assert s.expire() == [wire[1]]
+    s.expire()
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.NO_FINAL_ACK
 
 
 # ---------------------------------------------------------------------------------------------

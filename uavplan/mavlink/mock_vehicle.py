@@ -50,6 +50,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from struct import error as struct_error
 
@@ -300,6 +301,8 @@ class MockVehicle:
         )
         self._faults = _FaultInjector(c.link_faults)
         self._lock = threading.Lock()
+        #: notified after every message and timer pass, for :meth:`wait_for`
+        self._changed = threading.Condition()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._storage: dict[int, list[MissionItemInt]] = {0: [], 1: [], 2: []}
@@ -348,6 +351,13 @@ class MockVehicle:
     def set_link_faults(self, faults: LinkFaults) -> None:
         """Change the packet faults while running (the generators keep their state)."""
         self._faults.faults = faults
+
+    def wait_for(self, predicate: Callable[[MockVehicle], bool], timeout_s: float) -> bool:
+        """Block until ``predicate(self)`` holds (checked after each message the vehicle
+        handles and each timer pass) or ``timeout_s`` passes; returns whether it holds.
+        Tests wait for a state this way instead of sleeping."""
+        with self._changed:
+            return self._changed.wait_for(lambda: predicate(self), timeout_s)
 
     @property
     def busy(self) -> bool:
@@ -412,6 +422,7 @@ class MockVehicle:
                 self._send_mission_current()
                 next_current = now + 1.0
             self._timers(now)
+            self._notify()
             wake = min(next_heartbeat, next_current, now + 0.05, self._next_timer(now))
             received = self.connection.recv(max(0.0, wake - time.monotonic()))
             if received is None:
@@ -420,6 +431,11 @@ class MockVehicle:
             copies = self._faults.inbound_copies(received.message)
             for _ in range(copies):
                 self._handle_safely(received)
+            self._notify()
+
+    def _notify(self) -> None:
+        with self._changed:
+            self._changed.notify_all()
 
     def _handle_safely(self, received: Received) -> None:
         """One message; anything it could break is caught here so the vehicle keeps serving
