@@ -1,5 +1,5 @@
 """Link chaos through the seeded fault proxy (issue 12): a reduced count of
-``tools/link_chaos.py``'s runs. ``UAVPLAN_CHAOS_RUNS=50`` runs the full measurement.
+``tools/link_chaos.py``'s runs. ``UAVPLAN_CHAOS_RUNS=50 UAVPLAN_CHAOS_ITEMS=200``: the full one.
 
 Invariants on every run: exit 0 means the vehicle holds exactly the mission sent; a failure
 is exit 4 and names the step; the vehicle never holds a mixture of the old and the new

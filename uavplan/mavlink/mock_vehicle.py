@@ -40,9 +40,9 @@ after ``srtt + 4 x rttvar`` of the measured request->item round trip (floor 10 m
 the firmware interval as the ceiling: a loopback link is not a 57600-baud radio, and lossy
 tests and benchmarks then measure the protocol rather than a radio timer.
 
-Fault injection (:class:`LinkFaults`) drops, duplicates or reorders packets each way with a
-seeded ``numpy.random.Generator``; :class:`MissionFaults` makes the vehicle misbehave on
-purpose (error ACK at an item, out-of-range request, early ACCEPTED, falling silent).
+Packet faults live apart, in :mod:`.linkfaults` (:class:`~.linkfaults.LinkFaults` drops,
+duplicates or reorders packets each way with a seeded ``numpy.random.Generator``); here
+:class:`MissionFaults` makes the vehicle misbehave on purpose (error ACK at an item, out-of-range request, early ACCEPTED, falling silent).
 """
 
 from __future__ import annotations
@@ -54,10 +54,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from struct import error as struct_error
 
-import numpy as np
-
 from uavplan.geo import GeoPoint
 from uavplan.mavlink.connection import MavlinkConnection
+from uavplan.mavlink.linkfaults import MISSION_PROTOCOL_MESSAGES as MISSION_PROTOCOL_MESSAGES
+from uavplan.mavlink.linkfaults import FaultInjector, LinkFaults
 from uavplan.mavlink.messages import (
     AUTOPILOT_VERSION_ID,
     COMP_ID_MISSIONPLANNER,
@@ -111,18 +111,6 @@ MIN_RETRY_S = 0.01
 INITIAL_RETRY_S = 0.05
 RETRY_BACKOFF = 1.5
 
-MISSION_PROTOCOL_MESSAGES = frozenset(
-    {
-        "MISSION_COUNT",
-        "MISSION_REQUEST",
-        "MISSION_REQUEST_INT",
-        "MISSION_REQUEST_LIST",
-        "MISSION_ITEM",
-        "MISSION_ITEM_INT",
-        "MISSION_ACK",
-        "MISSION_CLEAR_ALL",
-    }
-)
 
 _FENCE_COMMANDS = frozenset(range(5000, 5005))
 _POLYGON_COMMANDS = frozenset({5001, 5002})
@@ -134,37 +122,6 @@ _ARDUPILOT_NAN_PARAM4 = frozenset({16, 17, 21, 22, 84})
 
 # STATUSTEXT severities
 _CRITICAL, _WARNING, _INFO = 2, 4, 6
-
-
-@dataclass(frozen=True)
-class LinkFaults:
-    """Packet faults applied by the vehicle to what it receives and what it sends.
-
-    Each rate is a probability per packet and per direction. ``only`` restricts the faults
-    to those message names (e.g. :data:`MISSION_PROTOCOL_MESSAGES` to keep heartbeats
-    flowing); ``None`` means every packet. ``reorder_rate`` holds an outgoing packet back
-    until after the next one.
-    """
-
-    drop_rate: float = 0.0
-    duplicate_rate: float = 0.0
-    reorder_rate: float = 0.0
-    seed: int | None = 0
-    only: frozenset[str] | None = None
-    #: "both", or only what the vehicle receives ("in") or sends ("out")
-    direction: str = "both"
-
-    def __post_init__(self) -> None:
-        for name in ("drop_rate", "duplicate_rate", "reorder_rate"):
-            value = getattr(self, name)
-            if not (0.0 <= value <= 1.0):
-                raise ValueError(f"{name} must be within [0, 1], got {value!r}")
-        if self.direction not in ("both", "in", "out"):
-            raise ValueError(f"direction must be both, in or out, got {self.direction!r}")
-
-    @property
-    def active(self) -> bool:
-        return self.drop_rate > 0 or self.duplicate_rate > 0 or self.reorder_rate > 0
 
 
 @dataclass(frozen=True)
@@ -245,47 +202,6 @@ def _whole_number(value: float) -> int | None:
     return int(value)
 
 
-class _FaultInjector:
-    def __init__(self, faults: LinkFaults) -> None:
-        self.faults = faults
-        seeds = np.random.SeedSequence(faults.seed).spawn(2)
-        self.rng_in = np.random.default_rng(seeds[0])
-        self.rng_out = np.random.default_rng(seeds[1])
-        self.dropped_in = self.dropped_out = self.duplicated = self.reordered = 0
-
-    def applies(self, message: Message) -> bool:
-        only = self.faults.only
-        return self.faults.active and (only is None or message_name(message) in only)
-
-    def inbound_copies(self, message: Message) -> int:
-        """How many times to process a received message: 0 (lost), 1 or 2 (duplicated)."""
-        if not self.applies(message) or self.faults.direction == "out":
-            return 1
-        if self.faults.drop_rate and self.rng_in.random() < self.faults.drop_rate:
-            self.dropped_in += 1
-            return 0
-        if self.faults.duplicate_rate and self.rng_in.random() < self.faults.duplicate_rate:
-            self.duplicated += 1
-            return 2
-        return 1
-
-    def outbound(self, message: Message) -> tuple[int, bool]:
-        """(copies to send, hold back for reordering)."""
-        if not self.applies(message) or self.faults.direction == "in":
-            return 1, False
-        if self.faults.drop_rate and self.rng_out.random() < self.faults.drop_rate:
-            self.dropped_out += 1
-            return 0, False
-        copies = 1
-        if self.faults.duplicate_rate and self.rng_out.random() < self.faults.duplicate_rate:
-            self.duplicated += 1
-            copies = 2
-        hold = bool(self.faults.reorder_rate) and self.rng_out.random() < self.faults.reorder_rate
-        if hold:
-            self.reordered += 1
-        return copies, hold
-
-
 class MockVehicle:
     """A simulated PX4 or ArduPilot vehicle on a real MAVLink endpoint.
 
@@ -299,7 +215,7 @@ class MockVehicle:
         self.connection = MavlinkConnection.open(
             conn, system_id=c.system_id, component_id=c.component_id
         )
-        self._faults = _FaultInjector(c.link_faults)
+        self._faults = FaultInjector(c.link_faults)
         self._lock = threading.Lock()
         #: notified after every message and timer pass, for :meth:`wait_for`
         self._changed = threading.Condition()
@@ -309,7 +225,6 @@ class MockVehicle:
         self._receiving: _Receiving | None = None
         self._sending: _Sending | None = None
         self._last_completed: tuple[tuple[int, int], int, int] | None = None
-        self._held: bytes | None = None
         self._current_seq = 0
         self._rtt = RoundTripEstimator()
         self._uploads_accepted = self._uploads_failed = self._downloads = self._clears = 0
@@ -448,21 +363,10 @@ class MockVehicle:
 
     # -- sending --------------------------------------------------------------------------
     def _send(self, message: Message) -> None:
-        copies, hold = self._faults.outbound(message)
-        if copies == 0:
-            return
-        data = self.connection.encode(message)
-        if hold and self._held is None:
-            self._held = data * copies
-            return
-        for _ in range(copies):
-            self.connection.send_bytes(data)
-        self._flush_held()
+        self._faults.send(self.connection, message)
 
     def _flush_held(self) -> None:
-        if self._held is not None:
-            held, self._held = self._held, None
-            self.connection.send_bytes(held)
+        self._faults.flush(self.connection)
 
     def _send_heartbeat(self) -> None:
         if not self.config.send_heartbeats:
