@@ -42,7 +42,8 @@ tests and benchmarks then measure the protocol rather than a radio timer.
 
 Packet faults live apart, in :mod:`.linkfaults` (:class:`~.linkfaults.LinkFaults` drops,
 duplicates or reorders packets each way with a seeded ``numpy.random.Generator``); here
-:class:`MissionFaults` makes the vehicle misbehave on purpose (error ACK at an item, out-of-range request, early ACCEPTED, falling silent).
+:class:`MissionFaults` makes the vehicle misbehave on purpose (error ACK at an item,
+out-of-range request, early ACCEPTED, falling silent).
 """
 
 from __future__ import annotations
