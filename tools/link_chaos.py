@@ -13,7 +13,7 @@ Cases:
 
 Invariants checked on every run: exit 0 means the vehicle holds exactly the mission sent;
 a failure is exit 4 and names the step; the vehicle never holds a mixture; a failing run
-ends within ``HEARTBEAT_TIMEOUT_S + 1 + (retries + 2) x ack_s + 0.5`` s (15.5 s with the
+ends within ``HEARTBEAT_TIMEOUT_S + 1 + (retries + 2) x ack_s + 0.5`` s (17 s with the
 default timeouts).
 
 Usage::

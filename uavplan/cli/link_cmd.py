@@ -374,7 +374,7 @@ def mock_vehicle_cmd(
     and holds what it is sent. --loss and --duplicate inject faults deterministically.
     """
     from uavplan.mavlink.mock_vehicle import LinkFaults, MockConfig, MockVehicle
-    from uavplan.mavlink.transfer import plan_wire_items
+    from uavplan.mavlink.transfer import check_plan_fits_wire, plan_wire_items
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import Autopilot, MissionType
 
@@ -387,6 +387,8 @@ def mock_vehicle_cmd(
         link_faults=LinkFaults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
     )
     plan = load_mission(preload) if preload else None
+    if plan is not None:
+        check_plan_fits_wire(plan, file=preload)
     vehicle = MockVehicle(conn, config)
     try:
         if plan is not None:
