@@ -65,6 +65,21 @@ def _link_options(fn: Callable[..., Any]) -> Callable[..., Any]:
             show_default=True,
             help="How long to wait for the vehicle's HEARTBEAT.",
         ),
+        click.option(
+            "--source-system",
+            type=click.IntRange(1, 255),
+            default=255,
+            show_default=True,
+            help="Our MAVLink system id (255: a ground station).",
+        ),
+        click.option(
+            "--source-component",
+            type=click.IntRange(1, 255),
+            default=None,
+            help="Our MAVLink component id. Default: one drawn per run from 25..99 "
+            "(MAV_COMP_ID_USER*), so two ground stations never share an identity; give "
+            "190 to look exactly like QGroundControl.",
+        ),
         click.option("--quiet", "-q", is_flag=True, help="No progress output."),
     ]
     for option in reversed(options):
@@ -78,11 +93,20 @@ def _timeouts(timeout_s: float, retries: int) -> ProtocolTimeouts:
     return ProtocolTimeouts.scaled(timeout_s, retries)
 
 
-def _connect(conn: str, target_system: int | None, heartbeat_timeout_s: float) -> VehicleLink:
+def _connect(
+    conn: str,
+    target_system: int | None,
+    heartbeat_timeout_s: float,
+    source: tuple[int, int | None] = (255, None),
+) -> VehicleLink:
     from uavplan.mavlink.link import VehicleLink
 
     return VehicleLink.connect(
-        conn, target_system=target_system, heartbeat_timeout_s=heartbeat_timeout_s
+        conn,
+        target_system=target_system,
+        heartbeat_timeout_s=heartbeat_timeout_s,
+        system_id=source[0],
+        component_id=source[1],
     )
 
 
@@ -135,6 +159,8 @@ def upload_cmd(
     retries: int,
     target_system: int | None,
     heartbeat_timeout_s: float,
+    source_system: int,
+    source_component: int | None,
     quiet: bool,
     no_verify: bool,
 ) -> None:
@@ -144,17 +170,25 @@ def upload_cmd(
     read-back matches item for item.
     """
     from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import upload_plan
+    from uavplan.mavlink.transfer import check_plan_fits_wire, upload_plan
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import MissionType
 
     plan = load_mission(mission)
+    check_plan_fits_wire(plan, file=mission)
     with (
-        _connect(conn, target_system, heartbeat_timeout_s) as link,
+        _connect(
+            conn, target_system, heartbeat_timeout_s, (source_system, source_component)
+        ) as link,
         _progress(quiet) as progress,
     ):
         client = MissionClient(link, _timeouts(timeout_s, retries))
-        report = upload_plan(client, plan, verify=not no_verify, progress=progress)
+        try:
+            report = upload_plan(client, plan, verify=not no_verify, progress=progress)
+        except InputError as err:
+            if err.file is not None:
+                raise
+            raise InputError(err.reason, file=mission, key=err.key) from None
         counts = report.item_counts
         parts = [f"{counts[MissionType.MISSION]} mission items"]
         if MissionType.FENCE in counts:
@@ -187,6 +221,8 @@ def download_cmd(
     retries: int,
     target_system: int | None,
     heartbeat_timeout_s: float,
+    source_system: int,
+    source_component: int | None,
     quiet: bool,
     output: str,
 ) -> None:
@@ -198,7 +234,9 @@ def download_cmd(
     wants_plan = output.lower().endswith(".plan")
     format_for(output)  # an unknown extension is a usage error: fail before connecting
     with (
-        _connect(conn, target_system, heartbeat_timeout_s) as link,
+        _connect(
+            conn, target_system, heartbeat_timeout_s, (source_system, source_component)
+        ) as link,
         _progress(quiet) as progress,
     ):
         client = MissionClient(link, _timeouts(timeout_s, retries))
@@ -237,6 +275,8 @@ def clear_cmd(
     retries: int,
     target_system: int | None,
     heartbeat_timeout_s: float,
+    source_system: int,
+    source_component: int | None,
     quiet: bool,
     plan_type: str,
 ) -> None:
@@ -250,7 +290,9 @@ def clear_cmd(
         if plan_type == "all"
         else [MissionType[plan_type.upper()]]
     )
-    with _connect(conn, target_system, heartbeat_timeout_s) as link:
+    with _connect(
+        conn, target_system, heartbeat_timeout_s, (source_system, source_component)
+    ) as link:
         clear_plan(MissionClient(link, _timeouts(timeout_s, retries)), types)
         names = ", ".join(t.name.lower() for t in types)
         click.echo(f"cleared {names} on {_describe_vehicle(link)}")
@@ -332,7 +374,7 @@ def mock_vehicle_cmd(
     and holds what it is sent. --loss and --duplicate inject faults deterministically.
     """
     from uavplan.mavlink.mock_vehicle import LinkFaults, MockConfig, MockVehicle
-    from uavplan.mavlink.transfer import plan_wire_items
+    from uavplan.mavlink.transfer import check_plan_fits_wire, plan_wire_items
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import Autopilot, MissionType
 
@@ -345,6 +387,8 @@ def mock_vehicle_cmd(
         link_faults=LinkFaults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
     )
     plan = load_mission(preload) if preload else None
+    if plan is not None:
+        check_plan_fits_wire(plan, file=preload)
     vehicle = MockVehicle(conn, config)
     try:
         if plan is not None:

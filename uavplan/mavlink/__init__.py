@@ -7,9 +7,12 @@ Layers (each module imports only the ones above it):
   transports (UDP, TCP, serial);
 - :mod:`.connection` - MAVLink 2 framing through pymavlink, the only module importing it;
 - :mod:`.link` - one vehicle found by HEARTBEAT, traffic filtered to it;
-- :mod:`.protocol` - upload / download / clear state machines with outcomes as values;
+- :mod:`.machines` - upload / download / clear state machines (no I/O, the time passed in);
+- :mod:`.protocol` - the client driving them over a link, outcomes as values;
 - :mod:`.transfer` - whole plans: firmware layout, mission + fence + rally, read-back;
-- :mod:`.mock_vehicle` - the vehicle side, PX4 or ArduPilot flavoured, with fault injection.
+- :mod:`.mock_vehicle` - the vehicle side, PX4 or ArduPilot flavoured;
+- :mod:`.linkfaults` - the mock's seeded packet faults; :mod:`.faultproxy` - a seeded UDP
+  fault proxy between two endpoints; :mod:`.chaos` - upload runs through it.
 
 Typical use::
 
@@ -31,7 +34,7 @@ _EXPORTS = {
     "VehicleLink": "link",
     "Capability": "messages",
     "MissionResult": "messages",
-    "LinkFaults": "mock_vehicle",
+    "LinkFaults": "linkfaults",
     "MissionFaults": "mock_vehicle",
     "MockConfig": "mock_vehicle",
     "MockVehicle": "mock_vehicle",

@@ -20,7 +20,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-from pymavlink.dialects.v20 import common as _mav
+from pymavlink.dialects.v20 import common as _mav  # type: ignore[import-untyped]
 
 from uavplan.errors import LinkError
 from uavplan.mavlink.messages import (
@@ -28,6 +28,7 @@ from uavplan.mavlink.messages import (
     CommandAck,
     CommandLong,
     Heartbeat,
+    MalformedMessage,
     Message,
     MissionAck,
     MissionClearAll,
@@ -253,10 +254,31 @@ _DECODERS: dict[int, Callable[[_mav.MAVLink_message], Message]] = {
 
 
 def _decode(m: _mav.MAVLink_message) -> Message:
+    """Our message for a parsed frame; a :class:`MalformedMessage` when its fields cannot
+    be represented (a float MISSION_ITEM with x = NaN): one hostile packet must not stop a
+    receiver."""
     decoder = _DECODERS.get(m.get_msgId())
     if decoder is None:
         return UnknownMessage(m.get_msgId(), m.get_type())
-    return decoder(m)
+    try:
+        return decoder(m)
+    except (ValueError, OverflowError, TypeError, UnicodeError) as err:
+        mission_type = getattr(m, "mission_type", None)
+        seq = getattr(m, "seq", None)
+        return MalformedMessage(
+            m.get_msgId(),
+            m.get_type(),
+            str(err),
+            target_system=_int_field(m, "target_system"),
+            target_component=_int_field(m, "target_component"),
+            mission_type=mission_type if isinstance(mission_type, int) else None,
+            seq=seq if isinstance(seq, int) else None,
+        )
+
+
+def _int_field(m: _mav.MAVLink_message, name: str) -> int:
+    value = getattr(m, name, 0)
+    return value if isinstance(value, int) else 0
 
 
 # ---------------------------------------------------------------------------------------------

@@ -11,6 +11,8 @@ failure messages quote.
 
 from __future__ import annotations
 
+import itertools
+import secrets
 import time
 from dataclasses import dataclass
 
@@ -39,9 +41,25 @@ from uavplan.mission.items import Autopilot
 HEARTBEAT_TIMEOUT_S = 5.0
 #: how long connecting waits for AUTOPILOT_VERSION (a vehicle may not answer at all)
 CAPABILITY_WAIT_S = 0.5
-#: our identity on the link: QGroundControl's system id and MAV_COMP_ID_MISSIONPLANNER
+#: our identity on the link: QGroundControl's system id; the component id is per client
 GCS_SYSTEM_ID = 255
+#: MAV_COMP_ID_MISSIONPLANNER, what QGroundControl uses (pass it to look like QGC)
 GCS_COMPONENT_ID = COMP_ID_MISSIONPLANNER
+#: the default component ids of our clients: MAV_COMP_ID_USER1..USER75, which no autopilot
+#: or ground station claims. Two ground stations with one identity cannot be told apart:
+#: the vehicle would take both for one partner and each would answer the other's requests.
+SOURCE_COMPONENT_RANGE = range(25, 100)
+_PROCESS_OFFSET = secrets.randbelow(len(SOURCE_COMPONENT_RANGE))
+_CLIENTS = itertools.count()
+
+
+def unique_component_id() -> int:
+    """A component id for a new client: random per process, distinct for the next 75
+    clients of this process (two processes collide with probability 1/75: pass
+    ``--source-component`` to rule that out)."""
+    n = len(SOURCE_COMPONENT_RANGE)
+    # 44 is coprime to 75: successive clients walk the whole range before repeating
+    return SOURCE_COMPONENT_RANGE[(_PROCESS_OFFSET + 44 * next(_CLIENTS)) % n]
 
 
 @dataclass(frozen=True)
@@ -93,9 +111,12 @@ class VehicleLink:
         target_system: int | None = None,
         heartbeat_timeout_s: float = HEARTBEAT_TIMEOUT_S,
         system_id: int = GCS_SYSTEM_ID,
-        component_id: int = GCS_COMPONENT_ID,
+        component_id: int | None = None,
     ) -> VehicleLink:
         """Open ``conn``, send our heartbeat and wait for a vehicle's.
+
+        ``component_id``: our source component; by default one unique to this client
+        (:func:`unique_component_id`), so that two ground stations never share an identity.
 
         Raises :class:`LinkError` (exit 4) when no vehicle heartbeat (from
         ``target_system``, if given) arrives within ``heartbeat_timeout_s``.
@@ -104,7 +125,7 @@ class VehicleLink:
         connection = MavlinkConnection.open(
             spec,
             system_id=system_id,
-            component_id=component_id,
+            component_id=unique_component_id() if component_id is None else component_id,
             heartbeat=Heartbeat(type=MavType.GCS, autopilot=MavAutopilotId.INVALID),
         )
         try:

@@ -265,6 +265,21 @@ class UnknownMessage:
     name: str
 
 
+@dataclass(frozen=True, slots=True)
+class MalformedMessage:
+    """A frame that parsed (CRC good) but whose fields cannot be represented, such as a
+    float MISSION_ITEM with x = NaN in a global frame. The addressing fields of the frame
+    are kept so receivers can filter it like the message it claimed to be."""
+
+    msg_id: int
+    name: str
+    reason: str
+    target_system: int = 0
+    target_component: int = 0
+    mission_type: int | None = None
+    seq: int | None = None
+
+
 Message = (
     Heartbeat
     | MissionCount
@@ -280,6 +295,7 @@ Message = (
     | AutopilotVersion
     | StatusText
     | UnknownMessage
+    | MalformedMessage
 )
 
 
@@ -294,7 +310,7 @@ class Received:
 
 def message_name(message: Message) -> str:
     """The MAVLink name of a message (``MISSION_REQUEST_INT``, ``HEARTBEAT``...)."""
-    if isinstance(message, UnknownMessage):
+    if isinstance(message, UnknownMessage | MalformedMessage):
         return message.name
     if isinstance(message, MissionRequest):
         return "MISSION_REQUEST_INT" if message.int_form else "MISSION_REQUEST"

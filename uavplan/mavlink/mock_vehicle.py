@@ -40,9 +40,10 @@ after ``srtt + 4 x rttvar`` of the measured request->item round trip (floor 10 m
 the firmware interval as the ceiling: a loopback link is not a 57600-baud radio, and lossy
 tests and benchmarks then measure the protocol rather than a radio timer.
 
-Fault injection (:class:`LinkFaults`) drops, duplicates or reorders packets each way with a
-seeded ``numpy.random.Generator``; :class:`MissionFaults` makes the vehicle misbehave on
-purpose (error ACK at an item, out-of-range request, early ACCEPTED, falling silent).
+Packet faults live apart, in :mod:`.linkfaults` (:class:`~.linkfaults.LinkFaults` drops,
+duplicates or reorders packets each way with a seeded ``numpy.random.Generator``); here
+:class:`MissionFaults` makes the vehicle misbehave on purpose (error ACK at an item,
+out-of-range request, early ACCEPTED, falling silent).
 """
 
 from __future__ import annotations
@@ -50,12 +51,14 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-
-import numpy as np
+from struct import error as struct_error
 
 from uavplan.geo import GeoPoint
 from uavplan.mavlink.connection import MavlinkConnection
+from uavplan.mavlink.linkfaults import MISSION_PROTOCOL_MESSAGES as MISSION_PROTOCOL_MESSAGES
+from uavplan.mavlink.linkfaults import FaultInjector, LinkFaults
 from uavplan.mavlink.messages import (
     AUTOPILOT_VERSION_ID,
     COMP_ID_MISSIONPLANNER,
@@ -64,6 +67,7 @@ from uavplan.mavlink.messages import (
     CommandAck,
     CommandLong,
     Heartbeat,
+    MalformedMessage,
     MavAutopilotId,
     MavCommand,
     MavResult,
@@ -108,18 +112,6 @@ MIN_RETRY_S = 0.01
 INITIAL_RETRY_S = 0.05
 RETRY_BACKOFF = 1.5
 
-MISSION_PROTOCOL_MESSAGES = frozenset(
-    {
-        "MISSION_COUNT",
-        "MISSION_REQUEST",
-        "MISSION_REQUEST_INT",
-        "MISSION_REQUEST_LIST",
-        "MISSION_ITEM",
-        "MISSION_ITEM_INT",
-        "MISSION_ACK",
-        "MISSION_CLEAR_ALL",
-    }
-)
 
 _FENCE_COMMANDS = frozenset(range(5000, 5005))
 _POLYGON_COMMANDS = frozenset({5001, 5002})
@@ -131,37 +123,6 @@ _ARDUPILOT_NAN_PARAM4 = frozenset({16, 17, 21, 22, 84})
 
 # STATUSTEXT severities
 _CRITICAL, _WARNING, _INFO = 2, 4, 6
-
-
-@dataclass(frozen=True)
-class LinkFaults:
-    """Packet faults applied by the vehicle to what it receives and what it sends.
-
-    Each rate is a probability per packet and per direction. ``only`` restricts the faults
-    to those message names (e.g. :data:`MISSION_PROTOCOL_MESSAGES` to keep heartbeats
-    flowing); ``None`` means every packet. ``reorder_rate`` holds an outgoing packet back
-    until after the next one.
-    """
-
-    drop_rate: float = 0.0
-    duplicate_rate: float = 0.0
-    reorder_rate: float = 0.0
-    seed: int | None = 0
-    only: frozenset[str] | None = None
-    #: "both", or only what the vehicle receives ("in") or sends ("out")
-    direction: str = "both"
-
-    def __post_init__(self) -> None:
-        for name in ("drop_rate", "duplicate_rate", "reorder_rate"):
-            value = getattr(self, name)
-            if not (0.0 <= value <= 1.0):
-                raise ValueError(f"{name} must be within [0, 1], got {value!r}")
-        if self.direction not in ("both", "in", "out"):
-            raise ValueError(f"direction must be both, in or out, got {self.direction!r}")
-
-    @property
-    def active(self) -> bool:
-        return self.drop_rate > 0 or self.duplicate_rate > 0 or self.reorder_rate > 0
 
 
 @dataclass(frozen=True)
@@ -235,45 +196,11 @@ class MockStats:
     reordered: int
 
 
-class _FaultInjector:
-    def __init__(self, faults: LinkFaults) -> None:
-        self.faults = faults
-        seeds = np.random.SeedSequence(faults.seed).spawn(2)
-        self.rng_in = np.random.default_rng(seeds[0])
-        self.rng_out = np.random.default_rng(seeds[1])
-        self.dropped_in = self.dropped_out = self.duplicated = self.reordered = 0
-
-    def applies(self, message: Message) -> bool:
-        only = self.faults.only
-        return self.faults.active and (only is None or message_name(message) in only)
-
-    def inbound_copies(self, message: Message) -> int:
-        """How many times to process a received message: 0 (lost), 1 or 2 (duplicated)."""
-        if not self.applies(message) or self.faults.direction == "out":
-            return 1
-        if self.faults.drop_rate and self.rng_in.random() < self.faults.drop_rate:
-            self.dropped_in += 1
-            return 0
-        if self.faults.duplicate_rate and self.rng_in.random() < self.faults.duplicate_rate:
-            self.duplicated += 1
-            return 2
-        return 1
-
-    def outbound(self, message: Message) -> tuple[int, bool]:
-        """(copies to send, hold back for reordering)."""
-        if not self.applies(message) or self.faults.direction == "in":
-            return 1, False
-        if self.faults.drop_rate and self.rng_out.random() < self.faults.drop_rate:
-            self.dropped_out += 1
-            return 0, False
-        copies = 1
-        if self.faults.duplicate_rate and self.rng_out.random() < self.faults.duplicate_rate:
-            self.duplicated += 1
-            copies = 2
-        hold = bool(self.faults.reorder_rate) and self.rng_out.random() < self.faults.reorder_rate
-        if hold:
-            self.reordered += 1
-        return copies, hold
+def _whole_number(value: float) -> int | None:
+    """A COMMAND_LONG param that must hold a whole number, or ``None`` (NaN, inf, 2.5)."""
+    if not math.isfinite(value) or value != math.floor(value) or abs(value) > 2**31:
+        return None
+    return int(value)
 
 
 class MockVehicle:
@@ -289,19 +216,23 @@ class MockVehicle:
         self.connection = MavlinkConnection.open(
             conn, system_id=c.system_id, component_id=c.component_id
         )
-        self._faults = _FaultInjector(c.link_faults)
+        self._faults = FaultInjector(c.link_faults)
         self._lock = threading.Lock()
+        #: notified after every message and timer pass, for :meth:`wait_for`
+        self._changed = threading.Condition()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._storage: dict[int, list[MissionItemInt]] = {0: [], 1: [], 2: []}
         self._receiving: _Receiving | None = None
         self._sending: _Sending | None = None
         self._last_completed: tuple[tuple[int, int], int, int] | None = None
-        self._held: bytes | None = None
         self._current_seq = 0
         self._rtt = RoundTripEstimator()
         self._uploads_accepted = self._uploads_failed = self._downloads = self._clears = 0
         self.error: BaseException | None = None
+        #: messages whose handling failed (hostile or broken input), and the last reason
+        self.rejected_messages = 0
+        self.last_rejection: str | None = None
 
     # -- public ---------------------------------------------------------------------------
     @property
@@ -336,6 +267,13 @@ class MockVehicle:
     def set_link_faults(self, faults: LinkFaults) -> None:
         """Change the packet faults while running (the generators keep their state)."""
         self._faults.faults = faults
+
+    def wait_for(self, predicate: Callable[[MockVehicle], bool], timeout_s: float) -> bool:
+        """Block until ``predicate(self)`` holds (checked after each message the vehicle
+        handles and each timer pass) or ``timeout_s`` passes; returns whether it holds.
+        Tests wait for a state this way instead of sleeping."""
+        with self._changed:
+            return self._changed.wait_for(lambda: predicate(self), timeout_s)
 
     @property
     def busy(self) -> bool:
@@ -400,6 +338,7 @@ class MockVehicle:
                 self._send_mission_current()
                 next_current = now + 1.0
             self._timers(now)
+            self._notify()
             wake = min(next_heartbeat, next_current, now + 0.05, self._next_timer(now))
             received = self.connection.recv(max(0.0, wake - time.monotonic()))
             if received is None:
@@ -407,25 +346,28 @@ class MockVehicle:
                 continue
             copies = self._faults.inbound_copies(received.message)
             for _ in range(copies):
-                self._handle(received)
+                self._handle_safely(received)
+            self._notify()
+
+    def _notify(self) -> None:
+        with self._changed:
+            self._changed.notify_all()
+
+    def _handle_safely(self, received: Received) -> None:
+        """One message; anything it could break is caught here so the vehicle keeps serving
+        (a hostile packet costs that packet only, never the stored plans)."""
+        try:
+            self._handle(received)
+        except (ArithmeticError, ValueError, TypeError, struct_error) as err:
+            self.rejected_messages += 1
+            self.last_rejection = f"{message_name(received.message)}: {err}"
 
     # -- sending --------------------------------------------------------------------------
     def _send(self, message: Message) -> None:
-        copies, hold = self._faults.outbound(message)
-        if copies == 0:
-            return
-        data = self.connection.encode(message)
-        if hold and self._held is None:
-            self._held = data * copies
-            return
-        for _ in range(copies):
-            self.connection.send_bytes(data)
-        self._flush_held()
+        self._faults.send(self.connection, message)
 
     def _flush_held(self) -> None:
-        if self._held is not None:
-            held, self._held = self._held, None
-            self.connection.send_bytes(held)
+        self._faults.flush(self.connection)
 
     def _send_heartbeat(self) -> None:
         if not self.config.send_heartbeats:
@@ -494,6 +436,8 @@ class MockVehicle:
             self._on_count(partner, message)
         elif isinstance(message, MissionItemInt):
             self._on_item(partner, message)
+        elif isinstance(message, MalformedMessage):
+            self._on_malformed(partner, message)
         elif isinstance(message, MissionRequestList):
             self._on_request_list(partner, message)
         elif isinstance(message, MissionRequest):
@@ -507,14 +451,19 @@ class MockVehicle:
         def ack(result: MavResult) -> None:
             self._send(CommandAck(cmd.command, int(result), partner[0], partner[1]))
 
-        wants_version = (
-            cmd.command == MavCommand.REQUEST_MESSAGE and int(cmd.param1) == AUTOPILOT_VERSION_ID
-        ) or cmd.command == MavCommand.REQUEST_AUTOPILOT_CAPABILITIES
-        if wants_version:
+        wanted = _whole_number(cmd.param1)
+        if cmd.command == MavCommand.REQUEST_MESSAGE and wanted is None:
+            ack(MavResult.DENIED)  # param1 NaN / inf / fractional: names no message
+        elif (
+            cmd.command == MavCommand.REQUEST_MESSAGE and wanted == AUTOPILOT_VERSION_ID
+        ) or cmd.command == MavCommand.REQUEST_AUTOPILOT_CAPABILITIES:
             ack(MavResult.ACCEPTED)
             self._send(self._autopilot_version())
         elif cmd.command == MavCommand.DO_SET_MISSION_CURRENT:
-            seq = int(cmd.param1)
+            if wanted is None:
+                ack(MavResult.DENIED)
+                return
+            seq = wanted
             count = len(self._storage[0])
             if seq == -1 or 0 <= seq < count:
                 if seq >= 0:
@@ -726,6 +675,24 @@ class MockVehicle:
             self._request(rx, retry=False, seq=rx.count + 2)
             return
         self._request(rx, retry=False)
+
+    def _on_malformed(self, partner: tuple[int, int], msg: MalformedMessage) -> None:
+        """A mission item whose fields cannot be stored (x = NaN): the item it stands for is
+        invalid, so the running upload from that partner is refused, the stored plan kept."""
+        self.rejected_messages += 1
+        self.last_rejection = f"{msg.name}: {msg.reason}"
+        rx = self._receiving
+        if (
+            rx is None
+            or partner != rx.partner
+            or msg.name not in ("MISSION_ITEM", "MISSION_ITEM_INT")
+            or msg.mission_type != rx.mission_type
+            or msg.seq != rx.next_seq
+        ):
+            return
+        self._ack(partner, MissionResult.INVALID_PARAM5_X, rx.mission_type)
+        self._receiving = None  # atomic: the stored plan is untouched
+        self._uploads_failed += 1
 
     def _commit(self, rx: _Receiving) -> None:
         if rx.mission_type == 1 and self.config.autopilot == Autopilot.ARDUPILOT:

@@ -33,6 +33,7 @@ from uavplan.mavlink.protocol import (
     TransferStatus,
     describe_item,
     type_label,
+    wire_range_problem,
 )
 from uavplan.mission.items import (
     Autopilot,
@@ -113,6 +114,19 @@ def sanitise_item(item: MissionItem, autopilot: Autopilot) -> MissionItem:
     return replace(item, param1=params[0], param2=params[1], param3=params[2], param4=params[3])
 
 
+def check_plan_fits_wire(plan: MissionPlan, *, file: str | None = None) -> None:
+    """Raise :class:`InputError` (exit 2, naming ``file`` and the item) for a value no
+    MISSION_ITEM_INT can carry; checked before connecting, so nothing is sent."""
+    for mission_type in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
+        for seq, item in enumerate(plan.wire_items(mission_type)):
+            problem = wire_range_problem(item)
+            if problem is not None:
+                raise InputError(
+                    f"{type_label(mission_type)} item {seq} ({describe_item(item)}): {problem}",
+                    file=file,
+                )
+
+
 def plan_wire_items(
     plan: MissionPlan, mission_type: MissionType, autopilot: Autopilot
 ) -> list[MissionItem]:
@@ -122,6 +136,12 @@ def plan_wire_items(
     """
     laid_out = retarget(plan, autopilot) if mission_type == MissionType.MISSION else plan
     items = [sanitise_item(it, autopilot) for it in laid_out.wire_items(mission_type)]
+    for seq, item in enumerate(items):
+        problem = wire_range_problem(item)
+        if problem is not None:
+            raise InputError(
+                f"{type_label(mission_type)} item {seq} ({describe_item(item)}): {problem}"
+            )
     allowed = SUPPORTED_FRAMES.get(autopilot)
     if allowed is not None:
         for seq, item in enumerate(items):
@@ -192,6 +212,44 @@ def _check_capability(client: MissionClient, mission_type: MissionType) -> None:
         )
 
 
+_PLAN_NAMES = {MissionType.FENCE: "geofence", MissionType.RALLY: "rally points"}
+_CLEAR_OPTION = {MissionType.FENCE: "fence", MissionType.RALLY: "rally"}
+
+
+def _untouched_plan_notes(client: MissionClient, uploaded: Sequence[MissionType]) -> list[str]:
+    """What stays on the vehicle of the plan types this upload did not send (a mission
+    without a fence leaves the vehicle's old fence active): read its count, or say that it
+    was not checked. Never fails the upload."""
+    notes = []
+    for mission_type in (MissionType.FENCE, MissionType.RALLY):
+        if mission_type in uploaded:
+            continue
+        name = _PLAN_NAMES[mission_type]
+        flag = _CAPABILITY_OF[mission_type]
+        caps = client.link.capabilities
+        if caps is not None and not caps & flag:
+            continue  # the vehicle has no such plan type: nothing can be left over
+        verb, pronoun = ("were", "them") if mission_type == MissionType.RALLY else ("was", "it")
+        outcome: TransferOutcome | None = None
+        try:
+            outcome = client.download(mission_type)
+            reason = outcome.message
+        except LinkError as err:
+            reason = str(err)
+        if outcome is None or not outcome.ok:
+            notes.append(
+                f"the plan has no {name}; the vehicle's {name}, if any, {verb} left unchanged "
+                f"(not checked: {reason})"
+            )
+        elif outcome.items:
+            notes.append(
+                f"the plan has no {name}; the vehicle's {name} ({len(outcome.items)} items) "
+                f"{verb} left unchanged (uavplan clear --type {_CLEAR_OPTION[mission_type]} "
+                f"removes {pronoun})"
+            )
+    return notes
+
+
 def upload_plan(
     client: MissionClient,
     plan: MissionPlan,
@@ -247,17 +305,33 @@ def upload_plan(
         )
         outcome = replace(outcome, operation=Operation.VERIFY)
         outcomes.append(outcome)
+        if outcome.status is TransferStatus.BUSY:
+            # the vehicle took our plan whole, then started receiving someone else's
+            raise MissionTransferError(
+                replace(
+                    outcome,
+                    detail="another upload took over: the vehicle accepted our plan, then "
+                    f"refused the read-back while busy with another transfer ({outcome.detail})",
+                )
+            )
         outcome.raise_for_status()
         difference = compare_items(wire[mission_type], outcome.items, mission_type, autopilot)
         if difference is not None:
+            took_over = outcomes[types.index(mission_type)].ok
             raise MissionTransferError(
                 replace(
                     outcome,
                     status=TransferStatus.MISMATCH,
                     step="read-back",
-                    detail=f"read-back differs: {difference}",
+                    detail=(
+                        "another upload took over: the vehicle accepted our plan but now "
+                        f"holds a different one (read-back differs: {difference})"
+                        if took_over
+                        else f"read-back differs: {difference}"
+                    ),
                 )
             )
+    notes.extend(_untouched_plan_notes(client, types))
     return PlanTransferReport(
         outcomes=tuple(outcomes),
         autopilot=autopilot,

@@ -194,10 +194,18 @@ class UdpServer(Transport):
     def __init__(self, host: str, port: int) -> None:
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
-            self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            # no SO_REUSEADDR / SO_REUSEPORT: two processes on one UDP port would split the
+            # datagrams between them; the second one must fail to open instead
             self._sock.bind((host, port))
-        except OSError:
+        except OSError as err:
             self._sock.close()
+            if err.errno == errno.EADDRINUSE:
+                raise OSError(
+                    err.errno,
+                    f"UDP port {port} is already in use by another process "
+                    "(a second vehicle or ground station on one udpin port would steal its "
+                    "packets)",
+                ) from None
             raise
         self._sock.setblocking(False)
         self._peers: dict[tuple[str, int], float] = {}
@@ -399,7 +407,7 @@ class SerialPort(Transport):
         self._serial = None
         self._fd: int | None = None
         try:
-            import serial  # type: ignore[import-not-found]
+            import serial  # type: ignore[import-not-found,import-untyped,unused-ignore]
         except ImportError:
             serial = None
         if serial is not None:

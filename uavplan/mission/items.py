@@ -293,7 +293,9 @@ class GeoFence:
                         command=cmd,
                         frame=MavFrame.GLOBAL,
                         param1=n,
-                        param2=0.0 if poly.inclusion else None,
+                        param2=0.0,  # inclusion group; reserved params are 0, as QGC sends
+                        param3=0.0,
+                        param4=0.0,
                         x=lat,
                         y=lon,
                         z=0.0,
@@ -310,7 +312,9 @@ class GeoFence:
                     command=cmd,
                     frame=MavFrame.GLOBAL,
                     param1=circle.radius_m,
-                    param2=0.0 if circle.inclusion else None,
+                    param2=0.0,
+                    param3=0.0,
+                    param4=0.0,
                     x=circle.center[0],
                     y=circle.center[1],
                     z=0.0,
@@ -321,6 +325,10 @@ class GeoFence:
                 MissionItem(
                     command=MavCmd.NAV_FENCE_RETURN_POINT,
                     frame=MavFrame.GLOBAL_RELATIVE_ALT,
+                    param1=0.0,
+                    param2=0.0,
+                    param3=0.0,
+                    param4=0.0,
                     x=self.breach_return.lat_deg,
                     y=self.breach_return.lon_deg,
                     z=self.breach_return.alt_m,
@@ -394,6 +402,10 @@ class RallyPoint:
         return MissionItem(
             command=MavCmd.NAV_RALLY_POINT,
             frame=MavFrame.GLOBAL_RELATIVE_ALT,
+            param1=0.0,  # reserved params are 0 on the wire, as QGroundControl sends them
+            param2=0.0,
+            param3=0.0,
+            param4=0.0,
             x=self.lat_deg,
             y=self.lon_deg,
             z=self.alt_m,
