@@ -99,8 +99,9 @@ _SCENARIO_KEYS = {
     "vehicle",
     "planner",
     "mission",
+    "obstacle_files",
 }
-_MAP_KEYS = {"name", "origin", "bounds", "obstacles"}
+_MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files"}
 
 
 class _Checker:
@@ -441,7 +442,24 @@ def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Ob
     origin = _origin(chk, raw["origin"]) if "origin" in raw else None
     bounds = _bounds(chk, raw["bounds"]) if "bounds" in raw else None
     obstacles = _obstacles(chk, raw.get("obstacles", []))
+    if raw.get("obstacle_files"):
+        if origin is None:
+            raise chk.fail("obstacle_files", "needs origin in the same map file")
+        obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
     return origin, bounds, obstacles
+
+
+def _obstacle_files(
+    chk: _Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds | None
+) -> tuple[Obstacle, ...]:
+    """Obstacles of the ``obstacle_files`` list (OSM, GIS files), paths relative to ``path``."""
+    from uavplan.geo import EnuFrame
+    from uavplan.sources import SourceError, obstacles_from_entries
+
+    try:
+        return obstacles_from_entries(raw, path.parent, EnuFrame.at(origin), bounds)
+    except SourceError as err:
+        raise chk.fail(err.key_path("obstacle_files"), err.reason) from None
 
 
 def _obstacles(chk: _Checker, raw: Any) -> tuple[Obstacle, ...]:
@@ -482,6 +500,8 @@ def load_scenario(path: str | Path) -> Scenario:
         raise chk.fail("bounds", "missing required key (not set here nor in the map)")
 
     obstacles = map_obstacles + _obstacles(chk, raw.get("obstacles", []))
+    if raw.get("obstacle_files"):
+        obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
     margin = 10.0
     if "safety_margin" in raw:
         margin = chk.number(raw["safety_margin"], "safety_margin", minimum=0)

@@ -22,8 +22,11 @@ from uavplan.sources.common import (
     ImportResult,
     ObstacleFileSpec,
     SourceError,
+    features_extent_lonlat,
+    features_to_obstacles,
     obstacles_from_entries,
     parse_height_m,
+    read_features,
     read_obstacle_file,
 )
 
@@ -32,7 +35,10 @@ __all__ = [
     "ImportResult",
     "ObstacleFileSpec",
     "SourceError",
+    "features_extent_lonlat",
+    "features_to_obstacles",
     "obstacles_from_entries",
     "parse_height_m",
+    "read_features",
     "read_obstacle_file",
 ]

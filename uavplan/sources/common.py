@@ -54,6 +54,8 @@ SIMPLIFY_MIN_VERTICES = 16
 SIMPLIFY_TOLERANCE_M = 0.5
 #: footprints smaller than this after clipping are dropped (m²): slivers, not buildings
 MIN_AREA_M2 = 0.5
+#: pieces of a courtyard split smaller than this are numerical slivers and dropped (m²)
+MIN_PIECE_AREA_M2 = 1e-4
 
 OSM_SUFFIXES = (".osm", ".osm.pbf", ".pbf", ".osm.bz2", ".osm.gz", ".o5m", ".opl")
 
@@ -245,6 +247,16 @@ def read_obstacle_file(
     import time
 
     t0 = time.perf_counter()
+    features, result = read_features(spec, _lonlat_window(frame, bounds))
+    features_to_obstacles(features, frame, bounds, result)
+    result.seconds = time.perf_counter() - t0
+    return result
+
+
+def read_features(
+    spec: ObstacleFileSpec, window_lonlat: tuple[float, float, float, float] | None = None
+) -> tuple[list[Feature], ImportResult]:
+    """The file's features in lon/lat (and a result holding the counts so far)."""
     if not spec.path.exists():
         raise SourceError(f"file not found: {spec.path}", key="file")
     if not spec.path.is_file():
@@ -260,16 +272,21 @@ def read_obstacle_file(
                 "OpenStreetMap heights come from the height and building:levels tags",
                 key="height_attribute",
             )
-        features = read_osm_features(
-            spec, result.skipped, _lonlat_window(frame, bounds), result.notes
-        )
+        features = read_osm_features(spec, result.skipped, window_lonlat, result.notes)
     else:
         from uavplan.sources.vector import read_vector_features
 
         features = read_vector_features(spec, result.skipped, result.notes)
-    features_to_obstacles(features, frame, bounds, result)
-    result.seconds = time.perf_counter() - t0
-    return result
+    return features, result
+
+
+def features_extent_lonlat(features: Sequence[Feature]) -> tuple[float, float, float, float]:
+    """(west, south, east, north) degrees of all features (for a default origin)."""
+    import shapely
+
+    if not features:
+        raise SourceError("no buildings or tall structures found", key="file")
+    return tuple(shapely.total_bounds([f.geometry for f in features]).tolist())  # type: ignore[return-value]
 
 
 def obstacles_from_entries(
@@ -435,6 +452,8 @@ def features_to_obstacles(
             if len(pieces) > 1:
                 result.notes["courtyard kept: outline split into hole-free prisms"] += 1
             for piece in pieces:
+                if piece.area < MIN_PIECE_AREA_M2:
+                    continue  # a cut sliver thinner than the outline's rounding
                 ring = orient(piece, sign=1.0).exterior.coords[:-1]
                 obstacles.append(
                     PrismObstacle(tuple((float(x), float(y)) for x, y, *_ in ring), feat.height_m)
