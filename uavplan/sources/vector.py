@@ -29,6 +29,7 @@ def read_vector_features(
     """Polygon features of one layer as lon/lat :class:`Feature` values (see module doc)."""
     import numpy as np
     import pyogrio
+    import pyogrio.raw
     import shapely
     from pyogrio.errors import DataLayerError, DataSourceError, FieldError
 
@@ -64,7 +65,7 @@ def read_vector_features(
         )
     columns = [spec.height_attribute] if spec.height_attribute else []
     try:
-        _meta, _fids, geometries, field_data = pyogrio.read(path, layer=layer, columns=columns)
+        _meta, _fids, geometries, field_data = pyogrio.raw.read(path, layer=layer, columns=columns)
     except (DataSourceError, DataLayerError, FieldError, OSError, RuntimeError) as err:
         raise SourceError(f"cannot read {spec.path.name}: {_first_line(err)}", key="file") from None
 
