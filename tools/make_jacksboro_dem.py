@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,7 @@ def main(out: Path) -> None:
     from matplotlib import cbook
     from rasterio.transform import from_origin
 
-    dem = cbook.get_sample_data("jacksboro_fault_dem.npz")
+    dem: Any = cbook.get_sample_data("jacksboro_fault_dem.npz")
     z = np.asarray(dem["elevation"], dtype=np.int16)
     rows, cols = z.shape
     west, east = float(dem["xmin"]), float(dem["xmax"])

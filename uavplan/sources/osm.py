@@ -155,7 +155,7 @@ def read_osm_features(
         )
         for obj in processor:
             tags = obj.tags
-            if obj.is_node():
+            if isinstance(obj, osmium.osm.Node):
                 kind = _tall_kind(tags)
                 if kind is None:
                     continue
@@ -179,15 +179,15 @@ def read_osm_features(
                         radius_m=radius,
                     )
                 )
-            elif obj.is_way():
+            elif isinstance(obj, osmium.osm.Way):
                 if (_is_building(tags) or tags.get("building") == "no") and not obj.is_closed():
                     skipped["building way not closed (not an outline)"] += 1
-            elif obj.is_relation():
+            elif isinstance(obj, osmium.osm.Relation):
                 if tags.get("type") == "multipolygon" and (
                     _is_building(tags) or _tall_kind(tags) is not None
                 ):
                     building_relations.add(obj.id)
-            elif obj.is_area():
+            elif isinstance(obj, osmium.osm.Area):
                 building = _is_building(tags) or tags.get("building") == "no"
                 tall = _tall_kind(tags)
                 if not building and tall is None:
