@@ -114,6 +114,8 @@ def town(tmp_path: Path) -> Path:
     osm.way(square(200, -200, 10), {"building": "yes", "location": "underground"})
     osm.way(square(2000, 2000, 10), {"building": "yes"})  # far outside the bounds
     osm.node(0, -200, {"man_made": "surveillance"})  # not a tall structure: ignored
+    # an inner ring poking out of its outer ring: libosmium refuses the area
+    osm.multipolygon(square(200, 0, 10), [square(208, 0, 5)], {"building": "yes"})
     return osm.write(tmp_path / "town.osm")
 
 
@@ -188,6 +190,7 @@ def test_skipped_features_are_counted_by_reason(town: Path) -> None:
         "building=no": 1,
         "underground or indoor": 1,
         "outside the bounds": 1,
+        "invalid outline (rings touch or cross)": 1,
     }
     assert sum(result.kept.values()) == 8
     text = "\n".join(result.summary_lines())

@@ -206,8 +206,11 @@ def read_osm_features(
                     continue
                 try:
                     geom = shapely.from_wkb(wkb.create_multipolygon(obj))
-                except (RuntimeError, osmium.InvalidLocationError):
+                except osmium.InvalidLocationError:
                     skipped["incomplete (nodes missing from the extract)"] += 1
+                    continue
+                except RuntimeError:  # libosmium: "invalid area" (rings touch or cross)
+                    skipped["invalid outline (rings touch or cross)"] += 1
                     continue
                 if not inside(*geom.bounds):
                     skipped["outside the bounds"] += 1
