@@ -128,3 +128,30 @@ def test_max_grid_bounds_the_surface_from_above(tmp_path: Path) -> None:
     assert np.all(pad > 0)
     # the pad is the documented L·d: at most √2 × steepest post slope × half the post diagonal
     assert np.max(pad) <= np.sqrt(2) * np.max(terrain.post_slopes()) * CELL_M + 1e-6
+
+
+def test_scenario_terrain_key_is_checked_to_cover_the_bounds(
+    slope_dem: Path, tmp_path: Path
+) -> None:
+    from uavplan.errors import ScenarioError
+    from uavplan.scenario import load_scenario
+
+    def scenario(extent: int, dem: str) -> Path:
+        path = tmp_path / "scn.yaml"
+        path.write_text(
+            "origin: {lat: 47.0, lon: 9.2, alt: 500}\n"
+            f"bounds: {{x: [-{extent}, {extent}], y: [-{extent}, {extent}], z: [0, 120]}}\n"
+            f"start: [-100, -100, 30]\ngoal: [100, 100, 30]\nterrain: {dem}\n",
+            encoding="utf-8",
+        )
+        return path
+
+    scn = load_scenario(scenario(800, slope_dem.name))
+    assert scn.terrain_file == str(slope_dem.resolve())
+    path = scenario(1500, slope_dem.name)
+    with pytest.raises(
+        ScenarioError, match=r"scn.yaml: terrain: slope.tif: the DEM does not cover"
+    ):
+        load_scenario(path)
+    with pytest.raises(ScenarioError, match=r"terrain: none.tif: DEM file not found"):
+        load_scenario(scenario(800, "none.tif"))

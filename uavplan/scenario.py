@@ -73,6 +73,7 @@ class Scenario:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     mission: MissionConfig = field(default_factory=MissionConfig)
     source: str | None = None
+    terrain_file: str | None = None  # a DEM GeoTIFF, checked to cover the bounds (issue 10)
 
     @classmethod
     def from_file(cls, path: str | Path) -> Scenario:
@@ -100,6 +101,7 @@ _SCENARIO_KEYS = {
     "planner",
     "mission",
     "obstacle_files",
+    "terrain",
 }
 _MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files"}
 
@@ -462,6 +464,19 @@ def _obstacle_files(
         raise chk.fail(err.key_path("obstacle_files"), err.reason) from None
 
 
+def _terrain(chk: _Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds) -> str:
+    """The ``terrain`` DEM, resolved next to ``path`` and checked to cover the bounds."""
+    from uavplan.geo import EnuFrame
+    from uavplan.sources.dem import Terrain, TerrainError
+
+    dem = (path.parent / chk.string(raw, "terrain")).resolve()
+    try:
+        Terrain.from_file(dem, EnuFrame.at(origin), area_xy_m=(bounds.x_m, bounds.y_m))
+    except TerrainError as err:
+        raise chk.fail("terrain", f"{dem.name}: {err.reason}") from None
+    return str(dem)
+
+
 def _obstacles(chk: _Checker, raw: Any) -> tuple[Obstacle, ...]:
     if raw is None:
         return ()
@@ -499,6 +514,7 @@ def load_scenario(path: str | Path) -> Scenario:
     else:
         raise chk.fail("bounds", "missing required key (not set here nor in the map)")
 
+    terrain_file = _terrain(chk, raw["terrain"], path, origin, bounds) if "terrain" in raw else None
     obstacles = map_obstacles + _obstacles(chk, raw.get("obstacles", []))
     if raw.get("obstacle_files"):
         obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
@@ -524,6 +540,7 @@ def load_scenario(path: str | Path) -> Scenario:
         planner=planner,
         mission=mission,
         source=str(path),
+        terrain_file=terrain_file,
     )
     _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"))
     return scenario
