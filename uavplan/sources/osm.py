@@ -127,6 +127,8 @@ def read_osm_features(
     features: list[Feature] = []
     building_relations: set[int] = set()
     assembled_relations: set[int] = set()
+    blobs: list[str] = []  # outlines as hex WKB, decoded together after the file pass
+    pending: list[tuple[float, str, str, float]] = []  # height, its source, kind, base
     if window_lonlat is not None:
         w0, s0, e0, n0 = window_lonlat
 
@@ -205,22 +207,28 @@ def read_osm_features(
                     skipped[reason] += 1
                     continue
                 try:
-                    geom = shapely.from_wkb(wkb.create_multipolygon(obj))
+                    blob = wkb.create_multipolygon(obj)
                 except osmium.InvalidLocationError:
                     skipped["incomplete (nodes missing from the extract)"] += 1
                     continue
                 except RuntimeError:  # libosmium: "invalid area" (rings touch or cross)
                     skipped["invalid outline (rings touch or cross)"] += 1
                     continue
-                if not inside(*geom.bounds):
-                    skipped["outside the bounds"] += 1
-                    continue
                 height, source = _height(tags, spec, notes)
-                features.append(Feature(geom, height, source, kind, base_m=_base(tags, spec)))
+                blobs.append(blob)
+                pending.append((height, source, kind, _base(tags, spec)))
     except (RuntimeError, ValueError, OSError) as err:
         raise SourceError(
             f"cannot read OpenStreetMap file {spec.path.name}: {err}", key="file"
         ) from None
+    # one vectorised WKB decode and bounding-box test for all outlines
+    geoms = shapely.from_wkb(blobs) if blobs else []
+    boxes = shapely.bounds(geoms) if blobs else []
+    for geom, box, (height, source, kind, base) in zip(geoms, boxes, pending, strict=True):
+        if not inside(*box):
+            skipped["outside the bounds"] += 1
+            continue
+        features.append(Feature(geom, height, source, kind, base_m=base))
     broken = len(building_relations - assembled_relations)
     if broken:
         skipped["multipolygon relation did not assemble (members missing or broken)"] += broken
