@@ -133,7 +133,7 @@ class ObstacleFileSpec:
         min_height = None if min_h is None else _number(min_h, "min_height")
         path = Path(file).expanduser()
         if not path.is_absolute():
-            path = base_dir / path
+            path = (base_dir / path).resolve()
         return cls(path, None if layer is None else str(layer), attr, default, min_height)
 
 
