@@ -79,6 +79,7 @@ def test_kml_drawn_in_google_earth(tmp_path: Path) -> None:
     assert Polygon(ob.polygon_m).symmetric_difference(Polygon(square[:4, :2])).area < 0.05
 
 
+@pytest.mark.filterwarnings("ignore:'crs' was not provided")
 def test_shapefile_without_prj_is_an_error(tmp_path: Path) -> None:
     import pyogrio.raw
 
