@@ -16,7 +16,9 @@ geometry every source needs, in this order:
    holes until no piece has a hole; the pieces tile the polygon exactly, so their union is the
    original footprint (``test_sources_geometry`` checks it);
 5. each hole-free piece becomes a :class:`~uavplan.obstacles.PrismObstacle` (counter-clockwise,
-   without the closing point); point features become
+   without the closing point, vertices rounded to 1 mm as a map file stores them; a piece
+   whose rounded outline is not simple, being pinched thinner than a millimetre somewhere, is
+   replaced by its convex hull, which contains it); point features become
    :class:`~uavplan.obstacles.CylinderObstacle` values.
 
 Our obstacles stand on the ground (z = 0). A feature whose base is lifted (OSM ``min_height``,
@@ -404,7 +406,6 @@ def features_to_obstacles(
     """Turn features into obstacles in ``result`` (see the module docstring for the steps)."""
     import shapely
     from shapely.geometry import box
-    from shapely.geometry.polygon import orient
 
     window = _padded_xy(bounds)
     clip_box = box(*window) if window is not None else None
@@ -454,12 +455,30 @@ def features_to_obstacles(
             for piece in pieces:
                 if piece.area < MIN_PIECE_AREA_M2:
                     continue  # a cut sliver thinner than the outline's rounding
-                ring = orient(piece, sign=1.0).exterior.coords[:-1]
-                obstacles.append(
-                    PrismObstacle(tuple((float(x), float(y)) for x, y, *_ in ring), feat.height_m)
-                )
+                ring = _mm_ring(piece)
+                if ring is None:  # thinner than a millimetre somewhere: fill conservatively
+                    ring = _mm_ring(piece.convex_hull)
+                    result.notes["outline pinched to < 1 mm: its convex hull used"] += 1
+                if ring is not None:
+                    obstacles.append(PrismObstacle(ring, feat.height_m))
         _count_kept(result, feat)
     result.obstacles = result.obstacles + tuple(obstacles)
+
+
+def _mm_ring(poly: Any) -> tuple[tuple[float, float], ...] | None:
+    """The CCW outline rounded to millimetres (as a map file stores it), or ``None`` if the
+    rounded outline is not a simple polygon of positive area."""
+    from shapely.geometry import Polygon
+    from shapely.geometry.polygon import orient
+
+    ring = [(round(float(x), 3), round(float(y), 3)) for x, y, *_ in orient(poly).exterior.coords]
+    ring = [p for i, p in enumerate(ring[:-1]) if p != ring[i - 1] or i == 0]
+    if len(ring) < 3:
+        return None
+    rounded = Polygon(ring)
+    if not rounded.is_valid or rounded.area < MIN_PIECE_AREA_M2:
+        return None
+    return tuple(ring)
 
 
 def _count_kept(result: ImportResult, feat: Feature) -> None:
