@@ -208,3 +208,17 @@ def test_scenario_errors_name_file_and_key(
     message = str(err.value)
     assert message.startswith(f"{path}: {key}: "), message
     assert words in message
+
+
+def test_a_start_too_close_to_a_file_obstacle_names_it(tmp_path: Path, blocks: Path) -> None:
+    path = scenario_with(tmp_path, "- {file: blocks.geojson, height_attribute: height}\n")
+    path.write_text(
+        path.read_text(encoding="utf-8").replace(
+            "start: [-400, -400, 30]", "start: [200, 212, 30]"
+        ),
+        encoding="utf-8",
+    )
+    with pytest.raises(
+        ScenarioError, match=r"start: .* is 7\.0 m from obstacle #\d+ of obstacle_files"
+    ):
+        load_scenario(path)

@@ -542,11 +542,14 @@ def load_scenario(path: str | Path) -> Scenario:
         source=str(path),
         terrain_file=terrain_file,
     )
-    _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"))
+    n_inline = len(raw.get("obstacles") or [])
+    _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"), n_inline)
     return scenario
 
 
-def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | None) -> None:
+def _check_geometry(
+    chk: _Checker, scn: Scenario, n_map: int, map_ref: str | None, n_inline: int | None = None
+) -> None:
     """Start and goal inside the bounds, clear of every obstacle plus the margin, and the
     vertical take-off climb (and the landing descent with ``end: land``) clear too."""
     import numpy as np
@@ -556,6 +559,8 @@ def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | Non
     def name(index: int) -> str:
         if index < n_map:
             return f"obstacle #{index} of map {map_ref}"
+        if n_inline is not None and index >= n_map + n_inline:
+            return f"obstacle #{index - n_map - n_inline} of obstacle_files"
         return f"obstacles[{index - n_map}]"
 
     for key, point in (("start", scn.start_m), ("goal", scn.goal_m)):
