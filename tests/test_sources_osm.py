@@ -224,6 +224,7 @@ def test_clipping_keeps_the_part_near_the_bounds(tmp_path: Path) -> None:
         ("40'", 12.192),
         ("40 ft", 12.192),
         ("12'6\"", 3.81),
+        ("12;15 m", 15.0),
         (7, 7.0),
         ("tall", None),
         ("-3", None),

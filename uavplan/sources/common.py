@@ -203,12 +203,16 @@ def parse_height_m(value: Any) -> float | None:
     """A height in metres from an OSM ``height`` tag or an attribute value, or ``None``.
 
     Accepts numbers, ``"12"``, ``"12.5 m"``, ``"12,5"``, ``"40'"``, ``"40 ft"`` and
-    ``"12'6\\""`` (feet and inches). Anything else, zero or negative → ``None``.
+    ``"12'6\\""`` (feet and inches); of OSM multiple values (``"12;15"``) the tallest.
+    Anything else, zero or negative → ``None``.
     """
     if value is None or isinstance(value, bool):
         return None
     if isinstance(value, int | float):
         out = float(value)
+    elif ";" in str(value):  # OSM multiple values: the tallest one (conservative)
+        heights = [h for h in (parse_height_m(v) for v in str(value).split(";")) if h is not None]
+        return max(heights) if heights else None
     else:
         text = str(value)
         m = _FEET_INCHES_RE.match(text)
