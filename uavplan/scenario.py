@@ -76,6 +76,7 @@ class Scenario:
     source: str | None = None
     #: points the route passes through, in order, between start and goal (ENU m)
     via_m: tuple[tuple[float, float, float], ...] = ()
+    terrain_file: str | None = None  # a DEM GeoTIFF, checked to cover the bounds (issue 10)
 
     @classmethod
     def from_file(cls, path: str | Path) -> Scenario:
@@ -103,8 +104,10 @@ _SCENARIO_KEYS = {
     "vehicle",
     "planner",
     "mission",
+    "obstacle_files",
+    "terrain",
 }
-_MAP_KEYS = {"name", "origin", "bounds", "obstacles"}
+_MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files"}
 
 
 class _Checker:
@@ -445,7 +448,43 @@ def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Ob
     origin = _origin(chk, raw["origin"]) if "origin" in raw else None
     bounds = _bounds(chk, raw["bounds"]) if "bounds" in raw else None
     obstacles = _obstacles(chk, raw.get("obstacles", []))
+    if raw.get("obstacle_files"):
+        if origin is None:
+            raise chk.fail("obstacle_files", "needs origin in the same map file")
+        obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
     return origin, bounds, obstacles
+
+
+def _obstacle_files(
+    chk: _Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds | None
+) -> tuple[Obstacle, ...]:
+    """Obstacles of the ``obstacle_files`` list (OSM, GIS files), paths relative to ``path``."""
+    from uavplan.geo import EnuFrame
+    from uavplan.sources import SourceError, obstacles_from_entries
+
+    try:
+        return obstacles_from_entries(raw, path.parent, EnuFrame.at(origin), bounds)
+    except SourceError as err:
+        raise chk.fail(err.key_path("obstacle_files"), err.reason) from None
+
+
+def _terrain(chk: _Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds) -> str:
+    """The ``terrain`` DEM, resolved next to ``path`` and checked to cover the bounds."""
+    from uavplan.geo import EnuFrame
+    from uavplan.sources.dem import Terrain, TerrainError
+
+    dem = (path.parent / chk.string(raw, "terrain")).resolve()
+    try:
+        Terrain.from_file(dem, EnuFrame.at(origin), area_xy_m=(bounds.x_m, bounds.y_m))
+    except TerrainError as err:
+        raise chk.fail("terrain", f"{dem.name}: {err.reason}") from None
+    # the DEM is read and checked, but the planner does not follow it yet: planning over flat
+    # ground while the file names a terrain would be a silent lie
+    raise chk.fail(
+        "terrain",
+        f"{dem.name} covers the bounds, but the planner does not follow terrain yet; remove "
+        "the key to plan over flat ground (z = heights above the origin's altitude)",
+    )
 
 
 def _obstacles(chk: _Checker, raw: Any) -> tuple[Obstacle, ...]:
@@ -485,7 +524,10 @@ def load_scenario(path: str | Path) -> Scenario:
     else:
         raise chk.fail("bounds", "missing required key (not set here nor in the map)")
 
+    terrain_file = _terrain(chk, raw["terrain"], path, origin, bounds) if "terrain" in raw else None
     obstacles = map_obstacles + _obstacles(chk, raw.get("obstacles", []))
+    if raw.get("obstacle_files"):
+        obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
     margin = 10.0
     if "safety_margin" in raw:
         margin = chk.number(raw["safety_margin"], "safety_margin", minimum=0)
@@ -513,12 +555,16 @@ def load_scenario(path: str | Path) -> Scenario:
         planner=planner,
         mission=mission,
         source=str(path),
+        terrain_file=terrain_file,
     )
-    _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"))
+    n_inline = len(raw.get("obstacles") or [])
+    _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"), n_inline)
     return scenario
 
 
-def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | None) -> None:
+def _check_geometry(
+    chk: _Checker, scn: Scenario, n_map: int, map_ref: str | None, n_inline: int | None = None
+) -> None:
     """Start and goal inside the bounds, clear of every obstacle plus the margin, and the
     vertical take-off climb (and the landing descent with ``end: land``) clear too."""
     import numpy as np
@@ -528,6 +574,8 @@ def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | Non
     def name(index: int) -> str:
         if index < n_map:
             return f"obstacle #{index} of map {map_ref}"
+        if n_inline is not None and index >= n_map + n_inline:
+            return f"obstacle #{index - n_map - n_inline} of obstacle_files"
         return f"obstacles[{index - n_map}]"
 
     ends = [("start", scn.start_m), *((f"via[{i}]", p) for i, p in enumerate(scn.via_m))]

@@ -21,6 +21,7 @@ def _register() -> None:
     # Imported for their side effect of adding commands to ``main``.
     from uavplan.cli import (  # noqa: F401
         bench_cmd,
+        import_cmd,
         link_cmd,
         plan_cmd,
         render_cmd,

@@ -1,0 +1,333 @@
+"""Terrain from a DEM GeoTIFF (any CRS, metres above mean sea level), read with rasterio.
+
+:meth:`Terrain.from_file` reads band 1 (nodata → not covered) of a raster whose posts are
+*pixel centres* (GDAL's convention), optionally only the window around an ENU area.
+:meth:`Terrain.height_m` gives the ground height AMSL at ENU ``(x, y)`` points by bilinear
+interpolation between the four surrounding posts (vectorised; ENU → lon/lat with the
+scenario's :class:`~uavplan.geo.EnuFrame` → DEM CRS with pyproj → pixel coordinates with the
+raster's affine transform). In the outer half-cell along the raster's edge the nearest row or
+column is held constant. A point outside the raster, or next to a nodata post, is not covered:
+:meth:`Terrain.height_m` then raises :class:`TerrainError` naming the point
+(:meth:`Terrain.covers` tells without raising).
+
+Band units ``ft``/``foot``/``feet`` (GDAL unit type) are converted to metres; anything else
+is taken as metres.
+
+Conservative maximum grid (:meth:`Terrain.max_grid`), for clearance checks: the ground's
+maximum over each square ENU cell, bounded from above in two parts:
+
+1. the interpolated surface: bilinear interpolation within a quad of posts never exceeds its
+   four corners, so the maximum of the surface over a cell is at most the largest post whose
+   quad touches the cell. We take every post within ``R`` of the cell (``R`` = the largest
+   ENU distance between diagonal neighbour posts, so all quad corners are included);
+2. a Lipschitz pad for the real ground between posts, which the DEM does not resolve: if the
+   ground has slope at most ``L`` near a post, any point lies within ``d`` (half the post
+   diagonal) of a post, so the ground there is at most that post's height + ``L·d``. ``L`` is
+   estimated per post as √2 × the steepest slope to its four neighbours (√2 bounds the
+   gradient of a bilinear surface from its two axis slopes), and each post contributes
+   ``z + L·d``.
+
+So ``max_grid`` value ≥ the interpolated surface everywhere in the cell (exactly, by 1), and ≥
+the real ground under the stated Lipschitz assumption (2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uavplan.errors import InputError
+
+if TYPE_CHECKING:
+    from pyproj import Transformer
+
+    from uavplan.geo import EnuFrame
+
+_FEET_UNITS = ("ft", "foot", "feet", "us survey foot", "ft_us")
+
+
+class TerrainError(InputError):
+    """A DEM cannot be read or does not cover a requested point (exit 2)."""
+
+
+@dataclass(frozen=True)
+class TerrainMaxGrid:
+    """Conservative ground maxima (metres AMSL) over square ENU cells.
+
+    Cell ``[iy, ix]`` spans ``x0_m + ix·cell_m .. + cell_m`` and ``y0_m + iy·cell_m .. +
+    cell_m``; ``max_amsl_m`` has shape ``(ny, nx)``.
+    """
+
+    x0_m: float
+    y0_m: float
+    cell_m: float
+    max_amsl_m: NDArray[np.float64]
+
+    def at(self, points_xy: ArrayLike) -> NDArray[np.float64]:
+        """The maximum of the cell holding each point ``(n, 2)`` → ``(n,)`` (NaN outside)."""
+        p = np.atleast_2d(np.asarray(points_xy, dtype=np.float64))
+        ix = np.floor((p[:, 0] - self.x0_m) / self.cell_m).astype(np.int64)
+        iy = np.floor((p[:, 1] - self.y0_m) / self.cell_m).astype(np.int64)
+        ny, nx = self.max_amsl_m.shape
+        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        out = np.full(len(p), np.nan)
+        out[ok] = self.max_amsl_m[iy[ok], ix[ok]]
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Terrain:
+    """Ground heights (metres AMSL) of a DEM, queried at ENU points of ``frame``."""
+
+    frame: EnuFrame
+    posts_amsl_m: NDArray[np.float64]  # (rows, cols), NaN where the DEM has no data
+    transform: Any  # affine.Affine: pixel (col, row) -> DEM CRS (x, y), of the posts read
+    crs_wkt: str
+    source: str
+
+    # -- construction ------------------------------------------------------------------------
+    @classmethod
+    def from_file(
+        cls,
+        path: str | Path,
+        frame: EnuFrame,
+        *,
+        area_xy_m: tuple[tuple[float, float], tuple[float, float]] | None = None,
+    ) -> Terrain:
+        """Read a DEM. With ``area_xy_m = ((x0, x1), (y0, y1))`` only the window around that
+        ENU area is read, and a DEM that does not cover it is a :class:`TerrainError`."""
+        import rasterio
+        from rasterio.errors import RasterioError, WindowError
+        from rasterio.windows import Window, from_bounds
+
+        path = Path(path)
+        if not path.is_file():
+            raise TerrainError("DEM file not found", file=str(path))
+        try:
+            with rasterio.open(path) as src:
+                if src.crs is None:
+                    raise TerrainError(
+                        "the DEM declares no coordinate reference system", file=str(path)
+                    )
+                crs_wkt = src.crs.to_wkt()
+                full = Window(0, 0, src.width, src.height)
+                window = full
+                if area_xy_m is not None:
+                    box = _area_in_crs(frame, crs_wkt, area_xy_m)
+                    window = (
+                        from_bounds(*box, transform=src.transform)
+                        .round_offsets(op="floor")
+                        .round_lengths(op="ceil")
+                    )
+                    window = Window(
+                        window.col_off - 2, window.row_off - 2, window.width + 4, window.height + 4
+                    )
+                    try:
+                        window = window.intersection(full)
+                    except WindowError:  # no overlap at all
+                        raise TerrainError(
+                            "the DEM does not cover the area (no overlap)", file=str(path)
+                        ) from None
+                data = src.read(1, window=window, masked=True).astype(np.float64)
+                posts = np.ma.filled(data, np.nan)
+                unit = (src.units[0] or "").strip().lower() if src.units else ""
+                transform = src.window_transform(window)
+        except RasterioError as err:
+            raise TerrainError(f"cannot read the DEM: {err}", file=str(path)) from None
+        if unit in _FEET_UNITS:
+            posts = posts * 0.3048
+        terrain = cls(frame, posts, transform, crs_wkt, str(path))
+        if area_xy_m is not None:
+            terrain.check_covers(area_xy_m)
+        return terrain
+
+    # -- coordinates -------------------------------------------------------------------------
+    @cached_property
+    def _to_crs(self) -> Transformer:
+        from pyproj import Transformer
+
+        return Transformer.from_crs("EPSG:4326", self.crs_wkt, always_xy=True)
+
+    @cached_property
+    def _from_crs(self) -> Transformer:
+        from pyproj import Transformer
+
+        return Transformer.from_crs(self.crs_wkt, "EPSG:4326", always_xy=True)
+
+    def _pixels(self, points_xy: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """ENU ``(n, 2)`` → fractional (col, row) pixel coordinates of the posts read."""
+        p = np.atleast_2d(np.asarray(points_xy, dtype=np.float64))[:, :2]
+        enu = np.column_stack((p, np.zeros(len(p))))
+        lat, lon, _ = self.frame.to_geodetic(enu)
+        x, y = self._to_crs.transform(lon, lat)
+        col, row = _apply(~self.transform, np.asarray(x), np.asarray(y))
+        return np.asarray(col, dtype=np.float64), np.asarray(row, dtype=np.float64)
+
+    # -- queries -----------------------------------------------------------------------------
+    def _bilinear(self, points_xy: ArrayLike) -> NDArray[np.float64]:
+        """Heights (NaN where not covered)."""
+        col, row = self._pixels(points_xy)
+        z = self.posts_amsl_m
+        nrows, ncols = z.shape
+        inside = (col >= 0) & (col <= ncols) & (row >= 0) & (row <= nrows)
+        u = np.clip(col - 0.5, 0.0, ncols - 1.0)  # post-centred coordinates, edges held
+        v = np.clip(row - 0.5, 0.0, nrows - 1.0)
+        j0 = np.clip(np.floor(u).astype(np.int64), 0, max(ncols - 2, 0))
+        i0 = np.clip(np.floor(v).astype(np.int64), 0, max(nrows - 2, 0))
+        j1 = np.minimum(j0 + 1, ncols - 1)
+        i1 = np.minimum(i0 + 1, nrows - 1)
+        tu = u - j0
+        tv = v - i0
+        out = (
+            z[i0, j0] * (1 - tu) * (1 - tv)
+            + z[i0, j1] * tu * (1 - tv)
+            + z[i1, j0] * (1 - tu) * tv
+            + z[i1, j1] * tu * tv
+        )
+        out[~inside] = np.nan
+        return np.asarray(out, dtype=np.float64)
+
+    def covers(self, points_xy: ArrayLike) -> NDArray[np.bool_]:
+        """Whether the DEM gives a height at each ENU point ``(n, 2)``."""
+        return np.isfinite(self._bilinear(points_xy))
+
+    def height_m(self, points_xy: ArrayLike) -> NDArray[np.float64]:
+        """Ground height AMSL at ENU points ``(n, 2)`` (or ``(n, 3)``, z ignored) → ``(n,)``."""
+        h = self._bilinear(points_xy)
+        bad = ~np.isfinite(h)
+        if np.any(bad):
+            p = np.atleast_2d(np.asarray(points_xy, dtype=np.float64))[np.argmax(bad)]
+            raise TerrainError(
+                f"the DEM does not cover ENU point ({p[0]:.1f}, {p[1]:.1f}) m "
+                f"({int(bad.sum())} of {bad.size} points outside it or on nodata)",
+                file=self.source,
+            )
+        return h
+
+    def check_covers(
+        self,
+        area_xy_m: tuple[tuple[float, float], tuple[float, float]],
+        step_m: float | None = None,
+    ) -> None:
+        """Raise :class:`TerrainError` unless every point of the ENU rectangle is covered
+        (checked on a grid finer than the DEM's posts)."""
+        (x0, x1), (y0, y1) = area_xy_m
+        step = step_m or max(self.post_spacing_m / 2.0, 1e-3)
+        nx = max(2, math.ceil((x1 - x0) / step) + 1)
+        ny = max(2, math.ceil((y1 - y0) / step) + 1)
+        if nx * ny > 4_000_000:  # very large area: the border and a coarse interior suffice
+            nx, ny = min(nx, 2000), min(ny, 2000)
+        gx, gy = np.meshgrid(np.linspace(x0, x1, nx), np.linspace(y0, y1, ny))
+        self.height_m(np.column_stack((gx.ravel(), gy.ravel())))
+
+    @cached_property
+    def _posts_enu(self) -> NDArray[np.float64]:
+        """ENU (x, y) of every post, shape ``(rows, cols, 2)``."""
+        nrows, ncols = self.posts_amsl_m.shape
+        cols, rows = np.meshgrid(np.arange(ncols) + 0.5, np.arange(nrows) + 0.5)
+        x, y = _apply(self.transform, cols.ravel(), rows.ravel())
+        lon, lat = self._from_crs.transform(np.asarray(x), np.asarray(y))
+        xy = self.frame.to_enu_xy(np.asarray(lat), np.asarray(lon))
+        return xy.reshape(nrows, ncols, 2)
+
+    @cached_property
+    def post_spacing_m(self) -> float:
+        """The largest ENU distance between neighbouring posts along rows or columns."""
+        xy = self._posts_enu
+        d = [0.0]
+        if xy.shape[1] > 1:
+            d.append(float(np.max(np.hypot(*np.moveaxis(np.diff(xy, axis=1), -1, 0)))))
+        if xy.shape[0] > 1:
+            d.append(float(np.max(np.hypot(*np.moveaxis(np.diff(xy, axis=0), -1, 0)))))
+        return max(d)
+
+    def post_slopes(self) -> NDArray[np.float64]:
+        """√2 × the steepest slope from each post to its 4 neighbours, ``(rows, cols)``."""
+        z = self.posts_amsl_m
+        xy = self._posts_enu
+        slope = np.zeros_like(z)
+        for axis in (0, 1):
+            if z.shape[axis] < 2:
+                continue
+            dz = np.abs(np.diff(z, axis=axis))
+            dist = np.hypot(*np.moveaxis(np.diff(xy, axis=axis), -1, 0))
+            s = np.nan_to_num(dz / dist, nan=0.0)
+            lo = [slice(None)] * 2
+            hi = [slice(None)] * 2
+            lo[axis] = slice(0, -1)
+            hi[axis] = slice(1, None)
+            slope[tuple(lo)] = np.maximum(slope[tuple(lo)], s)
+            slope[tuple(hi)] = np.maximum(slope[tuple(hi)], s)
+        return math.sqrt(2.0) * slope
+
+    def max_grid(
+        self,
+        x_m: tuple[float, float],
+        y_m: tuple[float, float],
+        cell_m: float,
+        *,
+        lipschitz_pad: bool = True,
+    ) -> TerrainMaxGrid:
+        """Conservative ground maxima over ``cell_m`` squares covering the ENU rectangle (see
+        the module docstring for the bound). Raises if the DEM does not cover the rectangle."""
+        if not (math.isfinite(cell_m) and cell_m > 0):
+            raise ValueError(f"cell_m must be > 0, got {cell_m!r}")
+        self.check_covers((x_m, y_m))
+        nx = max(1, math.ceil((x_m[1] - x_m[0]) / cell_m))
+        ny = max(1, math.ceil((y_m[1] - y_m[0]) / cell_m))
+        grid = np.full((ny, nx), -np.inf)
+        spacing = self.post_spacing_m
+        reach = math.sqrt(2.0) * spacing  # all quad corners of any point in a cell
+        half_diagonal = reach / 2.0
+        z = self.posts_amsl_m
+        value = z + (self.post_slopes() * half_diagonal if lipschitz_pad else 0.0)
+        xy = self._posts_enu.reshape(-1, 2)
+        value = value.ravel()
+        ok = np.isfinite(value)
+        xy, value = xy[ok], value[ok]
+        ix_lo = np.floor((xy[:, 0] - reach - x_m[0]) / cell_m).astype(np.int64)
+        ix_hi = np.floor((xy[:, 0] + reach - x_m[0]) / cell_m).astype(np.int64)
+        iy_lo = np.floor((xy[:, 1] - reach - y_m[0]) / cell_m).astype(np.int64)
+        iy_hi = np.floor((xy[:, 1] + reach - y_m[0]) / cell_m).astype(np.int64)
+        k = int(math.ceil(2.0 * reach / cell_m)) + 1
+        for di in range(k):
+            ix = ix_lo + di
+            okx = (ix <= ix_hi) & (ix >= 0) & (ix < nx)
+            for dj in range(k):
+                iy = iy_lo + dj
+                sel = okx & (iy <= iy_hi) & (iy >= 0) & (iy < ny)
+                np.maximum.at(grid, (iy[sel], ix[sel]), value[sel])
+        if not np.all(np.isfinite(grid)):  # cannot happen once covered; keep the promise
+            raise TerrainError("the DEM has no posts near part of the area", file=self.source)
+        return TerrainMaxGrid(float(x_m[0]), float(y_m[0]), float(cell_m), grid)
+
+
+def _apply(t: Any, u: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[Any, Any]:
+    """An affine transform applied to coordinate arrays."""
+    return t.a * u + t.b * v + t.c, t.d * u + t.e * v + t.f
+
+
+def _area_in_crs(
+    frame: EnuFrame, crs_wkt: str, area_xy_m: tuple[tuple[float, float], tuple[float, float]]
+) -> tuple[float, float, float, float]:
+    """(left, bottom, right, top) in the DEM CRS of an ENU rectangle (edges sampled)."""
+    from pyproj import Transformer
+
+    (x0, x1), (y0, y1) = area_xy_m
+    t = np.linspace(0.0, 1.0, 33)
+    xs = np.concatenate(
+        [x0 + (x1 - x0) * t, np.full_like(t, x1), x1 - (x1 - x0) * t, np.full_like(t, x0)]
+    )
+    ys = np.concatenate(
+        [np.full_like(t, y0), y0 + (y1 - y0) * t, np.full_like(t, y1), y1 - (y1 - y0) * t]
+    )
+    lat, lon, _ = frame.to_geodetic(np.column_stack((xs, ys, np.zeros_like(xs))))
+    x, y = Transformer.from_crs("EPSG:4326", crs_wkt, always_xy=True).transform(lon, lat)
+    x, y = np.asarray(x), np.asarray(y)
+    return float(x.min()), float(y.min()), float(x.max()), float(y.max())
