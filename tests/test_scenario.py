@@ -349,7 +349,7 @@ BAD = [
      "obstacles", "must be a list"),
     ("obstacle-is-null", BASE + "  - null\n", "obstacles[1]", "must be a mapping"),
     ("unknown-algorithm", BASE + "planner: {algorithm: astar}\n", "planner.algorithm",
-     "must be one of spsa, ssa, pso, gwo, de, cso"),
+     "unknown algorithm 'astar' (available: spsa, ssa, pso, gwo, de, cso)"),
     ("float-population", BASE + "planner: {population: 30.5}\n", "planner.population",
      "must be an integer"),
     ("unknown-planner-key", BASE + "planner: {swarm: 3}\n", "planner.swarm", "unknown key"),
@@ -357,7 +357,7 @@ BAD = [
     ("string-energy-weight", BASE + "planner: {energy: {k1: high}}\n", "planner.energy.k1",
      "must be a number"),
     ("spsa-ratios-not-summing-to-1", BASE + "planner: {spsa: {producer_ratio: 0.5}}\n",
-     "planner.spsa", "producer_ratio + scrounger_ratio must be 1"),
+     "planner.spsa.scrounger_ratio", "producer_ratio + scrounger_ratio must be 1"),
     ("unknown-mission-end", BASE + "mission: {end: loiter}\n", "mission.end",
      "must be one of rtl, land, none"),
     ("unknown-autopilot", BASE + "mission: {autopilot: betaflight}\n", "mission.autopilot",
@@ -447,7 +447,7 @@ def test_population_below_four_is_rejected(tmp_path: Path) -> None:
     [
         ("{population: 2}", "planner.population", ">= 4"),
         ("{seed: -1}", "planner.seed", ">= 0"),
-        ("{grid: {dx: 0}}", "planner.grid.dx", "must be a number > 0"),
+        ("{grid: {dx: 0}}", "planner.grid.dx", "must be a number >= 0.1"),
     ],
 )
 def test_planner_value_errors_name_the_key(
@@ -461,13 +461,13 @@ def test_planner_value_errors_name_the_key(
 def test_unknown_algorithm_options_are_rejected_at_load(tmp_path: Path) -> None:
     assert_rejected(
         write(tmp_path, "opt.yaml", BASE + "planner: {algorithm: pso, options: {inertia: 1}}\n"),
-        "planner.options",
-        "unknown pso option(s) inertia",
+        "planner.options.inertia",
+        "unknown key (allowed: c1, c2, v_max_fraction, w_end, w_start)",
     )
     assert_rejected(
         write(tmp_path, "opt2.yaml", BASE + "planner: {algorithm: ssa, options: {w: 1}}\n"),
         "planner.options",
-        "takes no options",
+        "takes no parameters",
     )
 
 
