@@ -57,6 +57,7 @@ __all__ = [
     "VehicleConfig",
     "load_map",
     "load_scenario",
+    "check_limits",
     "problem_size",
     "resolved_config",
 ]
@@ -800,6 +801,13 @@ _SIZE_LIMITS = {
     ),
     "route_samples": (MAX_ROUTE_SAMPLES, "planner.post.sample_step_m", "route samples"),
 }
+
+
+def check_limits(scn: Scenario) -> None:
+    """Refuse ``scn`` (ScenarioError naming its file) when planning it would exceed a
+    documented size limit (:func:`problem_size`); call it again after command-line overrides
+    of the grid or the search effort, so ``validate`` and ``plan`` agree."""
+    _check_problem_size(_Checker(scn.source or scn.name), scn)
 
 
 def _check_problem_size(chk: _Checker, scn: Scenario) -> None:
