@@ -133,6 +133,12 @@ def _choice(default: str, choices: tuple[str, ...], *, doc: str = "") -> Any:
     return field(default=default, metadata={"kind": "str", "choices": choices, "doc": doc})
 
 
+#: public names of the field helpers, for planners defined outside this module
+param = _num
+flag = _flag
+choice = _choice
+
+
 def user_key(f: dataclasses.Field[Any]) -> str:
     """The key a user writes for field ``f`` (``dx`` for ``dx_m``)."""
     return f.metadata.get("key") or f.name
