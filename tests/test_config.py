@@ -365,7 +365,7 @@ def test_toy_planner_through_scenario_and_plan(toy: PlannerEntry, tmp_path: Path
     assert scn.planner.params_for() == ToyParams(draws=2)
     assert ALGORITHM.convert("toy", None, None) == "toy"
     bad = write(tmp_path, SCENARIO + "planner: {algorithm: toy, toy: {draws: 0}}\n", "b.yaml")
-    with pytest.raises(InputError, match="planner.toy.draws"):
+    with pytest.raises(InputError, match=r"planner\.toy\.draws"):
         load_scenario(bad)
     out = tmp_path / "toy.plan"
     report = tmp_path / "toy.json"
