@@ -3,6 +3,7 @@ rejected with one ``ScenarioError`` naming the file, the key path and the reason
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 import textwrap
@@ -606,7 +607,7 @@ def test_deeply_nested_lists_are_refused(tmp_path: Path) -> None:
 def test_billion_laughs_alias_is_refused_quickly(tmp_path: Path) -> None:
     lines = ['a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
     names = "abcdefghi"
-    for prev, cur in zip(names, names[1:], strict=False):
+    for prev, cur in itertools.pairwise(names):
         lines.append(f"{cur}: &{cur} [" + ",".join([f"*{prev}"] * 9) + "]")
     text = "\n".join(lines) + "\nstart: *i\n"
     assert len(text.encode()) < 700
