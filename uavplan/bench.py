@@ -164,7 +164,7 @@ class Variant:
 
 
 def _parse_params(text: str) -> dict[str, Any]:
-    import yaml
+    import yaml  # type: ignore[import-untyped]
 
     out: dict[str, Any] = {}
     for item in re.split(r"[;,]", text):
@@ -179,7 +179,9 @@ def _parse_params(text: str) -> dict[str, Any]:
 
 def split_labels(text: str) -> list[str]:
     """Split a comma-separated algorithm list, keeping commas inside parentheses."""
-    labels, depth, cur = [], 0, []
+    labels: list[str] = []
+    depth = 0
+    cur: list[str] = []
     for ch in text:
         depth += (ch == "(") - (ch == ")")
         if ch == "," and depth == 0:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
+import yaml  # type: ignore[import-untyped]
 
 from uavplan.config import (
     PLANNER_KEYS,
@@ -55,9 +55,9 @@ __all__ = [
     "PlannerConfig",
     "Scenario",
     "VehicleConfig",
+    "check_limits",
     "load_map",
     "load_scenario",
-    "check_limits",
     "problem_size",
     "resolved_config",
 ]
@@ -867,8 +867,9 @@ def _horizontal_distances(obstacles: Sequence[Obstacle], xy: Sequence[float]) ->
     px, py = float(xy[0]), float(xy[1])
     cyl = [i for i, o in enumerate(obstacles) if isinstance(o, CylinderObstacle)]
     if cyl:
-        centres = np.array([obstacles[i].center_m for i in cyl], dtype=float)  # type: ignore[union-attr]
-        radii = np.array([obstacles[i].radius_m for i in cyl], dtype=float)  # type: ignore[union-attr]
+        cyls = [obstacles[i] for i in cyl]
+        centres = np.array([o.center_m for o in cyls], dtype=np.float64)  # type: ignore[union-attr]
+        radii = np.array([o.radius_m for o in cyls], dtype=np.float64)  # type: ignore[union-attr]
         d = np.hypot(centres[:, 0] - px, centres[:, 1] - py) - radii
         out[cyl] = np.maximum(d, 0.0)
     polys = [i for i, o in enumerate(obstacles) if not isinstance(o, CylinderObstacle)]
