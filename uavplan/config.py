@@ -80,6 +80,15 @@ def short_repr(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def key_text(key: str) -> str:
+    """A user's key as a key path shows it: as written when printable and short, else its
+    bounded repr (a key with a line break or a control character must not break the
+    one-line message)."""
+    if key and key.isprintable() and len(key) <= 40 and "." not in key:
+        return key
+    return short_repr(key)
+
+
 def type_name(value: Any) -> str:
     """How a YAML value reads to a user: ``an integer``, ``a list``, ``nothing (null)``."""
     if value is None:
@@ -242,7 +251,9 @@ def build(cls: type[T], raw: Any, key: str = "", base: T | None = None) -> T:
         name = by_key.get(k)
         if name is None:
             known = sorted({user_key(f) for f in by_name.values()})
-            raise ConfigError(f"unknown key (allowed: {', '.join(known)})", key=join_key(key, k))
+            raise ConfigError(
+                f"unknown key (allowed: {', '.join(known)})", key=join_key(key, key_text(k))
+            )
         if name in changes:
             raise ConfigError("given twice (by its name and its short key)", key=join_key(key, k))
         try:

@@ -34,6 +34,7 @@ from uavplan.config import (
     SearchParams,
     build,
     build_params,
+    key_text,
     planner_entry,
     resolved_planner,
     short_repr,
@@ -216,7 +217,7 @@ class _Checker:
                 raise self.fail(key, f"keys must be strings, got {short_repr(k)}")
             if k not in allowed:
                 hint = f" (allowed: {', '.join(sorted(allowed))})"
-                raise self.fail(_join(key, k), f"unknown key{hint}")
+                raise self.fail(_join(key, key_text(k)), f"unknown key{hint}")
         for k in sorted(required):
             if k not in value:
                 raise self.fail(_join(key, k), "missing required key")
