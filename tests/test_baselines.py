@@ -255,7 +255,7 @@ def test_options_fill_the_parameter_dataclass() -> None:
     planner = make_planner("pso", SEARCH, options={"c1": 1.5, "v_max_fraction": None})
     assert planner.params == PsoParams(c1=1.5, v_max_fraction=None)
     assert options_class("gwo").__name__ == "GwoParams"
-    with pytest.raises(ValueError, match="unknown de option"):
+    with pytest.raises(ValueError, match="F: unknown key"):
         make_planner("de", SEARCH, options={"F": 0.5})
-    with pytest.raises(ValueError, match="cr must be"):
+    with pytest.raises(ValueError, match="cr: must be"):
         make_planner("de", SEARCH, options={"cr": 2.0})
