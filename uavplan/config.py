@@ -176,11 +176,15 @@ def describe(f: dataclasses.Field[Any]) -> str:
         return "one of " + ", ".join(m["choices"])
     what = "an integer" if kind == "int" else "a number"
     lo, hi = m.get("lo"), m.get("hi")
+
+    def fmt(v: float) -> str:
+        return str(int(v)) if kind == "int" else f"{v:g}"
+
     parts = []
     if lo is not None:
-        parts.append(f"{'>' if m.get('lo_open') else '>='} {lo:g}")
+        parts.append(f"{'>' if m.get('lo_open') else '>='} {fmt(lo)}")
     if hi is not None:
-        parts.append(f"{'<' if m.get('hi_open') else '<='} {hi:g}")
+        parts.append(f"{'<' if m.get('hi_open') else '<='} {fmt(hi)}")
     text = what + (" " + " and ".join(parts) if parts else "")
     return text + (" (or null)" if m.get("optional") else "")
 
