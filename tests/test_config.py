@@ -396,3 +396,27 @@ def test_bench_default_is_every_registered_paper_algorithm(toy: PlannerEntry) ->
     assert bench.default_algorithms() == ("spsa", "ssa", "pso", "gwo", "de", "cso")
     register(dataclasses.replace(toy, paper=True))
     assert bench.default_algorithms()[-1] == "toy"
+
+
+def test_with_search_validates_overrides_and_size(tmp_path: Path) -> None:
+    from uavplan.scenario import with_search
+
+    scn = load_scenario(write(tmp_path, SCENARIO))
+    assert with_search(scn, {"iterations": 5, "population": None}).planner.search.iterations == 5
+    with pytest.raises(ConfigError) as err:
+        with_search(scn, {"iterations": 10**9}, "--iterations")
+    assert err.value.key == "--iterations" and "<= 1000000" in err.value.reason
+    huge = {"iterations": 1_000_000, "population": 10_000}
+    with pytest.raises(InputError, match="too large to plan"):
+        with_search(scn, huge)
+
+
+def test_config_imports_nothing_of_uavplan_but_errors() -> None:
+    import ast
+
+    tree = ast.parse(Path(config.__file__).read_text(encoding="utf-8"))
+    imported = {
+        node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module
+    } | {a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
+    assert {m for m in imported if m.startswith("uavplan")} == {"uavplan.errors"}
+    assert not imported & {"numpy", "yaml", "click"}

@@ -35,6 +35,7 @@ from uavplan.config import (
     build,
     build_params,
     key_text,
+    override,
     planner_entry,
     resolved_planner,
     short_repr,
@@ -61,6 +62,7 @@ __all__ = [
     "load_scenario",
     "problem_size",
     "resolved_config",
+    "with_search",
 ]
 
 # ---------------------------------------------------------------------------------------------
@@ -143,6 +145,22 @@ class Scenario:
             params = build_params(cfg.algorithm, dict(options), cfg.algorithm)
             cfg = cfg.with_params(cfg.algorithm, params) if params is not None else cfg
         return replace(self, planner=cfg)
+
+
+def with_search(scenario: Scenario, changes: Mapping[str, Any], key: str = "") -> Scenario:
+    """``scenario`` with command-line overrides of its search values (``{"iterations": 5}``),
+    validated by :func:`uavplan.config.override` (ConfigError naming ``key``, e.g.
+    ``--iterations``) and re-checked against the size limits (:func:`check_limits`)."""
+    changes = {k: v for k, v in changes.items() if v is not None}
+    if not changes:
+        return scenario
+    try:
+        search = override(scenario.planner.search, changes)
+    except ConfigError as err:
+        raise ConfigError(err.reason, key=key or err.key) from None
+    out = scenario.with_planner(search=search)
+    check_limits(out)
+    return out
 
 
 def resolved_config(scenario: Scenario | PlannerConfig, algorithm: str | None = None) -> dict:
