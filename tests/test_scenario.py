@@ -744,3 +744,25 @@ def test_plain_numpy_clearances_match_the_world(tmp_path: Path) -> None:
         top = np.array([p])
         ref_col, _ = world.segments_clearance(ground, top)
         assert column == pytest.approx(max(float(ref_col[0]), 0.0), abs=1e-6)
+
+
+def test_large_polygons_are_checked_and_capped(tmp_path: Path) -> None:
+    import math
+
+    def ring(n: int, r: float = 50.0) -> list[list[float]]:
+        return [
+            [round(500 + r * math.cos(2 * math.pi * i / n), 6),
+             round(-300 + r * math.sin(2 * math.pi * i / n), 6)]
+            for i in range(n)
+        ]  # fmt: skip
+
+    def prism(points: list[list[float]]) -> str:
+        return BASE + f"  - {{type: prism, polygon: {points}, height: 20}}\n"
+
+    assert len(load_scenario(write(tmp_path, "ok.yaml", prism(ring(1000)))).obstacles) == 2
+    crossed = ring(1000)
+    crossed[10], crossed[500] = crossed[500], crossed[10]
+    assert_rejected(write(tmp_path, "x.yaml", prism(crossed)), "obstacles[1].polygon", "cross")
+    assert_rejected(
+        write(tmp_path, "big.yaml", prism(ring(1002))), "obstacles[1].polygon", "at most 1000"
+    )
