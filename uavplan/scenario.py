@@ -903,48 +903,99 @@ def _check_geometry(chk: _Checker, scn: Scenario, n_map: int, map_ref: str | Non
 # Exact clearances in plain numpy (validation must not need the planner's compiled kernels)
 
 
+class _Footprints:
+    """Every obstacle's footprint as flat numpy arrays, built once per obstacle tuple: the
+    cylinders' centres and radii, the polygon edges (box corners computed vectorised) with
+    the obstacle each belongs to, and the heights."""
+
+    def __init__(self, obstacles: Sequence[Obstacle]) -> None:
+        import numpy as np
+
+        self.n = len(obstacles)
+        self.heights = np.array([o.height_m for o in obstacles], dtype=np.float64)
+        cyl = [i for i, o in enumerate(obstacles) if isinstance(o, CylinderObstacle)]
+        self.cyl = np.array(cyl, dtype=np.int64)
+        self.centres = np.array(
+            [obstacles[i].center_m for i in cyl],  # type: ignore[union-attr]
+            dtype=np.float64,
+        ).reshape(-1, 2)
+        self.radii = np.array([obstacles[i].radius_m for i in cyl], dtype=np.float64)  # type: ignore[union-attr]
+        boxes = [i for i, o in enumerate(obstacles) if isinstance(o, BoxObstacle)]
+        prisms = [i for i, o in enumerate(obstacles) if isinstance(o, PrismObstacle)]
+        starts_list: list[Any] = []
+        owners: list[Any] = []
+        if boxes:
+            bx = [obstacles[i] for i in boxes]
+            c = np.array([o.center_m for o in bx], dtype=np.float64)  # type: ignore[union-attr]
+            h = np.array([o.size_m for o in bx], dtype=np.float64) / 2.0  # type: ignore[union-attr]
+            yaw = np.radians(np.array([o.yaw_deg for o in bx], dtype=np.float64))  # type: ignore[union-attr]
+            cs, sn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+            u = np.array([-1.0, 1.0, 1.0, -1.0]) * h[:, :1]
+            v = np.array([-1.0, -1.0, 1.0, 1.0]) * h[:, 1:]
+            corners = np.stack([c[:, :1] + cs * u - sn * v, c[:, 1:] + sn * u + cs * v], axis=-1)
+            starts_list.append(corners.reshape(-1, 2))
+            owners.append(np.repeat(np.array(boxes, dtype=np.int64), 4))
+        counts = [4] * len(boxes)
+        for i in prisms:
+            ring = obstacles[i].polygon_m  # type: ignore[union-attr]
+            starts_list.append(np.asarray(ring, dtype=np.float64))
+            owners.append(np.full(len(ring), i, dtype=np.int64))
+            counts.append(len(ring))
+        if starts_list:
+            a = np.concatenate(starts_list)
+            k = np.array(counts, dtype=np.int64)
+            first = np.repeat(np.cumsum(k) - k, k)
+            local = np.arange(len(a)) - first
+            self.a = a
+            self.b = a[first + (local + 1) % np.repeat(k, k)]
+            self.owner = np.concatenate(owners)
+        else:
+            self.a = self.b = np.empty((0, 2))
+            self.owner = np.empty(0, dtype=np.int64)
+
+    def horizontal(self, xy: Sequence[float]) -> Any:
+        """Horizontal distance (metres, shape (n,)) from ``xy`` to every footprint; 0 inside."""
+        import numpy as np
+
+        out = np.full(self.n, np.inf)
+        px, py = float(xy[0]), float(xy[1])
+        if self.cyl.size:
+            d = np.hypot(self.centres[:, 0] - px, self.centres[:, 1] - py) - self.radii
+            out[self.cyl] = np.maximum(d, 0.0)
+        if self.owner.size:
+            a, ab = self.a, self.b - self.a
+            ap = np.array([px, py]) - a
+            den = np.einsum("ij,ij->i", ab, ab)
+            t = np.clip(np.einsum("ij,ij->i", ap, ab) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+            dist = np.hypot(a[:, 0] + t * ab[:, 0] - px, a[:, 1] + t * ab[:, 1] - py)
+            np.minimum.at(out, self.owner, dist)
+            ay, by = a[:, 1], self.b[:, 1]
+            straddles = (ay > py) != (by > py)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x_cross = a[:, 0] + ab[:, 0] * (py - ay) / np.where(straddles, by - ay, 1.0)
+            hits = np.zeros(self.n, dtype=np.int64)
+            np.add.at(hits, self.owner, (straddles & (px < x_cross)).astype(np.int64))
+            out[hits % 2 == 1] = 0.0
+        return out
+
+
+_FOOTPRINTS: dict[int, tuple[Sequence[Obstacle], _Footprints]] = {}
+
+
+def _footprints(obstacles: Sequence[Obstacle]) -> _Footprints:
+    hit = _FOOTPRINTS.get(id(obstacles))
+    if hit is not None and hit[0] is obstacles:
+        return hit[1]
+    fp = _Footprints(obstacles)
+    _FOOTPRINTS.clear()  # one scenario at a time
+    _FOOTPRINTS[id(obstacles)] = (obstacles, fp)
+    return fp
+
+
 def _horizontal_distances(obstacles: Sequence[Obstacle], xy: Sequence[float]) -> Any:
     """Horizontal distance (metres, shape (n,)) from ``xy`` to every obstacle's footprint;
     0 inside a footprint."""
-    import numpy as np
-
-    n = len(obstacles)
-    out = np.full(n, np.inf)
-    px, py = float(xy[0]), float(xy[1])
-    cyl = [i for i, o in enumerate(obstacles) if isinstance(o, CylinderObstacle)]
-    if cyl:
-        cyls = [obstacles[i] for i in cyl]
-        centres = np.array([o.center_m for o in cyls], dtype=np.float64)  # type: ignore[union-attr]
-        radii = np.array([o.radius_m for o in cyls], dtype=np.float64)  # type: ignore[union-attr]
-        d = np.hypot(centres[:, 0] - px, centres[:, 1] - py) - radii
-        out[cyl] = np.maximum(d, 0.0)
-    polys = [i for i, o in enumerate(obstacles) if not isinstance(o, CylinderObstacle)]
-    if polys:
-        rings = [obstacles[i].footprint() for i in polys]  # type: ignore[union-attr]
-        counts = np.array([len(r) for r in rings])
-        a = np.array([p for r in rings for p in r], dtype=float)  # (m, 2)
-        starts = np.repeat(np.cumsum(counts) - counts, counts)
-        local = np.arange(len(a)) - starts
-        b = a[starts + (local + 1) % np.repeat(counts, counts)]
-        owner = np.repeat(np.arange(len(polys)), counts)
-        ab = b - a
-        ap = np.array([px, py]) - a
-        den = np.einsum("ij,ij->i", ab, ab)
-        t = np.clip(np.einsum("ij,ij->i", ap, ab) / np.where(den > 0, den, 1.0), 0.0, 1.0)
-        closest = a + t[:, None] * ab
-        dist = np.hypot(closest[:, 0] - px, closest[:, 1] - py)
-        dpoly = np.full(len(polys), np.inf)
-        np.minimum.at(dpoly, owner, dist)
-        ay, by = a[:, 1], b[:, 1]
-        straddles = (ay > py) != (by > py)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x_cross = a[:, 0] + ab[:, 0] * (py - ay) / np.where(straddles, by - ay, 1.0)
-        crossing = straddles & (px < x_cross)
-        hits = np.zeros(len(polys), dtype=np.int64)
-        np.add.at(hits, owner, crossing.astype(np.int64))
-        dpoly[hits % 2 == 1] = 0.0
-        out[polys] = dpoly
-    return out
+    return _footprints(obstacles).horizontal(xy)
 
 
 def _point_clearance(obstacles: Sequence[Obstacle], point: Sequence[float]) -> tuple[float, int]:
@@ -954,9 +1005,9 @@ def _point_clearance(obstacles: Sequence[Obstacle], point: Sequence[float]) -> t
 
     if not obstacles:
         return math.inf, -1
-    horizontal = _horizontal_distances(obstacles, point[:2])
-    heights = np.array([o.height_m for o in obstacles], dtype=float)
-    vertical = np.maximum(float(point[2]) - heights, 0.0)
+    fp = _footprints(obstacles)
+    horizontal = fp.horizontal(point[:2])
+    vertical = np.maximum(float(point[2]) - fp.heights, 0.0)
     dist = np.hypot(horizontal, vertical)
     index = int(np.argmin(dist))
     return float(dist[index]), index
