@@ -620,7 +620,7 @@ def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
         for name in PLANNERS:
             if name in raw:
                 params = build_params(name, raw[name], name)
-                if params is not None:
+                if params is not None and params != PLANNERS[name].params():  # type: ignore[misc]
                     sections[name] = params
         if "options" in raw:
             if algorithm in raw:
@@ -630,7 +630,7 @@ def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
                     key="options",
                 )
             params = build_params(algorithm, raw["options"], "options")
-            if params is not None:
+            if params is not None and params != PLANNERS[algorithm].params():  # type: ignore[misc]
                 sections[algorithm] = params
     except ConfigError as err:
         raise chk.config(err.under("planner")) from None
