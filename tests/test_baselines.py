@@ -14,17 +14,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uavplan.config import CsoParams, DeParams, GwoParams, PsoParams, SearchParams
 from uavplan.planners.base import PathProblem, Population
 from uavplan.planners.chicken_swarm import ChickenSwarmPlanner
 from uavplan.planners.differential_evolution import DifferentialEvolutionPlanner, distinct_others
 from uavplan.planners.grey_wolf import GreyWolfPlanner, best_distinct
-from uavplan.planners.params import CsoParams, DeParams, GwoParams, PsoParams, SearchParams
 from uavplan.planners.particle_swarm import ParticleSwarmPlanner
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.registry import available, make_planner, options_class
 from uavplan.planning import build_world
 from uavplan.scenario import load_scenario
-from uavplan.world import World
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 
@@ -60,7 +59,7 @@ def _problem(tmp_path_factory: pytest.TempPathFactory, text: str) -> PathProblem
     path.write_text(text)
     scn = load_scenario(path)
     cfg = scn.planner
-    world = World.from_scenario(scn)
+    world = build_world(scn)
     return PathProblem.build(world, scn.start_m, scn.goal_m, cfg.grid, cfg.energy)
 
 
@@ -267,9 +266,9 @@ def test_options_fill_the_parameter_dataclass() -> None:
     planner = make_planner("pso", SEARCH, options={"c1": 1.5, "v_max_fraction": None})
     assert planner.params == PsoParams(c1=1.5, v_max_fraction=None)
     assert options_class("gwo").__name__ == "GwoParams"
-    with pytest.raises(ValueError, match="unknown de option"):
+    with pytest.raises(ValueError, match="F: unknown key"):
         make_planner("de", SEARCH, options={"F": 0.5})
-    with pytest.raises(ValueError, match="cr must be"):
+    with pytest.raises(ValueError, match="cr: must be"):
         make_planner("de", SEARCH, options={"cr": 2.0})
 
 

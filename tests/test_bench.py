@@ -89,10 +89,10 @@ def test_parameter_variants() -> None:
     assert dict(v.post_changes) == {"smooth": False}
     assert bench.Variant.parse("pso(v_max_fraction=null)").options == (("v_max_fraction", None),)
     for bad, message in [
-        ("de(F=1)", "unknown de option"),
-        ("spsa(nope=1)", "unknown spsa parameter"),
-        ("gwo(a_start=-1)", "a_start must be"),
-        ("ssa(x=1)", "takes no options"),
+        ("de(F=1)", "F: unknown key"),
+        ("spsa(nope=1)", "nope: unknown key"),
+        ("gwo(a_start=-1)", "a_start: must be a number >= 0"),
+        ("ssa(x=1)", "takes no parameters"),
         ("de(cr)", "not KEY=VALUE"),
     ]:
         with pytest.raises(ValueError, match=message):
@@ -101,7 +101,7 @@ def test_parameter_variants() -> None:
     assert (v.algorithm, v.search_changes) == ("ssa", (("fitness_smoothing", 0),))
     with pytest.raises(ValueError, match="seeds come from"):
         bench.Variant.parse("pso(seed=3)")
-    with pytest.raises(ValueError, match="t_max must be"):
+    with pytest.raises(ValueError, match="t_max: must be an integer >= 1"):
         bench.Variant.parse("pso(t_max=0)")
     assert bench.split_labels("spsa, de(cr=0.1,f=0.6),pso") == ["spsa", "de(cr=0.1,f=0.6)", "pso"]
 
@@ -257,7 +257,7 @@ def test_cli_bench_with_ablation(tiny_path: Path, tmp_path: Path) -> None:
     assert len((out / "runs.csv").read_text().splitlines()) == 1 + 2 + len(bench.ABLATIONS)
     assert doc["config"]["seeds"] == [3]
     assert doc["config"]["scenarios"]["tiny"]["search"]["fitness_smoothing"] == 0
-    assert doc["config"]["algorithms"]["spsa-no-escape"]["spsa"]["escape"] is False
+    assert doc["config"]["algorithms"]["spsa-no-escape"]["params"]["escape"] is False
     assert doc["config"]["algorithms"]["pso"]["params"]["c1"] == 2.0
 
 

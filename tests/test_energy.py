@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.interpolate import CubicSpline
 
+from uavplan.config import EnergyWeights
 from uavplan.path.energy import N_SUB, column_spline, energy_terms, population_energy
-from uavplan.planners.params import EnergyWeights
 
 UNIT = EnergyWeights(k0=1.0, k1=1.0, mu0=1.0, k2=1.0)
 
@@ -158,7 +158,18 @@ def test_spline_of_collinear_knots_is_the_line() -> None:
 # --- population_energy ------------------------------------------------------------------------
 
 
-def pop_energy(nodes, start_yz, goal_yz, dx, dy, dz, w: EnergyWeights = UNIT, n_sub=N_SUB):
+def straight_cols(n_nodes: int, dx: float) -> np.ndarray:
+    """The paper's straight columns: origins (j·dx, 0), normals (0, 1)."""
+    cols = np.zeros((n_nodes + 2, 4))
+    cols[:, 0] = np.arange(n_nodes + 2) * dx
+    cols[:, 3] = 1.0
+    return cols
+
+
+def pop_energy(
+    nodes, start_yz, goal_yz, dx, dy, dz, w: EnergyWeights = UNIT, n_sub=N_SUB, straight=True
+):
+    cols = straight_cols(np.shape(nodes)[1], dx)
     return population_energy(
         np.ascontiguousarray(nodes, dtype=float),
         np.array(start_yz, dtype=float),
@@ -171,7 +182,19 @@ def pop_energy(nodes, start_yz, goal_yz, dx, dy, dz, w: EnergyWeights = UNIT, n_
         w.k1,
         w.mu0,
         w.k2,
+        0,
+        cols,
+        straight,
     )
+
+
+def test_the_curved_formula_on_straight_columns_is_the_straight_formula() -> None:
+    """A guide that happens to be straight gives the paper's energy (to rounding)."""
+    rng = np.random.default_rng(5)
+    nodes = rng.integers(-3, 4, size=(6, 9, 2)).astype(float)
+    a = pop_energy(nodes, (0.0, 30.0), (10.0, 40.0), 20.0, 20.0, 10.0)
+    b = pop_energy(nodes, (0.0, 30.0), (10.0, 40.0), 20.0, 20.0, 10.0, straight=False)
+    np.testing.assert_allclose(a, b, rtol=1e-9)
 
 
 def test_population_energy_of_a_straight_path_is_its_length() -> None:

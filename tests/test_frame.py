@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from uavplan.config import GridSpec
 from uavplan.path.frame import PathFrame
-from uavplan.planners.params import GridSpec
 
 GRID = GridSpec(dx_m=20.0, dy_m=20.0, dz_m=10.0)
 
@@ -57,9 +57,9 @@ def test_column_spacing_is_stretched_so_the_goal_is_on_the_last_column() -> None
     f = PathFrame.build((0.0, 0.0, 10.0), (1010.0, 0.0, 10.0), GRID)
     assert f.n_cols == 50
     assert f.dx_m == pytest.approx(20.2)
-    assert f.column_x_m.shape == (51,)
-    assert f.column_x_m[0] == 0.0
-    assert f.column_x_m[-1] == pytest.approx(1010.0, abs=1e-9)
+    assert f.cols[:, 0].shape == (51,)
+    assert f.cols[:, 0][0] == 0.0
+    assert f.cols[:, 0][-1] == pytest.approx(1010.0, abs=1e-9)
 
 
 def test_short_routes_still_have_two_columns() -> None:
@@ -138,8 +138,8 @@ def test_goal_is_on_the_last_column(x, y, z0, bearing, distance, z1, grid) -> No
     f = frame_at(x, y, z0, bearing, distance, z1, grid)
     assert f.n_cols >= 2
     assert f.n_cols == max(2, round(f.length_m / grid.dx_m))
-    assert f.column_x_m[-1] == pytest.approx(f.length_m, rel=1e-12)
-    np.testing.assert_allclose(np.diff(f.column_x_m), f.dx_m, rtol=1e-9)
+    assert f.cols[:, 0][-1] == pytest.approx(f.length_m, rel=1e-12)
+    np.testing.assert_allclose(np.diff(f.cols[:, 0]), f.dx_m, rtol=1e-9)
     if f.n_cols > 2:  # only stretched, never by more than half a column
         assert abs(f.dx_m - grid.dx_m) <= grid.dx_m / 2 + 1e-9
     # nodes on the start-end line map back onto start and goal and the straight line
@@ -166,3 +166,41 @@ def test_start_end_line_z(x, y, z0, bearing, distance, z1, grid) -> None:
     np.testing.assert_allclose(np.diff(z), (z1 - z0) / f.n_cols, rtol=0, atol=1e-9)
     assert f.start_units == (0.0, pytest.approx(z0 / grid.dz_m))
     assert f.goal_units == (0.0, pytest.approx(z1 / grid.dz_m))
+
+
+def test_columns_along_a_guide_that_turns_back_do_not_fold() -> None:
+    """A U-shaped guide (out 400 m, across 200 m, back 300 m): columns stand at equal arc
+    lengths on it, their normals turn with it, and each column's lateral window stops
+    before the line of a neighbouring column crosses it."""
+    f = PathFrame.build((0.0, 0.0, 30.0), (100.0, 200.0, 30.0), GridSpec())
+    # the guide in the path frame (x toward the goal): out, across, back
+    c, s = math.cos(f.heading_rad), math.sin(f.heading_rad)
+    enu = np.array([[0.0, 0.0], [400.0, 0.0], [400.0, 200.0], [100.0, 200.0]])
+    pf = np.column_stack([c * enu[:, 0] + s * enu[:, 1], -s * enu[:, 0] + c * enu[:, 1]])
+    g = f.along(pf)
+    assert not g.straight and g.n_cols == round(900 / 20)
+    np.testing.assert_allclose(np.linalg.norm(g.cols[:, 2:], axis=1), 1.0)
+    np.testing.assert_allclose(g.cols[0, :2], pf[0], atol=1e-9)
+    np.testing.assert_allclose(g.cols[-1, :2], pf[-1], atol=1e-9)
+    steps = np.linalg.norm(np.diff(g.cols[:, :2], axis=0), axis=1)
+    assert steps.max() <= g.dx_m + 1e-9  # on the guide, at most one arc step apart
+    lo, hi = g.lateral_limits_m[:, 0], g.lateral_limits_m[:, 1]
+    assert np.isfinite(lo).any() or np.isfinite(hi).any()  # windows cut where it turns
+    # within the windows, no two neighbouring columns' segments cross
+    for j in range(g.n_cols):
+        a0, a1 = (g.cols[j, :2] + t * g.cols[j, 2:] for t in np.clip([lo[j], hi[j]], -300, 300))
+        b0, b1 = (
+            g.cols[j + 1, :2] + t * g.cols[j + 1, 2:]
+            for t in np.clip([lo[j + 1], hi[j + 1]], -300, 300)
+        )
+        d = np.linalg.det
+        crosses = (
+            d([a1 - a0, b0 - a0]) * d([a1 - a0, b1 - a0]) < 0
+            and d([b1 - b0, a0 - b0]) * d([b1 - b0, a1 - b0]) < 0
+        )
+        assert not crosses, j
+    # a node at lateral offset y sits at origin + y·normal
+    nodes = np.zeros((g.n_cols - 1, 2))
+    nodes[:, 0] = 1.0
+    pts = g.nodes_to_points(nodes)
+    np.testing.assert_allclose(pts[1:-1, :2], g.cols[1:-1, :2] + 20.0 * g.cols[1:-1, 2:])

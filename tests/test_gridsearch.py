@@ -9,13 +9,13 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from uavplan.config import EnergyWeights, GridSpec
 from uavplan.geo import GeoPoint
 from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, Obstacle
 from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, astar
-from uavplan.planners.params import EnergyWeights, GridSpec
 from uavplan.planning import reference_route
 from uavplan.scenario import PlannerConfig, Scenario
 from uavplan.world import World

@@ -3,6 +3,7 @@ rejected with one ``ScenarioError`` naming the file, the key path and the reason
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 import textwrap
@@ -12,17 +13,18 @@ import pytest
 from click.testing import CliRunner
 
 from uavplan.cli import main
-from uavplan.errors import EXIT_INPUT, ScenarioError
-from uavplan.geo import GeoPoint
-from uavplan.mission.items import Autopilot
-from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, PrismObstacle
-from uavplan.planners.params import (
+from uavplan.config import (
     EnergyWeights,
     GridSpec,
     PostParams,
     SearchParams,
     SpsaParams,
 )
+from uavplan.errors import EXIT_INPUT, ScenarioError
+from uavplan.geo import GeoPoint
+from uavplan.mission.items import Autopilot
+from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, PrismObstacle
+from uavplan.planning import build_world
 from uavplan.scenario import (
     MissionConfig,
     PlannerConfig,
@@ -349,7 +351,7 @@ BAD = [
      "obstacles", "must be a list"),
     ("obstacle-is-null", BASE + "  - null\n", "obstacles[1]", "must be a mapping"),
     ("unknown-algorithm", BASE + "planner: {algorithm: astar}\n", "planner.algorithm",
-     "must be one of spsa, ssa, pso, gwo, de, cso"),
+     "unknown algorithm 'astar' (available: spsa, ssa, pso, gwo, de, cso)"),
     ("float-population", BASE + "planner: {population: 30.5}\n", "planner.population",
      "must be an integer"),
     ("unknown-planner-key", BASE + "planner: {swarm: 3}\n", "planner.swarm", "unknown key"),
@@ -357,7 +359,7 @@ BAD = [
     ("string-energy-weight", BASE + "planner: {energy: {k1: high}}\n", "planner.energy.k1",
      "must be a number"),
     ("spsa-ratios-not-summing-to-1", BASE + "planner: {spsa: {producer_ratio: 0.5}}\n",
-     "planner.spsa", "producer_ratio + scrounger_ratio must be 1"),
+     "planner.spsa.scrounger_ratio", "producer_ratio + scrounger_ratio must be 1"),
     ("unknown-mission-end", BASE + "mission: {end: loiter}\n", "mission.end",
      "must be one of rtl, land, none"),
     ("unknown-autopilot", BASE + "mission: {autopilot: betaflight}\n", "mission.autopilot",
@@ -447,7 +449,7 @@ def test_population_below_four_is_rejected(tmp_path: Path) -> None:
     [
         ("{population: 2}", "planner.population", ">= 4"),
         ("{seed: -1}", "planner.seed", ">= 0"),
-        ("{grid: {dx: 0}}", "planner.grid.dx", "must be a number > 0"),
+        ("{grid: {dx: 0}}", "planner.grid.dx", "must be a number >= 0.1"),
     ],
 )
 def test_planner_value_errors_name_the_key(
@@ -461,13 +463,13 @@ def test_planner_value_errors_name_the_key(
 def test_unknown_algorithm_options_are_rejected_at_load(tmp_path: Path) -> None:
     assert_rejected(
         write(tmp_path, "opt.yaml", BASE + "planner: {algorithm: pso, options: {inertia: 1}}\n"),
-        "planner.options",
-        "unknown pso option(s) inertia",
+        "planner.options.inertia",
+        "unknown key (allowed: c1, c2, v_max_fraction, w_end, w_start)",
     )
     assert_rejected(
         write(tmp_path, "opt2.yaml", BASE + "planner: {algorithm: ssa, options: {w: 1}}\n"),
         "planner.options",
-        "takes no options",
+        "takes no parameters",
     )
 
 
@@ -550,3 +552,217 @@ def test_cli_validate_in_a_real_process(tmp_path: Path) -> None:
     assert len(proc.stderr.splitlines()) == 1
     assert "origin.lat" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+# --- hostile and oversized input (issue 12) ---------------------------------------------------
+
+
+def write_bytes(directory: Path, name: str, data: bytes) -> Path:
+    path = directory / name
+    path.write_bytes(data)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "reason"),
+    [
+        ("safety_margin: " + "9" * 400 + "\n", "safety_margin", "out of range"),
+        ("planner: {population: 1099511627776}\n", "planner.population", "<= 10000"),
+        ("planner: {post: {sample_step_m: 1.0e-9}}\n", "planner.post.sample_step_m", ">= 0.1"),
+        ("planner: {energy: {k0: 1.0e+308}}\n", "planner.energy.k0", "<= 1e+06"),
+        ("planner: {t_max: 1000000000}\n", "planner.t_max", "<= 1000"),
+        ("planner: {spsa: {oscillation_window: 1000000000}}\n",
+         "planner.spsa.oscillation_window", "<= 1000"),
+        ("planner: {iterations: 1000000, population: 10000}\n", "planner.iterations",
+         "too large to plan"),
+        ("safety_margin: 1.0e+300\n", "safety_margin", "must be <= 10000"),
+    ],
+)  # fmt: skip
+def test_values_that_crashed_or_hung_are_refused(
+    tmp_path: Path, change: str, key: str, reason: str
+) -> None:
+    assert_rejected(write(tmp_path, "s.yaml", BASE + change), key, reason)
+
+
+def test_overlong_name_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path, "s.yaml", BASE.replace("name: base", "name: " + "n" * 300))
+    assert_rejected(path, "name", "1 to 200 characters")
+
+
+def test_cylinder_centre_far_away_is_refused(tmp_path: Path) -> None:
+    text = BASE + "  - {type: cylinder, center: [-1.0e+308, 0], radius: 5, height: 10}\n"
+    assert_rejected(write(tmp_path, "s.yaml", text), "obstacles[1].center[0]", "within ±1e+06")
+
+
+def test_huge_integer_beyond_python_conversion_limit(tmp_path: Path) -> None:
+    path = write(tmp_path, "s.yaml", BASE + "safety_margin: " + "7" * 5000 + "\n")
+    assert "invalid YAML" in rejected(path).reason
+
+
+def test_deeply_nested_lists_are_refused(tmp_path: Path) -> None:
+    deep = "[" * 1000 + "]" * 1000
+    err = rejected(write(tmp_path, "s.yaml", BASE.replace("[0, 0, 30]", deep)))
+    assert "nested more than 64 levels deep" in err.reason
+
+
+def test_billion_laughs_alias_is_refused_quickly(tmp_path: Path) -> None:
+    lines = ['a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+    names = "abcdefghi"
+    for prev, cur in itertools.pairwise(names):
+        lines.append(f"{cur}: &{cur} [" + ",".join([f"*{prev}"] * 9) + "]")
+    text = "\n".join(lines) + "\nstart: *i\n"
+    assert len(text.encode()) < 700
+    err = rejected(write(tmp_path, "s.yaml", text))
+    assert "once its aliases are expanded" in err.reason
+    assert len(str(err)) < 300
+
+
+def test_an_alias_inside_itself_is_refused(tmp_path: Path) -> None:
+    err = rejected(write(tmp_path, "s.yaml", BASE + "vehicle: &v [1, *v]\n"))
+    assert "refers to its own anchor" in err.reason
+    err = rejected(write(tmp_path, "t.yaml", BASE + "vehicle: &v {x: *v}\n"))
+    assert "recursive" in err.reason
+
+
+def test_error_messages_render_big_values_briefly(tmp_path: Path) -> None:
+    text = BASE.replace("[0, 0, 30]", "[" + ", ".join(["[1, 2, 3]"] * 5000) + "]")
+    err = rejected(write(tmp_path, "s.yaml", text))
+    assert err.key == "start" and len(err.reason) < 120
+
+
+def test_duplicate_keys_are_refused_naming_the_key(tmp_path: Path) -> None:
+    err = rejected(write(tmp_path, "s.yaml", BASE + "safety_margin: 5\nsafety_margin: 6\n"))
+    assert "duplicate key 'safety_margin'" in err.reason and "line 9" in err.reason
+    err = rejected(write(tmp_path, "t.yaml", BASE + "planner: {seed: 1, seed: 2}\n"))
+    assert "duplicate key 'seed'" in err.reason
+
+
+def test_merge_keys_still_work(tmp_path: Path) -> None:
+    text = BASE + "vehicle: {<<: {cruise_speed: 5}, takeoff_altitude: 30}\n"
+    assert load_scenario(write(tmp_path, "s.yaml", text)).vehicle.cruise_speed_m_s == 5
+
+
+def test_encodings(tmp_path: Path) -> None:
+    scn = load_scenario(write_bytes(tmp_path, "bom.yaml", b"\xef\xbb\xbf" + BASE.encode()))
+    assert scn.name == "base"
+    err = rejected(write_bytes(tmp_path, "u16.yaml", BASE.encode("utf-16")))
+    assert "UTF-16 encoded; save it as UTF-8" in err.reason
+    err = rejected(
+        write_bytes(tmp_path, "latin.yaml", BASE.replace("base", "bäse").encode("latin-1"))
+    )
+    assert "not UTF-8 text (byte 0xe4 on line 1)" in err.reason
+
+
+@pytest.mark.parametrize(
+    ("ref", "reason"),
+    [("maps/a\\0b.yaml", "no NUL character"), ("m" * 300 + ".yaml", "path is too long")],
+)
+def test_bad_map_paths(tmp_path: Path, ref: str, reason: str) -> None:
+    assert_rejected(write(tmp_path, "s.yaml", BASE + f'map: "{ref}"\n'), "map", reason)
+
+
+def test_map_that_is_a_directory(tmp_path: Path) -> None:
+    (tmp_path / "maps").mkdir()
+    assert_rejected(write(tmp_path, "s.yaml", BASE + "map: maps\n"), "map", "not found")
+
+
+def test_start_or_goal_on_the_ground_is_an_input_error(tmp_path: Path) -> None:
+    err = rejected(write(tmp_path, "s.yaml", BASE.replace("[0, 0, 30]", "[0, 0, 0]")))
+    assert err.key == "start[2]" and "must be above the ground" in err.reason
+    assert "take-off climb" in err.reason
+    err = rejected(write(tmp_path, "g.yaml", BASE.replace("[1000, 0, 40]", "[1000, 0, 0]")))
+    assert err.key == "goal[2]" and "mission.end: land" in err.reason
+
+
+def test_takeoff_altitude_above_the_ceiling_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path, "s.yaml", BASE + "vehicle: {takeoff_altitude: 250}\n")
+    assert_rejected(path, "vehicle.takeoff_altitude", "above the ceiling")
+    ok = write(tmp_path, "ok.yaml", BASE + "vehicle: {takeoff_altitude: 200}\n")
+    assert load_scenario(ok).vehicle.takeoff_altitude_m == 200
+
+
+def test_too_large_a_grid_is_refused_by_validate_and_plan_alike(tmp_path: Path) -> None:
+    text = BASE.replace("x: [0, 1000], y: [-500, 500]", "x: [0, 100000], y: [-50000, 50000]")
+    path = write(tmp_path, "big.yaml", text + "planner: {grid: {dx: 1, dy: 1, dz: 1}}\n")
+    assert_rejected(path, "planner.grid", "too large to plan")
+    for args in (["validate", str(path)], ["plan", str(path), "-o", str(tmp_path / "o.plan")]):
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 2, result.output
+        assert "too large to plan" in result.output
+    assert not (tmp_path / "o.plan").exists()
+
+
+def test_problem_size_estimate() -> None:
+    from uavplan.scenario import problem_size
+
+    scn = Scenario(
+        "s",
+        GeoPoint(47.0, 8.0, 0.0),
+        Bounds((0.0, 1000.0), (-500.0, 500.0), (0.0, 200.0)),
+        (0.0, 0.0, 30.0),
+        (1000.0, 0.0, 40.0),
+        (),
+    )
+    size = problem_size(scn)
+    assert size["columns"] == 50
+    assert size["grid_cells"] == 51 * 51 * 21
+    assert size["search_work"] == 30 * 1000 * 50
+    assert size["route_samples"] == 2 * 1000 / 5
+
+
+def test_validate_does_not_load_numba(tmp_path: Path) -> None:
+    path = write(tmp_path, "full.yaml", FULL)
+    code = (
+        "import sys; from click.testing import CliRunner; from uavplan.cli import main; "
+        f"r = CliRunner().invoke(main, ['validate', {str(path)!r}]); "
+        "print(r.exit_code, 'numba' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.stdout.split() == ["0", "False"], out.stderr
+
+
+def test_plain_numpy_clearances_match_the_world(tmp_path: Path) -> None:
+    """The validation's exact distances (no compiled kernels) agree with the world's."""
+    import numpy as np
+
+    from uavplan.scenario import _column_clearance, _point_clearance
+
+    scn = load_scenario(write(tmp_path, "full.yaml", FULL))
+    world = build_world(scn)
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        p = (rng.uniform(-100, 2100), rng.uniform(-700, 700), rng.uniform(1, 260))
+        dist, index = _point_clearance(scn.obstacles, p)
+        ref, ref_index = world.nearest_obstacle(p)
+        if ref > 0:
+            assert dist == pytest.approx(ref, abs=1e-6)
+            assert index == ref_index
+        else:
+            assert dist == 0.0
+        column, _ = _column_clearance(scn.obstacles, p[:2])
+        ground = np.array([[p[0], p[1], 0.0]])
+        top = np.array([p])
+        ref_col, _ = world.segments_clearance(ground, top)
+        assert column == pytest.approx(max(float(ref_col[0]), 0.0), abs=1e-6)
+
+
+def test_large_polygons_are_checked_and_capped(tmp_path: Path) -> None:
+    import math
+
+    def ring(n: int, r: float = 50.0) -> list[list[float]]:
+        return [
+            [round(500 + r * math.cos(2 * math.pi * i / n), 6),
+             round(-300 + r * math.sin(2 * math.pi * i / n), 6)]
+            for i in range(n)
+        ]  # fmt: skip
+
+    def prism(points: list[list[float]]) -> str:
+        return BASE + f"  - {{type: prism, polygon: {points}, height: 20}}\n"
+
+    assert len(load_scenario(write(tmp_path, "ok.yaml", prism(ring(1000)))).obstacles) == 2
+    crossed = ring(1000)
+    crossed[10], crossed[500] = crossed[500], crossed[10]
+    assert_rejected(write(tmp_path, "x.yaml", prism(crossed)), "obstacles[1].polygon", "cross")
+    assert_rejected(
+        write(tmp_path, "big.yaml", prism(ring(1002))), "obstacles[1].polygon", "at most 1000"
+    )

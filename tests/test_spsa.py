@@ -12,11 +12,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
 from uavplan.path.energy import energy_terms
 from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
 from uavplan.planners.base import PathProblem, PlanStatus
-from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner, oscillate
 from uavplan.world import World

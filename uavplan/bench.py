@@ -34,9 +34,22 @@ from typing import Any
 
 import numpy as np
 
+from uavplan.config import (
+    PLANNERS,
+    ConfigError,
+    PostParams,
+    SearchParams,
+    build,
+    build_params,
+    override,
+    paper_algorithms,
+    planner_entry,
+    resolved_planner,
+    user_keys,
+)
 from uavplan.fileio import atomic_write_bytes, atomic_write_text
-from uavplan.planners.params import ALGORITHMS, SpsaParams, field_names
-from uavplan.scenario import Scenario
+from uavplan.scenario import Scenario, check_limits
+from uavplan.scenario import resolved_config as scenario_config
 
 #: SPSA's contributions (paper section 4), each as the change that switches it off:
 #: label suffix → (SpsaParams changes, PostParams changes). Contribution 1, the
@@ -51,8 +64,16 @@ ABLATIONS: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
     "no-smooth": ({}, {"smooth": False}),
 }
 
-#: the paper's six algorithms, in the order tables list them
-DEFAULT_ALGORITHMS: tuple[str, ...] = ("spsa", "ssa", "pso", "gwo", "de", "cso")
+
+def default_algorithms() -> tuple[str, ...]:
+    """Every registered planner of the paper's comparison, in table order (the bench
+    default; derived from :data:`uavplan.config.PLANNERS`)."""
+    return paper_algorithms()
+
+
+#: the paper's six algorithms, in the order tables list them (a snapshot at import; use
+#: :func:`default_algorithms` to include planners registered later)
+DEFAULT_ALGORITHMS: tuple[str, ...] = default_algorithms()
 
 #: how long to wait for a Dask scheduler before giving up (seconds)
 DASK_CONNECT_TIMEOUT_S = 10
@@ -67,18 +88,28 @@ class Variant:
     Labels: a registered algorithm (``pso``); SPSA with one contribution off
     (``spsa-no-escape``, see :data:`ABLATIONS`); either with parameters in parentheses,
     ``de(cr=0.1)``, ``pso(v_max_fraction=0.1; c1=1.5)``, ``spsa(oscillation_window=4)``
-    (``;`` or ``,`` between them; values read as YAML scalars). SPSA's parameters are
-    :class:`SpsaParams` or :class:`PostParams` fields, a baseline's its parameter dataclass's;
-    :class:`SearchParams` fields (``fitness_smoothing``, ``t_max``, …) work for every
-    algorithm.
+    (``;`` or ``,`` between them; values read as YAML scalars). A parameter is one of the
+    algorithm's own (the keys of its scenario section ``planner.<name>``), a
+    :class:`PostParams` field for a planner the protocol post-processes, or a
+    :class:`SearchParams` field (``fitness_smoothing``, ``t_max``, …, any algorithm). Every
+    value goes through :func:`uavplan.config.build`, the validator scenario files use.
     """
 
     label: str
     algorithm: str
-    spsa_changes: tuple[tuple[str, Any], ...] = ()
+    params_changes: tuple[tuple[str, Any], ...] = ()  # the algorithm's own parameters
     post_changes: tuple[tuple[str, Any], ...] = ()
-    options: tuple[tuple[str, Any], ...] = ()  # a baseline's parameters
     search_changes: tuple[tuple[str, Any], ...] = ()  # SearchParams fields, any algorithm
+
+    @property
+    def spsa_changes(self) -> tuple[tuple[str, Any], ...]:
+        """SPSA's parameter changes (empty for other algorithms)."""
+        return self.params_changes if self.algorithm == "spsa" else ()
+
+    @property
+    def options(self) -> tuple[tuple[str, Any], ...]:
+        """A baseline's parameter changes (empty for SPSA, see :attr:`spsa_changes`)."""
+        return () if self.algorithm == "spsa" else self.params_changes
 
     @classmethod
     def parse(cls, label: str) -> Variant:
@@ -89,70 +120,51 @@ class Variant:
             head, _, params = label[:-1].partition("(")
         head = head.strip().lower()
         base, _, suffix = head.partition("-")
-        if head in ALGORITHMS:
+        if head in PLANNERS:
             v = cls(head, head)
         elif base == "spsa" and suffix in ABLATIONS:
             spsa, post = ABLATIONS[suffix]
             v = cls(head, "spsa", tuple(spsa.items()), tuple(post.items()))
         else:
-            known = [*ALGORITHMS, *(f"spsa-{s}" for s in ABLATIONS)]
+            known = [*PLANNERS, *(f"spsa-{s}" for s in ABLATIONS)]
             raise ValueError(f"unknown algorithm {head!r} (known: {', '.join(known)})")
         if not params.strip():
             return v
         return v._with_params(_parse_params(params), label)
 
     def _with_params(self, params: dict[str, Any], label: str) -> Variant:
-        from uavplan.planners.params import SearchParams
-
         if "seed" in params:
             raise ValueError(f"{label}: seeds come from --seed0 and --runs")
-        search_keys = set(field_names(SearchParams))
-        search = {k: v for k, v in params.items() if k in search_keys}
-        params = {k: v for k, v in params.items() if k not in search_keys}
+        entry = planner_entry(self.algorithm)
+        search_keys = set(user_keys(SearchParams))
+        post_keys = set(user_keys(PostParams)) if entry.postprocess else set()
+        search = {**dict(self.search_changes)}
+        post = {**dict(self.post_changes)}
+        own = {**dict(self.params_changes)}
+        for k, value in params.items():
+            if k in search_keys:
+                search[k] = value
+            elif k in post_keys:
+                post[k] = value
+            else:
+                own[k] = value
         try:
-            dataclasses.replace(SearchParams(), **search)
-        except (TypeError, ValueError) as err:
+            build(SearchParams, search)
+            build(PostParams, post)
+            build_params(self.algorithm, own)
+        except ConfigError as err:
             raise ValueError(f"{label}: {err}") from None
-        v = dataclasses.replace(self, label=label, search_changes=tuple(search.items()))
-        if not params:
-            return v
-        return v._with_algorithm_params(params, label)
-
-    def _with_algorithm_params(self, params: dict[str, Any], label: str) -> Variant:
-        from uavplan.planners.params import PostParams
-        from uavplan.planners.registry import make_options
-
-        if self.algorithm == "spsa":
-            spsa_keys = set(field_names(SpsaParams))
-            post_keys = set(field_names(PostParams))
-            unknown = sorted(set(params) - spsa_keys - post_keys)
-            if unknown:
-                raise ValueError(f"{label}: unknown spsa parameter(s) {', '.join(unknown)}")
-            spsa = {
-                **dict(self.spsa_changes),
-                **{k: v for k, v in params.items() if k in spsa_keys},
-            }
-            post = {
-                **dict(self.post_changes),
-                **{k: v for k, v in params.items() if k in post_keys},
-            }
-            try:
-                dataclasses.replace(SpsaParams(), **spsa)
-                dataclasses.replace(PostParams(), **post)
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"{label}: {err}") from None
-            return dataclasses.replace(
-                self, spsa_changes=tuple(spsa.items()), post_changes=tuple(post.items())
-            )
-        try:
-            make_options(self.algorithm, params)
-        except (TypeError, ValueError) as err:
-            raise ValueError(f"{label}: {err}") from None
-        return dataclasses.replace(self, options=tuple(params.items()))
+        return dataclasses.replace(
+            self,
+            label=label,
+            params_changes=tuple(own.items()),
+            post_changes=tuple(post.items()),
+            search_changes=tuple(search.items()),
+        )
 
 
 def _parse_params(text: str) -> dict[str, Any]:
-    import yaml
+    import yaml  # type: ignore[import-untyped]
 
     out: dict[str, Any] = {}
     for item in re.split(r"[;,]", text):
@@ -167,7 +179,9 @@ def _parse_params(text: str) -> dict[str, Any]:
 
 def split_labels(text: str) -> list[str]:
     """Split a comma-separated algorithm list, keeping commas inside parentheses."""
-    labels, depth, cur = [], 0, []
+    labels: list[str] = []
+    depth = 0
+    cur: list[str] = []
     for ch in text:
         depth += (ch == "(") - (ch == ")")
         if ch == "," and depth == 0:
@@ -298,7 +312,8 @@ def make_jobs(
         changes = {k: v for k, v in (("iterations", iterations), ("population", population)) if v}
         changes.update(search or {})
         if changes:
-            scn = scn.with_planner(search=dataclasses.replace(scn.planner.search, **changes))
+            scn = scn.with_planner(search=override(scn.planner.search, changes))
+            check_limits(scn)
         name = scn.name
         k = 2
         while name in names:  # two files with the same scenario name stay apart
@@ -327,13 +342,14 @@ def _world_and_problem(job: BenchJob, scn: Scenario) -> tuple[Any, Any]:
     runs filled up only slows lookups down (it holds 2^20 entries and a GWO or DE run alone
     nearly fills it)."""
     from uavplan.planning import build_problem
-    from uavplan.world import World
 
     with _cache_lock:
         hit = _cache.get(job.scenario_key)
     if hit is None:
         scn = job.scenario
-        world = World.from_scenario(scn)
+        from uavplan.planning import build_world
+
+        world = build_world(scn)
         problem = build_problem(scn, world)
         hit = (world, problem)
         with _cache_lock:
@@ -345,18 +361,22 @@ def _world_and_problem(job: BenchJob, scn: Scenario) -> tuple[Any, Any]:
 
 
 def job_scenario(job: BenchJob) -> Scenario:
-    """The scenario as the job runs it: its variant's algorithm and switches, its seed."""
+    """The scenario as the job runs it: its variant's algorithm and changes, its seed. The
+    algorithm's parameters start from the scenario's section for it (or its defaults)."""
     scn, v = job.scenario, job.variant
     cfg = scn.planner
-    # planner.options belong to the scenario's own algorithm; the variant's come on top
-    options = {**(cfg.options if v.algorithm == cfg.algorithm else {}), **dict(v.options)}
-    return scn.with_planner(
+    params = cfg.params_for(v.algorithm)
+    if v.params_changes:
+        params = override(params, dict(v.params_changes))
+    cfg = dataclasses.replace(
+        cfg,
         algorithm=v.algorithm,
-        search=dataclasses.replace(cfg.search, seed=job.seed, **dict(v.search_changes)),
-        spsa=dataclasses.replace(cfg.spsa, **dict(v.spsa_changes)),
-        post=dataclasses.replace(cfg.post, **dict(v.post_changes)),
-        options=options,
+        search=override(cfg.search, {**dict(v.search_changes), "seed": job.seed}),
+        post=override(cfg.post, dict(v.post_changes)),
     )
+    if params is not None:
+        cfg = cfg.with_params(v.algorithm, params)
+    return dataclasses.replace(scn, planner=cfg)
 
 
 def run_job(job: BenchJob) -> RunRecord:
@@ -661,40 +681,35 @@ def _jsonable(value: Any) -> Any:
 
 
 def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
-    """What the runs used, per scenario and algorithm (STYLE: echo the configuration)."""
-    from uavplan.planners.registry import make_options
-
+    """What the runs used (STYLE: echo the configuration): per scenario its resolved
+    configuration (:func:`uavplan.scenario.resolved_config`) and, per algorithm label, the
+    whole resolved planner configuration the runs used (:func:`uavplan.config.
+    resolved_planner`: search values with the effective fitness smoothing, the algorithm's
+    parameters, grid, energy, post-processing, margin pad); seeds listed once."""
     out: dict[str, Any] = {"scenarios": {}, "algorithms": {}, "seeds": []}
-    seen_v: dict[str, Variant] = {}
     for job in jobs:
-        seen_v.setdefault(job.variant.label, job.variant)
-        if job.scenario.name not in out["scenarios"]:
-            cfg = job.scenario.planner
-            out["scenarios"][job.scenario.name] = {
-                "source": job.scenario.source,
-                "search": {k: v for k, v in dataclasses.asdict(cfg.search).items() if k != "seed"},
-                "grid": dataclasses.asdict(cfg.grid),
-                "energy": dataclasses.asdict(cfg.energy),
-                "safety_margin_m": job.scenario.safety_margin_m,
-                "options": {cfg.algorithm: dict(cfg.options)} if cfg.options else {},
-            }
+        scn = job.scenario
+        entry = out["scenarios"].get(scn.name)
+        if entry is None:
+            entry = {k: v for k, v in scenario_config(scn).items() if k != "planner"}
+            planner = resolved_planner(scn.planner)
+            entry["search"] = {k: v for k, v in as_search(scn.planner.search).items()}
+            entry["grid"] = planner["grid"]
+            entry["energy"] = planner["energy"]
+            entry["algorithms"] = {}
+            out["scenarios"][scn.name] = entry
+        if job.variant.label not in entry["algorithms"]:
+            run = job_scenario(job).planner
+            resolved = resolved_planner(run)
+            resolved["search"].pop("seed", None)
+            if job.variant.search_changes:
+                resolved["search_changes"] = dict(job.variant.search_changes)
+            entry["algorithms"][job.variant.label] = resolved
+            out["algorithms"].setdefault(job.variant.label, resolved)
     out["seeds"] = sorted({job.seed for job in jobs})
-    first = jobs[0].scenario if jobs else None
-    for label, v in seen_v.items():
-        entry: dict[str, Any] = {"algorithm": v.algorithm}
-        if v.search_changes:
-            entry["search_changes"] = dict(v.search_changes)
-        if v.algorithm == "ssa":
-            entry["spsa"] = dataclasses.asdict(SpsaParams.ssa())
-        elif v.algorithm == "spsa" and first is not None:
-            entry["spsa"] = dataclasses.asdict(
-                dataclasses.replace(first.planner.spsa, **dict(v.spsa_changes))
-            )
-            entry["post"] = dataclasses.asdict(
-                dataclasses.replace(first.planner.post, **dict(v.post_changes))
-            )
-        else:
-            params = make_options(v.algorithm, dict(v.options))
-            entry["params"] = dataclasses.asdict(params) if params is not None else None
-        out["algorithms"][label] = entry
-    return out
+    return _jsonable(out)
+
+
+def as_search(search: SearchParams) -> dict[str, Any]:
+    """The scenario's search values without the seed (each run has its own)."""
+    return {k: v for k, v in dataclasses.asdict(search).items() if k != "seed"}

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from uavplan.config import PostParams, planner_entry
 from uavplan.geo import EnuFrame
 from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame
@@ -33,10 +34,9 @@ from uavplan.path.post import (
 from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.guide import find_guide, guided_problem
-from uavplan.planners.params import PostParams
 from uavplan.planners.registry import make_planner
 from uavplan.route import EndAction, PlannedRoute, flown_polyline
-from uavplan.scenario import Scenario
+from uavplan.scenario import Scenario, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
 
@@ -137,24 +137,11 @@ class RouteResult:
             "notes": list(self.notes),
             "guide_s": self.guide_s,
             "legs": [leg.summary() for leg in self.legs],
-            "config": resolved_config(scenario, self.post),
+            "config": {
+                **resolved_config(scenario, self.algorithm),
+                "post_applied": vars(self.post),
+            },
         }
-
-
-def resolved_config(scenario: Scenario, post: PostParams | None = None) -> dict[str, Any]:
-    """The configuration a run of ``scenario`` used, as JSON-able values."""
-    cfg = scenario.planner
-    return {
-        "population": cfg.search.population,
-        "iterations": cfg.search.iterations,
-        "t_max": cfg.search.t_max,
-        "init_half_window": cfg.search.init_half_window,
-        "grid": {"dx": cfg.grid.dx_m, "dy": cfg.grid.dy_m, "dz": cfg.grid.dz_m},
-        "energy": vars(cfg.energy),
-        "spsa": vars(cfg.spsa) if cfg.algorithm == "spsa" else None,
-        "post": vars(post or cfg.post),
-        "mission_spacing_m": scenario.mission.spacing_m,
-    }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -291,9 +278,11 @@ def plan_route(
     iteration (a Ctrl-C flag): the run then ends as ``RouteStatus.INTERRUPTED``."""
     cfg = scenario.planner
     world = world or build_world(scenario)
-    planner = make_planner(cfg.algorithm, cfg.search, cfg.spsa, cfg.options)
+    planner = make_planner(cfg.algorithm, cfg)
+    entry = planner_entry(cfg.algorithm)
+    smoothing = cfg.fitness_smoothing(cfg.algorithm)
     post = cfg.post
-    if not planner.postprocess:
+    if not entry.postprocess:
         # every algorithm's best path goes through the same chain (node simplification,
         # spline, waypoints); our own additions (refinement, string pulling, choosing among
         # the final population) are SPSA's variant. The paper's protocol compares the raw
@@ -312,7 +301,7 @@ def plan_route(
             leg_problem = problem
         else:
             leg_problem = PathProblem.build(world, points[i], points[i + 1], cfg.grid, cfg.energy)
-        leg_problem = leg_problem.with_fitness_smoothing(planner.fitness_smoothing())
+        leg_problem = leg_problem.with_fitness_smoothing(smoothing)
         leg_progress = None
         if progress is not None:
             done, total = i * cfg.search.iterations, n_legs * cfg.search.iterations

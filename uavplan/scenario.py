@@ -3,6 +3,14 @@
 :meth:`Scenario.from_file` loads a scenario, merges the map it names, checks every key and
 returns frozen, validated values. Any problem raises :class:`~uavplan.errors.ScenarioError`
 naming the file, the key path (``obstacles[2].radius``) and the reason.
+
+Hostile or broken files end in that one error too: the file is read as bytes and must be UTF-8
+(a UTF-8 byte-order mark is accepted, UTF-16/32 are refused by name), duplicate keys are
+refused, the document may hold at most :data:`MAX_YAML_NODES` values once aliases are
+expanded and nest at most :data:`MAX_YAML_DEPTH` deep, every number has documented bounds,
+and a scenario whose path grid or search is larger than the documented limits
+(:func:`problem_size`) is refused before planning. The planner's own values are checked by
+:func:`uavplan.config.build`, the project's one configuration validator.
 """
 
 from __future__ import annotations
@@ -14,11 +22,29 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
+import yaml  # type: ignore[import-untyped]
 
+from uavplan.config import (
+    PLANNER_KEYS,
+    PLANNERS,
+    Autopilot,
+    ConfigError,
+    EnergyWeights,
+    GridSpec,
+    PlannerConfig,
+    PostParams,
+    SearchParams,
+    build,
+    build_params,
+    key_text,
+    override,
+    planner_entry,
+    resolved_planner,
+    short_repr,
+    type_name,
+)
 from uavplan.errors import ScenarioError
 from uavplan.geo import GeoPoint
-from uavplan.mission.items import Autopilot
 from uavplan.obstacles import (
     Bounds,
     BoxObstacle,
@@ -26,15 +52,53 @@ from uavplan.obstacles import (
     Obstacle,
     PrismObstacle,
 )
-from uavplan.planners.params import (
-    ALGORITHMS,
-    EnergyWeights,
-    GridSpec,
-    PostParams,
-    SearchParams,
-    SpsaParams,
-    field_names,
-)
+
+__all__ = [
+    "MissionConfig",
+    "PlannerConfig",
+    "Scenario",
+    "VehicleConfig",
+    "check_limits",
+    "load_map",
+    "load_scenario",
+    "problem_size",
+    "resolved_config",
+    "with_search",
+]
+
+# ---------------------------------------------------------------------------------------------
+# Documented limits (docs/scenario-format.md, "Limits")
+
+#: largest scenario or map file read, bytes
+MAX_FILE_BYTES = 32 * 1024 * 1024
+#: most values (scalars, lists, mappings) in one document once aliases are expanded
+MAX_YAML_NODES = 5_000_000
+#: deepest nesting of lists and mappings
+MAX_YAML_DEPTH = 64
+#: every x and y (bounds, points, obstacle centres and vertices) within ± this, metres
+MAX_HORIZONTAL_M = 1_000_000.0
+#: the flight ceiling (bounds.z max), obstacle heights and sizes at most this, metres
+MAX_ALTITUDE_M = 20_000.0
+MAX_SIZE_M = 2 * MAX_HORIZONTAL_M
+#: at most this many obstacles (map and scenario together)
+MAX_OBSTACLES = 200_000
+#: via points in one scenario
+MAX_VIA_POINTS = 1_000
+#: at most this many vertices per prism polygon
+MAX_POLYGON_VERTICES = 1_000
+#: safety margin at most this, metres
+MAX_SAFETY_MARGIN_M = 10_000.0
+#: a name at most this many characters; a map path at most PATH_MAX / NAME_MAX
+MAX_NAME_CHARS = 200
+MAX_PATH_CHARS = 4096
+MAX_PATH_PART_CHARS = 255
+#: the path grid over the flight volume (columns × lateral × vertical cells, the grid a global
+#: search over the bounds uses: ~70 bytes a cell) at most this many cells
+MAX_GRID_CELLS = 50_000_000
+#: population × iterations × path columns (node updates of one search) at most this many
+MAX_SEARCH_WORK = 2_000_000_000
+#: samples of the smoothed route (twice the start-goal distance / post.sample_step_m)
+MAX_ROUTE_SAMPLES = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -48,17 +112,6 @@ class MissionConfig:
     autopilot: Autopilot = Autopilot.ARDUPILOT
     spacing_m: float = 60.0
     end: str = "rtl"  # rtl | land | none
-
-
-@dataclass(frozen=True)
-class PlannerConfig:
-    algorithm: str = "spsa"
-    search: SearchParams = field(default_factory=SearchParams)
-    grid: GridSpec = field(default_factory=GridSpec)
-    energy: EnergyWeights = field(default_factory=EnergyWeights)
-    spsa: SpsaParams = field(default_factory=SpsaParams)
-    post: PostParams = field(default_factory=PostParams)
-    options: Mapping[str, Any] = field(default_factory=dict)  # other algorithms' options
 
 
 @dataclass(frozen=True)
@@ -83,8 +136,67 @@ class Scenario:
         return load_scenario(path)
 
     def with_planner(self, **changes: Any) -> Scenario:
-        """A copy whose planner config has ``changes`` (CLI overrides)."""
-        return replace(self, planner=replace(self.planner, **changes))
+        """A copy whose planner config has ``changes`` (CLI overrides): any
+        :class:`PlannerConfig` field, plus ``spsa=SpsaParams(...)`` (SPSA's section) and
+        ``options={...}`` (the section of the resulting algorithm, validated)."""
+        cfg = self.planner
+        spsa = changes.pop("spsa", None)
+        options = changes.pop("options", None)
+        if "algorithm" in changes:
+            planner_entry(changes["algorithm"], "--algorithm")
+        cfg = replace(cfg, **changes)
+        if spsa is not None:
+            cfg = cfg.with_params("spsa", spsa)
+        if options is not None:
+            params = build_params(cfg.algorithm, dict(options), cfg.algorithm)
+            cfg = cfg.with_params(cfg.algorithm, params) if params is not None else cfg
+        return replace(self, planner=cfg)
+
+
+def with_search(scenario: Scenario, changes: Mapping[str, Any], key: str = "") -> Scenario:
+    """``scenario`` with command-line overrides of its search values (``{"iterations": 5}``),
+    validated by :func:`uavplan.config.override` (ConfigError naming ``key``, e.g.
+    ``--iterations``) and re-checked against the size limits (:func:`check_limits`)."""
+    changes = {k: v for k, v in changes.items() if v is not None}
+    if not changes:
+        return scenario
+    try:
+        search = override(scenario.planner.search, changes)
+    except ConfigError as err:
+        raise ConfigError(err.reason, key=key or err.key) from None
+    out = scenario.with_planner(search=search)
+    check_limits(out)
+    return out
+
+
+def resolved_config(scenario: Scenario | PlannerConfig, algorithm: str | None = None) -> dict:
+    """The whole resolved configuration of a run of ``algorithm`` (default: the configured
+    one), JSON-able: every search value (with the effective fitness smoothing), the
+    algorithm's own parameters, grid, energy, post-processing, margin and margin pad, and for a
+    scenario its geometry summary and mission settings — enough to reproduce the run."""
+    if isinstance(scenario, PlannerConfig):
+        return {"planner": resolved_planner(scenario, algorithm)}
+    scn = scenario
+    return {
+        "scenario": scn.name,
+        "source": scn.source,
+        "origin": {"lat": scn.origin.lat_deg, "lon": scn.origin.lon_deg, "alt": scn.origin.alt_m},
+        "bounds": {"x": list(scn.bounds.x_m), "y": list(scn.bounds.y_m), "z": list(scn.bounds.z_m)},
+        "start": list(scn.start_m),
+        "goal": list(scn.goal_m),
+        "obstacles": len(scn.obstacles),
+        "safety_margin_m": scn.safety_margin_m,
+        "planner": resolved_planner(scn.planner, algorithm),
+        "vehicle": {
+            "cruise_speed_m_s": scn.vehicle.cruise_speed_m_s,
+            "takeoff_altitude_m": scn.vehicle.takeoff_altitude_m,
+        },
+        "mission": {
+            "autopilot": scn.mission.autopilot.name.lower(),
+            "spacing_m": scn.mission.spacing_m,
+            "end": scn.mission.end,
+        },
+    }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -119,15 +231,20 @@ class _Checker:
     def fail(self, key: str, reason: str) -> ScenarioError:
         return ScenarioError(reason, file=self.file, key=key or "(top level)")
 
-    def mapping(self, value: Any, key: str, allowed: set[str], required: set[str] = frozenset()):
+    def config(self, err: ConfigError) -> ScenarioError:
+        return self.fail(err.key or "", err.reason)
+
+    def mapping(
+        self, value: Any, key: str, allowed: set[str], required: Sequence[str] = ()
+    ) -> Mapping[str, Any]:
         if not isinstance(value, Mapping):
             raise self.fail(key, f"must be a mapping, got {_type_name(value)}")
         for k in value:
             if not isinstance(k, str):
-                raise self.fail(key, f"keys must be strings, got {k!r}")
+                raise self.fail(key, f"keys must be strings, got {short_repr(k)}")
             if k not in allowed:
                 hint = f" (allowed: {', '.join(sorted(allowed))})"
-                raise self.fail(_join(key, k), f"unknown key{hint}")
+                raise self.fail(_join(key, key_text(k)), f"unknown key{hint}")
         for k in sorted(required):
             if k not in value:
                 raise self.fail(_join(key, k), "missing required key")
@@ -144,6 +261,8 @@ class _Checker:
     ) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, f"must be a number, got {_type_name(value)}")
+        if isinstance(value, int) and abs(value) > 1e300:
+            raise self.fail(key, f"is out of range, got {short_repr(value)}")
         value = float(value)
         if not math.isfinite(value):
             raise self.fail(key, "must be a finite number")
@@ -156,23 +275,17 @@ class _Checker:
             raise self.fail(key, f"must be <= {maximum:g}, got {value:g}")
         return value
 
-    def integer(self, value: Any, key: str, *, minimum: int | None = None) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(key, f"must be an integer, got {_type_name(value)}")
-        if minimum is not None and value < minimum:
-            raise self.fail(key, f"must be >= {minimum}, got {value}")
-        return int(value)
-
-    def boolean(self, value: Any, key: str) -> bool:
-        if not isinstance(value, bool):
-            raise self.fail(key, f"must be true or false, got {_type_name(value)}")
-        return value
+    def coordinate(self, value: Any, key: str) -> float:
+        v = self.number(value, key)
+        if abs(v) > MAX_HORIZONTAL_M:
+            raise self.fail(key, f"must be within ±{MAX_HORIZONTAL_M:g} m, got {v:g}")
+        return v
 
     def string(self, value: Any, key: str, choices: Sequence[str] | None = None) -> str:
         if not isinstance(value, str):
             raise self.fail(key, f"must be a string, got {_type_name(value)}")
         if choices is not None and value not in choices:
-            raise self.fail(key, f"must be one of {', '.join(choices)}, got {value!r}")
+            raise self.fail(key, f"must be one of {', '.join(choices)}, got {short_repr(value)}")
         return value
 
     def vector(self, value: Any, key: str, n: int) -> tuple[float, ...]:
@@ -180,46 +293,166 @@ class _Checker:
             raise self.fail(key, f"must be a list of {n} numbers, got {_short(value)}")
         return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
 
+    def point(self, value: Any, key: str, n: int) -> tuple[float, ...]:
+        """A vector of ``n`` coordinates: x, y within ±MAX_HORIZONTAL_M, z within
+        [-MAX_ALTITUDE_M, MAX_ALTITUDE_M]."""
+        vec = self.vector(value, key, n)
+        for i, v in enumerate(vec):
+            limit = MAX_HORIZONTAL_M if i < 2 else MAX_ALTITUDE_M
+            if abs(v) > limit:
+                raise self.fail(f"{key}[{i}]", f"must be within ±{limit:g} m, got {v:g}")
+        return vec
+
 
 def _join(key: str, sub: str) -> str:
     return f"{key}.{sub}" if key else sub
 
 
 def _type_name(value: Any) -> str:
-    if value is None:
-        return "nothing (null)"
-    return {
-        bool: "a boolean",
-        int: "an integer",
-        float: "a number",
-        str: "a string",
-        list: "a list",
-        dict: "a mapping",
-    }.get(type(value), type(value).__name__)
+    return type_name(value)
 
 
 def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
+    return short_repr(value)
+
+
+# ---------------------------------------------------------------------------------------------
+# YAML
+
+
+_BaseLoader: Any = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+class _Loader(_BaseLoader):  # type: ignore[misc,valid-type]
+    """The safe loader (libyaml's when present) refusing duplicate keys."""
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=False)
+                try:
+                    duplicate = key in seen
+                    seen.add(key)
+                except TypeError:
+                    continue  # unhashable: the base class says so
+                if duplicate:
+                    mark = key_node.start_mark
+                    raise _DuplicateKey(key, mark.line + 1, mark.column + 1)
+        return super().construct_mapping(node, deep=deep)
+
+
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _Loader.construct_mapping)
+
+
+class _DuplicateKey(Exception):
+    def __init__(self, key: Any, line: int, column: int) -> None:
+        self.key, self.line, self.column = key, line, column
+
+
+def _decode(data: bytes, file: str, what: str) -> str:
+    """The file's text: UTF-8 (a leading byte-order mark is dropped); anything else is a
+    clear error."""
+    boms = (
+        (b"\xff\xfe\x00\x00", "UTF-32"),
+        (b"\x00\x00\xfe\xff", "UTF-32"),
+        (b"\xff\xfe", "UTF-16"),
+        (b"\xfe\xff", "UTF-16"),
+    )
+    for bom, name in boms:
+        if data.startswith(bom):
+            raise ScenarioError(f"the {what} file is {name} encoded; save it as UTF-8", file=file)
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = data.count(b"\n", 0, err.start) + 1
+        raise ScenarioError(
+            f"the {what} file is not UTF-8 text (byte 0x{data[err.start]:02x} on line {line}); "
+            "save it as UTF-8",
+            file=file,
+        ) from None
 
 
 def _read_yaml(path: Path, what: str) -> Any:
+    file = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
-        raise ScenarioError(f"{what} file not found", file=str(path)) from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise ScenarioError(f"cannot read {what} file: {err}", file=str(path)) from None
+        raise ScenarioError(f"{what} file not found", file=file) from None
+    except IsADirectoryError:
+        raise ScenarioError(f"the {what} file is a directory", file=file) from None
+    except OSError as err:
+        raise ScenarioError(f"cannot read {what} file: {err.strerror or err}", file=file) from None
+    if len(data) > MAX_FILE_BYTES:
+        raise ScenarioError(
+            f"the {what} file is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB", file=file
+        )
+    text = _decode(data, file, what)
     try:
-        data = yaml.safe_load(text)
+        data_ = yaml.load(text, Loader=_Loader)
+    except _DuplicateKey as err:
+        raise ScenarioError(
+            f"invalid YAML: line {err.line}, column {err.column}: duplicate key "
+            f"{short_repr(err.key)}",
+            file=file,
+        ) from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        raise ScenarioError(f"invalid YAML: {where}{problem}", file=str(path)) from None
-    if data is None:
-        raise ScenarioError(f"the {what} file is empty", file=str(path))
-    return data
+        raise ScenarioError(f"invalid YAML: {where}{problem}", file=file) from None
+    except RecursionError:
+        raise ScenarioError(
+            f"invalid YAML: nested more than {MAX_YAML_DEPTH} levels deep", file=file
+        ) from None
+    except (ValueError, OverflowError) as err:  # e.g. an integer of more than 4300 digits
+        raise ScenarioError(f"invalid YAML: {short_repr(str(err))}", file=file) from None
+    if data_ is None:
+        raise ScenarioError(f"the {what} file is empty", file=file)
+    _check_size(data_, file)
+    return data_
+
+
+def _check_size(doc: Any, file: str) -> None:
+    """Refuse documents nested deeper than MAX_YAML_DEPTH, with more than MAX_YAML_NODES
+    values once aliases are expanded (a "billion laughs" file), or that contain themselves."""
+    sizes: dict[int, int] = {}
+    active: set[int] = set()
+
+    def size(value: Any, depth: int) -> int:
+        if not isinstance(value, list | dict):
+            return 1
+        ident = id(value)
+        known = sizes.get(ident)
+        if known is not None:
+            return known
+        if ident in active:
+            raise ScenarioError("invalid YAML: an alias refers to its own anchor", file=file)
+        if depth > MAX_YAML_DEPTH:
+            raise ScenarioError(
+                f"invalid YAML: nested more than {MAX_YAML_DEPTH} levels deep", file=file
+            )
+        active.add(ident)
+        items = value if isinstance(value, list) else [*value.keys(), *value.values()]
+        total = 1
+        for item in items:
+            total += size(item, depth + 1)
+            if total > MAX_YAML_NODES:
+                raise ScenarioError(
+                    f"the file holds more than {MAX_YAML_NODES:,} values once its aliases are "
+                    "expanded",
+                    file=file,
+                )
+        active.discard(ident)
+        sizes[ident] = total
+        return total
+
+    size(doc, 0)
 
 
 def _obstacle(chk: _Checker, raw: Any, key: str) -> Obstacle:
@@ -231,32 +464,38 @@ def _obstacle(chk: _Checker, raw: Any, key: str) -> Obstacle:
     kind = chk.string(kind, _join(key, "type"), ("box", "cylinder", "prism"))
     if kind == "box":
         chk.mapping(
-            raw, key, {"type", "center", "size", "height", "yaw"}, {"center", "size", "height"}
+            raw, key, {"type", "center", "size", "height", "yaw"}, ("center", "size", "height")
         )
-        center = chk.vector(raw["center"], _join(key, "center"), 2)
+        center = chk.point(raw["center"], _join(key, "center"), 2)
         size = chk.vector(raw["size"], _join(key, "size"), 2)
         for i, v in enumerate(size):
-            if v <= 0:
-                raise chk.fail(f"{key}.size[{i}]", f"must be > 0, got {v:g}")
-        height = chk.number(raw["height"], _join(key, "height"), minimum=0, strict=True)
-        yaw = chk.number(raw.get("yaw", 0.0), _join(key, "yaw"))
+            if not 0 < v <= MAX_SIZE_M:
+                raise chk.fail(f"{key}.size[{i}]", f"must be > 0 and <= {MAX_SIZE_M:g}, got {v:g}")
+        height = _height(chk, raw["height"], _join(key, "height"))
+        yaw = chk.number(raw.get("yaw", 0.0), _join(key, "yaw"), minimum=-360.0, maximum=360.0)
         return BoxObstacle((center[0], center[1]), (size[0], size[1]), height, yaw)
     if kind == "cylinder":
         chk.mapping(
-            raw, key, {"type", "center", "radius", "height"}, {"center", "radius", "height"}
+            raw, key, {"type", "center", "radius", "height"}, ("center", "radius", "height")
         )
-        center = chk.vector(raw["center"], _join(key, "center"), 2)
-        radius = chk.number(raw["radius"], _join(key, "radius"), minimum=0, strict=True)
-        height = chk.number(raw["height"], _join(key, "height"), minimum=0, strict=True)
+        center = chk.point(raw["center"], _join(key, "center"), 2)
+        radius = chk.number(
+            raw["radius"], _join(key, "radius"), minimum=0, strict=True, maximum=MAX_SIZE_M
+        )
+        height = _height(chk, raw["height"], _join(key, "height"))
         return CylinderObstacle((center[0], center[1]), radius, height)
-    chk.mapping(raw, key, {"type", "polygon", "height"}, {"polygon", "height"})
+    chk.mapping(raw, key, {"type", "polygon", "height"}, ("polygon", "height"))
     poly_raw = raw["polygon"]
     pkey = _join(key, "polygon")
     if not isinstance(poly_raw, list) or len(poly_raw) < 3:
         raise chk.fail(pkey, f"must be a list of at least 3 [x, y] points, got {_short(poly_raw)}")
-    poly = [chk.vector(p, f"{pkey}[{i}]", 2) for i, p in enumerate(poly_raw)]
+    if len(poly_raw) > MAX_POLYGON_VERTICES + 1:
+        raise chk.fail(pkey, f"has {len(poly_raw)} points (at most {MAX_POLYGON_VERTICES})")
+    poly = [chk.point(p, f"{pkey}[{i}]", 2) for i, p in enumerate(poly_raw)]
     if len(poly) > 3 and poly[0] == poly[-1]:
         poly = poly[:-1]  # tolerate a closed ring
+    if len(poly) > MAX_POLYGON_VERTICES:
+        raise chk.fail(pkey, f"has {len(poly)} points (at most {MAX_POLYGON_VERTICES})")
     area = _signed_area(poly)
     if abs(area) < 1e-6:
         raise chk.fail(pkey, "polygon has zero area")
@@ -264,8 +503,12 @@ def _obstacle(chk: _Checker, raw: Any, key: str) -> Obstacle:
         raise chk.fail(pkey, "polygon edges cross each other")
     if area < 0:
         poly = poly[::-1]
-    height = chk.number(raw["height"], _join(key, "height"), minimum=0, strict=True)
+    height = _height(chk, raw["height"], _join(key, "height"))
     return PrismObstacle(tuple((p[0], p[1]) for p in poly), height)
+
+
+def _height(chk: _Checker, raw: Any, key: str) -> float:
+    return chk.number(raw, key, minimum=0, strict=True, maximum=MAX_ALTITUDE_M)
 
 
 def _signed_area(poly: Sequence[Sequence[float]]) -> float:
@@ -276,26 +519,53 @@ def _signed_area(poly: Sequence[Sequence[float]]) -> float:
 
 
 def _self_intersects(poly: Sequence[Sequence[float]]) -> bool:
+    """Do two non-adjacent edges of the closed ring ``poly`` cross properly? All pairs at once
+    (numpy; a 1,000-vertex ring is a million pairs, a few tens of milliseconds)."""
+    import numpy as np
+
+    n = len(poly)
+    if n < 4:
+        return False
+    if n <= 16:
+        return _self_intersects_small(poly)
+    a = np.asarray(poly, dtype=np.float64)
+    b = np.roll(a, -1, axis=0)
+
+    def cross(o: Any, p: Any, q: Any) -> Any:
+        return (p[..., 0] - o[..., 0]) * (q[..., 1] - o[..., 1]) - (p[..., 1] - o[..., 1]) * (
+            q[..., 0] - o[..., 0]
+        )
+
+    ai, bi = a[:, None, :], b[:, None, :]  # edge i
+    cj, dj = a[None, :, :], b[None, :, :]  # edge j
+    d1, d2 = cross(cj, dj, ai), cross(cj, dj, bi)
+    d3, d4 = cross(ai, bi, cj), cross(ai, bi, dj)
+    crossing = (d1 * d2 < 0) & (d3 * d4 < 0)
+    i, j = np.triu_indices(n, k=2)
+    keep = ~((i == 0) & (j == n - 1))  # the first and last edges share a vertex
+    return bool(crossing[i[keep], j[keep]].any())
+
+
+def _self_intersects_small(poly: Sequence[Sequence[float]]) -> bool:
+    """:func:`_self_intersects` for a few vertices (a plain loop is faster there)."""
     n = len(poly)
 
-    def cross(o, a, b):
+    def cross(o: Sequence[float], a: Sequence[float], b: Sequence[float]) -> float:
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
     for i in range(n):
         a, b = poly[i], poly[(i + 1) % n]
-        for j in range(i + 1, n):
-            if j == i or (j + 1) % n == i or j == (i + 1) % n:
+        for j in range(i + 2, n):
+            if i == 0 and j == n - 1:
                 continue
             c, d = poly[j], poly[(j + 1) % n]
-            d1, d2 = cross(c, d, a), cross(c, d, b)
-            d3, d4 = cross(a, b, c), cross(a, b, d)
-            if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 < 0 and d3 * d4 < 0:
+            if cross(c, d, a) * cross(c, d, b) < 0 and cross(a, b, c) * cross(a, b, d) < 0:
                 return True
     return False
 
 
 def _origin(chk: _Checker, raw: Any) -> GeoPoint:
-    chk.mapping(raw, "origin", {"lat", "lon", "alt"}, {"lat", "lon"})
+    chk.mapping(raw, "origin", {"lat", "lon", "alt"}, ("lat", "lon"))
     lat = chk.number(raw["lat"], "origin.lat")
     lon = chk.number(raw["lon"], "origin.lon")
     alt = chk.number(raw.get("alt", 0.0), "origin.alt")
@@ -311,10 +581,14 @@ def _origin(chk: _Checker, raw: Any) -> GeoPoint:
 
 
 def _bounds(chk: _Checker, raw: Any) -> Bounds:
-    chk.mapping(raw, "bounds", {"x", "y", "z"}, {"x", "y", "z"})
+    chk.mapping(raw, "bounds", {"x", "y", "z"}, ("x", "y", "z"))
     out = []
     for axis in ("x", "y", "z"):
         lo, hi = chk.vector(raw[axis], f"bounds.{axis}", 2)
+        limit = MAX_ALTITUDE_M if axis == "z" else MAX_HORIZONTAL_M
+        for v in (lo, hi):
+            if abs(v) > limit:
+                raise chk.fail(f"bounds.{axis}", f"must be within ±{limit:g} m, got {v:g}")
         if not lo < hi:
             raise chk.fail(f"bounds.{axis}", f"needs min < max, got [{lo:g}, {hi:g}]")
         out.append((lo, hi))
@@ -323,94 +597,53 @@ def _bounds(chk: _Checker, raw: Any) -> Bounds:
     return Bounds(*out)
 
 
-def _dataclass_section(chk: _Checker, raw: Any, key: str, cls: type, renames: Mapping[str, str]):
-    """Build ``cls`` from a mapping whose keys are ``renames`` keys or field names."""
-    allowed = set(renames) | set(field_names(cls))
-    chk.mapping(raw, key, allowed)
-    kwargs = {renames.get(k, k): v for k, v in raw.items()}
-    defaults = cls()
-    for name, value in kwargs.items():
-        default = getattr(defaults, name)
-        sub = next((k for k, v in renames.items() if v == name), name)
-        if isinstance(default, bool):
-            chk.boolean(value, _join(key, sub))
-        elif isinstance(default, int):
-            chk.integer(value, _join(key, sub))
-        elif isinstance(default, float):
-            kwargs[name] = chk.number(value, _join(key, sub))
-        elif isinstance(default, str):
-            chk.string(value, _join(key, sub))
-    try:
-        return cls(**kwargs)
-    except ValueError as err:
-        # name the key the user wrote: "dx_m must be ..." -> planner.grid.dx: "must be ..."
-        message = str(err)
-        for field_name in sorted(field_names(cls), key=len, reverse=True):
-            if message.startswith(field_name + " must"):
-                user_key = next((k for k, v in renames.items() if v == field_name), field_name)
-                raise chk.fail(_join(key, user_key), message[len(field_name) + 1 :]) from None
-        raise chk.fail(key, message) from None
+#: ``planner:`` keys that fill :class:`SearchParams`
+_SEARCH_KEYS = (
+    "population",
+    "iterations",
+    "seed",
+    "t_max",
+    "init_half_window",
+    "fitness_smoothing",
+)
 
 
 def _planner(chk: _Checker, raw: Any) -> PlannerConfig:
-    allowed = {
-        "algorithm",
-        "population",
-        "iterations",
-        "seed",
-        "grid",
-        "energy",
-        "t_max",
-        "init_half_window",
-        "fitness_smoothing",
-        "spsa",
-        "post",
-        "options",
-    }
+    """The ``planner:`` section: shared search values at its top level, ``grid``, ``energy``,
+    ``post``, and one section per planner named after it (``spsa:``, ``de:``, ...). The old
+    ``options:`` key is the section of ``algorithm``."""
+    allowed = set(PLANNER_KEYS) | set(PLANNERS)
     chk.mapping(raw, "planner", allowed)
-    algorithm = "spsa"
-    if "algorithm" in raw:
-        algorithm = chk.string(raw["algorithm"], "planner.algorithm", ALGORITHMS)
-    search_raw = {
-        k: raw[k]
-        for k in (
-            "population",
-            "iterations",
-            "seed",
-            "t_max",
-            "init_half_window",
-            "fitness_smoothing",
-        )
-        if k in raw
-    }
-    search = _dataclass_section(chk, search_raw, "planner", SearchParams, {})
-    grid = GridSpec()
-    if "grid" in raw:
-        grid = _dataclass_section(
-            chk, raw["grid"], "planner.grid", GridSpec, {"dx": "dx_m", "dy": "dy_m", "dz": "dz_m"}
-        )
-    energy = EnergyWeights()
-    if "energy" in raw:
-        energy = _dataclass_section(chk, raw["energy"], "planner.energy", EnergyWeights, {})
-    spsa = SpsaParams()
-    if "spsa" in raw:
-        spsa = _dataclass_section(chk, raw["spsa"], "planner.spsa", SpsaParams, {})
-    post = PostParams()
-    if "post" in raw:
-        post = _dataclass_section(chk, raw["post"], "planner.post", PostParams, {})
-    options: Mapping[str, Any] = {}
-    if "options" in raw:
-        opts = raw["options"]
-        if not isinstance(opts, Mapping):
-            raise chk.fail("planner.options", f"must be a mapping, got {_type_name(opts)}")
-        options = dict(chk.mapping(opts, "planner.options", {str(k) for k in opts}))
-        from uavplan.planners.registry import make_options  # parameter classes only
-
-        try:
-            make_options(algorithm, options)
-        except (TypeError, ValueError) as err:
-            raise chk.fail("planner.options", str(err)) from None
-    return PlannerConfig(algorithm, search, grid, energy, spsa, post, options)
+    try:
+        algorithm = "spsa"
+        if "algorithm" in raw:
+            value = raw["algorithm"]
+            if not isinstance(value, str):
+                raise ConfigError(f"must be a string, got {_type_name(value)}", key="algorithm")
+            algorithm = planner_entry(value, "algorithm").name
+        search = build(SearchParams, {k: raw[k] for k in _SEARCH_KEYS if k in raw}, "")
+        grid = build(GridSpec, raw.get("grid", {}), "grid")
+        energy = build(EnergyWeights, raw.get("energy", {}), "energy")
+        post = build(PostParams, raw.get("post", {}), "post")
+        sections: dict[str, Any] = {}
+        for name in PLANNERS:
+            if name in raw:
+                params = build_params(name, raw[name], name)
+                if params is not None and params != PLANNERS[name].params():  # type: ignore[misc]
+                    sections[name] = params
+        if "options" in raw:
+            if algorithm in raw:
+                raise ConfigError(
+                    f"give the {algorithm} parameters in planner.{algorithm} or in "
+                    "planner.options, not both",
+                    key="options",
+                )
+            params = build_params(algorithm, raw["options"], "options")
+            if params is not None and params != PLANNERS[algorithm].params():  # type: ignore[misc]
+                sections[algorithm] = params
+    except ConfigError as err:
+        raise chk.config(err.under("planner")) from None
+    return PlannerConfig(algorithm, search, grid, energy, post, sections)
 
 
 def _vehicle(chk: _Checker, raw: Any) -> VehicleConfig:
@@ -420,7 +653,9 @@ def _vehicle(chk: _Checker, raw: Any) -> VehicleConfig:
         speed = chk.number(speed, "vehicle.cruise_speed", minimum=0, strict=True, maximum=100)
     takeoff = raw.get("takeoff_altitude")
     if takeoff is not None:
-        takeoff = chk.number(takeoff, "vehicle.takeoff_altitude", minimum=0, strict=True)
+        takeoff = chk.number(
+            takeoff, "vehicle.takeoff_altitude", minimum=0, strict=True, maximum=MAX_ALTITUDE_M
+        )
     return VehicleConfig(speed, takeoff)
 
 
@@ -432,7 +667,7 @@ def _mission(chk: _Checker, raw: Any) -> MissionConfig:
         autopilot = Autopilot.from_name(name)
     spacing = MissionConfig.spacing_m
     if "spacing" in raw:
-        spacing = chk.number(raw["spacing"], "mission.spacing", minimum=1.0)
+        spacing = chk.number(raw["spacing"], "mission.spacing", minimum=1.0, maximum=100_000.0)
     end = MissionConfig.end
     if "end" in raw:
         end = chk.string(raw["end"], "mission.end", ("rtl", "land", "none"))
@@ -445,6 +680,8 @@ def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Ob
     chk = _Checker(str(path))
     raw = _read_yaml(path, "map")
     chk.mapping(raw, "", _MAP_KEYS)
+    if "name" in raw:
+        _name(chk, raw["name"])
     origin = _origin(chk, raw["origin"]) if "origin" in raw else None
     bounds = _bounds(chk, raw["bounds"]) if "bounds" in raw else None
     obstacles = _obstacles(chk, raw.get("obstacles", []))
@@ -492,7 +729,40 @@ def _obstacles(chk: _Checker, raw: Any) -> tuple[Obstacle, ...]:
         return ()
     if not isinstance(raw, list):
         raise chk.fail("obstacles", f"must be a list, got {_type_name(raw)}")
+    if len(raw) > MAX_OBSTACLES:
+        raise chk.fail("obstacles", f"has {len(raw):,} obstacles (at most {MAX_OBSTACLES:,})")
     return tuple(_obstacle(chk, item, f"obstacles[{i}]") for i, item in enumerate(raw))
+
+
+def _name(chk: _Checker, raw: Any) -> str:
+    name = chk.string(raw, "name")
+    if not name.strip() or len(name) > MAX_NAME_CHARS:
+        raise chk.fail("name", f"must be 1 to {MAX_NAME_CHARS} characters")
+    if any(ord(c) < 32 or c == "\x7f" for c in name):
+        raise chk.fail("name", "must not contain control characters")
+    return name
+
+
+def _map_path(chk: _Checker, raw: Any, scenario: Path) -> Path:
+    ref = chk.string(raw, "map")
+    if not ref or "\x00" in ref:
+        raise chk.fail("map", "must be a file path (not empty, no NUL character)")
+    if len(ref) > MAX_PATH_CHARS or any(len(p) > MAX_PATH_PART_CHARS for p in ref.split("/")):
+        raise chk.fail(
+            "map",
+            f"path is too long (at most {MAX_PATH_CHARS} characters, "
+            f"{MAX_PATH_PART_CHARS} per name)",
+        )
+    map_path = scenario.parent / ref
+    try:
+        if not map_path.is_file():
+            raise chk.fail(
+                "map", f"map file {short_repr(ref)} not found (looked at {map_path.resolve()})"
+            )
+        return map_path.resolve()
+    except (OSError, ValueError) as err:
+        reason = getattr(err, "strerror", None) or str(err)
+        raise chk.fail("map", f"cannot open map file {short_repr(ref)}: {reason}") from None
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -500,16 +770,12 @@ def load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
     chk = _Checker(str(path))
     raw = _read_yaml(path, "scenario")
-    chk.mapping(raw, "", _SCENARIO_KEYS, {"start", "goal"})
+    chk.mapping(raw, "", _SCENARIO_KEYS, ("start", "goal"))
 
     map_origin = map_bounds = None
     map_obstacles: tuple[Obstacle, ...] = ()
     if "map" in raw:
-        ref = chk.string(raw["map"], "map")
-        map_path = (path.parent / ref).resolve()
-        if not map_path.is_file():
-            raise chk.fail("map", f"map file {ref!r} not found (looked at {map_path})")
-        map_origin, map_bounds, map_obstacles = load_map(map_path)
+        map_origin, map_bounds, map_obstacles = load_map(_map_path(chk, raw["map"], path))
 
     if "origin" in raw:
         origin = _origin(chk, raw["origin"])
@@ -528,16 +794,24 @@ def load_scenario(path: str | Path) -> Scenario:
     obstacles = map_obstacles + _obstacles(chk, raw.get("obstacles", []))
     if raw.get("obstacle_files"):
         obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
+    if len(obstacles) > MAX_OBSTACLES:
+        raise chk.fail(
+            "obstacles", f"map and scenario hold {len(obstacles):,} (at most {MAX_OBSTACLES:,})"
+        )
     margin = 10.0
     if "safety_margin" in raw:
-        margin = chk.number(raw["safety_margin"], "safety_margin", minimum=0)
-    start = chk.vector(raw["start"], "start", 3)
-    goal = chk.vector(raw["goal"], "goal", 3)
+        margin = chk.number(
+            raw["safety_margin"], "safety_margin", minimum=0, maximum=MAX_SAFETY_MARGIN_M
+        )
+    start = chk.point(raw["start"], "start", 3)
+    goal = chk.point(raw["goal"], "goal", 3)
     via_raw = raw.get("via", [])
     if not isinstance(via_raw, list):
-        raise chk.fail("via", f"must be a list of [x, y, z] points, got {_type_name(via_raw)}")
-    via = tuple(chk.vector(p, f"via[{i}]", 3) for i, p in enumerate(via_raw))
-    name = chk.string(raw["name"], "name") if "name" in raw else path.stem
+        raise chk.fail("via", f"must be a list of [x, y, z] points, got {type_name(via_raw)}")
+    if len(via_raw) > MAX_VIA_POINTS:
+        raise chk.fail("via", f"{len(via_raw):,} points (at most {MAX_VIA_POINTS:,})")
+    via = tuple(chk.point(p, f"via[{i}]", 3) for i, p in enumerate(via_raw))
+    name = _name(chk, raw["name"]) if "name" in raw else path.stem
     vehicle = _vehicle(chk, raw["vehicle"]) if "vehicle" in raw else VehicleConfig()
     planner = _planner(chk, raw["planner"]) if "planner" in raw else PlannerConfig()
     mission = _mission(chk, raw["mission"]) if "mission" in raw else MissionConfig()
@@ -558,18 +832,114 @@ def load_scenario(path: str | Path) -> Scenario:
         terrain_file=terrain_file,
     )
     n_inline = len(raw.get("obstacles") or [])
+    _check_points(chk, scenario)
+    _check_problem_size(chk, scenario)
     _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"), n_inline)
     return scenario
+
+
+# ---------------------------------------------------------------------------------------------
+# Checks of the whole scenario
+
+
+def _route_points(scn: Scenario) -> list[tuple[str, tuple[float, float, float]]]:
+    """(key, point) of the start, every via point and the goal, in route order."""
+    points = [("start", scn.start_m), *((f"via[{i}]", p) for i, p in enumerate(scn.via_m))]
+    return [*points, ("goal", scn.goal_m)]
+
+
+def _check_points(chk: _Checker, scn: Scenario) -> None:
+    """Start, via points and goal inside the bounds and above the ground, each at least 1 m
+    from the one before horizontally; the take-off altitude under the ceiling."""
+    points = _route_points(scn)
+    for key, point in points:
+        if point[2] <= 0.0:
+            if key == "start":
+                hint = "the mission adds the take-off climb from the ground below it"
+            elif key == "goal":
+                hint = "to land there, use mission.end: land"
+            else:
+                hint = "a via point is a waypoint in the air"
+            raise chk.fail(
+                f"{key}[2]", f"must be above the ground (z > 0), got {point[2]:g}: {hint}"
+            )
+        if not scn.bounds.contains(point):
+            raise chk.fail(key, f"{list(point)} is outside the bounds")
+    for (_, a), (key, b) in itertools.pairwise(points):
+        if math.hypot(b[0] - a[0], b[1] - a[1]) < 1.0:
+            raise chk.fail(key, "must be at least 1 m away from the point before it horizontally")
+    takeoff = scn.vehicle.takeoff_altitude_m
+    ceiling = scn.bounds.z_m[1]
+    if takeoff is not None and takeoff > ceiling + 1e-9:
+        raise chk.fail(
+            "vehicle.takeoff_altitude",
+            f"{takeoff:g} m is above the ceiling of the flight volume (bounds.z max {ceiling:g})",
+        )
+
+
+def problem_size(scn: Scenario) -> dict[str, float]:
+    """Estimates of what planning ``scn`` needs, each checked against its documented limit:
+    ``grid_cells`` (path-frame columns × lateral × vertical cells over the flight volume),
+    ``search_work`` (population × iterations × columns), ``route_samples`` (twice the
+    start-goal distance / post.sample_step_m) and ``columns``."""
+    cfg = scn.planner
+    (x0, x1), (y0, y1), (z0, z1) = scn.bounds.x_m, scn.bounds.y_m, scn.bounds.z_m
+    dx, dy = scn.goal_m[0] - scn.start_m[0], scn.goal_m[1] - scn.start_m[1]
+    length = math.hypot(dx, dy)
+    c, s = (dx / length, dy / length) if length > 0 else (1.0, 0.0)
+    corners = [(x, y) for x in (x0, x1) for y in (y0, y1)]
+    along = [c * x + s * y for x, y in corners]
+    across = [-s * x + c * y for x, y in corners]
+    columns = max(2, round(length / cfg.grid.dx_m))
+    grid_cells = (
+        (math.floor((max(along) - min(along)) / cfg.grid.dx_m) + 1)
+        * (math.floor((max(across) - min(across)) / cfg.grid.dy_m) + 1)
+        * (math.floor((z1 - z0) / cfg.grid.dz_m) + 1)
+    )
+    return {
+        "columns": float(columns),
+        "grid_cells": float(grid_cells),
+        "search_work": float(cfg.search.population * cfg.search.iterations * columns),
+        "route_samples": 2.0 * length / cfg.post.sample_step_m,
+    }
+
+
+_SIZE_LIMITS = {
+    "grid_cells": (MAX_GRID_CELLS, "planner.grid", "path grid cells over the flight volume"),
+    "search_work": (
+        MAX_SEARCH_WORK,
+        "planner.iterations",
+        "node updates (population × iterations × path columns)",
+    ),
+    "route_samples": (MAX_ROUTE_SAMPLES, "planner.post.sample_step_m", "route samples"),
+}
+
+
+def check_limits(scn: Scenario) -> None:
+    """Refuse ``scn`` (ScenarioError naming its file) when planning it would exceed a
+    documented size limit (:func:`problem_size`); call it again after command-line overrides
+    of the grid or the search effort, so ``validate`` and ``plan`` agree."""
+    _check_problem_size(_Checker(scn.source or scn.name), scn)
+
+
+def _check_problem_size(chk: _Checker, scn: Scenario) -> None:
+    size = problem_size(scn)
+    for what, (limit, key, text) in _SIZE_LIMITS.items():
+        if size[what] > limit:
+            raise chk.fail(
+                key,
+                f"the scenario is too large to plan: about {size[what]:.3g} {text}, "
+                f"the limit is {limit:.3g} (coarsen the grid, shrink the bounds or lower the "
+                "search effort)",
+            )
 
 
 def _check_geometry(
     chk: _Checker, scn: Scenario, n_map: int, map_ref: str | None, n_inline: int | None = None
 ) -> None:
-    """Start and goal inside the bounds, clear of every obstacle plus the margin, and the
-    vertical take-off climb (and the landing descent with ``end: land``) clear too."""
-    import numpy as np
-
-    from uavplan.world import World  # the world layer knows nothing of YAML
+    """Start and goal clear of every obstacle plus the margin, and the vertical take-off climb
+    (and the landing descent with ``end: land``) clear too. Plain numpy, exact distances: no
+    world, no compiled kernels."""
 
     def name(index: int) -> str:
         if index < n_map:
@@ -578,20 +948,9 @@ def _check_geometry(
             return f"obstacle #{index - n_map - n_inline} of obstacle_files"
         return f"obstacles[{index - n_map}]"
 
-    ends = [("start", scn.start_m), *((f"via[{i}]", p) for i, p in enumerate(scn.via_m))]
-    ends.append(("goal", scn.goal_m))
-    for key, point in ends:
-        if point[2] <= 0:
-            raise chk.fail(key, f"{list(point)} is not above the ground (z must be > 0)")
-        if not scn.bounds.contains(point):
-            raise chk.fail(key, f"{list(point)} is outside the bounds")
-    for (_, a), (key, b) in itertools.pairwise(ends):
-        if math.hypot(b[0] - a[0], b[1] - a[1]) < 1.0:
-            raise chk.fail(key, "must be at least 1 m away from the point before it horizontally")
-    world = World.from_scenario(scn)
     margin = scn.safety_margin_m
-    for key, point in ends:
-        clearance, index = world.nearest_obstacle(point)
+    for key, point in _route_points(scn):
+        clearance, index = _point_clearance(scn.obstacles, point)
         if index >= 0 and clearance < margin - 1e-9:
             inside = "inside" if clearance <= 0 else f"{clearance:.1f} m from"
             raise chk.fail(
@@ -601,13 +960,136 @@ def _check_geometry(
     if scn.mission.end == "land":
         columns.append(("goal", scn.goal_m, "landing descent"))
     for key, point, what in columns:
-        top = np.array([point], dtype=float)
-        ground = top.copy()
-        ground[0, 2] = 0.0
-        dist, which = world.segments_clearance(ground, top)
-        if which[0] >= 0 and dist[0] < margin - 1e-9:
+        dist, index = _column_clearance(scn.obstacles, point[:2])
+        if index >= 0 and dist < margin - 1e-9:
             raise chk.fail(
                 key,
-                f"the {what} above {list(point[:2])} passes {dist[0]:.1f} m from "
-                f"{name(int(which[0]))} (needs {margin:g} m safety margin)",
+                f"the {what} above {list(point[:2])} passes {dist:.1f} m from "
+                f"{name(index)} (needs {margin:g} m safety margin)",
             )
+
+
+# ---------------------------------------------------------------------------------------------
+# Exact clearances in plain numpy (validation must not need the planner's compiled kernels)
+
+
+class _Footprints:
+    """Every obstacle's footprint as flat numpy arrays, built once per obstacle tuple: the
+    cylinders' centres and radii, the polygon edges (box corners computed vectorised) with
+    the obstacle each belongs to, and the heights."""
+
+    def __init__(self, obstacles: Sequence[Obstacle]) -> None:
+        import numpy as np
+
+        self.n = len(obstacles)
+        self.heights = np.array([o.height_m for o in obstacles], dtype=np.float64)
+        cyl = [i for i, o in enumerate(obstacles) if isinstance(o, CylinderObstacle)]
+        self.cyl = np.array(cyl, dtype=np.int64)
+        self.centres = np.array(
+            [obstacles[i].center_m for i in cyl],  # type: ignore[union-attr]
+            dtype=np.float64,
+        ).reshape(-1, 2)
+        self.radii = np.array([obstacles[i].radius_m for i in cyl], dtype=np.float64)  # type: ignore[union-attr]
+        boxes = [i for i, o in enumerate(obstacles) if isinstance(o, BoxObstacle)]
+        prisms = [i for i, o in enumerate(obstacles) if isinstance(o, PrismObstacle)]
+        starts_list: list[Any] = []
+        owners: list[Any] = []
+        if boxes:
+            bx = [obstacles[i] for i in boxes]
+            c = np.array([o.center_m for o in bx], dtype=np.float64)  # type: ignore[union-attr]
+            h = np.array([o.size_m for o in bx], dtype=np.float64) / 2.0  # type: ignore[union-attr]
+            yaw = np.radians(np.array([o.yaw_deg for o in bx], dtype=np.float64))  # type: ignore[union-attr]
+            cs, sn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+            u = np.array([-1.0, 1.0, 1.0, -1.0]) * h[:, :1]
+            v = np.array([-1.0, -1.0, 1.0, 1.0]) * h[:, 1:]
+            corners = np.stack([c[:, :1] + cs * u - sn * v, c[:, 1:] + sn * u + cs * v], axis=-1)
+            starts_list.append(corners.reshape(-1, 2))
+            owners.append(np.repeat(np.array(boxes, dtype=np.int64), 4))
+        counts = [4] * len(boxes)
+        for i in prisms:
+            ring = obstacles[i].polygon_m  # type: ignore[union-attr]
+            starts_list.append(np.asarray(ring, dtype=np.float64))
+            owners.append(np.full(len(ring), i, dtype=np.int64))
+            counts.append(len(ring))
+        if starts_list:
+            a = np.concatenate(starts_list)
+            k = np.array(counts, dtype=np.int64)
+            first = np.repeat(np.cumsum(k) - k, k)
+            local = np.arange(len(a)) - first
+            self.a = a
+            self.b = a[first + (local + 1) % np.repeat(k, k)]
+            self.owner = np.concatenate(owners)
+        else:
+            self.a = self.b = np.empty((0, 2))
+            self.owner = np.empty(0, dtype=np.int64)
+
+    def horizontal(self, xy: Sequence[float]) -> Any:
+        """Horizontal distance (metres, shape (n,)) from ``xy`` to every footprint; 0 inside."""
+        import numpy as np
+
+        out = np.full(self.n, np.inf)
+        px, py = float(xy[0]), float(xy[1])
+        if self.cyl.size:
+            d = np.hypot(self.centres[:, 0] - px, self.centres[:, 1] - py) - self.radii
+            out[self.cyl] = np.maximum(d, 0.0)
+        if self.owner.size:
+            a, ab = self.a, self.b - self.a
+            ap = np.array([px, py]) - a
+            den = np.einsum("ij,ij->i", ab, ab)
+            t = np.clip(np.einsum("ij,ij->i", ap, ab) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+            dist = np.hypot(a[:, 0] + t * ab[:, 0] - px, a[:, 1] + t * ab[:, 1] - py)
+            np.minimum.at(out, self.owner, dist)
+            ay, by = a[:, 1], self.b[:, 1]
+            straddles = (ay > py) != (by > py)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x_cross = a[:, 0] + ab[:, 0] * (py - ay) / np.where(straddles, by - ay, 1.0)
+            hits = np.zeros(self.n, dtype=np.int64)
+            np.add.at(hits, self.owner, (straddles & (px < x_cross)).astype(np.int64))
+            out[hits % 2 == 1] = 0.0
+        return out
+
+
+_FOOTPRINTS: dict[int, tuple[Sequence[Obstacle], _Footprints]] = {}
+
+
+def _footprints(obstacles: Sequence[Obstacle]) -> _Footprints:
+    hit = _FOOTPRINTS.get(id(obstacles))
+    if hit is not None and hit[0] is obstacles:
+        return hit[1]
+    fp = _Footprints(obstacles)
+    _FOOTPRINTS.clear()  # one scenario at a time
+    _FOOTPRINTS[id(obstacles)] = (obstacles, fp)
+    return fp
+
+
+def _horizontal_distances(obstacles: Sequence[Obstacle], xy: Sequence[float]) -> Any:
+    """Horizontal distance (metres, shape (n,)) from ``xy`` to every obstacle's footprint;
+    0 inside a footprint."""
+    return _footprints(obstacles).horizontal(xy)
+
+
+def _point_clearance(obstacles: Sequence[Obstacle], point: Sequence[float]) -> tuple[float, int]:
+    """(distance, index) of the obstacle nearest to the 3-D ``point``; (inf, -1) without
+    obstacles. Exact: obstacles are vertical solids from the ground to their height."""
+    import numpy as np
+
+    if not obstacles:
+        return math.inf, -1
+    fp = _footprints(obstacles)
+    horizontal = fp.horizontal(point[:2])
+    vertical = np.maximum(float(point[2]) - fp.heights, 0.0)
+    dist = np.hypot(horizontal, vertical)
+    index = int(np.argmin(dist))
+    return float(dist[index]), index
+
+
+def _column_clearance(obstacles: Sequence[Obstacle], xy: Sequence[float]) -> tuple[float, int]:
+    """(distance, index) of the obstacle nearest to the vertical segment from the ground up at
+    ``xy``: obstacles stand on the ground, so it is the horizontal distance."""
+    import numpy as np
+
+    if not obstacles:
+        return math.inf, -1
+    horizontal = _horizontal_distances(obstacles, xy)
+    index = int(np.argmin(horizontal))
+    return float(horizontal[index]), index

@@ -26,10 +26,10 @@ def kernels_cached() -> bool:
 @functools.cache
 def warm_up() -> None:
     """Run every compiled kernel once on a tiny problem (once per process)."""
+    from uavplan.config import EnergyWeights, GridSpec, SearchParams
     from uavplan.obstacles import BoxObstacle, CylinderObstacle
     from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route
     from uavplan.planners.base import PathProblem
-    from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams
     from uavplan.planners.proposal import Draw, Proposal
     from uavplan.planners.sparrow import oscillate
     from uavplan.world import World

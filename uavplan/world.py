@@ -14,16 +14,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from uavplan import _geom
 from uavplan.geometry2d import convex_pieces
 from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
-
-if TYPE_CHECKING:
-    from uavplan.scenario import Scenario
 
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
 
@@ -65,15 +61,6 @@ class World:
     cells: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     # -- construction ------------------------------------------------------------------
-    @classmethod
-    def from_scenario(cls, scenario: Scenario) -> World:
-        b = scenario.bounds
-        return cls.build(
-            scenario.obstacles,
-            bounds_xyz=(b.x_m, b.y_m, b.z_m),
-            margin_m=scenario.safety_margin_m,
-        )
-
     @classmethod
     def build(
         cls,

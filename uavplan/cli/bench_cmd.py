@@ -5,24 +5,26 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import Any
 
 import click
 
 from uavplan.cli import main
 from uavplan.cli.common import handle_errors, show_progress
+from uavplan.cli.options import ALGORITHMS
 from uavplan.errors import InputError
-
-_DEFAULT_ALGORITHMS = "spsa,ssa,pso,gwo,de,cso"
 
 
 @main.command("bench")
 @click.argument("scenarios", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option(
     "--algorithms",
-    default=_DEFAULT_ALGORITHMS,
-    show_default=True,
+    "variants",
+    type=ALGORITHMS,
+    default=None,
     help="Comma-separated algorithms; also SPSA ablations (spsa-no-escape) and parameter "
-    "variants such as 'de(cr=0.1)' or 'spsa(oscillation_window=4)'.",
+    "variants such as 'de(cr=0.1)' or 'spsa(oscillation_window=4)'. Default: every "
+    "registered algorithm of the paper's comparison (spsa, ssa, pso, gwo, de, cso).",
 )
 @click.option("--runs", type=click.IntRange(min=1), default=30, show_default=True)
 @click.option(
@@ -72,7 +74,7 @@ _DEFAULT_ALGORITHMS = "spsa,ssa,pso,gwo,de,cso"
 @handle_errors
 def bench_command(
     scenarios: tuple[str, ...],
-    algorithms: str,
+    variants: list[Any] | None,
     runs: int,
     iterations: int | None,
     population: int | None,
@@ -91,12 +93,13 @@ def bench_command(
 
     if dask_address and workers != 1:
         raise click.UsageError("--workers and --dask are exclusive (Dask sizes its own workers)")
+    if variants is None:
+        variants = [bench.Variant.parse(name) for name in bench.default_algorithms()]
+    if ablation:
+        have = {v.label for v in variants}
+        variants += [v for v in bench.ablation_variants() if v.label not in have]
+    loaded = [load_scenario(path) for path in scenarios]
     try:
-        variants = [bench.Variant.parse(a) for a in bench.split_labels(algorithms)]
-        if ablation:
-            have = {v.label for v in variants}
-            variants += [v for v in bench.ablation_variants() if v.label not in have]
-        loaded = [load_scenario(path) for path in scenarios]
         jobs = bench.make_jobs(
             loaded,
             variants,
@@ -106,6 +109,8 @@ def bench_command(
             population=population,
             search=None if fitness_smoothing is None else {"fitness_smoothing": fitness_smoothing},
         )
+    except InputError:
+        raise
     except ValueError as err:
         raise InputError(str(err), key="--algorithms") from None
 

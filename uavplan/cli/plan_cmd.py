@@ -17,6 +17,7 @@ from uavplan.cli.common import (
     interruptible,
     show_progress,
 )
+from uavplan.cli.options import ALGORITHM
 from uavplan.errors import InputError, NoPathError
 from uavplan.fileio import atomic_write_text
 
@@ -40,7 +41,7 @@ def _load_scenario(path: str):
 )
 @click.option(
     "--algorithm",
-    type=click.Choice(["spsa", "ssa", "pso", "gwo", "de", "cso"]),
+    type=ALGORITHM,
     help="Planner (default: the scenario's, else spsa).",
 )
 @click.option("--seed", type=click.IntRange(min=0), help="Random seed (reproducible runs).")
@@ -144,14 +145,16 @@ def overridden(
     iterations: int | None,
     population: int | None,
 ) -> Any:
-    """The scenario with the planner options given on the command line."""
-    changes = {
-        k: v
-        for k, v in (("seed", seed), ("iterations", iterations), ("population", population))
-        if v is not None
-    }
-    if changes:
-        scn = scn.with_planner(search=replace(scn.planner.search, **changes))
+    """The scenario with the planner options given on the command line (validated like the
+    scenario's own values, and the size limits checked again)."""
+    from uavplan.scenario import with_search
+
+    for option, value in (
+        ("--seed", seed),
+        ("--iterations", iterations),
+        ("--population", population),
+    ):
+        scn = with_search(scn, {option.lstrip("-"): value}, option)
     if algorithm:
         scn = scn.with_planner(algorithm=algorithm)
     return scn

@@ -23,6 +23,7 @@ from uavplan.cli.common import (
     interruptible,
     show_progress,
 )
+from uavplan.cli.options import ALGORITHM
 from uavplan.errors import InputError, NoPathError
 
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
@@ -57,7 +58,7 @@ def _require_png(path: str, option: str) -> None:
 @click.option("--no-plan", is_flag=True, help="Draw the scenario alone, without a route.")
 @click.option(
     "--algorithm",
-    type=click.Choice(["spsa", "ssa", "pso", "gwo", "de", "cso"]),
+    type=ALGORITHM,
     help="Planner (default: the scenario's, else spsa).",
 )
 @click.option("--seed", type=click.IntRange(min=0), help="Random seed (default: the scenario's).")

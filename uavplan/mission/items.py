@@ -19,6 +19,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
+from uavplan.config import Autopilot
 from uavplan.geo import GeoPoint
 
 # ---------------------------------------------------------------------------------------------
@@ -57,35 +58,6 @@ class MissionType(enum.IntEnum):
     FENCE = 1
     RALLY = 2
     ALL = 255
-
-
-class Autopilot(enum.Enum):
-    """Autopilot flavour; ``value`` is the MAV_AUTOPILOT number (QGC's ``firmwareType``)."""
-
-    GENERIC = 0
-    ARDUPILOT = 3
-    PX4 = 12
-
-    @classmethod
-    def from_name(cls, name: str) -> Autopilot:
-        key = name.strip().lower()
-        table = {
-            "px4": cls.PX4,
-            "ardupilot": cls.ARDUPILOT,
-            "apm": cls.ARDUPILOT,
-            "generic": cls.GENERIC,
-        }
-        if key not in table:
-            raise ValueError(f"unknown autopilot {name!r} (expected px4 or ardupilot)")
-        return table[key]
-
-    @property
-    def label(self) -> str:
-        return {
-            Autopilot.GENERIC: "generic",
-            Autopilot.ARDUPILOT: "ardupilot",
-            Autopilot.PX4: "px4",
-        }[self]
 
 
 #: frames whose x/y are latitude / longitude

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from uavplan.planners.params import EnergyWeights
+from uavplan.config import EnergyWeights
 
 #: spline samples per column interval used by the search fitness
 N_SUB = 3

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uavplan.planners.params import GridSpec
+from uavplan.config import GridSpec
 
 
 @dataclass(frozen=True)

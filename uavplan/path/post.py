@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uavplan.planners.params import EnergyWeights
+from uavplan.config import EnergyWeights
 from uavplan.world import World
 
 #: halvings of λ before a leg falls back to the straight line

@@ -341,21 +341,20 @@ def node_free(j, y0, z0, y1, z1, reach):
 
 @njit(cache=True, inline="always")
 def _window_draw(t, h, lo, hi, rng):
-    """t + U(−h, h), the window moved inside [lo, hi] (shrunk to it when it is narrower)."""
+    """t + U(−h, h) (eq. 9), the window cut to the valid range [lo, hi]; a window entirely
+    outside the range is moved to its nearest edge (the walk drifted out of the volume)."""
     u = rng.random()
     if t - h >= lo and t + h <= hi:
         return t + (2.0 * u - 1.0) * h
-    a = t - h
-    b = t + h
-    if b - a >= hi - lo:
-        a = lo
-        b = hi
-    elif a < lo:
-        a = lo
-        b = lo + 2.0 * h
-    else:
-        b = hi
-        a = hi - 2.0 * h
+    a = max(t - h, lo)
+    b = min(t + h, hi)
+    if a > b:  # no overlap: the part of the range nearest the window, as wide as it allows
+        if t + h < lo:
+            a = lo
+            b = min(hi, lo + h)
+        else:
+            b = hi
+            a = max(lo, hi - h)
     return a + u * (b - a)
 
 
@@ -372,8 +371,8 @@ def init_population(
 
     The window fits the flight volume: where [P_t − Δh, P_t + Δh] leaves a column's valid
     range ``window[j]`` = (y_lo, y_hi, z_lo, z_hi) (grid units), the draw is uniform over
-    the window shifted (or shrunk) into that range, so a shallow volume or a long route does
-    not send every draw outside the bounds; inside the range the draw is the paper's.
+    the part of the window inside that range, so a shallow volume or a long route does not
+    send every draw outside the bounds; inside the range the draw is the paper's.
     """
     cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)

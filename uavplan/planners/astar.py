@@ -39,8 +39,8 @@ import numpy as np
 from numba import njit
 
 from uavplan._geom import point_piece_dist, segment_free
+from uavplan.config import EnergyWeights
 from uavplan.path.frame import PathFrame
-from uavplan.planners.params import EnergyWeights
 from uavplan.world import World
 
 if TYPE_CHECKING:

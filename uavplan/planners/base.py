@@ -19,19 +19,15 @@ from typing import Any
 
 import numpy as np
 
+from uavplan.config import MARGIN_PAD_M, EnergyWeights, GridSpec, SearchParams
 from uavplan.path.energy import N_SUB, population_energy
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
-from uavplan.planners.params import EnergyWeights, GridSpec, SearchParams
 from uavplan.planners.proposal import Proposal
 from uavplan.world import World
 
 #: starts per individual before the initialisation gives up on it
 INIT_MAX_ATTEMPTS = 25
-#: planning keeps this much more than the safety margin, so a route that touches the margin
-#: still keeps it after a mission file or MAVLink rounds its positions (1e-7 degrees is about
-#: 1.1 cm; ArduPilot stores centimetres)
-MARGIN_PAD_M = 0.02
 
 ProgressFn = Callable[[int, int, float], None]  # (iteration, iterations, best fitness)
 

@@ -25,8 +25,8 @@ import math
 
 import numpy as np
 
+from uavplan.config import CsoParams, SearchParams
 from uavplan.planners.base import PathProblem, Population, SwarmPlanner
-from uavplan.planners.params import CsoParams, SearchParams
 from uavplan.planners.proposal import Draw, Proposal
 
 EPS = float(np.finfo(float).tiny)  # ε (``realmin`` in the authors' code)

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from uavplan.config import DeParams, SearchParams
 from uavplan.planners.base import PathProblem, Population, SwarmPlanner
-from uavplan.planners.params import DeParams, SearchParams
 from uavplan.planners.proposal import Proposal
 
 
@@ -47,10 +47,10 @@ class DifferentialEvolutionPlanner(SwarmPlanner):
         t_max = self.search.t_max
         r = np.stack([distinct_others(n_pop, 3, rng) for _ in range(t_max)])  # (t, G, 3)
         mutant = x[r[..., 0]] + prm.f * (x[r[..., 1]] - x[r[..., 2]])  # (t, G, n, 2)
-        cross = (rng.random((t_max, n_pop, n_inner, 2)) < prm.cr).reshape(t_max, n_pop, -1)
+        coin = (rng.random((t_max, n_pop, n_inner, 2)) < prm.cr).reshape(t_max, n_pop, -1)
         j_rand = rng.integers(0, 2 * n_inner, size=(t_max, n_pop))
-        cross[np.arange(t_max)[:, None], np.arange(n_pop)[None, :], j_rand] = True
-        cross = cross.reshape(t_max, n_pop, n_inner, 2)
+        coin[np.arange(t_max)[:, None], np.arange(n_pop)[None, :], j_rand] = True
+        cross = coin.reshape(t_max, n_pop, n_inner, 2)
         prop = Proposal.for_population(x, n_explicit=t_max)
         prop.active[:] = True
         prop.explicit = np.where(cross, mutant, x[None])

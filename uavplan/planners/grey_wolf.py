@@ -13,8 +13,8 @@ import functools
 
 import numpy as np
 
+from uavplan.config import GwoParams, SearchParams
 from uavplan.planners.base import PathProblem, Population, SwarmPlanner
-from uavplan.planners.params import GwoParams, SearchParams
 from uavplan.planners.proposal import Proposal
 
 N_LEADERS = 3  # α, β, δ

@@ -25,9 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from uavplan.config import MARGIN_PAD_M
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, _grid_extent, astar
-from uavplan.planners.base import MARGIN_PAD_M, PathProblem
+from uavplan.planners.base import PathProblem
 
 #: grid refinements tried, as multiples of the planner's grid steps (coarse first)
 GUIDE_SCALES = (2.0, 1.0, 0.5)

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from uavplan.config import PsoParams, SearchParams
 from uavplan.planners.base import PathProblem, Population, SwarmPlanner
-from uavplan.planners.params import PsoParams, SearchParams
 from uavplan.planners.proposal import Draw, Proposal
 
 

@@ -1,79 +1,70 @@
-"""Name → planner class. Imports are lazy so that reading a scenario stays cheap."""
+"""Name → planner object, from the planner table :data:`uavplan.config.PLANNERS`.
+
+Classes are imported lazily from each entry's ``"module:Class"`` target, so reading a scenario
+or listing the planners never loads the optimisers (or numba).
+"""
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 from collections.abc import Mapping
 from typing import Any
 
-from uavplan.planners import params as P
-from uavplan.planners.params import ALGORITHMS, SearchParams, SpsaParams
-
-# name → (module, class)
-_REGISTRY: dict[str, tuple[str, str]] = {
-    "spsa": ("uavplan.planners.sparrow", "SparrowPlanner"),
-    "ssa": ("uavplan.planners.sparrow", "SsaPlanner"),
-    "pso": ("uavplan.planners.particle_swarm", "ParticleSwarmPlanner"),
-    "gwo": ("uavplan.planners.grey_wolf", "GreyWolfPlanner"),
-    "de": ("uavplan.planners.differential_evolution", "DifferentialEvolutionPlanner"),
-    "cso": ("uavplan.planners.chicken_swarm", "ChickenSwarmPlanner"),
-}
-
-# name → the dataclass its ``options`` (scenario ``planner.options``) fill
-_OPTIONS: dict[str, type] = {
-    "pso": P.PsoParams,
-    "gwo": P.GwoParams,
-    "de": P.DeParams,
-    "cso": P.CsoParams,
-}
+from uavplan.config import (
+    PLANNERS,
+    PlannerConfig,
+    SearchParams,
+    SpsaParams,
+    build_params,
+    planner_entry,
+)
 
 
 def planner_class(name: str) -> type:
-    if name not in _REGISTRY:
-        known = ", ".join(n for n in ALGORITHMS if n in _REGISTRY)
-        raise ValueError(f"unknown algorithm {name!r} (available: {known})")
-    module, cls = _REGISTRY[name]
-    return getattr(importlib.import_module(module), cls)
+    """The class of planner ``name``; ConfigError (a ValueError) for an unknown name."""
+    entry = planner_entry(name)
+    if isinstance(entry.target, type):
+        return entry.target
+    module, _, cls = entry.target.partition(":")
+    return getattr(importlib.import_module(module), cls)  # type: ignore[no-any-return]
 
 
 def available() -> tuple[str, ...]:
-    return tuple(n for n in ALGORITHMS if n in _REGISTRY)
+    """Every registered planner, in table order."""
+    return tuple(PLANNERS)
 
 
 def options_class(name: str) -> type | None:
-    """The parameter dataclass that algorithm ``name``'s options fill (None: takes none)."""
-    return _OPTIONS.get(name)
+    """The parameter dataclass of planner ``name``'s section (None: it takes none)."""
+    return planner_entry(name).params
 
 
 def make_options(name: str, options: Mapping[str, Any] | None) -> Any:
-    """Algorithm ``name``'s parameters from an options mapping; ValueError names a bad key."""
-    cls = options_class(name)
-    options = dict(options or {})
-    if cls is None:
-        if options:
-            raise ValueError(f"algorithm {name!r} takes no options (got {', '.join(options)})")
-        return None
-    known = P.field_names(cls)
-    unknown = sorted(set(options) - set(known))
-    if unknown:
-        raise ValueError(
-            f"unknown {name} option(s) {', '.join(unknown)} (known: {', '.join(known)})"
-        )
-    return dataclasses.replace(cls(), **options)
+    """Planner ``name``'s parameters from a mapping of its keys (validated by
+    :func:`uavplan.config.build`; ConfigError, a ValueError, names a bad key)."""
+    return build_params(name, dict(options or {}))
 
 
 def make_planner(
     name: str,
-    search: SearchParams,
+    cfg: PlannerConfig | SearchParams,
     spsa: SpsaParams | None = None,
     options: Mapping[str, Any] | None = None,
 ) -> Any:
-    """Build planner ``name``. SPSA takes ``spsa``; the baselines take ``options`` (the fields
-    of their parameter dataclass, see :func:`options_class`)."""
+    """Build planner ``name`` as ``Cls(search, params)``.
+
+    ``make_planner(name, cfg)`` with a :class:`PlannerConfig` takes the search values and
+    ``cfg.params_for(name)`` (the planner's section or its defaults). The older form
+    ``make_planner(name, search, spsa, options)`` is kept while callers move: SPSA takes
+    ``spsa``, other planners build their parameters from ``options``.
+    """
     cls = planner_class(name)
-    if name == "spsa":
-        return cls(search, spsa or SpsaParams())
-    if name == "ssa":
-        return cls(search)
+    entry = planner_entry(name)
+    if isinstance(cfg, PlannerConfig):
+        return cls(cfg.search, cfg.params_for(name))
+    search = cfg
+    if entry.params is None:
+        return cls(search, None)
+    if entry.params is SpsaParams and spsa is not None and not options:
+        return cls(search, spsa)
     return cls(search, make_options(name, options))

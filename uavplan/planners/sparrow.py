@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from uavplan.config import SearchParams, SpsaParams
 from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, Population, SwarmPlanner
-from uavplan.planners.params import SearchParams, SpsaParams
 from uavplan.planners.proposal import Draw, Proposal
 
 EPS = 1e-50  # ε of eq. 5, as in the reference code

@@ -1,0 +1,63 @@
+"""Click parameter types derived from the planner table :data:`uavplan.config.PLANNERS`.
+
+They validate at parse time against the table as it is *then*, so a planner registered at run
+time (``uavplan.config.register``) is accepted by ``--algorithm`` without touching the CLI.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+from click.shell_completion import CompletionItem
+
+from uavplan.config import PLANNERS
+
+
+class AlgorithmType(click.ParamType):
+    """One registered planner name (case-insensitive), e.g. ``--algorithm pso``."""
+
+    name = "algorithm"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> str:
+        if isinstance(value, str) and value.strip().lower() in PLANNERS:
+            return value.strip().lower()
+        self.fail(f"unknown algorithm {value!r} (available: {', '.join(PLANNERS)})", param, ctx)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "[" + "|".join(PLANNERS) + "]"
+
+    def shell_complete(
+        self, ctx: click.Context, param: click.Parameter, incomplete: str
+    ) -> list[CompletionItem]:
+        return [CompletionItem(n) for n in PLANNERS if n.startswith(incomplete.lower())]
+
+
+class AlgorithmListType(click.ParamType):
+    """A comma-separated list of bench variant labels (``spsa,de(cr=0.1),spsa-no-escape``),
+    parsed into :class:`uavplan.bench.Variant` values; each label's parameters go through the
+    one configuration validator."""
+
+    name = "algorithms"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, list):
+            return value
+        from uavplan import bench
+
+        try:
+            variants = [bench.Variant.parse(label) for label in bench.split_labels(str(value))]
+        except ValueError as err:
+            self.fail(str(err), param, ctx)
+        if not variants:
+            self.fail("no algorithms given", param, ctx)
+        return variants
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "LABEL[,LABEL...]"
+
+
+#: ``--algorithm`` of ``plan`` and ``render`` (the lead wires it in)
+ALGORITHM = AlgorithmType()
+#: ``--algorithms`` of ``bench``
+ALGORITHMS = AlgorithmListType()
