@@ -407,7 +407,12 @@ def run_job(job: BenchJob) -> RunRecord:
 
 
 def _worker_init() -> None:
-    """Local worker processes run one job at a time: keep numba to one thread each."""
+    """Local worker processes run one job at a time: keep numba to one thread each. Ctrl-C
+    is the parent's to handle (it stops the pool); a worker ignores it, so it never raises
+    inside a compiled kernel."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         import numba
 
@@ -426,14 +431,17 @@ def run_jobs(
     workers: int = 1,
     dask: Any = None,
     progress: ProgressCallback | None = None,
+    should_stop: Callable[[], bool] | None = None,
 ) -> list[RunRecord]:
     """Run ``jobs`` and return their records in job order.
 
     ``dask``: a scheduler address (``tcp://host:8786``, or a ``LocalCluster``'s) or a
     ``distributed.Client``; the jobs then run on that cluster and ``workers`` is ignored.
     Otherwise ``workers`` > 1 runs them on that many local processes, 1 runs them here.
-    ``progress(done, total, record)`` is called as each job finishes.
+    ``progress(done, total, record)`` is called as each job finishes. ``should_stop`` is
+    polled between jobs (a Ctrl-C flag): the run then raises KeyboardInterrupt.
     """
+    stop = should_stop or (lambda: False)
     jobs = list(jobs)
     total = len(jobs)
     done: list[RunRecord] = []
@@ -446,26 +454,36 @@ def run_jobs(
     if dask is not None:
         _run_dask(jobs, dask, finished)
     elif workers > 1 and total > 1:
-        _run_processes(jobs, min(workers, total), finished)
+        _run_processes(jobs, min(workers, total), finished, stop)
     else:
         for job in jobs:
+            if stop():
+                raise KeyboardInterrupt
             finished(run_job(job))
     return sorted(done, key=lambda r: r.index)
 
 
 def _run_processes(
-    jobs: list[BenchJob], workers: int, finished: Callable[[RunRecord], None]
+    jobs: list[BenchJob],
+    workers: int,
+    finished: Callable[[RunRecord], None],
+    stop: Callable[[], bool],
 ) -> None:
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     # spawn: workers start clean (no inherited threads or locks), the same on every platform
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init) as pool:
         futures = [pool.submit(run_job, job) for job in jobs]
+        pending = set(futures)
         try:
-            for fut in as_completed(futures):
-                finished(fut.result())
+            while pending:
+                ready, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                for fut in ready:
+                    finished(fut.result())
+                if stop():
+                    raise KeyboardInterrupt
         except BaseException:
             for fut in futures:
                 fut.cancel()

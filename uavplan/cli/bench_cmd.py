@@ -3,14 +3,13 @@ over :mod:`uavplan.bench`."""
 
 from __future__ import annotations
 
-import sys
 import time
 from typing import Any
 
 import click
 
 from uavplan.cli import main
-from uavplan.cli.common import handle_errors, show_progress
+from uavplan.cli.common import Progress, handle_errors, interruptible, show_progress
 from uavplan.cli.options import ALGORITHMS
 from uavplan.errors import InputError
 
@@ -114,21 +113,21 @@ def bench_command(
     except ValueError as err:
         raise InputError(str(err), key="--algorithms") from None
 
-    bar = None
-    if show_progress(quiet):
-        bar = click.progressbar(
-            length=len(jobs), label="bench", file=sys.stderr, show_pos=True, show_eta=True
-        )
-        bar.__enter__()
+    bar = Progress(show_progress(quiet), "bench")
 
     def progress(done: int, total: int, rec: bench.RunRecord) -> None:
-        if bar is not None:
-            bar.label = f"bench {rec.scenario} {rec.algorithm}"
-            bar.update(1)
+        bar.show(done, total, f"{rec.scenario} {rec.algorithm}")
 
     t0 = time.perf_counter()
     try:
-        records = bench.run_jobs(jobs, workers=workers, dask=dask_address, progress=progress)
+        with interruptible() as stop_requested:
+            records = bench.run_jobs(
+                jobs,
+                workers=workers,
+                dask=dask_address,
+                progress=progress,
+                should_stop=stop_requested,
+            )
     except ConnectionError as err:
         raise InputError(str(err), key="--dask") from None
     except RuntimeError as err:
@@ -136,8 +135,7 @@ def bench_command(
             raise InputError(str(err), key="--dask") from None
         raise
     finally:
-        if bar is not None:
-            bar.__exit__(None, None, None)
+        bar.close()
     wall = time.perf_counter() - t0
 
     click.echo(bench.format_tables(bench.summarise(records)))

@@ -101,29 +101,41 @@ def interruptible() -> Iterator[Callable[[], bool]]:
 
 
 class Progress:
-    """A progress bar on stderr, throttled to about 10 updates a second."""
+    """The one progress bar of the CLI (plan, render, bench, transfers): on stderr, throttled
+    to about 10 updates a second, drawn only when ``enabled`` (a terminal, not ``--quiet``).
 
-    def __init__(self, enabled: bool, label: str) -> None:
+    ``show(done, total, detail)`` moves it; a new ``label`` starts a new bar (a transfer's
+    phases). Called as ``progress(iteration, total, best)`` it is a planner's progress
+    function (the label shows the best energy)."""
+
+    def __init__(self, enabled: bool, label: str = "") -> None:
         self.enabled = enabled
         self.label = label
         self.bar: Any = None  # a click progress bar once the first update arrives
         self.last = 0.0
         self.done = 0
 
-    def __call__(self, iteration: int, total: int, best: float) -> None:
+    def show(self, done: int, total: int, detail: str = "", label: str | None = None) -> None:
         if not self.enabled:
             return
+        if label is not None and label != self.label:
+            self.close()
+            self.label = label
         if self.bar is None:
             self.bar = click.progressbar(
-                length=total, label=self.label, file=sys.stderr, show_pos=True, width=30
+                length=max(total, 1), label=self.label, file=sys.stderr, show_pos=True, width=30
             )
             self.bar.__enter__()
+            self.done = 0
         now = time.monotonic()
-        if now - self.last >= 0.1 or iteration == total:
-            self.bar.label = f"{self.label} E={best:.1f}"
-            self.bar.update(iteration - self.done)
-            self.done = iteration
+        if now - self.last >= 0.1 or done >= total:
+            self.bar.label = f"{self.label} {detail}".rstrip()
+            self.bar.update(done - self.done)
+            self.done = done
             self.last = now
+
+    def __call__(self, iteration: int, total: int, best: float) -> None:
+        self.show(iteration, total, f"E={best:.1f}")
 
     def close(self) -> None:
         if self.bar is not None:

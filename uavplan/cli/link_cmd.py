@@ -8,7 +8,6 @@ The MAVLink package is imported inside the commands so ``uavplan --help`` stays 
 from __future__ import annotations
 
 import signal
-import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -17,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from uavplan.cli import main
-from uavplan.cli.common import handle_errors, show_progress
+from uavplan.cli.common import Progress, handle_errors, show_progress
 from uavplan.errors import InputError
 
 if TYPE_CHECKING:
@@ -123,28 +122,11 @@ def _progress(quiet: bool) -> Iterator[Callable[[str, int, int], None] | None]:
     if not show_progress(quiet):
         yield None
         return
-    state: dict[str, Any] = {"phase": None, "bar": None, "done": 0}
-
-    def finish() -> None:
-        if state["bar"] is not None:
-            state["bar"].render_finish()
-            state["bar"] = None
-
-    def update(phase: str, done: int, total: int) -> None:
-        if phase != state["phase"]:
-            finish()
-            state["phase"], state["done"] = phase, 0
-            state["bar"] = click.progressbar(length=max(total, 1), label=phase, file=sys.stderr)
-            state["bar"].render_progress()
-        bar = state["bar"]
-        if done > state["done"]:
-            bar.update(done - state["done"])
-            state["done"] = done
-
+    bar = Progress(True)
     try:
-        yield update
+        yield lambda phase, done, total: bar.show(done, total, label=phase)
     finally:
-        finish()
+        bar.close()
 
 
 @main.command("upload")
