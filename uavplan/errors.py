@@ -2,7 +2,7 @@
 
 Each class carries the process exit code the CLI maps it to (SPEC §3):
 0 success · 1 internal error · 2 bad input or usage · 3 no collision-free path ·
-4 vehicle/link failure.
+4 vehicle/link failure · 130 interrupted (Ctrl-C; nothing written).
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ EXIT_INTERNAL = 1
 EXIT_INPUT = 2
 EXIT_NO_PATH = 3
 EXIT_LINK = 4
+EXIT_INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT (128 + 2)
 
 
 class UavplanError(Exception):

@@ -11,7 +11,7 @@ from typing import Any, TypeVar
 
 import click
 
-from uavplan.errors import EXIT_INTERNAL, InputError, UavplanError
+from uavplan.errors import EXIT_INTERNAL, EXIT_INTERRUPTED, InputError, UavplanError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -25,19 +25,25 @@ def handle_errors(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        import os
+        import warnings
+
         try:
-            return fn(*args, **kwargs)
+            with warnings.catch_warnings():
+                if not os.environ.get("UAVPLAN_DEBUG"):
+                    # numerical noise (overflow in a wild proposal, 0/0 in a degenerate
+                    # leg) is handled where it matters; it is not the user's business
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                return fn(*args, **kwargs)
         except UavplanError as err:
             click.echo(f"error: {err}", err=True)
             sys.exit(err.exit_code)
         except KeyboardInterrupt:
             click.echo("interrupted", err=True)
-            sys.exit(130)
+            sys.exit(EXIT_INTERRUPTED)
         except (click.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
         except Exception as err:  # pragma: no cover - the last line of defence
-            import os
-
             if os.environ.get("UAVPLAN_DEBUG"):
                 raise
             click.echo(f"internal error: {type(err).__name__}: {err}", err=True)
