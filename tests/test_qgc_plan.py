@@ -798,8 +798,8 @@ def test_load_errors_name_the_file(tmp_path: Path) -> None:
         load_mission(tmp_path / "missing.plan")
     assert info.value.file == str(tmp_path / "missing.plan")
     bad = tmp_path / "bad.plan"
-    bad.write_bytes(b"\xff\xfe{}")
-    with pytest.raises(MissionFileError, match="UTF-8"):
+    bad.write_bytes(b'{"a": "\xff"}')
+    with pytest.raises(MissionFileError, match=r"not UTF-8 text: .*line 1, byte 8"):
         load_mission(bad)
     bad.write_text('{"fileType": "Plan"', encoding="utf-8")
     with pytest.raises(MissionFileError, match="invalid JSON") as info:
@@ -811,6 +811,64 @@ def test_load_accepts_a_byte_order_mark(tmp_path: Path) -> None:
     path = tmp_path / "bom.plan"
     path.write_bytes(b"\xef\xbb\xbf" + plan_to_json(sample_plan()).encode())
     assert load_mission(path) == sample_plan()
+
+
+@pytest.mark.parametrize("codec", ["utf-16", "utf-32"])
+def test_load_reads_utf16_and_utf32_with_a_byte_order_mark(tmp_path: Path, codec: str) -> None:
+    path = tmp_path / "wide.plan"
+    path.write_bytes(plan_to_json(sample_plan()).encode(codec))  # Python writes the BOM
+    assert load_mission(path) == sample_plan()
+
+
+def test_load_refuses_utf16_without_a_mark_and_cut_utf16(tmp_path: Path) -> None:
+    path = tmp_path / "wide.plan"
+    path.write_bytes(plan_to_json(sample_plan()).encode("utf-16-le"))
+    with pytest.raises(MissionFileError, match="NUL characters .*UTF-16") as info:
+        load_mission(path)
+    assert info.value.file == str(path)
+    path.write_bytes(plan_to_json(sample_plan()).encode("utf-16")[:-1])  # odd byte count
+    with pytest.raises(MissionFileError, match="not UTF-16 text: truncated data"):
+        load_mission(path)
+
+
+def test_load_refuses_what_is_not_a_regular_file_or_too_large(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from uavplan.mission import io
+
+    fifo = tmp_path / "pipe.plan"
+    os.mkfifo(fifo)
+    with pytest.raises(MissionFileError, match="not a regular file"):
+        load_mission(fifo)  # does not wait for a writer
+    (tmp_path / "folder.plan").mkdir()
+    with pytest.raises(MissionFileError, match="not a regular file"):
+        load_mission(tmp_path / "folder.plan")
+    big = tmp_path / "big.plan"
+    big.write_text(plan_to_json(sample_plan()), encoding="utf-8")
+    monkeypatch.setattr(io, "MAX_FILE_BYTES", 100)
+    with pytest.raises(MissionFileError, match="up to 0 MiB"):
+        io.load_mission(big)
+    with pytest.raises(MissionFileError, match="NUL byte"):
+        load_mission("bad\x00name.plan")
+
+
+@pytest.mark.parametrize(
+    ("doc_text", "message"),
+    [
+        ('{"fileType": "Plan", "fileType": "Plan"}', "key 'fileType' appears twice"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        ('{"version": ' + "9" * 5000 + "}", "invalid JSON: Exceeds the limit"),
+        ('{"fileType": "' + "x" * 10_000 + '"}', "file type is 'xxxx"),
+    ],
+    ids=["duplicate-key", "deep-nesting", "long-integer", "long-string"],
+)
+def test_hostile_json_is_one_short_message(tmp_path: Path, doc_text: str, message: str) -> None:
+    path = tmp_path / "hostile.plan"
+    path.write_text(doc_text, encoding="utf-8")
+    with pytest.raises(MissionFileError, match=message) as info:
+        load_mission(path)
+    text = str(info.value)
+    assert text.startswith(f"{path}: ") and "\n" not in text and len(text) < 300
 
 
 def test_a_failed_save_keeps_the_old_file(tmp_path: Path) -> None:
