@@ -823,7 +823,7 @@ def test_load_reads_utf16_and_utf32_with_a_byte_order_mark(tmp_path: Path, codec
 def test_load_refuses_utf16_without_a_mark_and_cut_utf16(tmp_path: Path) -> None:
     path = tmp_path / "wide.plan"
     path.write_bytes(plan_to_json(sample_plan()).encode("utf-16-le"))
-    with pytest.raises(MissionFileError, match="NUL characters .*UTF-16") as info:
+    with pytest.raises(MissionFileError, match=r"NUL characters .*UTF-16") as info:
         load_mission(path)
     assert info.value.file == str(path)
     path.write_bytes(plan_to_json(sample_plan()).encode("utf-16")[:-1])  # odd byte count
@@ -927,3 +927,57 @@ def test_round_trip_through_files_keeps_everything(tmp_path: Path) -> None:
     assert again == plan
     assert math.isclose(again.items[0].alt_m, 20.0)
     assert copy.deepcopy(again) == plan
+
+
+# =============================================================================================
+# fileio.check_writable and the errors of atomic writes: the user's path, exit 2
+
+
+def test_check_writable_accepts_a_writable_path_and_leaves_nothing(tmp_path: Path) -> None:
+    fileio.check_writable(tmp_path / "new.plan")
+    (tmp_path / "old.plan").write_text("x")
+    fileio.check_writable(tmp_path / "old.plan")
+    assert [p.name for p in tmp_path.iterdir()] == ["old.plan"]
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda d: d / "missing" / "m.plan", "folder .*missing.* does not exist"),
+        (lambda d: d, "is a folder, not a file"),
+        (lambda d: d / "file.txt" / "m.plan", "is not a folder"),
+        (lambda d: d / ("x" * 300 + ".plan"), "too long"),
+    ],
+    ids=["missing-folder", "a-folder", "parent-is-a-file", "name-too-long"],
+)
+def test_check_writable_refuses_with_the_users_path(
+    tmp_path: Path, make: Callable[[Path], Path], message: str
+) -> None:
+    (tmp_path / "file.txt").write_text("x")
+    path = make(tmp_path)
+    with pytest.raises(fileio.OutputFileError, match=message) as info:
+        fileio.check_writable(path)
+    err = info.value
+    assert err.exit_code == EXIT_INPUT and str(err).startswith(f"{path}: ")
+    assert isinstance(err, OSError)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]
+
+
+def test_check_writable_refuses_a_nul_byte() -> None:
+    with pytest.raises(fileio.OutputFileError, match="NUL byte"):
+        fileio.check_writable("a\x00b.plan")
+
+
+def test_atomic_write_errors_name_the_target_not_the_temp_file(tmp_path: Path) -> None:
+    target = tmp_path / "missing" / "r.json"
+    with pytest.raises(fileio.OutputFileError) as info:
+        fileio.atomic_write_text(target, "{}")
+    text = str(info.value)
+    assert text == f"{target}: cannot write: folder {str(target.parent)!r} does not exist"
+    assert ".tmp" not in text and info.value.filename == str(target)
+
+
+def test_atomic_write_a_long_name_uses_a_short_temp_name(tmp_path: Path) -> None:
+    target = tmp_path / ("y" * 250 + ".plan")  # the temp name must not pass NAME_MAX
+    fileio.atomic_write_text(target, "ok")
+    assert target.read_text() == "ok"

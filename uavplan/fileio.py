@@ -33,9 +33,14 @@ class OutputFileError(InputError, OSError):
 
     def __init__(self, reason: str, *, file: str, error_number: int | None = None) -> None:
         InputError.__init__(self, reason, file=file)
+        self.message = f"{file}: {reason}"
         self.errno = error_number
         self.strerror = reason
         self.filename = file
+
+    def __str__(self) -> str:
+        # OSError's own str() would read "[Errno 2] ...: 'path'"; the user sees one message
+        return self.message
 
 
 def check_writable(path: str | os.PathLike[str]) -> None:
