@@ -981,3 +981,46 @@ def test_atomic_write_a_long_name_uses_a_short_temp_name(tmp_path: Path) -> None
     target = tmp_path / ("y" * 250 + ".plan")  # the temp name must not pass NAME_MAX
     fileio.atomic_write_text(target, "ok")
     assert target.read_text() == "ok"
+
+
+# =============================================================================================
+# MissionItem refuses what a MISSION_ITEM_INT cannot carry
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        ({"param1": 1e39}, r"param1 1e\+39 is beyond what MAVLink carries \(float32"),
+        ({"param4": -3.5e38}, "param4 .*float32"),
+        ({"z": 1e39}, "z 1e\\+39 .*float32"),
+        ({"frame": 2, "x": 3e9}, "x 3e\\+09 .*int32"),
+        ({"frame": 2, "y": -2147483649.0}, "y .*int32"),
+        ({"command": 70000}, "command 70000 is out of range"),
+        ({"command": 16.5}, "command must be a whole number"),
+        ({"frame": 256}, "frame 256 is out of range"),
+        ({"frame": float("nan")}, "frame must be a whole number"),
+        ({"param2": float("inf")}, "param2 must not be infinite"),
+        ({"x": float("nan")}, "x must be finite"),
+    ],
+)
+def test_mission_item_refuses_values_the_wire_cannot_hold(
+    fields: dict[str, Any], match: str
+) -> None:
+    with pytest.raises(ValueError, match=match):
+        MissionItem(**{"command": 16, **fields})
+
+
+def test_mission_item_accepts_the_wire_limits() -> None:
+    big = 3.4028234663852886e38  # float32 max
+    item = MissionItem(
+        command=0xFFFF, frame=2, param1=big, param2=-big, x=2**31 - 1, y=-(2**31), z=big
+    )
+    assert item.wire_xy() == (2**31 - 1, -(2**31))
+    assert MissionItem(command=np.int64(16), frame=np.uint8(3)).command == 16
+
+
+def test_from_wire_refuses_a_nan_position() -> None:
+    with pytest.raises(ValueError, match="finite"):
+        MissionItem.from_wire(
+            command=16, frame=3, params=(0, 0, 0, 0), x=float("nan"), y=0, z=10.0, autocontinue=1
+        )  # type: ignore[arg-type]
