@@ -60,7 +60,7 @@ def write_scenario(tmp_path: Path, name: str = "s.yaml", **changes: Any) -> Path
     return path
 
 
-def run(args: list[str]) -> Result:
+def run(args: list[Any]) -> Result:
     return CliRunner().invoke(main, [str(a) for a in args])
 
 
@@ -80,7 +80,7 @@ def assert_one_line_error(result: Result, code: int, *names: object) -> str:
     return message
 
 
-def run_process(args: list[str], timeout_s: float = HANG_S) -> subprocess.CompletedProcess[str]:
+def run_process(args: list[Any], timeout_s: float = HANG_S) -> subprocess.CompletedProcess[str]:
     """``python -m uavplan ARGS`` in a real process; a hang fails the test, it does not hang it."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     env.pop("UAVPLAN_DEBUG", None)
@@ -240,7 +240,7 @@ def test_plan_output_into_a_missing_folder_exit_2_before_planning_and_writes_not
     }
     suffix = {"-o": "m.plan", "--report": "r.json", "--plot": "p.png"}[option]
     paths[option] = missing / suffix
-    args = ["plan", scenario, *FAST]
+    args: list[Any] = ["plan", scenario, *FAST]
     for name, path in paths.items():
         args += [name, path]
     message = assert_one_line_error(run(args), 2, paths[option])
@@ -347,7 +347,7 @@ def test_scenario_values_that_crashed_loading_exit_2_from_validate_and_plan(
 
 
 #: planner values that made ``plan`` run out of memory, index out of range or hang
-PLANNER_BLOWUPS = {
+PLANNER_BLOWUPS: dict[str, tuple[dict[str, Any], str]] = {
     "population-2-to-the-40": ({"population": 2**40}, "population"),
     "post-sample-step-1e-9": ({"post": {"sample_step_m": 1e-9}}, "sample_step_m"),
     "energy-weights-1e308": (
@@ -370,7 +370,7 @@ def test_planner_values_are_refused_or_planned_and_validate_agrees(
     scenario = write_scenario(tmp_path, planner={"iterations": 5, "seed": 1, **planner})
     checked = run_process(["validate", scenario])
     out = tmp_path / "m.plan"
-    args = ["plan", scenario, "-o", out, "-q"]
+    args: list[Any] = ["plan", scenario, "-o", out, "-q"]
     if "population" not in planner:
         args += ["--population", "4"]
     planned = run_process(args)
