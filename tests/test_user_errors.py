@@ -346,17 +346,33 @@ def test_scenario_values_that_crashed_loading_exit_2_from_validate_and_plan(
     assert not out.exists()
 
 
-#: planner values that made ``plan`` run out of memory, index out of range or hang
-PLANNER_BLOWUPS: dict[str, tuple[dict[str, Any], str]] = {
-    "population-2-to-the-40": ({"population": 2**40}, "population"),
-    "post-sample-step-1e-9": ({"post": {"sample_step_m": 1e-9}}, "sample_step_m"),
+#: planner values that made ``plan`` run out of memory, index out of range or hang, and
+#: whether the dense paper-env3 map is needed to show it (the hangs need unreachable nodes)
+PLANNER_BLOWUPS: dict[str, tuple[dict[str, Any], str, bool]] = {
+    "population-2-to-the-40": ({"population": 2**40}, "population", False),
+    "post-sample-step-1e-9": ({"post": {"sample_step_m": 1e-9}}, "sample_step_m", False),
     "energy-weights-1e308": (
         {"energy": {"k0": 1e308, "k1": 1e308, "mu0": 1e308, "k2": 1e308}},
         "energy",
+        False,
     ),
-    "t-max-1e9": ({"t_max": 1e9}, "t_max"),
-    "oscillation-window-1e9": ({"spsa": {"oscillation_window": 1e9}}, "oscillation_window"),
+    "t-max-1e9": ({"t_max": 1e9}, "t_max", True),
+    "oscillation-window-1e9": (
+        {"spsa": {"oscillation_window": 1e9}},
+        "oscillation_window",
+        True,
+    ),
 }
+
+
+def dense_scenario(tmp_path: Path, planner: dict[str, Any]) -> Path:
+    """missions/paper-env3.yaml (20 iterations plan it in seconds) with ``planner`` merged."""
+    doc = yaml.safe_load((ROOT / "missions" / "paper-env3.yaml").read_text(encoding="utf-8"))
+    doc["map"] = str(ROOT / "maps" / "paper-env3.yaml")
+    doc["planner"] = {**doc.get("planner", {}), "iterations": 20, "seed": 1, **planner}
+    path = tmp_path / "dense.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    return path
 
 
 @pytest.mark.timeout(600)
@@ -366,12 +382,15 @@ def test_planner_values_are_refused_or_planned_and_validate_agrees(
 ) -> None:
     """Refused up front by both commands (exit 2 naming the key), or accepted by both and
     planned within the hang bound (exit 0 or 3): never exit 1, a hang or a memory blow-up."""
-    planner, key = PLANNER_BLOWUPS[case]
-    scenario = write_scenario(tmp_path, planner={"iterations": 5, "seed": 1, **planner})
+    planner, key, dense = PLANNER_BLOWUPS[case]
+    if dense:
+        scenario = dense_scenario(tmp_path, planner)
+    else:
+        scenario = write_scenario(tmp_path, planner={"iterations": 5, "seed": 1, **planner})
     checked = run_process(["validate", scenario])
     out = tmp_path / "m.plan"
     args: list[Any] = ["plan", scenario, "-o", out, "-q"]
-    if "population" not in planner:
+    if "population" not in planner and not dense:
         args += ["--population", "4"]
     planned = run_process(args)
     if checked.returncode == 2:
