@@ -356,9 +356,9 @@ PLANNER_BLOWUPS: dict[str, tuple[dict[str, Any], str, bool]] = {
         "energy",
         False,
     ),
-    "t-max-1e9": ({"t_max": 1e9}, "t_max", True),
+    "t-max-1e9": ({"t_max": 10**9}, "t_max", True),
     "oscillation-window-1e9": (
-        {"spsa": {"oscillation_window": 1e9}},
+        {"spsa": {"oscillation_window": 10**9}},
         "oscillation_window",
         True,
     ),
