@@ -798,8 +798,8 @@ def test_load_errors_name_the_file(tmp_path: Path) -> None:
         load_mission(tmp_path / "missing.plan")
     assert info.value.file == str(tmp_path / "missing.plan")
     bad = tmp_path / "bad.plan"
-    bad.write_bytes(b"\xff\xfe{}")
-    with pytest.raises(MissionFileError, match="UTF-8"):
+    bad.write_bytes(b'{"a": "\xff"}')
+    with pytest.raises(MissionFileError, match=r"not UTF-8 text: .*line 1, byte 8"):
         load_mission(bad)
     bad.write_text('{"fileType": "Plan"', encoding="utf-8")
     with pytest.raises(MissionFileError, match="invalid JSON") as info:
@@ -811,6 +811,64 @@ def test_load_accepts_a_byte_order_mark(tmp_path: Path) -> None:
     path = tmp_path / "bom.plan"
     path.write_bytes(b"\xef\xbb\xbf" + plan_to_json(sample_plan()).encode())
     assert load_mission(path) == sample_plan()
+
+
+@pytest.mark.parametrize("codec", ["utf-16", "utf-32"])
+def test_load_reads_utf16_and_utf32_with_a_byte_order_mark(tmp_path: Path, codec: str) -> None:
+    path = tmp_path / "wide.plan"
+    path.write_bytes(plan_to_json(sample_plan()).encode(codec))  # Python writes the BOM
+    assert load_mission(path) == sample_plan()
+
+
+def test_load_refuses_utf16_without_a_mark_and_cut_utf16(tmp_path: Path) -> None:
+    path = tmp_path / "wide.plan"
+    path.write_bytes(plan_to_json(sample_plan()).encode("utf-16-le"))
+    with pytest.raises(MissionFileError, match=r"NUL characters .*UTF-16") as info:
+        load_mission(path)
+    assert info.value.file == str(path)
+    path.write_bytes(plan_to_json(sample_plan()).encode("utf-16")[:-1])  # odd byte count
+    with pytest.raises(MissionFileError, match="not UTF-16 text: truncated data"):
+        load_mission(path)
+
+
+def test_load_refuses_what_is_not_a_regular_file_or_too_large(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from uavplan.mission import io
+
+    fifo = tmp_path / "pipe.plan"
+    os.mkfifo(fifo)
+    with pytest.raises(MissionFileError, match="not a regular file"):
+        load_mission(fifo)  # does not wait for a writer
+    (tmp_path / "folder.plan").mkdir()
+    with pytest.raises(MissionFileError, match="not a regular file"):
+        load_mission(tmp_path / "folder.plan")
+    big = tmp_path / "big.plan"
+    big.write_text(plan_to_json(sample_plan()), encoding="utf-8")
+    monkeypatch.setattr(io, "MAX_FILE_BYTES", 100)
+    with pytest.raises(MissionFileError, match="up to 0 MiB"):
+        io.load_mission(big)
+    with pytest.raises(MissionFileError, match="NUL byte"):
+        load_mission("bad\x00name.plan")
+
+
+@pytest.mark.parametrize(
+    ("doc_text", "message"),
+    [
+        ('{"fileType": "Plan", "fileType": "Plan"}', "key 'fileType' appears twice"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        ('{"version": ' + "9" * 5000 + "}", "invalid JSON: Exceeds the limit"),
+        ('{"fileType": "' + "x" * 10_000 + '"}', "file type is 'xxxx"),
+    ],
+    ids=["duplicate-key", "deep-nesting", "long-integer", "long-string"],
+)
+def test_hostile_json_is_one_short_message(tmp_path: Path, doc_text: str, message: str) -> None:
+    path = tmp_path / "hostile.plan"
+    path.write_text(doc_text, encoding="utf-8")
+    with pytest.raises(MissionFileError, match=message) as info:
+        load_mission(path)
+    text = str(info.value)
+    assert text.startswith(f"{path}: ") and "\n" not in text and len(text) < 300
 
 
 def test_a_failed_save_keeps_the_old_file(tmp_path: Path) -> None:
@@ -869,3 +927,100 @@ def test_round_trip_through_files_keeps_everything(tmp_path: Path) -> None:
     assert again == plan
     assert math.isclose(again.items[0].alt_m, 20.0)
     assert copy.deepcopy(again) == plan
+
+
+# =============================================================================================
+# fileio.check_writable and the errors of atomic writes: the user's path, exit 2
+
+
+def test_check_writable_accepts_a_writable_path_and_leaves_nothing(tmp_path: Path) -> None:
+    fileio.check_writable(tmp_path / "new.plan")
+    (tmp_path / "old.plan").write_text("x")
+    fileio.check_writable(tmp_path / "old.plan")
+    assert [p.name for p in tmp_path.iterdir()] == ["old.plan"]
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda d: d / "missing" / "m.plan", "folder .*missing.* does not exist"),
+        (lambda d: d, "is a folder, not a file"),
+        (lambda d: d / "file.txt" / "m.plan", "is not a folder"),
+        (lambda d: d / ("x" * 300 + ".plan"), "too long"),
+    ],
+    ids=["missing-folder", "a-folder", "parent-is-a-file", "name-too-long"],
+)
+def test_check_writable_refuses_with_the_users_path(
+    tmp_path: Path, make: Callable[[Path], Path], message: str
+) -> None:
+    (tmp_path / "file.txt").write_text("x")
+    path = make(tmp_path)
+    with pytest.raises(fileio.OutputFileError, match=message) as info:
+        fileio.check_writable(path)
+    err = info.value
+    assert err.exit_code == EXIT_INPUT and str(err).startswith(f"{path}: ")
+    assert isinstance(err, OSError)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]
+
+
+def test_check_writable_refuses_a_nul_byte() -> None:
+    with pytest.raises(fileio.OutputFileError, match="NUL byte"):
+        fileio.check_writable("a\x00b.plan")
+
+
+def test_atomic_write_errors_name_the_target_not_the_temp_file(tmp_path: Path) -> None:
+    target = tmp_path / "missing" / "r.json"
+    with pytest.raises(fileio.OutputFileError) as info:
+        fileio.atomic_write_text(target, "{}")
+    text = str(info.value)
+    assert text == f"{target}: cannot write: folder {str(target.parent)!r} does not exist"
+    assert ".tmp" not in text and info.value.filename == str(target)
+
+
+def test_atomic_write_a_long_name_uses_a_short_temp_name(tmp_path: Path) -> None:
+    target = tmp_path / ("y" * 250 + ".plan")  # the temp name must not pass NAME_MAX
+    fileio.atomic_write_text(target, "ok")
+    assert target.read_text() == "ok"
+
+
+# =============================================================================================
+# MissionItem refuses what a MISSION_ITEM_INT cannot carry
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        ({"param1": 1e39}, r"param1 1e\+39 is beyond what MAVLink carries \(float32"),
+        ({"param4": -3.5e38}, "param4 .*float32"),
+        ({"z": 1e39}, "z 1e\\+39 .*float32"),
+        ({"frame": 2, "x": 3e9}, "x 3e\\+09 .*int32"),
+        ({"frame": 2, "y": -2147483649.0}, "y .*int32"),
+        ({"command": 70000}, "command 70000 is out of range"),
+        ({"command": 16.5}, "command must be a whole number"),
+        ({"frame": 256}, "frame 256 is out of range"),
+        ({"frame": float("nan")}, "frame must be a whole number"),
+        ({"param2": float("inf")}, "param2 must not be infinite"),
+        ({"x": float("nan")}, "x must be finite"),
+    ],
+)
+def test_mission_item_refuses_values_the_wire_cannot_hold(
+    fields: dict[str, Any], match: str
+) -> None:
+    with pytest.raises(ValueError, match=match):
+        MissionItem(**{"command": 16, **fields})
+
+
+def test_mission_item_accepts_the_wire_limits() -> None:
+    big = 3.4028234663852886e38  # float32 max
+    item = MissionItem(
+        command=0xFFFF, frame=2, param1=big, param2=-big, x=2**31 - 1, y=-(2**31), z=big
+    )
+    assert item.wire_xy() == (2**31 - 1, -(2**31))
+    assert MissionItem(command=np.int64(16), frame=np.uint8(3)).command == 16
+
+
+def test_from_wire_refuses_a_nan_position() -> None:
+    with pytest.raises(ValueError, match="finite"):
+        MissionItem.from_wire(
+            command=16, frame=3, params=(0, 0, 0, 0), x=float("nan"), y=0, z=10.0, autocontinue=1
+        )  # type: ignore[arg-type]

@@ -303,6 +303,16 @@ def with_item_column(column: int, text: str) -> str:
         (with_item_column(0, "3"), "line 3", "seq 3 out of order"),
         (with_item_column(8, "95.0"), "line 3", "latitude"),
         (f"QGC WPL 110\n{HOME.replace('8.0', '200.0')}\n{ITEM}", "line 2", "home: longitude"),
+        # values a MISSION_ITEM_INT cannot carry: refused at load, not at upload
+        (with_item_column(4, "1e39"), "line 3", "param1 1e\\+39 is beyond .*float32"),
+        (with_item_column(10, "1e39"), "line 3", "z 1e\\+39 is beyond .*float32"),
+        (f"QGC WPL 110\n{HOME}\n1\t0\t2\t31000\t0\t0\t0\t0\t3e9\t0\t0\t1", "line 3", "int32"),
+        (f"QGC WPL 110\n{HOME.replace('400.0', '1e39')}\n{ITEM}", "line 2", "home: .*float32"),
+        # hostile tokens: one short message, no crash on Python's integer-string limit
+        (with_item_column(3, "9" * 5000), "line 3, column 4 (command)", "out of range"),
+        (with_item_column(3, "\u0661\u0666"), "line 3, column 4 (command)", "whole number"),
+        (with_item_column(8, "\u0664\u0667"), "line 3, column 9 (x/lat)", "not a number"),
+        (with_item_column(8, "x" * 5000), "line 3, column 9 (x/lat)", "not a number"),
     ],
 )
 def test_bad_files_are_rejected(text: str, key: str, match: str) -> None:
@@ -310,6 +320,16 @@ def test_bad_files_are_rejected(text: str, key: str, match: str) -> None:
         waypoints_from_text(text, file="bad.waypoints")
     assert (info.value.file, info.value.key) == ("bad.waypoints", key)
     assert str(info.value).startswith(f"bad.waypoints: {key}: ")
+    assert len(str(info.value)) < 300 and "\n" not in str(info.value)
+
+
+def test_line_numbers_count_only_real_line_breaks() -> None:
+    """CR, LF and CRLF break lines; a form feed or U+2028 inside a line does not (so the
+    line number in a message is the one an editor shows)."""
+    text = f"QGC WPL 110\r{HOME}\r\n{ITEM}\u2028\n1\t0\t3\t16\t0\t0\t0\t0\t47.1\t8.1\tx\t1\n"
+    with pytest.raises(MissionFileError) as info:
+        waypoints_from_text(text, file="w.waypoints")
+    assert info.value.key == "line 4, column 11 (z/alt)"  # splitlines() would say line 5
 
 
 def test_header_with_trailing_whitespace_is_tolerated() -> None:

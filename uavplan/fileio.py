@@ -4,33 +4,119 @@ The data goes to a temporary file in the target's directory (same file system, s
 ``os.replace`` is atomic), is flushed and fsynced, then renamed over the target; the
 directory is fsynced too where the platform allows it. On any failure, including
 KeyboardInterrupt, the temporary file is removed and the target is left untouched.
+
+A failure names the user's path, never the temporary file: it raises
+:class:`OutputFileError`, which is both an :class:`OSError` (for callers that catch those)
+and an :class:`~uavplan.errors.InputError` (exit 2, one line). :func:`check_writable` asks the
+same questions before any long work starts, so a command can refuse a bad output path before
+it plans for a minute (and before it writes any of its other outputs).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import secrets
 import stat
 from pathlib import Path
 
+from uavplan.errors import InputError
+
 _TEMP_ATTEMPTS = 100
+#: the part of the target's name kept in the temporary file's name (NAME_MAX is 255 bytes)
+_TEMP_NAME_CHARS = 64
+
+
+class OutputFileError(InputError, OSError):
+    """An output file cannot be written; the message names the user's path (exit 2)."""
+
+    def __init__(self, reason: str, *, file: str, error_number: int | None = None) -> None:
+        InputError.__init__(self, reason, file=file)
+        self.message = f"{file}: {reason}"
+        self.errno = error_number
+        self.strerror = reason
+        self.filename = file
+
+    def __str__(self) -> str:
+        # OSError's own str() would read "[Errno 2] ...: 'path'"; the user sees one message
+        return self.message
+
+
+def check_writable(path: str | os.PathLike[str]) -> None:
+    """Raise :class:`OutputFileError` (an InputError, exit 2) unless ``path`` can be written.
+
+    Checks, without leaving anything behind: the path is a sensible file name, it is not a
+    folder, its folder exists and is a folder, and a file can be created in that folder (a
+    real probe: permissions, read-only file systems and ACLs all answer). Call it for every
+    output path before long work; the final write can still fail (a full disk), and then
+    :func:`atomic_write_bytes` raises the same error type.
+    """
+    shown = os.fspath(path)
+    if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
+        shown = shown.decode(errors="replace")
+    if not shown:
+        raise OutputFileError("empty output file name", file="''")
+    if "\x00" in shown:
+        raise OutputFileError("the file name contains a NUL byte", file=repr(shown))
+    target = Path(shown)
+    folder = target.parent
+    try:
+        info = os.stat(target)
+    except FileNotFoundError:
+        info = None
+    except OSError as err:
+        raise _error(err, shown) from None
+    if info is not None and stat.S_ISDIR(info.st_mode):
+        raise OutputFileError("is a folder, not a file", file=shown)
+    try:
+        folder_info = os.stat(folder)
+    except FileNotFoundError:
+        reason = f"cannot write: folder {str(folder)!r} does not exist"
+        raise OutputFileError(reason, file=shown) from None
+    except OSError as err:
+        raise _error(err, shown) from None
+    if not stat.S_ISDIR(folder_info.st_mode):
+        raise OutputFileError(f"cannot write: {str(folder)!r} is not a folder", file=shown)
+    if len(os.fsencode(target.name)) > _name_max(folder):
+        raise OutputFileError("cannot write: the file name is too long", file=shown)
+    try:
+        fd, temp = _create_temp(folder, target.name)
+    except OSError as err:
+        raise _error(err, shown) from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(temp)
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically. Raises ``OSError`` on failure.
+    """Write ``data`` to ``path`` atomically.
 
-    A new file gets the usual permissions (0o666 minus the umask); an existing file keeps
-    its permission bits.
+    Raises :class:`OutputFileError` (an ``OSError`` naming ``path``) on failure. A new file
+    gets the usual permissions (0o666 minus the umask); an existing file keeps its
+    permission bits.
     """
     target = Path(path)
+    shown = os.fspath(path)
+    if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
+        shown = shown.decode(errors="replace")
+    if "\x00" in shown:
+        raise OutputFileError("the file name contains a NUL byte", file=repr(shown))
     directory = target.parent
     try:
-        mode: int | None = stat.S_IMODE(os.stat(target).st_mode)
+        st_mode: int | None = os.stat(target).st_mode
     except FileNotFoundError:
-        mode = None
+        st_mode = None
+    except OSError as err:
+        raise _error(err, shown) from None
+    if st_mode is not None and stat.S_ISDIR(st_mode):
+        raise OutputFileError("is a folder, not a file", file=shown)
+    mode = None if st_mode is None else stat.S_IMODE(st_mode)
 
-    fd, temp = _create_temp(directory, target.name)
+    try:
+        fd, temp = _create_temp(directory, target.name)
+    except OSError as err:
+        raise _error(err, shown) from None
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
@@ -39,9 +125,11 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
         if mode is not None:
             os.chmod(temp, mode)
         os.replace(temp, target)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(temp)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputFileError):
+            raise _error(exc, shown) from None
         raise
     _fsync_directory(directory)
 
@@ -51,16 +139,36 @@ def atomic_write_text(path: str | os.PathLike[str], text: str, *, encoding: str 
     atomic_write_bytes(path, text.encode(encoding))
 
 
+def _error(err: OSError, shown: str) -> OutputFileError:
+    """The user's view of an OSError met while writing ``shown`` (never a temp file's name)."""
+    if err.errno == errno.ENOENT:
+        folder = str(Path(shown).parent)
+        reason = f"cannot write: folder {folder!r} does not exist"
+    elif err.errno == errno.ENOTDIR:
+        reason = f"cannot write: {str(Path(shown).parent)!r} is not a folder"
+    else:
+        reason = f"cannot write: {err.strerror or type(err).__name__}"
+    return OutputFileError(reason, file=shown, error_number=err.errno)
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
 def _create_temp(directory: Path, name: str) -> tuple[int, Path]:
     """Create and open a new hidden temporary file next to the target (O_EXCL, 0o666 & ~umask)."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    stem = name[:_TEMP_NAME_CHARS]
     for _ in range(_TEMP_ATTEMPTS):
-        temp = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        temp = directory / f".{stem}.{secrets.token_hex(4)}.tmp"
         try:
             return os.open(temp, flags, 0o666), temp
         except FileExistsError:
             continue
-    raise FileExistsError(f"could not create a temporary file in {directory}")
+    raise FileExistsError(errno.EEXIST, f"could not create a temporary file in {directory}")
 
 
 def _fsync_directory(directory: Path) -> None:

@@ -11,7 +11,7 @@ from typing import Any, TypeVar
 
 import click
 
-from uavplan.errors import EXIT_INTERNAL, EXIT_INTERRUPTED, InputError, UavplanError
+from uavplan.errors import EXIT_INTERNAL, EXIT_INTERRUPTED, UavplanError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -58,24 +58,14 @@ def show_progress(quiet: bool) -> bool:
 
 
 def check_output_paths(*paths: str | None) -> None:
-    """Fail before any long work when an output file cannot be written: its folder is missing
-    or not writable, or the path is a folder. One message naming the user's path (exit 2)."""
-    import os
-    from pathlib import Path
+    """Fail before any long work when an output file cannot be written (its folder is
+    missing or not writable, the path is a folder, ...): one message naming the user's path,
+    exit 2. See :func:`uavplan.fileio.check_writable`."""
+    from uavplan.fileio import check_writable
 
     for path in paths:
-        if not path:
-            continue
-        target = Path(path)
-        folder = target.parent if str(target.parent) else Path(".")
-        if target.is_dir():
-            raise InputError("is a folder, not a file", file=path)
-        if not folder.is_dir():
-            raise InputError(f"cannot write: folder {str(folder)!r} does not exist", file=path)
-        if not os.access(folder, os.W_OK | os.X_OK):
-            raise InputError(f"cannot write: folder {str(folder)!r} is not writable", file=path)
-        if target.exists() and not os.access(target, os.W_OK):
-            raise InputError("cannot write: the file is read-only", file=path)
+        if path:
+            check_writable(path)
 
 
 @contextlib.contextmanager

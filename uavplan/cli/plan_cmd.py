@@ -96,6 +96,14 @@ def plan_command(
     _compile_notice(quiet)
     progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
     with interruptible() as stop_requested:
+        if not quiet:
+            search = scn.planner.search
+            click.echo(
+                f"planning {scn.name} with {scn.planner.algorithm} (population "
+                f"{search.population}, {search.iterations} iterations, seed {search.seed}); "
+                "Ctrl-C stops",
+                err=True,
+            )
         try:
             result = plan_route(scn, progress=progress, should_stop=stop_requested)
         finally:

@@ -14,14 +14,16 @@ extras ignore them.
 
 from __future__ import annotations
 
+import codecs
 import os
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from uavplan.errors import MissionFileError
-from uavplan.fileio import atomic_write_text
+from uavplan.fileio import OutputFileError, atomic_write_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.mission.qgc_plan import plan_from_json, plan_to_json
 from uavplan.mission.waypoints_file import waypoints_from_text, waypoints_to_text
@@ -101,7 +103,8 @@ def save_mission(
     """Write ``plan`` to ``path`` in the format of its extension, atomically.
 
     ``extras`` (obstacles, planned path) are drawn by the export formats and ignored by the
-    mission formats.
+    mission formats. Any failure is a :class:`MissionFileError` naming ``path``; nothing is
+    written then.
     """
     fmt = format_for(path)
     try:
@@ -113,21 +116,101 @@ def save_mission(
         raise MissionFileError(err.reason, file=str(path), key=err.key) from err
     try:
         atomic_write_text(path, text)
-    except OSError as err:
-        raise MissionFileError(f"cannot write: {err.strerror or err}", file=str(path)) from err
+    except OutputFileError as err:
+        raise MissionFileError(err.reason, file=str(path)) from None
+
+
+#: the largest mission file read; a 65,535-item .plan (the most MAVLink can number) is ~30 MB
+MAX_FILE_BYTES = 64 * 1024 * 1024
+
+#: byte-order marks → the codec that reads the text after them (UTF-32 before UTF-16: its
+#: little-endian mark starts with UTF-16's)
+_BOMS = (
+    (codecs.BOM_UTF8, "utf-8"),
+    (codecs.BOM_UTF32_LE, "utf-32-le"),
+    (codecs.BOM_UTF32_BE, "utf-32-be"),
+    (codecs.BOM_UTF16_LE, "utf-16-le"),
+    (codecs.BOM_UTF16_BE, "utf-16-be"),
+)
 
 
 def load_mission(path: str | os.PathLike[str], autopilot: Autopilot | None = None) -> MissionPlan:
     """Read a mission file. ``autopilot`` overrides what the file says (``.plan``) or
-    assumes (``.waypoints``: ArduPilot); it decides how DO_JUMP targets are numbered."""
-    fmt = format_for(path)
+    assumes (``.waypoints``: ArduPilot); it decides how DO_JUMP targets are numbered.
+
+    Every problem is one :class:`MissionFileError` naming the file: it cannot be opened, is
+    not a regular file, is larger than :data:`MAX_FILE_BYTES`, is not text (UTF-8, or UTF-16
+    / UTF-32 with a byte-order mark), or its content is invalid (the reader names the key or
+    line). A plan that loads can be sent: every value fits its MAVLink field.
+    """
+    shown = os.fspath(path)
+    if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
+        shown = shown.decode(errors="replace")
+    fmt = format_for(shown)
     if fmt.loads is None:
-        raise MissionFileError(f"{fmt.name} files can be written but not read", file=str(path))
+        raise MissionFileError(f"{fmt.name} files can be written but not read", file=shown)
+    text = decode_text(read_bytes(shown), file=shown)
+    return fmt.loads(text, file=shown, autopilot=autopilot)
+
+
+def read_bytes(path: str, *, limit: int | None = None) -> bytes:
+    """The bytes of the regular file ``path`` (at most ``limit``, default
+    :data:`MAX_FILE_BYTES`); :class:`MissionFileError` otherwise."""
+    if limit is None:
+        limit = MAX_FILE_BYTES
+    if "\x00" in path:
+        raise MissionFileError("the file name contains a NUL byte", file=repr(path))
     try:
-        with open(path, encoding="utf-8-sig") as handle:
-            text = handle.read()
-    except UnicodeDecodeError as err:
-        raise MissionFileError(f"not UTF-8 text ({err.reason})", file=str(path)) from err
+        # O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     except OSError as err:
-        raise MissionFileError(f"cannot read: {err.strerror or err}", file=str(path)) from err
-    return fmt.loads(text, file=str(path), autopilot=autopilot)
+        raise MissionFileError(f"cannot read: {err.strerror or err}", file=path) from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise MissionFileError("cannot read: not a regular file", file=path)
+        if info.st_size > limit:
+            raise MissionFileError(
+                f"the file is {info.st_size / 2**20:.0f} MiB; mission files up to "
+                f"{limit // 2**20} MiB are read",
+                file=path,
+            )
+        chunks = []
+        size = 0
+        while size <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        data = b"".join(chunks)
+    except OSError as err:
+        raise MissionFileError(f"cannot read: {err.strerror or err}", file=path) from None
+    finally:
+        os.close(fd)
+    if len(data) > limit:  # the file grew while it was read
+        raise MissionFileError(f"mission files up to {limit // 2**20} MiB are read", file=path)
+    return data
+
+
+def decode_text(data: bytes, *, file: str) -> str:
+    """Text of a mission file: UTF-8 (a BOM is dropped), or UTF-16 / UTF-32 with a BOM."""
+    codec = "utf-8"
+    for bom, name in _BOMS:
+        if data.startswith(bom):
+            codec, data = name, data[len(bom) :]
+            break
+    try:
+        text = data.decode(codec)
+    except UnicodeDecodeError as err:
+        line = data[: err.start].count(b"\n") + 1 if codec == "utf-8" else None
+        where = f"line {line}, " if line is not None else ""
+        raise MissionFileError(
+            f"not {codec.upper().removesuffix('-LE').removesuffix('-BE')} text: "
+            f"{err.reason} ({where}byte {err.start + 1})",
+            file=file,
+        ) from None
+    if "\x00" in text:
+        hint = " (UTF-16 without a byte-order mark? save it as UTF-8)" if codec == "utf-8" else ""
+        raise MissionFileError(f"not a text file: it holds NUL characters{hint}", file=file)
+    return text

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import enum
 import math
+import operator
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -98,15 +99,44 @@ def e7_to_deg(value_e7: int) -> float:
 # ---------------------------------------------------------------------------------------------
 
 
-def _param(value: float | None) -> float | None:
+#: the largest finite float32: params and z travel as float32 in MISSION_ITEM_INT
+FLOAT32_MAX = 3.4028234663852886e38
+#: x / y of a non-global frame travel as int32 in MISSION_ITEM_INT
+INT32_MIN = -(2**31)
+INT32_MAX = 2**31 - 1
+#: command is a uint16 and frame a uint8 in MISSION_ITEM_INT
+UINT16_MAX = 0xFFFF
+UINT8_MAX = 0xFF
+
+
+def _param(name: str, value: float | None) -> float | None:
     if value is None:
         return None
     value = float(value)
     if math.isnan(value):
         return None
     if math.isinf(value):
-        raise ValueError("mission item params must not be infinite")
+        raise ValueError(f"mission item {name} must not be infinite")
+    if abs(value) > FLOAT32_MAX:
+        raise ValueError(
+            f"mission item {name} {value:g} is beyond what MAVLink carries (float32, "
+            f"|value| <= {FLOAT32_MAX:.4g})"
+        )
     return value
+
+
+def _whole(name: str, value: object, limit: int) -> int:
+    """A uint field of the wire (command, frame) as an int within 0..limit."""
+    try:
+        number = operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        as_float = float(value)  # type: ignore[arg-type]
+        if not as_float.is_integer():
+            raise ValueError(f"mission item {name} must be a whole number, got {value!r}") from None
+        number = int(as_float)
+    if not 0 <= number <= limit:
+        raise ValueError(f"mission item {name} {number} is out of range (0..{limit})")
+    return number
 
 
 @dataclass(frozen=True)
@@ -129,20 +159,35 @@ class MissionItem:
     autocontinue: bool = True
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "command", int(self.command))
-        object.__setattr__(self, "frame", int(self.frame))
+        # Everything a MISSION_ITEM_INT cannot carry is refused here, so a plan that holds
+        # the item can always be sent.
+        object.__setattr__(self, "command", _whole("command", self.command, UINT16_MAX))
+        object.__setattr__(self, "frame", _whole("frame", self.frame, UINT8_MAX))
         for name in ("param1", "param2", "param3", "param4"):
-            object.__setattr__(self, name, _param(getattr(self, name)))
+            object.__setattr__(self, name, _param(name, getattr(self, name)))
         for name in ("x", "y", "z"):
             value = float(getattr(self, name))
             if not math.isfinite(value):
                 raise ValueError(f"mission item {name} must be finite, got {value!r}")
             object.__setattr__(self, name, value)
+        if abs(self.z) > FLOAT32_MAX:
+            raise ValueError(
+                f"mission item z {self.z:g} is beyond what MAVLink carries (float32, "
+                f"|z| <= {FLOAT32_MAX:.4g})"
+            )
         if self.is_global:
             if not -90.0 <= self.x <= 90.0:
                 raise ValueError(f"latitude {self.x!r} is not within [-90, 90] degrees")
             if not -180.0 <= self.y <= 180.0:
                 raise ValueError(f"longitude {self.y!r} is not within [-180, 180] degrees")
+        else:
+            for name in ("x", "y"):
+                value = round(getattr(self, name))
+                if not INT32_MIN <= value <= INT32_MAX:
+                    raise ValueError(
+                        f"mission item {name} {getattr(self, name):g} is beyond what MAVLink "
+                        f"carries in frame {self.frame} (int32, {INT32_MIN}..{INT32_MAX})"
+                    )
         object.__setattr__(self, "autocontinue", bool(self.autocontinue))
 
     @property

@@ -80,6 +80,10 @@ _FIRMWARE_TYPES = {a.value: a for a in Autopilot}
 #: MISSION_ITEM_INT field widths: command is a uint16, frame a uint8
 _MAX_COMMAND = 0xFFFF
 _MAX_FRAME = 0xFF
+#: HEARTBEAT's MAV_TYPE is a uint8
+_MAX_VEHICLE_TYPE = 0xFF
+#: MISSION_COUNT's count is a uint16: the most items one mission type can hold on the wire
+MAX_WIRE_ITEMS = 0xFFFF
 
 
 def _home_slots(autopilot: Autopilot) -> int:
@@ -242,6 +246,8 @@ class _PlanReader:
         if value is None and nullable:
             return None
         if not _is_number(value):
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                self.fail(key, f"{_number_text(value)} is out of range (beyond a double)")
             expected = "a number or null" if nullable else "a number"
             self.fail(key, f"must be {expected}, not {_json_type(value)}")
         return float(value)
@@ -275,7 +281,7 @@ class _PlanReader:
             self.fail(None, f"a .plan file holds a JSON object, not {_json_type(doc)}")
         file_type = self.require(doc, "fileType", "")
         if file_type != FILE_TYPE:
-            self.fail("fileType", f"file type is {file_type!r}, expected {FILE_TYPE!r}")
+            self.fail("fileType", f"file type is {_short(file_type)}, expected {FILE_TYPE!r}")
         self.version(doc, "", PLAN_VERSION)
         if not isinstance(self.require(doc, "groundStation", ""), str):
             self.fail("groundStation", "must be a string")
@@ -292,7 +298,7 @@ class _PlanReader:
         items = self.items(self.array(mission, "items", "mission"), autopilot)
 
         vehicle_type = mission.get("vehicleType")
-        return MissionPlan(
+        plan = MissionPlan(
             items=items,
             autopilot=autopilot,
             home=home,
@@ -301,22 +307,69 @@ class _PlanReader:
             vehicle_type=(
                 DEFAULT_VEHICLE_TYPE
                 if vehicle_type is None
-                else self.integer(vehicle_type, "mission.vehicleType")
+                else self.bounded(vehicle_type, "mission.vehicleType", _MAX_VEHICLE_TYPE)
             ),
             cruise_speed_m_s=self.optional_number(mission, "cruiseSpeed", "mission"),
             hover_speed_m_s=self.optional_number(mission, "hoverSpeed", "mission"),
         )
+        self.check_wire(plan)
+        return plan
+
+    def bounded(self, value: Any, key: str, limit: int) -> int:
+        number = self.integer(value, key)
+        if not 0 <= number <= limit:
+            self.fail(key, f"{number} is out of range (0..{limit})")
+        return number
+
+    def check_wire(self, plan: MissionPlan) -> None:
+        """Every value of the plan fits its MAVLink field and every list its uint16 count."""
+        if plan.home is not None:
+            self.model("mission.plannedHomePosition", plan.home_item)
+        for i, point in enumerate(plan.rally):
+            self.model(f"rallyPoints.points[{i}]", point.wire_item)
+        fence = plan.fence
+        for i, circle in enumerate(fence.circles):
+            self.model(f"geoFence.circles[{i}]", GeoFence((), (circle,)).wire_items)
+        if fence.breach_return is not None:
+            self.model("geoFence.breachReturn", GeoFence((), (), fence.breach_return).wire_items)
+        counts = {
+            "mission.items": len(plan.items) + _home_slots(plan.autopilot),
+            "geoFence": sum(len(p.vertices) for p in fence.polygons)
+            + len(fence.circles)
+            + (fence.breach_return is not None),
+            "rallyPoints.points": len(plan.rally),
+        }
+        for key, count in counts.items():
+            if count > MAX_WIRE_ITEMS:
+                self.fail(
+                    key,
+                    f"{count} items on the wire; MAVLink numbers at most {MAX_WIRE_ITEMS}",
+                )
 
     def parse(self, text: str) -> Any:
         def reject_constant(name: str) -> NoReturn:
             self.fail(None, f"invalid JSON: {name} is not a JSON number")
 
+        def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+            obj = dict(pairs)
+            if len(obj) != len(pairs):
+                seen: set[str] = set()
+                for key, _ in pairs:
+                    if key in seen:
+                        self.fail(
+                            None, f"invalid JSON: key {_short(key)} appears twice in an object"
+                        )
+                    seen.add(key)
+            return obj
+
         try:
-            return json.loads(text, parse_constant=reject_constant)
+            return json.loads(text, parse_constant=reject_constant, object_pairs_hook=unique_keys)
         except json.JSONDecodeError as err:
             self.fail(None, f"invalid JSON: {err.msg} (line {err.lineno}, column {err.colno})")
         except RecursionError:
             self.fail(None, "invalid JSON: nested too deeply")
+        except ValueError as err:  # e.g. an integer literal longer than Python converts
+            self.fail(None, f"invalid JSON: {_first_line(str(err))}")
 
     def home(self, value: Any) -> GeoPoint | None:
         key = "mission.plannedHomePosition"
@@ -335,13 +388,14 @@ class _PlanReader:
             item_type = self.require(value, "type", path)
             if item_type == "ComplexItem":
                 kind = value.get("complexItemType", "unknown")
+                kind = kind if isinstance(kind, str) and len(kind) <= 40 else _short(kind)
                 self.fail(
                     path,
                     f"ComplexItem ({kind}) is not supported: uavplan reads only SimpleItems "
                     "(one MAVLink command each)",
                 )
             if item_type != "SimpleItem":
-                self.fail(_join(path, "type"), f"unknown item type {item_type!r}")
+                self.fail(_join(path, "type"), f"unknown item type {_short(item_type)}")
             items.append(self.simple_item(value, path))
             jump_id = value.get("doJumpId")
             jump_ids.append(
@@ -485,17 +539,36 @@ def _is_number(value: Any) -> bool:
         return False
 
 
+def _short(value: Any, limit: int = 40) -> str:
+    """A JSON value for a one-line message: strings quoted, anything long cut short."""
+    if isinstance(value, str):
+        return repr(value) if len(value) <= limit else repr(value[:limit]) + "…"
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return _number_text(value)
+    return _json_type(value)
+
+
+def _first_line(text: str) -> str:
+    return text.splitlines()[0] if text else text
+
+
 def _json_type(value: Any) -> str:
     if value is None:
         return "null"
     if isinstance(value, bool):
         return "a boolean"
     if isinstance(value, int | float):
-        return f"the number {value!r}"
+        return f"the number {_number_text(value)}"
     if isinstance(value, str):
-        return f"the string {value!r}"
+        return f"the string {_short(value)}"
     if isinstance(value, list):
         return "an array"
     if isinstance(value, dict):
         return "an object"
     return type(value).__name__
+
+
+def _number_text(value: int | float, limit: int = 40) -> str:
+    """repr of a number, cut short (a long integer has hundreds of digits)."""
+    text = repr(value) if isinstance(value, float) or abs(value) < 10**limit else None
+    return text if text is not None else f"{str(value)[:12]}… ({len(str(abs(value)))} digits)"

@@ -54,8 +54,15 @@ _COLUMN_NAMES = (
     "z/alt",
     "autocontinue",
 )
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-_INTEGER = re.compile(r"[+-]?\d+")
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_INTEGER = re.compile(r"[+-]?\d+", re.ASCII)
+#: the longest integer column read (a uint16 has 5 digits; leading zeros are allowed)
+_MAX_INTEGER_CHARS = 32
+#: line breaks: \n, \r\n and a lone \r (not the other characters str.splitlines() breaks on,
+#: so that the line numbers in messages are the ones an editor shows)
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+#: MISSION_COUNT's count is a uint16: the most items the file can hold with its home line
+MAX_WIRE_ITEMS = 0xFFFF
 _NAN = "NaN"
 
 
@@ -162,12 +169,15 @@ def waypoints_from_text(
     def fail(key: str, reason: str) -> NoReturn:
         raise MissionFileError(reason, file=file, key=key)
 
-    lines = text.removeprefix("\ufeff").splitlines()
+    lines = _LINE_BREAK.split(text.removeprefix("\ufeff"))
+    if lines and lines[-1] == "":
+        lines.pop()
     if not lines or not lines[0].strip():
         fail("line 1", f"empty header: expected {HEADER!r}")
     header = lines[0].strip()
     if header != HEADER:
-        fail("line 1", f"bad header {header[:40]!r}: expected {HEADER!r}")
+        shown = repr(header[:40]) + ("…" if len(header) > 40 else "")
+        fail("line 1", f"bad header {shown}: expected {HEADER!r}")
 
     rows: list[tuple[int, list[str]]] = []
     for lineno, line in enumerate(lines[1:], start=2):
@@ -178,6 +188,11 @@ def waypoints_from_text(
         if len(columns) != N_COLUMNS:
             fail(f"line {lineno}", f"expected {N_COLUMNS} columns, found {len(columns)}")
         rows.append((lineno, columns))
+    if len(rows) > MAX_WIRE_ITEMS:
+        fail(
+            f"line {rows[MAX_WIRE_ITEMS][0]}",
+            f"{len(rows)} items with home; MAVLink numbers at most {MAX_WIRE_ITEMS}",
+        )
 
     home: GeoPoint | None = None
     items: list[MissionItem] = []
@@ -189,11 +204,19 @@ def waypoints_from_text(
         if seq == 0:
             if row.lat_deg is None or row.lon_deg is None:
                 fail(f"line {lineno}", "the home line needs a position")
-            if (row.lat_deg, row.lon_deg) != (0.0, 0.0):
-                try:
+            try:
+                # the home line goes on the wire as ArduPilot's seq 0: it must fit there too
+                MissionItem(
+                    command=MavCmd.NAV_WAYPOINT,
+                    frame=MavFrame.GLOBAL,
+                    x=row.lat_deg,
+                    y=row.lon_deg,
+                    z=row.alt_m,
+                )
+                if (row.lat_deg, row.lon_deg) != (0.0, 0.0):
                     home = GeoPoint(row.lat_deg, row.lon_deg, row.alt_m)
-                except ValueError as err:
-                    fail(f"line {lineno}", f"home: {err}")
+            except ValueError as err:
+                fail(f"line {lineno}", f"home: {err}")
             continue
         try:
             item = MissionItem(
@@ -251,7 +274,9 @@ def _parse_row(columns: list[str], lineno: int, fail: Callable[[str, str], NoRet
         key = f"line {lineno}, column {i + 1} ({_COLUMN_NAMES[i]})"
         if i in _INTEGER_LIMITS:
             if not _INTEGER.fullmatch(text):
-                fail(key, f"{text!r} is not a whole number")
+                fail(key, f"{_shown(text)} is not a whole number")
+            if len(text) > _MAX_INTEGER_CHARS:
+                fail(key, f"{_shown(text)} is out of range (0..{_INTEGER_LIMITS[i]})")
             value = int(text)
             if not 0 <= value <= _INTEGER_LIMITS[i]:
                 fail(key, f"{value} is out of range (0..{_INTEGER_LIMITS[i]})")
@@ -262,10 +287,10 @@ def _parse_row(columns: list[str], lineno: int, fail: Callable[[str, str], NoRet
             values.append(None)
         else:
             if not _NUMBER.fullmatch(text):
-                fail(key, f"{text!r} is not a number")
+                fail(key, f"{_shown(text)} is not a number")
             number = float(text)
             if not math.isfinite(number):
-                fail(key, f"{text!r} is out of range")
+                fail(key, f"{_shown(text)} is out of range")
             values.append(number)
     seq, _current, frame, command = (int(v or 0) for v in values[:4])
     p1, p2, p3, p4, lat, lon, alt = values[4:11]
@@ -279,3 +304,8 @@ def _parse_row(columns: list[str], lineno: int, fail: Callable[[str, str], NoRet
         alt_m=float(alt or 0.0),
         autocontinue=bool(values[11]),
     )
+
+
+def _shown(text: str, limit: int = 40) -> str:
+    """A column's text for a one-line message, cut short."""
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + "…"
