@@ -235,6 +235,7 @@ def test_reroute_keeps_every_item_and_the_margin(tmp_path: Path, end: str) -> No
     assert [key(it) for it in kept] == [key(it) for it in old_items]
     added = [it for it in new_items if key(it) not in {key(o) for o in old_items}]
     assert added and all(it["command"] == NAV_WAYPOINT for it in added)
+
     # non-navigation items sit right after the same navigation item as before
     def anchors(items: list[dict[str, Any]]) -> list[tuple[Any, ...]]:
         out, last = [], None
@@ -245,9 +246,7 @@ def test_reroute_keeps_every_item_and_the_margin(tmp_path: Path, end: str) -> No
                 out.append((last, key(it)))
         return out
 
-    assert anchors([it for it in new_items if it in kept or not is_nav(it)]) == anchors(
-        old_items
-    )
+    assert anchors([it for it in new_items if it in kept or not is_nav(it)]) == anchors(old_items)
     assert anchors(new_items) == anchors(old_items)
     # the fence, the rally points, home, flavour and speeds are unchanged
     assert new["geoFence"] == doc["geoFence"]

@@ -38,6 +38,7 @@ planning adapters, and nothing of the CLI.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -72,6 +73,9 @@ DEFAULT_MARGIN_M = 10.0
 #: consecutive positions closer than this horizontally are joined by a straight segment
 #: (checked, not planned: the planner needs a horizontal leg)
 MIN_LEG_M = 1.0
+#: a straight leg is kept when it clears the margin by this much (a file rounds positions to
+#: about a centimetre; the planner keeps the same pad)
+CLEARANCE_PAD_M = 0.02
 #: a circle of the fence becomes a polygon with this many vertices on the circle (inclusion)
 CIRCLE_SEGMENTS = 64
 #: MAV_CMD values below this are NAV commands (the vehicle flies to their position)
@@ -116,16 +120,20 @@ class RerouteResult:
     routes: tuple[RouteResult, ...]  # one planning run per chain of legs
     inserted: int  # planned NAV_WAYPOINTs added
     min_clearance_m: float  # of the whole flown line (take-off to landing)
+    flown_enu: NDArray[np.float64]  # that line, ENU metres (home on the ground first)
     notes: tuple[str, ...] = ()
     obstacle_names: tuple[str, ...] = field(default_factory=tuple)
 
     @property
     def energy(self) -> float:
+        """E (eq. 1) of the rerouted legs (the straight legs are not counted)."""
         return float(sum(r.energy for r in self.routes))
 
     @property
     def length_m(self) -> float:
-        return float(sum(r.length_m for r in self.routes))
+        """Length of the whole flown line (take-off climb to the last position or the
+        landing; without the autopilot's return to launch)."""
+        return float(np.linalg.norm(np.diff(self.flown_enu, axis=0), axis=1).sum())
 
     @property
     def runtime_s(self) -> float:
@@ -139,7 +147,7 @@ class RerouteResult:
             "items_in": len(self.plan.items) - self.inserted,
             "items_out": len(self.plan.items),
             "inserted_waypoints": self.inserted,
-            "energy": self.energy,
+            "energy_rerouted_legs": self.energy,
             "length_m": self.length_m,
             "runtime_s": self.runtime_s,
             "min_clearance_m": self.min_clearance_m,
@@ -286,7 +294,7 @@ def build_airspace(
     file: str | None = None,
 ) -> Airspace:
     """The flight volume and obstacles for ``plan`` (see the module doc)."""
-    import shapely  # type: ignore[import-untyped]
+    import shapely
 
     fence = plan.fence
     exclusion_rings: list[tuple[NDArray[np.float64], str]] = []
@@ -370,7 +378,7 @@ def _simple_pieces(geometry: Any) -> list[Any]:
     """Polygons without holes covering ``geometry`` (a box minus the inclusion zones): a
     piece with a hole is split by a vertical line through the hole, until none is left."""
     import shapely
-    from shapely.ops import split  # type: ignore[import-untyped]
+    from shapely.ops import split
 
     todo = list(getattr(geometry, "geoms", [geometry]))
     done: list[Any] = []
@@ -417,8 +425,7 @@ def _check_points(
         if index >= 0 and clearance < margin_m - 1e-9:
             inside = "inside" if clearance <= 0 else f"{clearance:.1f} m from"
             raise InputError(
-                f"{where} is {inside} {airspace.names[index]} (needs {margin_m:g} m safety "
-                "margin)",
+                f"{where} is {inside} {airspace.names[index]} (needs {margin_m:g} m safety margin)",
                 file=file,
             )
 
@@ -433,7 +440,7 @@ def _straight_segments(
     ground = np.array([home_xy[0], home_xy[1], 0.0])
     what = "take-off climb above home" if route.has_takeoff else "flight from home"
     segments = [(ground, first, f"the {what} to {pos[0].what}")]
-    for a, b in zip(pos, pos[1:], strict=False):
+    for a, b in itertools.pairwise(pos):
         pa, pb = np.array(a.point_m), np.array(b.point_m)
         if math.hypot(*(pb[:2] - pa[:2])) < MIN_LEG_M:
             segments.append((pa, pb, f"the climb or descent from {a.what} to {b.what}"))
@@ -521,10 +528,16 @@ def reroute_plan(
 
     # chains of legs between positions at least MIN_LEG_M apart horizontally; one planning
     # run (one world, one seed stream) per chain
+    # one planning run (one world, one seed stream) per chain of consecutive legs that need
+    # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
     chains: list[list[int]] = [[0]]
+    straight = 0
     for k in range(1, len(points)):
         a, b = points[k - 1], points[k]
-        if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_LEG_M:
+        if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
+            world, a, b, margin_m
+        ):
+            straight += 1
             chains.append([k])
         else:
             chains[-1].append(k)
@@ -562,8 +575,14 @@ def reroute_plan(
             inserted += len(planned)
         items.append(item)
     out = replace(plan, items=tuple(items))
+    if straight:
+        notes.append(
+            f"{straight} of {len(points) - 1} legs keep the {margin_m:g} m margin as drawn "
+            "and stay straight"
+        )
 
-    clearance = _check_flown(out, frame, world, airspace, margin_m, name)
+    flown = mission_polyline_enu(out, frame)
+    clearance = _check_flown(flown, world, airspace, margin_m, name)
     notes.extend(_rtl_note(route, home_xy, world, airspace, margin_m))
     return RerouteResult(
         plan=out,
@@ -571,9 +590,22 @@ def reroute_plan(
         routes=tuple(runs),
         inserted=inserted,
         min_clearance_m=clearance,
+        flown_enu=flown,
         notes=tuple(notes),
         obstacle_names=airspace.names,
     )
+
+
+def _clear_as_drawn(
+    world: World, a: tuple[float, float, float], b: tuple[float, float, float], margin_m: float
+) -> bool:
+    """Does the straight leg a→b stay inside the volume and keep the margin (plus the
+    planner's pad, so rounding in the file cannot take it below)?"""
+    pa, pb = np.array([a]), np.array([b])
+    if not world.points_inside_bounds(np.vstack([pa, pb])).all():
+        return False
+    dist, _ = world.segments_clearance(pa, pb)
+    return bool(dist[0] >= margin_m + CLEARANCE_PAD_M)
 
 
 def _waypoints(frame: EnuFrame, points_enu: NDArray[np.float64]) -> list[MissionItem]:
@@ -598,16 +630,14 @@ def _waypoints(frame: EnuFrame, points_enu: NDArray[np.float64]) -> list[Mission
 
 
 def _check_flown(
-    plan: MissionPlan,
-    frame: EnuFrame,
+    poly: NDArray[np.float64],
     world: World,
     airspace: Airspace,
     margin_m: float,
     name: str,
 ) -> float:
-    """The clearance of the whole flown line of the output (as the project reads a mission
-    file), which must keep the margin inside the volume: else no route (exit 3)."""
-    poly = mission_polyline_enu(plan, frame)
+    """The clearance of the whole flown line ``poly`` of the output (as the project reads a
+    mission file), which must keep the margin inside the volume: else no route (exit 3)."""
     inside = world.points_inside_bounds(poly, tol_m=0.05)
     if not inside.all():
         k = int(np.flatnonzero(~inside)[0])
@@ -644,4 +674,3 @@ def _rtl_note(
         f"{airspace.names[int(which[0])]}; end the plan with a waypoint near home (or a "
         "landing) to have that leg rerouted too"
     ]
-

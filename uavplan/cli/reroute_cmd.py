@@ -77,8 +77,8 @@ def reroute_command(
         click.echo(
             f"{Path(output).name}: {len(result.plan.items)} items "
             f"({result.inserted} planned waypoints added to the plan's "
-            f"{len(result.plan.items) - result.inserted}), {result.length_m:.0f} m, "
-            f"energy {result.energy:.1f}, min clearance {result.min_clearance_m:.2f} m "
+            f"{len(result.plan.items) - result.inserted}), {result.length_m:.0f} m flown, "
+            f"min clearance {result.min_clearance_m:.2f} m "
             f"(margin {result.scenario.safety_margin_m:g} m), planned in "
             f"{result.runtime_s:.2f} s",
             err=True,
