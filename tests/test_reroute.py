@@ -279,7 +279,7 @@ def test_waypoint_outside_the_inclusion_fence_is_exit_2(tmp_path: Path) -> None:
     items[8] = item(NAV_LOITER_TIME, [12.0, 0, 0, None], at=(400.0, 300.0, 40.0))
     result = reroute(write(tmp_path, plan_doc(items, polygons=polygons)), tmp_path / "o.plan")
     assert result.exit_code == 2, result.output
-    assert "mission item 9 (command 19)" in result.output or "item 9" in result.output
+    assert "mission item 9 (NAV_LOITER_TIME)" in result.output
     assert "outside the inclusion fence" in result.output
 
 
@@ -302,11 +302,12 @@ def test_inclusion_fence_bounds_the_route(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     new = json.loads(out.read_text())
     local = Local(HOME[0], HOME[1])
-    line = shapely.LineString([(x, y) for x, y, _ in flown_line(new, local)])
     fence = shapely.Polygon([local.xy(*v) for v in l_shape])
+    drawn = shapely.LineString([(x, y) for x, y, _ in flown_line(doc, local)])
+    assert not fence.contains(drawn)  # as drawn, the route cuts across the notch
+    line = shapely.LineString([(x, y) for x, y, _ in flown_line(new, local)])
     assert fence.contains(line)
     assert fence.exterior.distance(line) >= MARGIN_M - 0.05
-    assert "note: the return to launch" in result.output or True  # RTL note may or may not
 
 
 def test_do_jump_is_refused_with_exit_2(tmp_path: Path) -> None:
@@ -426,3 +427,23 @@ def test_other_outputs_and_flags_are_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2 and "--fence does not apply" in result.output
     assert MavCmd.NAV_TAKEOFF == NAV_TAKEOFF
     assert np.isfinite(MARGIN_M)
+
+
+def test_rtl_across_a_zone_gets_a_note_and_terrain_frames_are_relative() -> None:
+    """The autopilot's return home is not planned: crossing a zone is said in a note. A
+    terrain-frame waypoint is read as a height above home, with a note."""
+    from uavplan.mission.qgc_plan import plan_from_json
+    from uavplan.planners.params import SearchParams
+    from uavplan.reroute import reroute_plan
+    from uavplan.scenario import PlannerConfig
+
+    items = user_items("rtl")
+    items[-2] = item(NAV_WAYPOINT, [0, 0, 0, None], at=(0.0, 330.0, 35.0), frame=10)
+    plan = plan_from_json(json.dumps(plan_doc(items)))
+    planner = PlannerConfig(search=SearchParams(iterations=150, seed=2))
+    result = reroute_plan(plan, planner=planner)
+    notes = " ".join(result.notes)
+    assert "return to launch" in notes and "exclusion polygon 1 of the fence" in notes
+    assert "terrain-relative altitudes" in notes
+    assert result.min_clearance_m >= MARGIN_M - 1e-6
+    assert result.plan.items[-1].command == RTL

@@ -84,12 +84,23 @@ _RELATIVE_FRAMES = frozenset({int(MavFrame.GLOBAL_RELATIVE_ALT)})
 _TERRAIN_FRAMES = frozenset({int(MavFrame.GLOBAL_TERRAIN_ALT)})
 
 
+#: names of the NAV commands a QGroundControl plan commonly holds beyond :class:`MavCmd`
+_NAV_NAMES = {
+    18: "NAV_LOITER_TURNS",
+    19: "NAV_LOITER_TIME",
+    31: "NAV_LOITER_TO_ALT",
+    82: "NAV_SPLINE_WAYPOINT",
+    84: "NAV_VTOL_TAKEOFF",
+    85: "NAV_VTOL_LAND",
+}
+
+
 def command_name(command: int) -> str:
     """``NAV_WAYPOINT`` for 16, ``command 203`` for a value this project has no name for."""
     try:
         return MavCmd(command).name
     except ValueError:
-        return f"command {command}"
+        return _NAV_NAMES.get(command, f"command {command}")
 
 
 @dataclass(frozen=True)
