@@ -534,6 +534,12 @@ def reroute_plan(
     world = build_world(template)
     hxy = frame.to_enu_xy([home.lat_deg], [home.lon_deg])[0]
     home_xy = (float(hxy[0]), float(hxy[1]))
+    if not airspace.bounds.contains((*home_xy, max(0.0, airspace.bounds.z_m[0]))):
+        raise InputError(
+            f"the planned home at [{home_xy[0]:.1f}, {home_xy[1]:.1f}] m is outside the flight "
+            "volume" + (" of the scenario" if base is not None else ""),
+            file=file,
+        )
     _check_points(route, airspace, world, margin_m, file)
     _check_segments(_straight_segments(route, home_xy), airspace, world, margin_m, file)
 
@@ -649,7 +655,9 @@ def _check_flown(
 ) -> float:
     """The clearance of the whole flown line ``poly`` of the output (as the project reads a
     mission file), which must keep the margin inside the volume: else no route (exit 3)."""
-    inside = world.points_inside_bounds(poly, tol_m=0.05)
+    lifted = poly.copy()  # the ground below the take-off and the landing are not "outside"
+    lifted[:, 2] = np.maximum(lifted[:, 2], world.zlim[0])
+    inside = world.points_inside_bounds(lifted, tol_m=0.05)
     if not inside.all():
         k = int(np.flatnonzero(~inside)[0])
         raise NoPathError(f"{name}: point {k} of the rerouted flight leaves the flight volume")
