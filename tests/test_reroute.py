@@ -342,13 +342,18 @@ def test_enclosed_waypoint_is_exit_3(tmp_path: Path) -> None:
     polygons = [{"inclusion": False, "polygon": w, "version": 1} for w in walls]
     items = [
         item(NAV_TAKEOFF, [0, 0, 0, None], at=(0.0, 0.0, 30.0)),
-        item(NAV_WAYPOINT, [0, 0, 0, None], at=(150.0, 150.0, 30.0)),
+        item(NAV_WAYPOINT, [0, 0, 0, None], at=(150.0, 250.0, 30.0)),  # round the walls
+        item(NAV_WAYPOINT, [0, 0, 0, None], at=(150.0, 150.0, 30.0)),  # inside them
         item(RTL, [0, 0, 0, 0]),
     ]
     doc = plan_doc(items, polygons=polygons, circles=[])
     result = reroute(write(tmp_path, doc), tmp_path / "o.plan")
     assert result.exit_code == 3, result.output
-    assert "no collision-free route" in result.output
+    assert (
+        "no collision-free route from mission item 2 (NAV_WAYPOINT) (start) to mission item 3 "
+        "(NAV_WAYPOINT) (goal): the goal is enclosed"
+    ) in result.output
+    assert not (tmp_path / "o.plan").exists()
 
 
 def test_amsl_items_are_heights_above_home(tmp_path: Path) -> None:

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -574,9 +575,15 @@ def reroute_plan(
         if result.status is RouteStatus.INTERRUPTED:
             raise KeyboardInterrupt
         if not result.ok:
-            first = route.positions[chain[0]].what
+            # plan_route prefixes "leg i of n: " when the chain has several legs
+            found = re.match(r"leg (\d+) of \d+: ", result.message)
+            leg = int(found.group(1)) - 1 if found else 0
+            reason = result.message[found.end() :] if found else result.message
+            a_what = route.positions[chain[leg]].what
+            b_what = route.positions[chain[leg + 1]].what
             raise NoPathError(
-                f"{name}: no collision-free route from {first} onwards: {result.message}"
+                f"{name}: no collision-free route from {a_what} (start) to {b_what} (goal): "
+                f"{reason}"
             )
         runs.append(result)
         notes.extend(result.notes)
