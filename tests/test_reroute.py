@@ -452,3 +452,53 @@ def test_rtl_across_a_zone_gets_a_note_and_terrain_frames_are_relative() -> None
     assert "terrain-relative altitudes" in notes
     assert result.min_clearance_m >= MARGIN_M - 1e-6
     assert result.plan.items[-1].command == RTL
+
+
+def _no_home(doc: dict[str, Any]) -> None:
+    doc["mission"]["plannedHomePosition"] = [0.0, 0.0, 0.0]
+
+
+def _after_land(doc: dict[str, Any]) -> None:
+    items = doc["mission"]["items"]
+    items.append(item(NAV_WAYPOINT, [0, 0, 0, None], at=(10.0, 10.0, 30.0)))
+    items[-1]["doJumpId"] = len(items)
+
+
+def _on_the_ground(doc: dict[str, Any]) -> None:
+    doc["mission"]["items"][2]["params"][6] = 0.0
+
+
+def _takeoff_in_a_zone(doc: dict[str, Any]) -> None:
+    doc["geoFence"]["circles"][0]["circle"]["center"] = latlon(5.0, 5.0)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (_no_home, "the plan has no planned home position"),
+        (_after_land, "mission item 13 (NAV_WAYPOINT) comes after the mission's NAV_LAND"),
+        (_on_the_ground, "mission item 3 (NAV_WAYPOINT) at 0 m is not above the ground"),
+        (_takeoff_in_a_zone, "mission item 1 (NAV_TAKEOFF) at [0.0, 0.0, 30.0] m is inside "
+                             "exclusion circle 1 of the fence"),
+    ],
+)  # fmt: skip
+def test_plans_that_cannot_be_rerouted_are_exit_2(
+    tmp_path: Path, change: Any, message: str
+) -> None:
+    doc = plan_doc(user_items())
+    change(doc)
+    result = reroute(write(tmp_path, doc), tmp_path / "o.plan")
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert "Traceback" not in result.output and "internal error" not in result.output
+
+
+def test_ardupilot_plan_keeps_its_flavour(tmp_path: Path) -> None:
+    doc = plan_doc(user_items())
+    doc["mission"]["firmwareType"] = 3
+    out = tmp_path / "o.plan"
+    result = reroute(write(tmp_path, doc), out)
+    assert result.exit_code == 0, result.output
+    new = json.loads(out.read_text())
+    assert new["mission"]["firmwareType"] == 3
+    assert min_zone_distance(new) >= MARGIN_M - 0.05
