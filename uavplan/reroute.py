@@ -544,8 +544,6 @@ def reroute_plan(
     _check_points(route, airspace, world, margin_m, file)
     _check_segments(_straight_segments(route, home_xy), airspace, world, margin_m, file)
 
-    # chains of legs between positions at least MIN_LEG_M apart horizontally; one planning
-    # run (one world, one seed stream) per chain
     # one planning run (one world, one seed stream) per chain of consecutive legs that need
     # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
     chains: list[list[int]] = [[0]]
@@ -577,10 +575,10 @@ def reroute_plan(
         if not result.ok:
             # plan_route prefixes "leg i of n: " when the chain has several legs
             found = re.match(r"leg (\d+) of \d+: ", result.message)
-            leg = int(found.group(1)) - 1 if found else 0
+            failed = int(found.group(1)) - 1 if found else 0
             reason = result.message[found.end() :] if found else result.message
-            a_what = route.positions[chain[leg]].what
-            b_what = route.positions[chain[leg + 1]].what
+            a_what = route.positions[chain[failed]].what
+            b_what = route.positions[chain[failed + 1]].what
             raise NoPathError(
                 f"{name}: no collision-free route from {a_what} (start) to {b_what} (goal): "
                 f"{reason}"
