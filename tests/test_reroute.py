@@ -370,7 +370,9 @@ def test_amsl_items_are_heights_above_home(tmp_path: Path) -> None:
 
 def test_bundled_inspection_plan_reroutes_clear_of_its_zones(tmp_path: Path) -> None:
     out = tmp_path / "safe.plan"
-    result = CliRunner().invoke(main, ["plan", str(BUNDLED), "-o", str(out), "--quiet"])
+    result = CliRunner().invoke(
+        main, ["plan", str(BUNDLED), "-o", str(out), "--iterations", "300", "--quiet"]
+    )
     assert result.exit_code == 0, result.output
     doc, new = json.loads(BUNDLED.read_text()), json.loads(out.read_text())
     old_items = doc["mission"]["items"]
