@@ -504,3 +504,12 @@ def test_ardupilot_plan_keeps_its_flavour(tmp_path: Path) -> None:
     new = json.loads(out.read_text())
     assert new["mission"]["firmwareType"] == 3
     assert min_zone_distance(new) >= MARGIN_M - 0.05
+
+
+def test_scenario_option_needs_a_plan_input(tmp_path: Path) -> None:
+    yaml_input = ROOT / "missions" / "paper-env1.yaml"
+    result = reroute(yaml_input, tmp_path / "o.plan", "--scenario", str(yaml_input))
+    assert result.exit_code == 2, result.output
+    assert "--scenario goes with a .plan input" in result.output
+    missing = reroute(tmp_path / "nothing.plan", tmp_path / "o.plan")
+    assert missing.exit_code == 2 and "cannot read" in missing.output
