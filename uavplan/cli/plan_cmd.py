@@ -62,6 +62,13 @@ def _load_scenario(path: str):
     help="Add a geofence: the bounds as inclusion, obstacles the route flies around as "
     "exclusion zones (.plan, .geojson, .kml).",
 )
+@click.option(
+    "--scenario",
+    "scenario_path",
+    type=click.Path(dir_okay=False),
+    help="With a .plan input: add this scenario's obstacles and use its planner and mission "
+    "settings.",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress output.")
 @handle_errors
 def plan_command(
@@ -75,16 +82,35 @@ def plan_command(
     report: str | None,
     plot: str | None,
     fence: bool,
+    scenario_path: str | None,
     quiet: bool,
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file.
+
+    A QGroundControl .plan as SCENARIO is rerouted around its own exclusion zones: every
+    item is kept and planned waypoints are inserted between its positions (docs/reroute.md).
 
     \b
     Examples:
       uavplan plan missions/paper-env1.yaml -o env1.plan
       uavplan plan missions/paper-env3.yaml -o env3.plan --fence --plot env3.png
       uavplan plan missions/paper-env2.yaml -o env2.waypoints --seed 7 --autopilot px4
+      uavplan plan missions/qgc-inspection.plan -o safe.plan
     """
+    if scenario.lower().endswith(".plan"):
+        from uavplan.cli.reroute_cmd import reroute_command
+
+        def _overrides(scn: Any) -> Any:
+            return overridden(scn, algorithm, seed, iterations, population)
+
+        _compile_notice(quiet)
+        reroute_command(
+            scenario, output, scenario_path=scenario_path, overrides=_overrides,
+            autopilot=autopilot, report=report, plot=plot, fence=fence, quiet=quiet,
+        )  # fmt: skip
+        return
+    if scenario_path is not None:
+        raise InputError("--scenario goes with a .plan input (the SCENARIO argument is one)")
     from uavplan.planning import plan_route
 
     _check_outputs(output, report, plot, fence)
