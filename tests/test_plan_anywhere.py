@@ -57,7 +57,7 @@ def test_exit_3_only_for_an_enclosed_end_and_it_says_which(
     assert "Traceback" not in res.output and not out.exists()
 
 
-@pytest.mark.parametrize("name", ["courtyard", "hairpin", "narrow-gap"])
+@pytest.mark.parametrize("name", ["courtyard", "hairpin", "narrow-gap", "via-tour"])
 def test_routes_that_double_back_or_thread_a_gap_are_found_for_every_seed(name: str) -> None:
     scn = load_scenario(ROOT / "missions" / f"{name}.yaml")
     for seed in SEEDS:
@@ -113,3 +113,15 @@ def test_via_points_are_waypoints_exactly_and_legs_are_reported() -> None:
         assert np.min(np.linalg.norm(w - np.array(p), axis=1)) < 1e-6
     assert res.energy == pytest.approx(sum(leg.energy for leg in res.legs))
     assert [leg.goal_m for leg in res.legs[:2]] == list(via)
+
+
+def test_the_bundled_qgroundcontrol_plan_reroutes_for_every_seed() -> None:
+    from uavplan.config import PlannerConfig, SearchParams
+    from uavplan.mission.io import load_mission
+    from uavplan.reroute import reroute_plan
+
+    plan = load_mission(ROOT / "missions" / "qgc-inspection.plan")
+    for seed in SEEDS:
+        search = SearchParams(seed=seed, iterations=20, population=8)
+        out = reroute_plan(plan, planner=PlannerConfig(search=search))
+        assert out.inserted > 0 and out.min_clearance_m >= out.scenario.safety_margin_m, seed
