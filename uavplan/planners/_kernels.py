@@ -265,8 +265,8 @@ def node_status(j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys):
         d0 = tab[j - 1, a, b]
         if d0 < lim:
             return 0
-        ex = node_x(j, y1, cols, dy) - node_x(j - 1, y0, cols, dy)
-        ey = node_y(j, y1, cols, dy) - node_y(j - 1, y0, cols, dy)
+        ex = (cols[j, 0] + y1 * dy * cols[j, 2]) - (cols[j - 1, 0] + y0 * dy * cols[j - 1, 2])
+        ey = (cols[j, 1] + y1 * dy * cols[j, 3]) - (cols[j - 1, 1] + y0 * dy * cols[j - 1, 3])
         ez = (z1 - z0) * dz
         length = math.sqrt(ex * ex + ey * ey + ez * ez)
         if d0 + d1 - length >= 2.0 * lim:
@@ -302,41 +302,44 @@ def margin_limit(margin):
 
 @njit(cache=True, inline="always")
 def _reachable(
-    j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys, start_m, goal_m, world, margin, counts
+    j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys, start_m, goal_m, world, margin
 ):
-    """:func:`node_status`, then :func:`node_resolve` when the cheap sources cannot tell;
-    counts the check (and the exact test)."""
-    counts[0] += 1
+    """:func:`node_status`, then :func:`node_resolve` when the cheap sources cannot tell.
+    Returns 1 (reachable) or 0, plus 2 when the exact test ran. Callers count checks in local
+    scalars and store them once: a store into an array inside the hot loop would make the
+    compiler assume every other array may have changed (it doubled the kernels' run time)."""
     r = node_status(j, y0, z0, y1, z1, cols, dy, dz, lim, tab, off, keys)
     if r < 0:
-        counts[1] += 1
-        r = node_resolve(j, y0, z0, y1, z1, cols, dy, dz, start_m, goal_m, world, margin, keys)
-    return r == 1
+        r = 2 + node_resolve(j, y0, z0, y1, z1, cols, dy, dz, start_m, goal_m, world, margin, keys)
+    return r
 
 
 @njit(cache=True)
 def node_free(j, y0, z0, y1, z1, reach):
     """Is the node of column ``j`` at (y1, z1) reachable from (y0, z0)? (Off the hot path.)"""
     cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
-    return _reachable(
-        j,
-        y0,
-        z0,
-        y1,
-        z1,
-        cols,
-        dy,
-        dz,
-        margin_limit(reach.margin),
-        reach.table,
-        reach.table_off,
-        reach.memo,
-        reach.start_m,
-        reach.goal_m,
-        reach.world,
-        reach.margin,
-        reach.counts,
-    )
+    return (
+        _reachable(
+            j,
+            y0,
+            z0,
+            y1,
+            z1,
+            cols,
+            dy,
+            dz,
+            margin_limit(reach.margin),
+            reach.table,
+            reach.table_off,
+            reach.memo,
+            reach.start_m,
+            reach.goal_m,
+            reach.world,
+            reach.margin,
+            reach.counts,
+        )
+        & 1
+    ) == 1
 
 
 @njit(cache=True, inline="always")
@@ -377,6 +380,8 @@ def init_population(
     cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
+    n_chk = 0
+    n_exact = 0
     start_m, goal_m = reach.start_m, reach.goal_m
     nodes = np.zeros((n_pop, n_inner, 2))
     ok = np.zeros(n_pop, dtype=np.bool_)
@@ -394,25 +399,14 @@ def init_population(
                 for _t in range(t_max):
                     ny = _round(_window_draw(ty, half_window, window[j, 0], window[j, 1], rng))
                     nz = _round(_window_draw(tz, half_window, window[j, 2], window[j, 3], rng))
-                    if _reachable(
-                        j,
-                        py,
-                        pz,
-                        ny,
-                        nz,
-                        cols,
-                        dy,
-                        dz,
-                        lim,
-                        tab,
-                        off,
-                        keys,
-                        start_m,
-                        goal_m,
-                        world,
-                        margin,
-                        counts,
-                    ):
+                    code = node_status(j, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+                    if code < 0:
+                        code = 2 + node_resolve(
+                            j, py, pz, ny, nz, cols, dy, dz, start_m, goal_m, world, margin, keys
+                        )
+                    n_chk += 1
+                    n_exact += code >> 1
+                    if code & 1:
                         placed = True
                         break
                 if not placed:
@@ -426,6 +420,8 @@ def init_population(
                 ok[g] = True
                 break
             deadlocks += 1
+    counts[0] += n_chk
+    counts[1] += n_exact
     return nodes, ok, deadlocks
 
 
@@ -571,6 +567,8 @@ def rebuild(
     cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
+    n_chk = 0
+    n_exact = 0
     start_m, goal_m = reach.start_m, reach.goal_m
     n_pop = base.shape[0]
     n_inner = base.shape[1]
@@ -614,25 +612,14 @@ def rebuild(
                 if same and ny == base[g, j, 0] and nz == base[g, j, 1]:
                     placed = True
                     break
-                if _reachable(
-                    j + 1,
-                    py,
-                    pz,
-                    ny,
-                    nz,
-                    cols,
-                    dy,
-                    dz,
-                    lim,
-                    tab,
-                    off,
-                    keys,
-                    start_m,
-                    goal_m,
-                    world,
-                    margin,
-                    counts,
-                ):
+                code = node_status(j + 1, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+                if code < 0:
+                    code = 2 + node_resolve(
+                        j + 1, py, pz, ny, nz, cols, dy, dz, start_m, goal_m, world, margin, keys
+                    )
+                n_chk += 1
+                n_exact += code >> 1
+                if code & 1:
                     placed = True
                     break
             if not placed and escape[g]:
@@ -640,25 +627,26 @@ def rebuild(
                     for _t in range(t_max):
                         ny = _round(base[g, j, 0] + (2.0 * _rand(st) - 1.0) * v)
                         nz = _round(base[g, j, 1] + (2.0 * _rand(st) - 1.0) * v)
-                        if _reachable(
-                            j + 1,
-                            py,
-                            pz,
-                            ny,
-                            nz,
-                            cols,
-                            dy,
-                            dz,
-                            lim,
-                            tab,
-                            off,
-                            keys,
-                            start_m,
-                            goal_m,
-                            world,
-                            margin,
-                            counts,
-                        ):
+                        code = node_status(j + 1, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+                        if code < 0:
+                            code = 2 + node_resolve(
+                                j + 1,
+                                py,
+                                pz,
+                                ny,
+                                nz,
+                                cols,
+                                dy,
+                                dz,
+                                start_m,
+                                goal_m,
+                                world,
+                                margin,
+                                keys,
+                            )
+                        n_chk += 1
+                        n_exact += code >> 1
+                        if code & 1:
                             placed = True
                             break
                     if placed:
@@ -667,25 +655,29 @@ def rebuild(
             if not placed:
                 ny = base[g, j, 0]
                 nz = base[g, j, 1]
-                placed = same or _reachable(
-                    j + 1,
-                    py,
-                    pz,
-                    ny,
-                    nz,
-                    cols,
-                    dy,
-                    dz,
-                    lim,
-                    tab,
-                    off,
-                    keys,
-                    start_m,
-                    goal_m,
-                    world,
-                    margin,
-                    counts,
-                )
+                if not same:
+                    code = node_status(j + 1, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+                    if code < 0:
+                        code = 2 + node_resolve(
+                            j + 1,
+                            py,
+                            pz,
+                            ny,
+                            nz,
+                            cols,
+                            dy,
+                            dz,
+                            start_m,
+                            goal_m,
+                            world,
+                            margin,
+                            keys,
+                        )
+                    n_chk += 1
+                    n_exact += code >> 1
+                    placed = (code & 1) == 1
+                else:
+                    placed = True
             if not placed:
                 ok[g] = False
                 break
@@ -698,6 +690,8 @@ def rebuild(
             for j in range(n_inner):
                 out[g, j, 0] = base[g, j, 0]
                 out[g, j, 1] = base[g, j, 1]
+    counts[0] += n_chk
+    counts[1] += n_exact
     return out, ok, esc.sum()
 
 
@@ -715,6 +709,8 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
     cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
+    n_chk = 0
+    n_exact = 0
     start_m, goal_m = reach.start_m, reach.goal_m
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
@@ -750,51 +746,42 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
                 if same and ny == nodes[g, j, 0] and nz == nodes[g, j, 1]:
                     placed = True
                     break
-                if _reachable(
-                    j + 1,
-                    py,
-                    pz,
-                    ny,
-                    nz,
-                    cols,
-                    dy,
-                    dz,
-                    lim,
-                    tab,
-                    off,
-                    keys,
-                    start_m,
-                    goal_m,
-                    world,
-                    margin,
-                    counts,
-                ):
+                code = node_status(j + 1, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+                if code < 0:
+                    code = 2 + node_resolve(
+                        j + 1, py, pz, ny, nz, cols, dy, dz, start_m, goal_m, world, margin, keys
+                    )
+                n_chk += 1
+                n_exact += code >> 1
+                if code & 1:
                     placed = True
                     break
             if not placed:
                 ny = nodes[g, j, 0]
                 nz = nodes[g, j, 1]
-                if not same and not _reachable(
-                    j + 1,
-                    py,
-                    pz,
-                    ny,
-                    nz,
-                    cols,
-                    dy,
-                    dz,
-                    lim,
-                    tab,
-                    off,
-                    keys,
-                    start_m,
-                    goal_m,
-                    world,
-                    margin,
-                    counts,
-                ):
-                    ok = False
-                    break
+                if not same:
+                    code = node_status(j + 1, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+                    if code < 0:
+                        code = 2 + node_resolve(
+                            j + 1,
+                            py,
+                            pz,
+                            ny,
+                            nz,
+                            cols,
+                            dy,
+                            dz,
+                            start_m,
+                            goal_m,
+                            world,
+                            margin,
+                            keys,
+                        )
+                    n_chk += 1
+                    n_exact += code >> 1
+                    if not code & 1:
+                        ok = False
+                        break
             same = ny == nodes[g, j, 0] and nz == nodes[g, j, 1]
             if not same:
                 count += 1
@@ -807,6 +794,8 @@ def moving_average_repair(nodes, goal_u, window, reach, skip):
                 nodes[g, j, 0] = new[j, 0]
                 nodes[g, j, 1] = new[j, 1]
             moved[g] = count
+    counts[0] += n_chk
+    counts[1] += n_exact
     return moved
 
 
@@ -816,6 +805,8 @@ def paths_feasible(nodes, reach):
     cols, dy, dz = reach.cols, reach.steps[1], reach.steps[2]
     tab, off, keys, lim = reach.table, reach.table_off, reach.memo, margin_limit(reach.margin)
     world, margin, counts = reach.world, reach.margin, reach.counts
+    n_chk = 0
+    n_exact = 0
     start_m, goal_m = reach.start_m, reach.goal_m
     n_pop = nodes.shape[0]
     n_inner = nodes.shape[1]
@@ -826,27 +817,18 @@ def paths_feasible(nodes, reach):
         for j in range(n_inner):
             ny = nodes[g, j, 0]
             nz = nodes[g, j, 1]
-            if not _reachable(
-                j + 1,
-                py,
-                pz,
-                ny,
-                nz,
-                cols,
-                dy,
-                dz,
-                lim,
-                tab,
-                off,
-                keys,
-                start_m,
-                goal_m,
-                world,
-                margin,
-                counts,
-            ):
+            code = node_status(j + 1, py, pz, ny, nz, cols, dy, dz, lim, tab, off, keys)
+            if code < 0:
+                code = 2 + node_resolve(
+                    j + 1, py, pz, ny, nz, cols, dy, dz, start_m, goal_m, world, margin, keys
+                )
+            n_chk += 1
+            n_exact += code >> 1
+            if not code & 1:
                 out[g] = False
                 break
             py = ny
             pz = nz
+    counts[0] += n_chk
+    counts[1] += n_exact
     return out
