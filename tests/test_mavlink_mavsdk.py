@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import socket
 import struct
-import time
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import replace
@@ -129,15 +129,25 @@ def mavsdk_vehicle() -> Iterator[tuple[str, list[tuple[Any, Any]]]]:
         sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
         server = MissionRawServer(sdk.server_component())
         received: list[tuple[Any, Any]] = []
-        server.subscribe_incoming_mission(lambda result, plan, *_: received.append((result, plan)))
+
+        def on_mission(result: Any, plan: Any, *_: Any) -> None:
+            with _arrived:
+                received.append((result, plan))
+                _arrived.notify_all()
+
+        server.subscribe_incoming_mission(on_mission)
         yield f"udpout:127.0.0.1:{port}", received
 
 
+#: notified by MAVSDK's incoming-mission callback (it runs on MAVSDK's own thread)
+_arrived = threading.Condition()
+
+
 def _wait_for(received: list[tuple[Any, Any]], n: int, timeout_s: float = 3.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while len(received) < n and time.monotonic() < deadline:
-        time.sleep(0.01)
-    assert len(received) >= n, "MAVSDK reported no incoming mission"
+    """Block until MAVSDK's callback has reported ``n`` missions (bounded; no polling)."""
+    with _arrived:
+        arrived = _arrived.wait_for(lambda: len(received) >= n, timeout_s)
+    assert arrived, "MAVSDK reported no incoming mission"
 
 
 def test_our_upload_is_received_item_for_item_by_mavsdk_mission_raw_server() -> None:
