@@ -537,7 +537,9 @@ def _same_mission(a: MissionPlan, b: MissionPlan, *, fence: bool) -> bool:
     if not all(items_equal(x, y) for x, y in zip(a.items, b.items, strict=True)):
         return False
     if (a.home is None) != (b.home is None):
-        return a.home is None or (a.home.lat_deg, a.home.lon_deg) == (0.0, 0.0)
+        # a home at (0, 0) means "unknown" in a .waypoints file (Mission Planner's convention);
+        # a home closer to it than the file's 8 decimals (e.g. lon 5e-324) reads back unknown
+        return a.home is None or (abs(a.home.lat_deg) < 5e-9 and abs(a.home.lon_deg) < 5e-9)
     if a.home is not None and b.home is not None:
         if abs(a.home.lat_deg - b.home.lat_deg) > 1e-7 or abs(a.home.alt_m - b.home.alt_m) > 1e-5:
             return False
