@@ -35,6 +35,7 @@ from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.guide import find_guide, guided_problem
 from uavplan.planners.registry import make_planner
+from uavplan.obstacles import Ground
 from uavplan.route import EndAction, PlannedRoute, flown_polyline
 from uavplan.scenario import Scenario, resolved_config
 from uavplan.warmup import warm_up
@@ -152,7 +153,10 @@ def build_world(scenario: Scenario) -> World:
     """The scenario's obstacles, flight bounds and safety margin as a :class:`World`."""
     b = scenario.bounds
     return World.build(
-        scenario.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=scenario.safety_margin_m
+        scenario.obstacles,
+        bounds_xyz=(b.x_m, b.y_m, b.z_m),
+        margin_m=scenario.safety_margin_m,
+        ground=scenario.ground,
     )
 
 
@@ -327,7 +331,13 @@ def plan_route(
     path_enu = np.vstack([legs[0].path_enu, *(leg.path_enu[1:] for leg in legs[1:])])
     takeoff = scenario.vehicle.takeoff_altitude_m
     end = cast(EndAction, scenario.mission.end)
-    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end)
+    ground = scenario.ground
+    under = None if ground is None else ground.z_at(waypoints_enu)
+    ends = (0.0, 0.0) if under is None else (float(under[0]), float(under[-1]))
+    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end, ground_z_m=ends)
+    notes = [n for leg in legs for n in leg.notes]
+    if ground is not None:
+        notes += _terrain_notes(ground, waypoints_enu)
     route = PlannedRoute(
         frame=enu_frame(scenario),
         waypoints_enu=waypoints_enu,
@@ -335,11 +345,13 @@ def plan_route(
         vertices_enu=np.vstack([legs[0].vertices_enu, *(g.vertices_enu[1:] for g in legs[1:])]),
         raw_path_enu=np.vstack([legs[0].raw_path_enu, *(g.raw_path_enu[1:] for g in legs[1:])]),
         flown_enu=flown,
-        min_clearance_m=world.polyline_clearance(flown),
+        min_clearance_m=flown_clearance(world, flown, waypoints_enu),
         safety_margin_m=scenario.safety_margin_m,
         inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
         takeoff_altitude_m=takeoff,
         end=end,
+        waypoint_ground_z_m=under,
+        datum_amsl_m=None if ground is None else ground.datum_amsl_m,
     )
     terms = tuple(float(sum(leg.energy_terms[k] for leg in legs)) for k in range(3))
     return RouteResult(
@@ -352,10 +364,57 @@ def plan_route(
         energy=float(sum(terms)),
         energy_terms=(terms[0], terms[1], terms[2]),
         runtime_s=runtime,
-        notes=tuple(n for leg in legs for n in leg.notes),
+        notes=tuple(notes),
         guide_s=sum(leg.guide_s for leg in legs),
         legs=tuple(legs),
     )
+
+
+def flown_clearance(world: World, flown: np.ndarray, waypoints: np.ndarray) -> float:
+    """Clearance of the flown polyline: from everything between the first and the last
+    waypoint; the take-off climb and the landing descent, which start or end on the ground,
+    from the obstacles only (over flat ground that is all the world holds)."""
+    if not world.has_ground:
+        return world.polyline_clearance(flown)
+    first = int(np.argmin(np.linalg.norm(flown - waypoints[0], axis=1)))
+    last = len(flown) - 1 - int(np.argmin(np.linalg.norm(flown[::-1] - waypoints[-1], axis=1)))
+    legs = world.polyline_clearance(flown[first : last + 1])
+    climbs = world.without_ground().polyline_clearance(flown)
+    return min(legs, climbs)
+
+
+#: the flown legs are sampled this finely (m) for the check against the DEM's own surface
+TERRAIN_SAMPLE_M = 2.0
+
+
+def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
+    """What the user should know about the route over the terrain: its lowest height above
+    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground)."""
+    samples = sample_polyline(waypoints_enu, TERRAIN_SAMPLE_M)
+    agl = samples[:, 2] - ground.z_at(samples)
+    notes = [f"terrain: the route flies {agl.min():.1f} to {agl.max():.1f} m above the DEM surface"]
+    over = agl > ground.ceiling_agl_m + 1e-6
+    if np.any(over):
+        worst = int(np.argmax(agl))
+        notes.append(
+            f"terrain: the route rises to {agl[worst]:.0f} m above the ground at "
+            f"({samples[worst, 0]:.0f}, {samples[worst, 1]:.0f}), above the ceiling "
+            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over "
+            f"{TERRAIN_SAMPLE_M * int(over.sum()):.0f} m: the planner's ceiling is flat at the "
+            "highest ground plus bounds.z max"
+        )
+    return notes
+
+
+def sample_polyline(points: np.ndarray, step_m: float) -> np.ndarray:
+    """Points along the polyline at most ``step_m`` apart, every vertex included."""
+    p = np.asarray(points, dtype=np.float64)
+    out = [p[:1]]
+    for a, b in zip(p[:-1], p[1:], strict=True):
+        n = max(1, math.ceil(float(np.linalg.norm(b - a)) / step_m))
+        t = np.arange(1, n + 1)[:, None] / n
+        out.append(a + t * (b - a))
+    return np.vstack(out)
 
 
 def _plan_leg(
@@ -490,6 +549,8 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
         end=cast(EndAction, scenario.mission.end),
         takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
         cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
+        ground_z_m=route.waypoint_ground_z_m,
+        altitude=scenario.mission.altitude,
     )
 
 

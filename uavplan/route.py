@@ -32,23 +32,26 @@ def flown_polyline(
     *,
     takeoff_altitude_m: float | None = None,
     end: EndAction = "rtl",
+    ground_z_m: tuple[float, float] = (0.0, 0.0),
 ) -> NDArray[np.float64]:
     """The polyline the vehicle flies for these waypoints, ``(n, 3)`` ENU metres.
 
     Row 0 of ``waypoints_enu`` is the start (the take-off x, y and the height to fly on from),
-    the last row the goal. The vehicle climbs vertically from the ground below the start to
-    ``takeoff_altitude_m`` (default: the start's height), flies to the start's height if that
-    differs, then straight from waypoint to waypoint; with ``end="land"`` it descends
-    vertically at the goal. The RTL leg home is the autopilot's and not part of the line.
+    the last row the goal. The vehicle climbs vertically from the ground below the start
+    (z = ``ground_z_m[0]``) to ``takeoff_altitude_m`` above it (default: the start's height),
+    flies to the start's height if that differs, then straight from waypoint to waypoint;
+    with ``end="land"`` it descends vertically at the goal to the ground there
+    (``ground_z_m[1]``). The RTL leg home is the autopilot's and not part of the line.
     """
     w = np.asarray(waypoints_enu, dtype=np.float64)
     sx, sy, sz = (float(v) for v in w[0])
-    takeoff_z = sz if takeoff_altitude_m is None else float(takeoff_altitude_m)
-    rows = [np.array([[sx, sy, 0.0], [sx, sy, takeoff_z]])]
+    home_z, landing_z = float(ground_z_m[0]), float(ground_z_m[1])
+    takeoff_z = sz if takeoff_altitude_m is None else home_z + float(takeoff_altitude_m)
+    rows = [np.array([[sx, sy, home_z], [sx, sy, takeoff_z]])]
     rows.append(w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M else w[1:])
     if end == "land":
         gx, gy, _ = (float(v) for v in w[-1])
-        rows.append(np.array([[gx, gy, 0.0]]))
+        rows.append(np.array([[gx, gy, landing_z]]))
     return drop_repeats(np.vstack(rows))
 
 
@@ -86,6 +89,10 @@ class PlannedRoute:
     inside_bounds: bool
     takeoff_altitude_m: float | None = None
     end: EndAction = "rtl"
+    #: with terrain: the ground's z under each waypoint (None: flat ground at z = 0)
+    waypoint_ground_z_m: NDArray[np.float64] | None = None
+    #: with terrain: the z of the datum in metres AMSL (the frame's origin altitude)
+    datum_amsl_m: float | None = None
 
     #: clearance may fall short of the margin by this much (floating point, not rounding:
     #: planning keeps a 2 cm pad so files that round positions still keep the margin)

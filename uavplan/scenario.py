@@ -49,6 +49,7 @@ from uavplan.obstacles import (
     Bounds,
     BoxObstacle,
     CylinderObstacle,
+    Ground,
     Obstacle,
     PrismObstacle,
 )
@@ -112,6 +113,9 @@ class MissionConfig:
     autopilot: Autopilot = Autopilot.ARDUPILOT
     spacing_m: float = 60.0
     end: str = "rtl"  # rtl | land | none
+    #: waypoint altitudes: relative (above home, MAV_FRAME_GLOBAL_RELATIVE_ALT), amsl
+    #: (MAV_FRAME_GLOBAL) or terrain (above the ground beneath, MAV_FRAME_GLOBAL_TERRAIN_ALT)
+    altitude: str = "relative"
 
 
 @dataclass(frozen=True)
@@ -129,7 +133,12 @@ class Scenario:
     source: str | None = None
     #: points the route passes through, in order, between start and goal (ENU m)
     via_m: tuple[tuple[float, float, float], ...] = ()
-    terrain_file: str | None = None  # a DEM GeoTIFF, checked to cover the bounds (issue 10)
+    #: the DEM GeoTIFF named by ``terrain`` (resolved path), or None over flat ground
+    terrain_file: str | None = None
+    #: with terrain: the ground under the world. Every z of this scenario (start, goal, via,
+    #: obstacle tops, bounds) is then metres above ``ground.datum_amsl_m`` (= ``origin.alt``),
+    #: converted at load time from the file's heights above the ground beneath each point.
+    ground: Ground | None = None
 
     @classmethod
     def from_file(cls, path: str | Path) -> Scenario:
@@ -219,7 +228,10 @@ _SCENARIO_KEYS = {
     "obstacle_files",
     "terrain",
 }
-_MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files"}
+_MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files", "terrain"}
+ALTITUDE_MODES = ("relative", "amsl", "terrain")
+#: the terrain is held as solids about this wide (m; fewer where that would exceed 40,000)
+TERRAIN_CELL_M = 20.0
 
 
 class _Checker:
@@ -660,7 +672,7 @@ def _vehicle(chk: _Checker, raw: Any) -> VehicleConfig:
 
 
 def _mission(chk: _Checker, raw: Any) -> MissionConfig:
-    chk.mapping(raw, "mission", {"autopilot", "spacing", "end"})
+    chk.mapping(raw, "mission", {"autopilot", "spacing", "end", "altitude"})
     autopilot = MissionConfig.autopilot
     if "autopilot" in raw:
         name = chk.string(raw["autopilot"], "mission.autopilot", ("px4", "ardupilot"))
@@ -671,11 +683,21 @@ def _mission(chk: _Checker, raw: Any) -> MissionConfig:
     end = MissionConfig.end
     if "end" in raw:
         end = chk.string(raw["end"], "mission.end", ("rtl", "land", "none"))
-    return MissionConfig(autopilot, spacing, end)
+    altitude = MissionConfig.altitude
+    if "altitude" in raw:
+        altitude = chk.string(raw["altitude"], "mission.altitude", ALTITUDE_MODES)
+    return MissionConfig(autopilot, spacing, end, altitude)
 
 
 def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...]]:
     """Read a map file: (origin, bounds, obstacles); missing sections are ``None`` / empty."""
+    return _load_map(path)[:3]
+
+
+def _load_map(
+    path: str | Path,
+) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...], Any]:
+    """:func:`load_map` plus the map's raw ``terrain`` value (None without one)."""
     path = Path(path)
     chk = _Checker(str(path))
     raw = _read_yaml(path, "map")
@@ -689,7 +711,7 @@ def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Ob
         if origin is None:
             raise chk.fail("obstacle_files", "needs origin in the same map file")
         obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
-    return origin, bounds, obstacles
+    return origin, bounds, obstacles, raw.get("terrain")
 
 
 def _obstacle_files(
@@ -705,23 +727,116 @@ def _obstacle_files(
         raise chk.fail(err.key_path("obstacle_files"), err.reason) from None
 
 
-def _terrain(chk: _Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds) -> str:
-    """The ``terrain`` DEM, resolved next to ``path`` and checked to cover the bounds."""
+def _terrain(chk: _Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds) -> Any:
+    """The ``terrain`` DEM (a :class:`~uavplan.sources.dem.Terrain`), resolved next to
+    ``path`` and checked to cover the bounds."""
     from uavplan.geo import EnuFrame
     from uavplan.sources.dem import Terrain, TerrainError
 
     dem = (path.parent / chk.string(raw, "terrain")).resolve()
     try:
-        Terrain.from_file(dem, EnuFrame.at(origin), area_xy_m=(bounds.x_m, bounds.y_m))
+        return Terrain.from_file(dem, EnuFrame.at(origin), area_xy_m=(bounds.x_m, bounds.y_m))
     except TerrainError as err:
         raise chk.fail("terrain", f"{dem.name}: {err.reason}") from None
-    # the DEM is read and checked, but the planner does not follow it yet: planning over flat
-    # ground while the file names a terrain would be a silent lie
-    raise chk.fail(
-        "terrain",
-        f"{dem.name} covers the bounds, but the planner does not follow terrain yet; remove "
-        "the key to plan over flat ground (z = heights above the origin's altitude)",
+
+
+def _on_terrain(chk: _Checker, scn: Scenario, terrain: Any) -> Scenario:
+    """``scn`` (heights above the ground beneath each point) moved onto the DEM: every z
+    becomes metres above a datum just below the lowest ground in the bounds (the origin's
+    altitude from then on), obstacles stand on the ground at their centre and reach down into
+    it, and the terrain's solids (:meth:`Terrain.quad_prisms`, raised to the bounds' floor
+    where that is above the margin) join the world as a :class:`Ground`."""
+    import numpy as np
+
+    from uavplan.geo import EnuFrame
+    from uavplan.sources.dem import TerrainError
+
+    b = scn.bounds
+    try:
+        prisms, tops_amsl = terrain.quad_prisms(b.x_m, b.y_m, cell_m=TERRAIN_CELL_M)
+        posts = terrain.posts_amsl_m
+        datum = math.floor(float(np.nanmin(posts))) - 1.0
+        origin = GeoPoint(scn.origin.lat_deg, scn.origin.lon_deg, datum)
+        terrain = replace(terrain, frame=EnuFrame.at(origin))
+
+        def ground_z(xy: Any) -> Any:
+            return terrain.height_m(xy) - datum
+
+        points = np.array([p for _, p in _route_points(scn)], dtype=np.float64)
+        under = ground_z(points[:, :2])
+        centres = np.array([_centre(o) for o in scn.obstacles], dtype=np.float64).reshape(-1, 2)
+        obstacle_ground = ground_z(centres) if len(centres) else np.empty(0)
+    except TerrainError as err:
+        raise chk.fail("terrain", err.reason) from None
+    lift = max(0.0, b.z_m[0] - scn.safety_margin_m)  # the floor above the ground, if higher
+    ground = Ground(
+        datum_amsl_m=datum,
+        prisms_xy=prisms,
+        tops_m=tops_amsl - datum + lift,
+        height_fn=ground_z,
+        ceiling_agl_m=b.z_m[1],
+        source=str(terrain.source),
     )
+    moved = points.copy()
+    moved[:, 2] += under
+    obstacles = tuple(
+        replace(o, height_m=float(g + o.height_m))
+        for o, g in zip(scn.obstacles, obstacle_ground, strict=True)
+    )
+    top = float(np.max(ground.tops_m)) - lift + b.z_m[1]
+    out = replace(
+        scn,
+        origin=origin,
+        bounds=Bounds(b.x_m, b.y_m, (0.0, top)),
+        start_m=_xyz(moved[0]),
+        via_m=tuple(_xyz(p) for p in moved[1:-1]),
+        goal_m=_xyz(moved[-1]),
+        obstacles=obstacles,
+        ground=ground,
+    )
+    _check_above_terrain(chk, out, under)
+    return out
+
+
+def _xyz(p: Any) -> tuple[float, float, float]:
+    return (float(p[0]), float(p[1]), float(p[2]))
+
+
+def _centre(o: Obstacle) -> tuple[float, float]:
+    if isinstance(o, PrismObstacle):
+        xs, ys = zip(*o.polygon_m, strict=True)
+        return (sum(xs) / len(xs), sum(ys) / len(ys))
+    return o.center_m
+
+
+def _check_above_terrain(chk: _Checker, scn: Scenario, under: Any) -> None:
+    """Every route point keeps the margin from the terrain's solids (the DEM quads up to
+    their highest post): a clear error naming the point otherwise."""
+    assert scn.ground is not None
+    g = scn.ground
+    margin = scn.safety_margin_m
+    lo = g.prisms_xy.min(axis=1)
+    hi = g.prisms_xy.max(axis=1)
+    for (key, point), z_ground in zip(_route_points(scn), under, strict=True):
+        near = (
+            (lo[:, 0] <= point[0] + margin)
+            & (hi[:, 0] >= point[0] - margin)
+            & (lo[:, 1] <= point[1] + margin)
+            & (hi[:, 1] >= point[1] - margin)
+        )
+        solids = tuple(
+            PrismObstacle(tuple((float(x), float(y)) for x, y in xy), float(h))
+            for xy, h in zip(g.prisms_xy[near], g.tops_m[near], strict=True)
+        )
+        clearance, _ = _point_clearance(solids, point)
+        if clearance < margin - 1e-9:
+            agl = point[2] - float(z_ground)
+            raise chk.fail(
+                key,
+                f"{agl:.1f} m above the ground there is {max(clearance, 0.0):.1f} m from the "
+                f"terrain (needs {margin:g} m safety margin; the terrain is held as DEM cells up "
+                "to their highest post): fly higher or move the point",
+            )
 
 
 def _obstacles(chk: _Checker, raw: Any) -> tuple[Obstacle, ...]:
@@ -774,8 +889,13 @@ def load_scenario(path: str | Path) -> Scenario:
 
     map_origin = map_bounds = None
     map_obstacles: tuple[Obstacle, ...] = ()
+    map_terrain: Any = None
+    map_path = path
+    map_chk = chk
     if "map" in raw:
-        map_origin, map_bounds, map_obstacles = load_map(_map_path(chk, raw["map"], path))
+        map_path = _map_path(chk, raw["map"], path)
+        map_origin, map_bounds, map_obstacles, map_terrain = _load_map(map_path)
+        map_chk = _Checker(str(map_path))
 
     if "origin" in raw:
         origin = _origin(chk, raw["origin"])
@@ -790,7 +910,14 @@ def load_scenario(path: str | Path) -> Scenario:
     else:
         raise chk.fail("bounds", "missing required key (not set here nor in the map)")
 
-    terrain_file = _terrain(chk, raw["terrain"], path, origin, bounds) if "terrain" in raw else None
+    terrain = None
+    terrain_file = None
+    if "terrain" in raw:
+        terrain = _terrain(chk, raw["terrain"], path, origin, bounds)
+    elif map_terrain is not None:
+        terrain = _terrain(map_chk, map_terrain, map_path, origin, bounds)
+    if terrain is not None:
+        terrain_file = str(terrain.source)
     obstacles = map_obstacles + _obstacles(chk, raw.get("obstacles", []))
     if raw.get("obstacle_files"):
         obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
@@ -834,6 +961,8 @@ def load_scenario(path: str | Path) -> Scenario:
     n_inline = len(raw.get("obstacles") or [])
     _check_points(chk, scenario)
     _check_problem_size(chk, scenario)
+    if terrain is not None:
+        scenario = _on_terrain(chk, scenario, terrain)
     _check_geometry(chk, scenario, len(map_obstacles), raw.get("map"), n_inline)
     return scenario
 

@@ -19,9 +19,10 @@ import numpy as np
 
 from uavplan import _geom
 from uavplan.geometry2d import convex_pieces
-from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, Ground, Obstacle, PrismObstacle
 
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
+GROUND = -2  # owner of the pieces that hold the terrain (see World.build's ``ground``)
 
 
 def _cell_size(box: np.ndarray) -> float:
@@ -68,7 +69,11 @@ class World:
         *,
         bounds_xyz: tuple[tuple[float, float], tuple[float, float], tuple[float, float]],
         margin_m: float,
+        ground: Ground | None = None,
     ) -> World:
+        """The world of ``obstacles`` (each from below the ground up to its height) inside
+        the bounds, keeping ``margin_m``; with ``ground``, its solids are pieces too (owner
+        :data:`GROUND`), so the margin holds from the terrain as from any obstacle."""
         polys: list[tuple[list[tuple[float, float]], float, int]] = []
         circles: list[tuple[float, float, float, float, int]] = []
         for i, obs in enumerate(obstacles):
@@ -88,6 +93,14 @@ class World:
             poly_n[k] = len(piece)
             poly_h[k] = h
             owner.append(i)
+        if ground is not None and len(ground.tops_m):
+            n_g = len(ground.tops_m)
+            g_xy = np.zeros((n_g, MAX_VERTS, 2))
+            g_xy[:, :4] = ground.prisms_xy
+            poly_xy = np.concatenate([poly_xy, g_xy])
+            poly_n = np.concatenate([poly_n, np.full(n_g, 4, dtype=np.int64)])
+            poly_h = np.concatenate([poly_h, np.asarray(ground.tops_m, dtype=float)])
+            owner.extend([GROUND] * n_g)
         circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
         owner.extend(c[4] for c in circles)
         (x0, x1), (y0, y1), (z0, z1) = bounds_xyz
@@ -106,13 +119,18 @@ class World:
 
     @classmethod
     def _assemble(cls, poly_xy, poly_n, poly_h, circ, owner, hp, zlim, margin_m, n_obs) -> World:
-        box = np.zeros((poly_n.shape[0] + circ.shape[0], 5))
-        for k in range(poly_n.shape[0]):
-            v = poly_xy[k, : poly_n[k]]
-            box[k] = (v[:, 0].min(), v[:, 0].max(), v[:, 1].min(), v[:, 1].max(), poly_h[k])
-        for c in range(circ.shape[0]):
-            cx, cy, r, h = circ[c]
-            box[poly_n.shape[0] + c] = (cx - r, cx + r, cy - r, cy + r, h)
+        npoly = poly_n.shape[0]
+        box = np.zeros((npoly + circ.shape[0], 5))
+        if npoly:
+            used = np.arange(MAX_VERTS)[None, :] < poly_n[:, None]
+            px = np.where(used, poly_xy[:, :, 0], np.nan)
+            py = np.where(used, poly_xy[:, :, 1], np.nan)
+            box[:npoly, 0], box[:npoly, 1] = np.nanmin(px, axis=1), np.nanmax(px, axis=1)
+            box[:npoly, 2], box[:npoly, 3] = np.nanmin(py, axis=1), np.nanmax(py, axis=1)
+            box[:npoly, 4] = poly_h
+        if circ.shape[0]:
+            cx, cy, r, h = circ.T
+            box[npoly:] = np.stack([cx - r, cx + r, cy - r, cy + r, h], axis=1)
         cells = _geom.build_cells(box, 0.0, _cell_size(box))
         return cls(
             np.ascontiguousarray(poly_xy),
@@ -146,10 +164,10 @@ class World:
             return c * dx + s * dy, -s * dx + c * dy
 
         poly_xy = self.poly_xy.copy()
-        for k in range(self.poly_n.shape[0]):
-            n = self.poly_n[k]
-            u, v = to_frame(self.poly_xy[k, :n, 0], self.poly_xy[k, :n, 1])
-            poly_xy[k, :n, 0], poly_xy[k, :n, 1] = u, v
+        used = np.arange(MAX_VERTS)[None, :] < self.poly_n[:, None]
+        u, v = to_frame(self.poly_xy[:, :, 0], self.poly_xy[:, :, 1])
+        poly_xy[:, :, 0] = np.where(used, u, self.poly_xy[:, :, 0])
+        poly_xy[:, :, 1] = np.where(used, v, self.poly_xy[:, :, 1])
         circ = self.circ.copy()
         if circ.shape[0]:
             circ[:, 0], circ[:, 1] = to_frame(self.circ[:, 0], self.circ[:, 1])
@@ -167,6 +185,29 @@ class World:
             if floor_m is None
             else np.array([max(self.zlim[0], floor_m), self.zlim[1]]),
             self.margin_m if margin_m is None else float(margin_m),
+            self.n_obstacles,
+        )
+
+    @property
+    def has_ground(self) -> bool:
+        return bool(np.any(self.owner == GROUND))
+
+    def without_ground(self) -> World:
+        """The same world without the terrain's pieces (e.g. for the take-off climb, which
+        starts on the ground)."""
+        if not self.has_ground:
+            return self
+        npoly = self.poly_n.shape[0]
+        keep = self.owner[:npoly] != GROUND
+        return World._assemble(
+            self.poly_xy[keep],
+            self.poly_n[keep],
+            self.poly_h[keep],
+            self.circ,
+            self.owner[self.owner != GROUND],
+            self.hp,
+            self.zlim,
+            self.margin_m,
             self.n_obstacles,
         )
 
@@ -217,7 +258,8 @@ class World:
         return dist, self._owners(piece)
 
     def _owners(self, piece: np.ndarray) -> np.ndarray:
-        """Obstacle index of each piece index (−1 stays −1: no obstacle at all)."""
+        """Obstacle index of each piece index (−1 stays −1: no obstacle at all; the terrain's
+        pieces give :data:`GROUND`)."""
         if self.owner.size == 0:
             return np.full(piece.shape, -1, dtype=np.int64)
         return np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)

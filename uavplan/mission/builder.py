@@ -17,6 +17,7 @@ The items are the same for every autopilot; ArduPilot's home at seq 0 is added b
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,6 +56,8 @@ def build_mission(
     takeoff_altitude_m: float | None = None,
     cruise_speed_m_s: float | None = None,
     vehicle_type: int = 2,
+    ground_z_m: ArrayLike | None = None,
+    altitude: str = "relative",
 ) -> MissionPlan:
     """Turn a planned path into mission items.
 
@@ -67,6 +70,12 @@ def build_mission(
     then NAV_RETURN_TO_LAUNCH (``end="rtl"``), NAV_LAND at the goal (``"land"``) or nothing
     (``"none"``). Home is the ground point below the start, with an AMSL altitude.
 
+    ``ground_z_m`` ``(n,)``: the ground's z under each waypoint (terrain; default flat ground
+    at z = 0); home is on the ground under row 0. ``altitude``: ``"relative"`` (above home,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT), ``"amsl"`` (MAV_FRAME_GLOBAL) or ``"terrain"`` (above
+    the ground beneath each waypoint, MAV_FRAME_GLOBAL_TERRAIN_ALT); the take-off climbs
+    ``takeoff_altitude_m`` above home in every mode.
+
     Raises ``ValueError`` for malformed input (wrong shape, non-finite values, a waypoint
     at or below the ground, a non-positive speed or takeoff altitude, an unknown ``end``).
     """
@@ -75,9 +84,19 @@ def build_mission(
         raise ValueError(f"waypoints_enu must have shape (n >= 2, 3), got {points.shape}")
     if not np.all(np.isfinite(points)):
         raise ValueError("waypoints_enu must be finite")
-    if np.any(points[:, 2] <= 0.0):
-        row = int(np.argmax(points[:, 2] <= 0.0))
-        raise ValueError(f"waypoint {row} is not above the ground (z = {points[row, 2]} m)")
+    under = (
+        np.zeros(len(points))
+        if ground_z_m is None
+        else np.asarray(ground_z_m, dtype=np.float64).reshape(-1)
+    )
+    if under.shape != (len(points),) or not np.all(np.isfinite(under)):
+        raise ValueError(f"ground_z_m must hold one finite height per waypoint ({len(points)})")
+    agl = points[:, 2] - under
+    if np.any(agl <= 0.0):
+        row = int(np.argmax(agl <= 0.0))
+        raise ValueError(f"waypoint {row} is not above the ground ({agl[row]} m above it)")
+    if altitude not in ALTITUDE_FRAMES:
+        raise ValueError(f"altitude must be one of {', '.join(ALTITUDE_FRAMES)}; got {altitude!r}")
     if end not in END_ACTIONS:
         raise ValueError(f"end must be one of {', '.join(END_ACTIONS)}; got {end!r}")
     if takeoff_altitude_m is not None and not (
@@ -92,15 +111,24 @@ def build_mission(
     ground = points.copy()
     ground[:, 2] = 0.0
     lat_deg, lon_deg, alt_m = frame.to_geodetic(ground)
-    home = GeoPoint(float(lat_deg[0]), float(lon_deg[0]), float(alt_m[0]))
+    home_z = float(under[0])
+    home = GeoPoint(float(lat_deg[0]), float(lon_deg[0]), float(alt_m[0]) + home_z)
+    item_frame = ALTITUDE_FRAMES[altitude]
+    if altitude == "relative":
+        item_z = points[:, 2] - home_z
+    elif altitude == "amsl":
+        item_z = points[:, 2] + float(alt_m[0])
+    else:
+        item_z = agl
 
-    start_z = float(points[0, 2])
-    takeoff_z = start_z if takeoff_altitude_m is None else float(takeoff_altitude_m)
+    start_agl = float(points[0, 2]) - home_z  # above home
+    takeoff_agl = start_agl if takeoff_altitude_m is None else float(takeoff_altitude_m)
+    takeoff_z = takeoff_agl + (home.alt_m if altitude == "amsl" else 0.0)
 
     items: list[MissionItem] = [
         MissionItem(
             command=MavCmd.NAV_TAKEOFF,
-            frame=MavFrame.GLOBAL_RELATIVE_ALT,
+            frame=item_frame,
             param1=0.0,
             param2=0.0,
             param3=0.0,
@@ -122,10 +150,10 @@ def build_mission(
             )
         )
     first_row = 1
-    if abs(takeoff_z - start_z) > ALTITUDE_TOLERANCE_M:
+    if abs(takeoff_agl - start_agl) > ALTITUDE_TOLERANCE_M:
         first_row = 0
     items.extend(
-        _waypoint(float(lat_deg[i]), float(lon_deg[i]), float(points[i, 2]))
+        _waypoint(float(lat_deg[i]), float(lon_deg[i]), float(item_z[i]), item_frame)
         for i in range(first_row, len(points))
     )
     if end == "rtl":
@@ -143,14 +171,14 @@ def build_mission(
         items.append(
             MissionItem(
                 command=MavCmd.NAV_LAND,
-                frame=MavFrame.GLOBAL_RELATIVE_ALT,
+                frame=item_frame,
                 param1=0.0,  # abort altitude: default
                 param2=0.0,  # precision landing: off
                 param3=0.0,
                 param4=None,  # yaw: keep the current heading
                 x=float(lat_deg[-1]),
                 y=float(lon_deg[-1]),
-                z=0.0,
+                z=float(alt_m[0]) + float(under[-1]) if altitude == "amsl" else 0.0,
             )
         )
 
@@ -164,10 +192,12 @@ def build_mission(
     )
 
 
-def _waypoint(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
+def _waypoint(
+    lat_deg: float, lon_deg: float, alt_m: float, frame: MavFrame = MavFrame.GLOBAL_RELATIVE_ALT
+) -> MissionItem:
     return MissionItem(
         command=MavCmd.NAV_WAYPOINT,
-        frame=MavFrame.GLOBAL_RELATIVE_ALT,
+        frame=frame,
         param1=0.0,  # hold time s
         param2=0.0,  # acceptance radius: autopilot default
         param3=0.0,  # pass through
@@ -178,6 +208,13 @@ def _waypoint(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
     )
 
 
+#: mission.altitude → the frame of every positional item
+ALTITUDE_FRAMES = {
+    "relative": MavFrame.GLOBAL_RELATIVE_ALT,
+    "amsl": MavFrame.GLOBAL,
+    "terrain": MavFrame.GLOBAL_TERRAIN_ALT,
+}
+
 #: MAV_CMD values below this are NAV commands (positions the vehicle flies to)
 _FIRST_NON_NAV_COMMAND = 100
 
@@ -186,7 +223,11 @@ _RELATIVE_FRAMES = frozenset(
 )  # canonical spellings; terrain height = height above the flat ground
 
 
-def mission_polyline_enu(plan: MissionPlan, frame: EnuFrame) -> NDArray[np.float64]:
+def mission_polyline_enu(
+    plan: MissionPlan,
+    frame: EnuFrame,
+    ground_z: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+) -> NDArray[np.float64]:
     """The path the vehicle flies through ``plan``'s items, as ENU points ``(n, 3)``.
 
     Starts at home on the ground (or, without a home, at the first positional item), climbs
@@ -196,9 +237,12 @@ def mission_polyline_enu(plan: MissionPlan, frame: EnuFrame) -> NDArray[np.float
     are not unrolled. The polyline ends at NAV_RETURN_TO_LAUNCH: the return leg is the
     autopilot's (its height comes from RTL parameters), not part of the plan.
 
-    Relative and terrain altitudes are heights above the flat ground (z); AMSL altitudes are
-    taken relative to home. NAV_LAND at lat/lon 0 lands where the vehicle is, as the
-    autopilots read it.
+    Over flat ground (``ground_z`` None) relative and terrain altitudes are heights above
+    the ground (z); AMSL altitudes are taken relative to home. With ``ground_z`` (ENU
+    ``(n, 2)`` → the ground's z in ``frame``, e.g. from a DEM) home stands on the ground
+    there, relative altitudes are above home, AMSL ones are placed through home's AMSL
+    altitude, terrain ones are above the ground beneath the item, and a landing descends to
+    the ground. NAV_LAND at lat/lon 0 lands where the vehicle is, as the autopilots read it.
     """
     home_alt_m = plan.home.alt_m if plan.home is not None else None
     flown: list[MissionItem] = []
@@ -217,21 +261,41 @@ def mission_polyline_enu(plan: MissionPlan, frame: EnuFrame) -> NDArray[np.float
         lon_deg.insert(0, plan.home.lon_deg)
     xy = frame.to_enu_xy(lat_deg, lon_deg) if lat_deg else np.empty((0, 2))
 
+    def ground_at(x: float, y: float) -> float:
+        if ground_z is None:
+            return 0.0
+        return float(np.asarray(ground_z(np.array([[x, y]], dtype=np.float64))).reshape(-1)[0])
+
     points: list[tuple[float, float, float]] = []
+    home_z = 0.0
     if plan.home is not None:
-        points.append((float(xy[0, 0]), float(xy[0, 1]), 0.0))
+        home_z = ground_at(float(xy[0, 0]), float(xy[0, 1]))
+        points.append((float(xy[0, 0]), float(xy[0, 1]), home_z))
         xy = xy[1:]
     for item, (x, y) in zip(flown, xy, strict=True):
-        z = _height_above_ground(item, home_alt_m)
         if points and (
             item.command == MavCmd.NAV_TAKEOFF  # takeoff climbs where the vehicle is
             or (item.command == MavCmd.NAV_LAND and item.x == 0.0 and item.y == 0.0)
         ):
             x, y = points[-1][0], points[-1][1]
+        if ground_z is None:
+            z = _height_above_ground(item, home_alt_m)
+        elif item.command == MavCmd.NAV_LAND:
+            z = ground_at(float(x), float(y))
+        else:
+            z = _on_terrain(item, home_alt_m, home_z, ground_at(float(x), float(y)))
         if item.command == MavCmd.NAV_LAND and points:
             points.append((float(x), float(y), points[-1][2]))
         points.append((float(x), float(y), z))
     return drop_repeats(np.array(points, dtype=np.float64).reshape(-1, 3))
+
+
+def _on_terrain(item: MissionItem, home_alt_m: float | None, home_z: float, ground: float) -> float:
+    """An item's z over terrain: home stands on the ground at ``home_z``."""
+    frame = canonical_frame(item.frame)
+    if frame == MavFrame.GLOBAL_TERRAIN_ALT:
+        return ground + item.alt_m
+    return home_z + _height_above_ground(item, home_alt_m)
 
 
 def _height_above_ground(item: MissionItem, home_alt_m: float | None) -> float:

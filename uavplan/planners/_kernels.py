@@ -208,11 +208,19 @@ def clearance_table(cols, ylim, iy_lo, iy_hi, iz_lo, iz_hi, dy, dz, world, cap):
             a0 = max(0, int(math.floor(lo / dy)) - iy_lo)
             a1 = min(ny - 1, int(math.ceil(hi / dy)) - iy_lo)
             c1 = min(nz - 1, int(math.ceil((box[k, 4] + cap) / dz)) - iz_lo)
+            h = box[k, 4]
             for a in range(a0, a1 + 1):
                 px = node_x(j, a + iy_lo, cols, dy)
                 py = node_y(j, a + iy_lo, cols, dy)
+                # the horizontal distance is the same at every height: one 2-D test per node
+                # column, then sqrt(dh² + dz²) (what point_piece_dist computes) per height
+                dh = point_piece_dist(px, py, h, k, poly_xy, poly_n, poly_h, circ)
+                if dh >= cap:
+                    continue
                 for c in range(0, c1 + 1):
-                    d = point_piece_dist(px, py, (c + iz_lo) * dz, k, poly_xy, poly_n, poly_h, circ)
+                    pz = (c + iz_lo) * dz
+                    vz = pz - h if pz > h else (-pz if pz < 0.0 else 0.0)
+                    d = math.sqrt(dh * dh + vz * vz)
                     if d < tab[j, a, c]:
                         tab[j, a, c] = d
     eps = 1e-9

@@ -308,6 +308,113 @@ class Terrain:
         return TerrainMaxGrid(float(x_m[0]), float(y_m[0]), float(cell_m), grid)
 
 
+    def quad_prisms(
+        self,
+        x_m: tuple[float, float],
+        y_m: tuple[float, float],
+        *,
+        cell_m: float | None = None,
+        max_prisms: int = 40_000,
+        grow_m: float = 0.05,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Convex solids that contain the interpolated ground over the ENU rectangle.
+
+        Between four neighbouring posts the surface is bilinear, and a bilinear function
+        takes its maximum over any sub-rectangle of its quad at one of the sub-rectangle's
+        corners. So each quad is cut into ``s × s`` sub-quads (``s`` = post spacing /
+        ``cell_m``, rounded up), and each sub-quad's outline (a parallelogram in ENU to well
+        under a millimetre) extruded up to its highest corner contains the surface there:
+        exactly, with no slope padding. If that makes more than ``max_prisms`` solids,
+        neighbouring ones are merged ``k × k`` (the outline of the outer corners, the highest
+        top). Outlines are grown by ``grow_m`` so neighbours overlap rather than leave a sliver.
+
+        Returns ``(xy (n, 4, 2) counter-clockwise, top_amsl_m (n,))`` for the solids touching
+        the rectangle. Raises :class:`TerrainError` if the DEM does not cover it.
+        """
+        self.check_covers((x_m, y_m))
+        xy = self._posts_enu
+        z = self.posts_amsl_m
+        nrows, ncols = z.shape
+        if nrows < 2 or ncols < 2:
+            raise TerrainError("the DEM needs at least 2 x 2 posts here", file=self.source)
+        pad = 2 * self.post_spacing_m
+        inside = (
+            (xy[..., 0] >= x_m[0] - pad)
+            & (xy[..., 0] <= x_m[1] + pad)
+            & (xy[..., 1] >= y_m[0] - pad)
+            & (xy[..., 1] <= y_m[1] + pad)
+        )
+        rows = np.flatnonzero(inside.any(axis=1))
+        cols = np.flatnonzero(inside.any(axis=0))
+        r0, r1 = max(int(rows.min()) - 1, 0), min(int(rows.max()) + 1, nrows - 1)
+        c0, c1 = max(int(cols.min()) - 1, 0), min(int(cols.max()) + 1, ncols - 1)
+        sub = 1 if cell_m is None else max(1, math.ceil(self.post_spacing_m / cell_m - 1e-9))
+        quads = (r1 - r0) * (c1 - c0)
+        sub = max(1, min(sub, int(math.sqrt(max_prisms / max(quads, 1)))))
+        # the window's posts refined s times: bilinear values and positions on the sub-grid
+        rr = r0 + np.arange((r1 - r0) * sub + 1) / sub
+        cc = c0 + np.arange((c1 - c0) * sub + 1) / sub
+        zf = _bilinear_grid(np.where(np.isfinite(z), z, np.nan), rr, cc)
+        xf = np.stack([_bilinear_grid(xy[..., i], rr, cc) for i in (0, 1)], axis=-1)
+        nr, nc = zf.shape
+        k = max(1, math.ceil(math.sqrt((nr - 1) * (nc - 1) / max_prisms)))
+        rs = np.arange(0, nr - 1, k)
+        cs = np.arange(0, nc - 1, k)
+        re = np.minimum(rs + k, nr - 1)
+        ce = np.minimum(cs + k, nc - 1)
+        top = np.full((len(rs), len(cs)), -np.inf)
+        for dr in range(k + 1):
+            for dc in range(k + 1):
+                top = np.fmax(
+                    top, zf[np.minimum(rs + dr, re)[:, None], np.minimum(cs + dc, ce)[None, :]]
+                )
+        corners = np.stack(
+            [
+                xf[rs[:, None], cs[None, :]],
+                xf[rs[:, None], ce[None, :]],
+                xf[re[:, None], ce[None, :]],
+                xf[re[:, None], cs[None, :]],
+            ],
+            axis=2,
+        ).reshape(-1, 4, 2)
+        top = top.ravel()
+        # counter-clockwise (the raster may run either way in ENU), then grown outwards
+        a = corners[:, 1] - corners[:, 0]
+        b = corners[:, 3] - corners[:, 0]
+        cw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
+        corners[cw] = corners[cw][:, ::-1]
+        d = corners - corners.mean(axis=1, keepdims=True)
+        corners = corners + grow_m * d / np.maximum(np.linalg.norm(d, axis=2, keepdims=True), 1e-9)
+        lo = corners.min(axis=1)
+        hi = corners.max(axis=1)
+        keep = (
+            (hi[:, 0] >= x_m[0]) & (lo[:, 0] <= x_m[1]) & (hi[:, 1] >= y_m[0]) & (lo[:, 1] <= y_m[1])
+        )
+        if not np.all(np.isfinite(top[keep])):
+            raise TerrainError("the DEM has nodata posts inside the area", file=self.source)
+        return corners[keep], top[keep]
+
+
+def _bilinear_grid(
+    values: NDArray[np.float64], rows: NDArray[np.float64], cols: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``values`` (posts) interpolated bilinearly at fractional row/column indices → a grid
+    ``(len(rows), len(cols))`` (NaN propagates from nodata posts)."""
+    nrows, ncols = values.shape
+    i0 = np.clip(np.floor(rows).astype(np.int64), 0, nrows - 2)
+    j0 = np.clip(np.floor(cols).astype(np.int64), 0, ncols - 2)
+    tv = (rows - i0)[:, None]
+    tu = (cols - j0)[None, :]
+    a = values[i0[:, None], j0[None, :]]
+    b = values[i0[:, None], j0[None, :] + 1]
+    c = values[i0[:, None] + 1, j0[None, :]]
+    d = values[i0[:, None] + 1, j0[None, :] + 1]
+    return np.asarray(
+        a * (1 - tu) * (1 - tv) + b * tu * (1 - tv) + c * (1 - tu) * tv + d * tu * tv,
+        dtype=np.float64,
+    )
+
+
 def _apply(t: Any, u: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[Any, Any]:
     """An affine transform applied to coordinate arrays."""
     return t.a * u + t.b * v + t.c, t.d * u + t.e * v + t.f
