@@ -119,6 +119,12 @@ def plan_command(
         from uavplan.mission.items import Autopilot
 
         scn = replace(scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(autopilot)))
+    if scn.mission.altitude == "terrain" and scn.mission.autopilot.name == "PX4":
+        click.echo(
+            "warning: mission.altitude terrain writes MAV_FRAME_GLOBAL_TERRAIN_ALT items, "
+            "which PX4 missions do not fly (ArduPilot does); use relative or amsl for PX4",
+            err=True,
+        )
     _compile_notice(quiet)
     progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
     with interruptible() as stop_requested:

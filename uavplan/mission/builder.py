@@ -112,12 +112,16 @@ def build_mission(
     ground[:, 2] = 0.0
     lat_deg, lon_deg, alt_m = frame.to_geodetic(ground)
     home_z = float(under[0])
-    home = GeoPoint(float(lat_deg[0]), float(lon_deg[0]), float(alt_m[0]) + home_z)
+    # over flat ground home is the ground point below the start (its altitude includes the
+    # tangent plane's rise over the ellipsoid there, a few cm per km); over terrain z is
+    # metres above the datum, the frame's origin altitude, so AMSL = datum + z exactly
+    ref_alt = float(alt_m[0]) if ground_z_m is None else float(frame.origin.alt_m)
+    home = GeoPoint(float(lat_deg[0]), float(lon_deg[0]), ref_alt + home_z)
     item_frame = ALTITUDE_FRAMES[altitude]
     if altitude == "relative":
         item_z = points[:, 2] - home_z
     elif altitude == "amsl":
-        item_z = points[:, 2] + float(alt_m[0])
+        item_z = points[:, 2] + ref_alt
     else:
         item_z = agl
 
@@ -178,7 +182,7 @@ def build_mission(
                 param4=None,  # yaw: keep the current heading
                 x=float(lat_deg[-1]),
                 y=float(lon_deg[-1]),
-                z=float(alt_m[0]) + float(under[-1]) if altitude == "amsl" else 0.0,
+                z=ref_alt + float(under[-1]) if altitude == "amsl" else 0.0,
             )
         )
 

@@ -76,6 +76,19 @@ _ALTITUDE_MODE_OF_FRAME = {
 }
 _ALTITUDE_KEYS = ("AltitudeMode", "Altitude", "AMSLAltAboveTerrain")
 
+
+def _plan_altitude_mode(plan: MissionPlan) -> AltitudeMode:
+    """The plan-wide mode QGC shows: that of the positional items when they share one frame
+    (relative, AMSL or terrain), mixed when they differ, relative without any."""
+    modes = {
+        _ALTITUDE_MODE_OF_FRAME.get(int(item.frame), AltitudeMode.RELATIVE)
+        for item in plan.items
+        if item.is_global
+    }
+    if len(modes) > 1:
+        return AltitudeMode.MIXED
+    return modes.pop() if modes else AltitudeMode.RELATIVE
+
 _FIRMWARE_TYPES = {a.value: a for a in Autopilot}
 #: MISSION_ITEM_INT field widths: command is a uint16, frame a uint8
 _MAX_COMMAND = 0xFFFF
@@ -111,7 +124,7 @@ def plan_to_dict(plan: MissionPlan) -> dict[str, Any]:
         "mission": {
             "cruiseSpeed": _or_default(plan.cruise_speed_m_s, DEFAULT_CRUISE_SPEED_M_S),
             "firmwareType": plan.autopilot.value,
-            "globalPlanAltitudeMode": int(AltitudeMode.RELATIVE),
+            "globalPlanAltitudeMode": int(_plan_altitude_mode(plan)),
             "hoverSpeed": _or_default(plan.hover_speed_m_s, DEFAULT_HOVER_SPEED_M_S),
             "items": items,
             "plannedHomePosition": (

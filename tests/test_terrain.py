@@ -1,0 +1,252 @@
+"""Planning over terrain (issue 10 item 2): a DEM GeoTIFF in a projected CRS with a known
+slope (and a known hill) is written here; scenarios on it must keep the margin from the
+ground on the flown straight legs, checked independently of the product's DEM code (the
+known surface is evaluated analytically at the file's lat/lon through a pyproj UTM transform).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+rasterio = pytest.importorskip("rasterio")
+
+from click.testing import CliRunner  # noqa: E402
+from pyproj import Transformer  # noqa: E402
+from rasterio.transform import from_origin  # noqa: E402
+
+from uavplan.cli import main  # noqa: E402
+from uavplan.errors import ScenarioError  # noqa: E402
+from uavplan.geo import EnuFrame  # noqa: E402
+from uavplan.mission.builder import build_mission, mission_polyline_enu  # noqa: E402
+from uavplan.mission.io import load_mission  # noqa: E402
+from uavplan.mission.items import Autopilot, MavFrame  # noqa: E402
+from uavplan.planning import build_world, sample_polyline  # noqa: E402
+from uavplan.scenario import load_scenario  # noqa: E402
+from uavplan.world import GROUND  # noqa: E402
+
+LAT0, LON0 = 47.0, 9.2
+UTM = "EPSG:32632"
+TO_UTM = Transformer.from_crs("EPSG:4326", UTM, always_xy=True)
+E0, N0 = (float(v) for v in TO_UTM.transform(LON0, LAT0))
+CELL_M = 25.0
+WEST, NORTH = round(E0) - 1500.0, round(N0) + 1500.0
+ROWS = COLS = 120
+
+
+def slope(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The known ground: 500 m at (E0, N0), rising 12 % to the east and 4 % to the south."""
+    return 500.0 + 0.12 * (e - E0) - 0.04 * (n - N0)
+
+
+def hill(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The slope with a 70 m hill on the straight line between the test's start and goal."""
+    return slope(e, n) + 70.0 * np.exp(-((e - E0 - 100.0) ** 2 + (n - N0) ** 2) / (2 * 160.0**2))
+
+
+def write_dem(path: Path, z: np.ndarray) -> Path:
+    profile = {
+        "driver": "GTiff",
+        "height": z.shape[0],
+        "width": z.shape[1],
+        "count": 1,
+        "dtype": "float64",
+        "crs": UTM,
+        "transform": from_origin(WEST, NORTH, CELL_M, CELL_M),
+    }
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(z.astype(np.float64), 1)
+    return path
+
+
+def posts() -> tuple[np.ndarray, np.ndarray]:
+    cols, rows = np.meshgrid(np.arange(COLS) + 0.5, np.arange(ROWS) + 0.5)
+    return WEST + cols * CELL_M, NORTH - rows * CELL_M
+
+
+@pytest.fixture
+def slope_dem(tmp_path: Path) -> Path:
+    e, n = posts()
+    return write_dem(tmp_path / "slope.tif", slope(e, n))
+
+
+@pytest.fixture
+def hill_dem(tmp_path: Path) -> Path:
+    e, n = posts()
+    return write_dem(tmp_path / "hill.tif", hill(e, n))
+
+
+def scenario_file(tmp_path: Path, dem: str, body: str) -> Path:
+    path = tmp_path / "scn.yaml"
+    path.write_text(
+        f"name: over-the-slope\norigin: {{lat: {LAT0}, lon: {LON0}}}\nterrain: {dem}\n" + body,
+        encoding="utf-8",
+    )
+    return path
+
+
+SLOPE_BODY = """\
+bounds: {x: [-800, 800], y: [-800, 800], z: [0, 150]}
+start: [-600, -500, 30]
+goal: [600, 500, 30]
+safety_margin: 12
+obstacles:
+  - {type: box, center: [0, 0], size: [60, 60], height: 40}
+  - {type: cylinder, center: [-350, -250], radius: 10, height: 60}
+vehicle: {takeoff_altitude: 30}
+planner: {seed: 3, iterations: 60, grid: {dx: 40, dy: 20, dz: 5}}
+mission: {spacing: 50, end: land}
+"""
+
+
+def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    """The known surface at geodetic positions: independent of uavplan's DEM code."""
+    e, n = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+    return slope(np.asarray(e), np.asarray(n))
+
+
+def hill_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    """The hill DEM's surface, bilinear between its posts, by scipy in the DEM's own CRS:
+    independent of uavplan's DEM code."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    e, n = posts()
+    interp = RegularGridInterpolator((n[::-1, 0], e[0]), hill(e, n)[::-1], method="linear")
+    ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+    return np.asarray(interp(np.column_stack([nn, ee])))
+
+
+def test_heights_are_above_the_ground_beneath(slope_dem: Path, tmp_path: Path) -> None:
+    scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
+    assert scn.ground is not None
+    datum = scn.origin.alt_m
+    frame = EnuFrame.at(scn.origin)
+    for point, above in ((scn.start_m, 30.0), (scn.goal_m, 30.0)):
+        lat, lon, _ = frame.to_geodetic(np.array([[point[0], point[1], 0.0]]))
+        assert point[2] + datum == pytest.approx(ground_amsl(lat, lon)[0] + above, abs=0.01)
+    # the box stands on the ground at its centre: its top is 40 m above that ground
+    lat, lon, _ = frame.to_geodetic(np.array([[0.0, 0.0, 0.0]]))
+    assert scn.obstacles[0].height_m + datum == pytest.approx(ground_amsl(lat, lon)[0] + 40, abs=0.01)
+    # bounds: from below the lowest ground to the highest ground + the ceiling
+    assert scn.bounds.z_m[0] == 0.0
+    assert scn.ground.ceiling_agl_m == 150.0
+
+
+def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
+    """Random rough terrain: every point of the bilinear surface lies inside the world's ground
+    solids (clearance 0), and 1 m above the highest post of its quad it is outside them."""
+    rng = np.random.default_rng(5)
+    e, n = posts()
+    z = slope(e, n) + rng.uniform(-15, 15, e.shape)
+    dem = write_dem(tmp_path / "rough.tif", z)
+    scn = load_scenario(
+        scenario_file(
+            tmp_path,
+            dem.name,
+            "bounds: {x: [-500, 500], y: [-500, 500], z: [0, 150]}\n"
+            "start: [-400, -400, 60]\ngoal: [400, 400, 60]\nsafety_margin: 5\n",
+        )
+    )
+    world = build_world(scn)
+    assert scn.ground is not None
+    xy = rng.uniform(-480, 480, (400, 2))
+    surface = scn.ground.z_at(xy)
+    dist, owner = world.points_clearance(np.column_stack([xy, surface]))
+    assert np.all(dist == 0.0) and np.all(owner == GROUND)
+    # and the solids are not a blanket far above the ground: within the DEM's local relief
+    above = np.column_stack([xy, surface + 31.0])  # posts vary by ±15 m around the plane
+    dist, _ = world.points_clearance(above)
+    assert np.all(dist > 0.0)
+
+
+def test_route_point_within_the_margin_of_the_terrain_is_a_clear_error(
+    slope_dem: Path, tmp_path: Path
+) -> None:
+    body = SLOPE_BODY.replace("start: [-600, -500, 30]", "start: [-600, -500, 5]")
+    with pytest.raises(ScenarioError, match=r"start: 5.0 m above the ground there is .* from the"):
+        load_scenario(scenario_file(tmp_path, slope_dem.name, body))
+
+
+@pytest.mark.parametrize("altitude", ["relative", "amsl", "terrain"])
+def test_mission_over_a_hill_keeps_the_margin(hill_dem: Path, tmp_path: Path, altitude: str) -> None:
+    body = SLOPE_BODY.replace("end: land}", f"end: land, altitude: {altitude}}}")
+    path = scenario_file(tmp_path, hill_dem.name, body)
+    out = tmp_path / "m.plan"
+    result = CliRunner().invoke(
+        main, ["plan", str(path), "-o", str(out), "--report", str(tmp_path / "r.json"), "-q"]
+    )
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["collision_free"] and report["min_clearance_m"] >= 12.0 - 1e-6
+
+    # read the file back: home on the known ground, items in the asked frame
+    plan = load_mission(out)
+    expected_frame = {
+        "relative": MavFrame.GLOBAL_RELATIVE_ALT,
+        "amsl": MavFrame.GLOBAL,
+        "terrain": MavFrame.GLOBAL_TERRAIN_ALT,
+    }[altitude]
+    assert {int(i.frame) for i in plan.items if i.is_global} == {int(expected_frame)}
+    assert plan.home is not None
+    home_ground = hill_amsl(np.array([plan.home.lat_deg]), np.array([plan.home.lon_deg]))[0]
+    assert plan.home.alt_m == pytest.approx(home_ground, abs=0.01)
+
+    # independent check: the straight legs the vehicle flies, from the file's items, against
+    # the DEM's surface computed by scipy (not the product's DEM code), every metre
+    scn = load_scenario(path)
+    frame = EnuFrame.at(scn.origin)
+    datum = scn.origin.alt_m
+
+    def known_ground_z(xy: np.ndarray) -> np.ndarray:
+        lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
+        return hill_amsl(lat, lon) - datum
+
+    flown = mission_polyline_enu(plan, frame, known_ground_z)
+    # the climb from home and the landing descent touch the ground by design: check the legs
+    samples = sample_polyline(flown[2:-1], 1.0)
+    agl = samples[:, 2] - known_ground_z(samples[:, :2])
+    assert agl.min() >= 12.0 - 0.05, f"{agl.min():.2f} m above the ground"
+    # the hill is in the way: the route had to climb over or go round it
+    straight = np.linspace(flown[2], flown[-2], 200)
+    assert np.min(straight[:, 2] - known_ground_z(straight[:, :2])) < 0.0
+    assert flown[0, 2] == pytest.approx(known_ground_z(flown[:1, :2])[0], abs=0.01)
+    assert flown[-1, 2] == pytest.approx(known_ground_z(flown[-1:, :2])[0], abs=0.01)
+
+
+def test_altitude_modes_describe_the_same_flight(slope_dem: Path, tmp_path: Path) -> None:
+    """The three altitude frames of one route read back to the same ENU polyline (< 1 cm)."""
+    scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
+    assert scn.ground is not None
+    frame = EnuFrame.at(scn.origin)
+    waypoints = np.array([[-600, -500, 0.0], [0, 300, 0.0], [600, 500, 0.0]])
+    under = scn.ground.z_at(waypoints)
+    waypoints[:, 2] = under + np.array([30.0, 80.0, 45.0])
+    lines = []
+    for altitude in ("relative", "amsl", "terrain"):
+        plan = build_mission(
+            waypoints,
+            frame,
+            autopilot=Autopilot.ARDUPILOT,
+            end="land",
+            takeoff_altitude_m=20.0,
+            ground_z_m=under,
+            altitude=altitude,
+        )
+        lines.append(mission_polyline_enu(plan, frame, scn.ground.z_at))
+    for line in lines[1:]:
+        assert line.shape == lines[0].shape
+        assert np.max(np.abs(line - lines[0])) < 0.01
+    # take-off from the ground at the start, 20 m above it, then the waypoints
+    assert lines[0][0, 2] == pytest.approx(under[0])
+    assert lines[0][1, 2] == pytest.approx(under[0] + 20.0)
+
+
+def test_terrain_altitude_with_px4_warns(slope_dem: Path, tmp_path: Path) -> None:
+    body = SLOPE_BODY.replace("end: land}", "end: land, altitude: terrain, autopilot: px4}")
+    path = scenario_file(tmp_path, slope_dem.name, body)
+    result = CliRunner().invoke(main, ["plan", str(path), "-o", str(tmp_path / "m.plan")])
+    assert result.exit_code == 0, result.output
+    assert "warning: mission.altitude terrain" in result.output
