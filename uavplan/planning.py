@@ -560,6 +560,12 @@ def scene_for(scenario: Scenario) -> Scene:
 
     sx, sy, sz = (float(v) for v in scenario.start_m)
     gx, gy, gz = (float(v) for v in scenario.goal_m)
+    terrain = None
+    if scenario.ground is not None:
+        (x0, x1), (y0, y1) = scenario.bounds.x_m, scenario.bounds.y_m
+        xs, ys = np.linspace(x0, x1, 80), np.linspace(y0, y1, 80)
+        grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+        terrain = (xs, ys, scenario.ground.z_at(grid).reshape(len(ys), len(xs)))
     return Scene(
         name=scenario.name,
         bounds=scenario.bounds,
@@ -567,4 +573,5 @@ def scene_for(scenario: Scenario) -> Scene:
         safety_margin_m=scenario.safety_margin_m,
         start_enu=(sx, sy, sz),
         goal_enu=(gx, gy, gz),
+        terrain=terrain,
     )

@@ -83,6 +83,8 @@ class Scene:
     safety_margin_m: float
     start_enu: tuple[float, float, float]
     goal_enu: tuple[float, float, float]
+    #: the ground over the bounds, ``(x (nx,), y (ny,), z (ny, nx))``, or None (flat, z = 0)
+    terrain: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -272,6 +274,9 @@ def render_scene(
     fig.savefig(os.fspath(output), dpi=dpi, format="png")
 
 
+_TERRAIN_CMAP = "gist_earth"
+
+
 class _HeightShade:
     """Obstacle colour from its height (a slice of a grey colour map)."""
 
@@ -356,10 +361,20 @@ def _draw_3d(
         solids.set_clip_on(False)  # the zoomed box may reach past the axes' frame
         ax.add_collection3d(solids, autolim=False)
 
+    if scene.terrain is not None:
+        gx, gy, gz = scene.terrain
+        surface = ax.plot_surface(
+            *np.meshgrid(gx, gy), gz, cmap=_TERRAIN_CMAP, alpha=0.55, linewidth=0,
+            antialiased=False, rcount=60, ccount=60,
+        )  # fmt: skip
+        surface.set_zorder(0)
+
     _draw_paths(ax, layers, scale, three_d=True)
     _start_goal(ax, scene, scale, three_d=True)
 
     (x0, x1), (y0, y1), (z0, z1) = scene.bounds.x_m, scene.bounds.y_m, scene.bounds.z_m
+    if scene.terrain is not None:  # from just below the lowest ground
+        z0 = max(z0, float(np.min(scene.terrain[2])) - 10.0)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_zlim(z0, z1)
@@ -388,6 +403,11 @@ def _draw_top(
     from matplotlib.patches import Circle, Polygon, Rectangle
 
     (x0, x1), (y0, y1) = scene.bounds.x_m, scene.bounds.y_m
+    if scene.terrain is not None:
+        gx, gy, gz = scene.terrain
+        ax.contourf(gx, gy, gz, levels=16, cmap=_TERRAIN_CMAP, alpha=0.45, zorder=-1)
+        lines = ax.contour(gx, gy, gz, levels=8, colors="0.45", linewidths=0.4 * scale, zorder=-1)
+        ax.clabel(lines, fontsize=6 * scale, fmt="%.0f")
     ax.add_patch(
         Rectangle(
             (x0, y0),
