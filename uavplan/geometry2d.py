@@ -427,8 +427,25 @@ def convex_pieces(ring: Sequence[Point2], max_vertices: int) -> list[list[Point2
     its ear-clipping triangles.
     """
     poly = [(float(x), float(y)) for x, y in ring]
-    if signed_area(poly) < 0:
+    # plain Python for the small rings of buildings: numpy's per-call overhead dominated
+    # (thousands of footprints); the same arithmetic as signed_area / is_convex_ccw
+    n = len(poly)
+    twice_area = 0.0
+    for i in range(n):
+        (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % n]
+        twice_area += x0 * y1 - x1 * y0
+    if twice_area < 0:
         poly = poly[::-1]
-    if len(poly) <= max_vertices and is_convex_ccw(poly):
+    if n <= max_vertices and _convex_ccw_small(poly):
         return [poly]
     return triangulate(poly)
+
+
+def _convex_ccw_small(poly: list[Point2], tol: float = COLLINEAR_TOL) -> bool:
+    """:func:`is_convex_ccw` for a short list of points, without numpy."""
+    n = len(poly)
+    for i in range(n):
+        (ax, ay), (bx, by), (cx, cy) = poly[i], poly[(i + 1) % n], poly[(i + 2) % n]
+        if (bx - ax) * (cy - by) - (by - ay) * (cx - bx) < -tol:
+            return False
+    return True
