@@ -129,7 +129,9 @@ def test_heights_are_above_the_ground_beneath(slope_dem: Path, tmp_path: Path) -
         assert point[2] + datum == pytest.approx(ground_amsl(lat, lon)[0] + above, abs=0.01)
     # the box stands on the ground at its centre: its top is 40 m above that ground
     lat, lon, _ = frame.to_geodetic(np.array([[0.0, 0.0, 0.0]]))
-    assert scn.obstacles[0].height_m + datum == pytest.approx(ground_amsl(lat, lon)[0] + 40, abs=0.01)
+    assert scn.obstacles[0].height_m + datum == pytest.approx(
+        ground_amsl(lat, lon)[0] + 40, abs=0.01
+    )
     # bounds: from below the lowest ground to the highest ground + the ceiling
     assert scn.bounds.z_m[0] == 0.0
     assert scn.ground.ceiling_agl_m == 150.0
@@ -171,7 +173,9 @@ def test_route_point_within_the_margin_of_the_terrain_is_a_clear_error(
 
 
 @pytest.mark.parametrize("altitude", ["relative", "amsl", "terrain"])
-def test_mission_over_a_hill_keeps_the_margin(hill_dem: Path, tmp_path: Path, altitude: str) -> None:
+def test_mission_over_a_hill_keeps_the_margin(
+    hill_dem: Path, tmp_path: Path, altitude: str
+) -> None:
     body = SLOPE_BODY.replace("end: land}", f"end: land, altitude: {altitude}}}")
     path = scenario_file(tmp_path, hill_dem.name, body)
     out = tmp_path / "m.plan"

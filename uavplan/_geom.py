@@ -64,7 +64,13 @@ def point_polygon_dist2d(px, py, verts, n):
 
 
 @njit(cache=True, inline="always")
-def _dz(pz, h):
+def vertical_gap(pz, h):
+    """Vertical distance from height ``pz`` to a piece spanning z in [0, h]; a negative ``h``
+    is a ceiling piece spanning [−h, ∞) (the terrain-following ceiling)."""
+    if h < 0.0:
+        if pz < -h:
+            return -h - pz
+        return 0.0
     if pz > h:
         return pz - h
     if pz < 0.0:
@@ -78,13 +84,13 @@ def point_piece_dist(px, py, pz, k, poly_xy, poly_n, poly_h, circ):
     npoly = poly_n.shape[0]
     if k < npoly:
         dh = point_polygon_dist2d(px, py, poly_xy[k], poly_n[k])
-        dz = _dz(pz, poly_h[k])
+        dz = vertical_gap(pz, poly_h[k])
     else:
         c = k - npoly
         dh = math.hypot(px - circ[c, 0], py - circ[c, 1]) - circ[c, 2]
         if dh < 0.0:
             dh = 0.0
-        dz = _dz(pz, circ[c, 3])
+        dz = vertical_gap(pz, circ[c, 3])
     return math.sqrt(dh * dh + dz * dz)
 
 
@@ -104,6 +110,8 @@ def seg_piece_dist(ax, ay, az, bx, by, bz, k, poly_xy, poly_n, poly_h, circ, box
             return FAR
         if min(az, bz) > box[k, 4] + thr:
             return FAR
+        if k < poly_n.shape[0] and poly_h[k] < 0.0 and max(az, bz) < -poly_h[k] - thr:
+            return FAR  # wholly below a ceiling piece
     dx = bx - ax
     dy = by - ay
     dz = bz - az
@@ -242,11 +250,14 @@ def segments_free(p0, p1, W, margin):
 
 
 @njit(cache=True, inline="always")
-def _box_gap(x0, x1, y0, y1, z0, z1, box, k):
-    """Distance between an axis-aligned box and piece k's box (z from 0 to its height)."""
+def _box_gap(x0, x1, y0, y1, z0, z1, box, k, poly_h):
+    """Distance between an axis-aligned box and piece k's box (z from 0 to its height, or
+    from a ceiling piece's bottom up)."""
     gx = max(0.0, box[k, 0] - x1, x0 - box[k, 1])
     gy = max(0.0, box[k, 2] - y1, y0 - box[k, 3])
     gz = max(0.0, z0 - box[k, 4], -z1)
+    if k < poly_h.shape[0] and poly_h[k] < 0.0:
+        gz = max(gz, -poly_h[k] - z1)
     return math.sqrt(gx * gx + gy * gy + gz * gz)
 
 
@@ -260,7 +271,10 @@ def points_clearance(p, W):
     which = np.full(n, -1, dtype=np.int64)
     for i in range(n):
         for k in range(npieces):
-            if _box_gap(p[i, 0], p[i, 0], p[i, 1], p[i, 1], p[i, 2], p[i, 2], box, k) >= dist[i]:
+            if (
+                _box_gap(p[i, 0], p[i, 0], p[i, 1], p[i, 1], p[i, 2], p[i, 2], box, k, poly_h)
+                >= dist[i]
+            ):
                 continue
             d = point_piece_dist(p[i, 0], p[i, 1], p[i, 2], k, poly_xy, poly_n, poly_h, circ)
             if d < dist[i]:
@@ -284,7 +298,7 @@ def segments_clearance(p0, p1, W):
         y0, y1 = min(ay, by), max(ay, by)
         z0, z1 = min(az, bz), max(az, bz)
         for k in range(npieces):
-            if _box_gap(x0, x1, y0, y1, z0, z1, box, k) >= dist[i]:
+            if _box_gap(x0, x1, y0, y1, z0, z1, box, k, poly_h) >= dist[i]:
                 continue
             d = seg_piece_dist(ax, ay, az, bx, by, bz, k, poly_xy, poly_n, poly_h, circ, box, -1.0)
             if d < dist[i]:

@@ -85,6 +85,10 @@ class Ground:
     height_fn: Callable[[Any], Any]
     ceiling_agl_m: float
     source: str = ""
+    #: bottoms ``(n,)`` of ceiling solids over the same outlines (reaching up forever): the
+    #: lowest ground under each outline + ``ceiling_agl_m`` + the margin, so a route keeping
+    #: the margin from them stays at most ``ceiling_agl_m`` above the ground; None: no ceiling
+    ceilings_m: Any = None
 
     def z_at(self, points_xy: Any) -> Any:
         """Ground z (metres above the datum) at ENU points ``(n, 2)`` (or ``(n, 3)``)."""

@@ -11,6 +11,7 @@ file I/O and knows nothing of MAVLink.
 from __future__ import annotations
 
 import enum
+import itertools
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -21,6 +22,7 @@ import numpy as np
 
 from uavplan.config import PostParams, planner_entry
 from uavplan.geo import EnuFrame
+from uavplan.obstacles import Ground
 from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import (
@@ -35,7 +37,6 @@ from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.guide import find_guide, guided_problem
 from uavplan.planners.registry import make_planner
-from uavplan.obstacles import Ground
 from uavplan.route import EndAction, PlannedRoute, flown_polyline
 from uavplan.scenario import Scenario, resolved_config
 from uavplan.warmup import warm_up
@@ -410,7 +411,7 @@ def sample_polyline(points: np.ndarray, step_m: float) -> np.ndarray:
     """Points along the polyline at most ``step_m`` apart, every vertex included."""
     p = np.asarray(points, dtype=np.float64)
     out = [p[:1]]
-    for a, b in zip(p[:-1], p[1:], strict=True):
+    for a, b in itertools.pairwise(p):
         n = max(1, math.ceil(float(np.linalg.norm(b - a)) / step_m))
         t = np.arange(1, n + 1)[:, None] / n
         out.append(a + t * (b - a))

@@ -753,7 +753,7 @@ def _on_terrain(chk: _Checker, scn: Scenario, terrain: Any) -> Scenario:
 
     b = scn.bounds
     try:
-        prisms, tops_amsl = terrain.quad_prisms(b.x_m, b.y_m, cell_m=TERRAIN_CELL_M)
+        prisms, tops_amsl, lows_amsl = terrain.quad_prisms(b.x_m, b.y_m, cell_m=TERRAIN_CELL_M)
         posts = terrain.posts_amsl_m
         datum = math.floor(float(np.nanmin(posts))) - 1.0
         origin = GeoPoint(scn.origin.lat_deg, scn.origin.lon_deg, datum)
@@ -776,6 +776,7 @@ def _on_terrain(chk: _Checker, scn: Scenario, terrain: Any) -> Scenario:
         height_fn=ground_z,
         ceiling_agl_m=b.z_m[1],
         source=str(terrain.source),
+        ceilings_m=lows_amsl - datum + b.z_m[1] + scn.safety_margin_m,
     )
     moved = points.copy()
     moved[:, 2] += under
@@ -829,14 +830,26 @@ def _check_above_terrain(chk: _Checker, scn: Scenario, under: Any) -> None:
             for xy, h in zip(g.prisms_xy[near], g.tops_m[near], strict=True)
         )
         clearance, _ = _point_clearance(solids, point)
+        agl = point[2] - float(z_ground)
         if clearance < margin - 1e-9:
-            agl = point[2] - float(z_ground)
             raise chk.fail(
                 key,
                 f"{agl:.1f} m above the ground there is {max(clearance, 0.0):.1f} m from the "
                 f"terrain (needs {margin:g} m safety margin; the terrain is held as DEM cells up "
                 "to their highest post): fly higher or move the point",
             )
+        if g.ceilings_m is not None and solids:
+            import numpy as np
+
+            horizontal = _footprints(solids).horizontal(point[:2])
+            below = np.maximum(np.asarray(g.ceilings_m)[near] - point[2], 0.0)
+            if float(np.min(np.hypot(horizontal, below))) < margin - 1e-9:
+                raise chk.fail(
+                    key,
+                    f"{agl:.1f} m above the ground there is too close to the ceiling "
+                    f"(bounds.z max {g.ceiling_agl_m:g} m above the lowest ground nearby, less "
+                    f"the {margin:g} m safety margin): fly lower or raise bounds.z",
+                )
 
 
 def _obstacles(chk: _Checker, raw: Any) -> tuple[Obstacle, ...]:

@@ -23,6 +23,7 @@ from uavplan.obstacles import BoxObstacle, CylinderObstacle, Ground, Obstacle, P
 
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
 GROUND = -2  # owner of the pieces that hold the terrain (see World.build's ``ground``)
+CEILING_TOP = 1e300  # bounding-box top of a ceiling piece (height −b: solid from b up)
 
 
 def _cell_size(box: np.ndarray) -> float:
@@ -43,7 +44,8 @@ class World:
     """Obstacles split into convex pieces, plus convex bounds, in one metric frame.
 
     Arrays (read by the kernels):
-      ``poly_xy`` (P, MAX_VERTS, 2), ``poly_n`` (P,), ``poly_h`` (P,): convex polygons;
+      ``poly_xy`` (P, MAX_VERTS, 2), ``poly_n`` (P,), ``poly_h`` (P,): convex polygons
+      (a piece spans z in [0, h]; a negative ``h`` is a ceiling piece spanning [−h, ∞));
       ``circ`` (C, 4): circles (cx, cy, r, h); ``box`` (P + C, 5): piece bounding boxes
       (xmin, xmax, ymin, ymax, zmax); ``owner`` (P + C,): index of the obstacle of each piece;
       ``hp`` (m, 3): bounds half-planes a·x + b·y <= c; ``zlim`` (2,).
@@ -73,7 +75,8 @@ class World:
     ) -> World:
         """The world of ``obstacles`` (each from below the ground up to its height) inside
         the bounds, keeping ``margin_m``; with ``ground``, its solids are pieces too (owner
-        :data:`GROUND`), so the margin holds from the terrain as from any obstacle."""
+        :data:`GROUND`), so the margin holds from the terrain as from any obstacle, and its
+        ceiling pieces (if any) keep the route under ``ground.ceilings_m`` less the margin."""
         polys: list[tuple[list[tuple[float, float]], float, int]] = []
         circles: list[tuple[float, float, float, float, int]] = []
         for i, obs in enumerate(obstacles):
@@ -101,6 +104,11 @@ class World:
             poly_n = np.concatenate([poly_n, np.full(n_g, 4, dtype=np.int64)])
             poly_h = np.concatenate([poly_h, np.asarray(ground.tops_m, dtype=float)])
             owner.extend([GROUND] * n_g)
+            if ground.ceilings_m is not None:  # the same outlines, hanging from the sky
+                poly_xy = np.concatenate([poly_xy, g_xy])
+                poly_n = np.concatenate([poly_n, np.full(n_g, 4, dtype=np.int64)])
+                poly_h = np.concatenate([poly_h, -np.asarray(ground.ceilings_m, dtype=float)])
+                owner.extend([GROUND] * n_g)
         circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
         owner.extend(c[4] for c in circles)
         (x0, x1), (y0, y1), (z0, z1) = bounds_xyz
@@ -127,7 +135,7 @@ class World:
             py = np.where(used, poly_xy[:, :, 1], np.nan)
             box[:npoly, 0], box[:npoly, 1] = np.nanmin(px, axis=1), np.nanmax(px, axis=1)
             box[:npoly, 2], box[:npoly, 3] = np.nanmin(py, axis=1), np.nanmax(py, axis=1)
-            box[:npoly, 4] = poly_h
+            box[:npoly, 4] = np.where(poly_h < 0.0, CEILING_TOP, poly_h)
         if circ.shape[0]:
             cx, cy, r, h = circ.T
             box[npoly:] = np.stack([cx - r, cx + r, cy - r, cy + r, h], axis=1)

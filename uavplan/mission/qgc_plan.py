@@ -89,6 +89,7 @@ def _plan_altitude_mode(plan: MissionPlan) -> AltitudeMode:
         return AltitudeMode.MIXED
     return modes.pop() if modes else AltitudeMode.RELATIVE
 
+
 _FIRMWARE_TYPES = {a.value: a for a in Autopilot}
 #: MISSION_ITEM_INT field widths: command is a uint16, frame a uint8
 _MAX_COMMAND = 0xFFFF

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from uavplan._geom import point_piece_dist, segment_free
+from uavplan._geom import point_piece_dist, segment_free, vertical_gap
 
 #: how a proposal draws its random term for every attempt (``Proposal.draw``)
 DRAW_NONE = 0  # no random term
@@ -207,19 +207,25 @@ def clearance_table(cols, ylim, iy_lo, iy_hi, iz_lo, iz_hi, dy, dz, world, cap):
                 continue
             a0 = max(0, int(math.floor(lo / dy)) - iy_lo)
             a1 = min(ny - 1, int(math.ceil(hi / dy)) - iy_lo)
-            c1 = min(nz - 1, int(math.ceil((box[k, 4] + cap) / dz)) - iz_lo)
-            h = box[k, 4]
+            h = poly_h[k] if k < poly_n.shape[0] else circ[k - poly_n.shape[0], 3]
+            if h < 0.0:  # a ceiling piece from −h up: nodes from −h − cap
+                c0 = max(0, int(math.floor((-h - cap) / dz)) - iz_lo)
+                c1 = nz - 1
+                z_on = -h
+            else:
+                c0 = 0
+                c1 = min(nz - 1, int(math.ceil((h + cap) / dz)) - iz_lo)
+                z_on = h
             for a in range(a0, a1 + 1):
                 px = node_x(j, a + iy_lo, cols, dy)
                 py = node_y(j, a + iy_lo, cols, dy)
                 # the horizontal distance is the same at every height: one 2-D test per node
                 # column, then sqrt(dh² + dz²) (what point_piece_dist computes) per height
-                dh = point_piece_dist(px, py, h, k, poly_xy, poly_n, poly_h, circ)
+                dh = point_piece_dist(px, py, z_on, k, poly_xy, poly_n, poly_h, circ)
                 if dh >= cap:
                     continue
-                for c in range(0, c1 + 1):
-                    pz = (c + iz_lo) * dz
-                    vz = pz - h if pz > h else (-pz if pz < 0.0 else 0.0)
+                for c in range(c0, c1 + 1):
+                    vz = vertical_gap((c + iz_lo) * dz, h)
                     d = math.sqrt(dh * dh + vz * vz)
                     if d < tab[j, a, c]:
                         tab[j, a, c] = d

@@ -307,7 +307,6 @@ class Terrain:
             raise TerrainError("the DEM has no posts near part of the area", file=self.source)
         return TerrainMaxGrid(float(x_m[0]), float(y_m[0]), float(cell_m), grid)
 
-
     def quad_prisms(
         self,
         x_m: tuple[float, float],
@@ -316,7 +315,7 @@ class Terrain:
         cell_m: float | None = None,
         max_prisms: int = 40_000,
         grow_m: float = 0.05,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Convex solids that contain the interpolated ground over the ENU rectangle.
 
         Between four neighbouring posts the surface is bilinear, and a bilinear function
@@ -328,8 +327,10 @@ class Terrain:
         neighbouring ones are merged ``k × k`` (the outline of the outer corners, the highest
         top). Outlines are grown by ``grow_m`` so neighbours overlap rather than leave a sliver.
 
-        Returns ``(xy (n, 4, 2) counter-clockwise, top_amsl_m (n,))`` for the solids touching
-        the rectangle. Raises :class:`TerrainError` if the DEM does not cover it.
+        Returns ``(xy (n, 4, 2) counter-clockwise, top_amsl_m (n,), low_amsl_m (n,))`` for the
+        solids touching the rectangle, ``low`` being the lowest corner (the surface's minimum
+        over the outline, by the same argument). Raises :class:`TerrainError` if the DEM does
+        not cover it.
         """
         self.check_covers((x_m, y_m))
         xy = self._posts_enu
@@ -363,11 +364,12 @@ class Terrain:
         re = np.minimum(rs + k, nr - 1)
         ce = np.minimum(cs + k, nc - 1)
         top = np.full((len(rs), len(cs)), -np.inf)
+        low = np.full((len(rs), len(cs)), np.inf)
         for dr in range(k + 1):
             for dc in range(k + 1):
-                top = np.fmax(
-                    top, zf[np.minimum(rs + dr, re)[:, None], np.minimum(cs + dc, ce)[None, :]]
-                )
+                corner = zf[np.minimum(rs + dr, re)[:, None], np.minimum(cs + dc, ce)[None, :]]
+                top = np.fmax(top, corner)
+                low = np.fmin(low, corner)
         corners = np.stack(
             [
                 xf[rs[:, None], cs[None, :]],
@@ -378,6 +380,7 @@ class Terrain:
             axis=2,
         ).reshape(-1, 4, 2)
         top = top.ravel()
+        low = low.ravel()
         # counter-clockwise (the raster may run either way in ENU), then grown outwards
         a = corners[:, 1] - corners[:, 0]
         b = corners[:, 3] - corners[:, 0]
@@ -388,11 +391,14 @@ class Terrain:
         lo = corners.min(axis=1)
         hi = corners.max(axis=1)
         keep = (
-            (hi[:, 0] >= x_m[0]) & (lo[:, 0] <= x_m[1]) & (hi[:, 1] >= y_m[0]) & (lo[:, 1] <= y_m[1])
+            (hi[:, 0] >= x_m[0])
+            & (lo[:, 0] <= x_m[1])
+            & (hi[:, 1] >= y_m[0])
+            & (lo[:, 1] <= y_m[1])
         )
-        if not np.all(np.isfinite(top[keep])):
+        if not np.all(np.isfinite(top[keep])) or not np.all(np.isfinite(low[keep])):
             raise TerrainError("the DEM has nodata posts inside the area", file=self.source)
-        return corners[keep], top[keep]
+        return corners[keep], top[keep], low[keep]
 
 
 def _bilinear_grid(
