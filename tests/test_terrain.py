@@ -254,3 +254,46 @@ def test_terrain_altitude_with_px4_warns(slope_dem: Path, tmp_path: Path) -> Non
     result = CliRunner().invoke(main, ["plan", str(path), "-o", str(tmp_path / "m.plan")])
     assert result.exit_code == 0, result.output
     assert "warning: mission.altitude terrain" in result.output
+
+
+def valley(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The slope with a 120 m deep valley across the line between start and goal."""
+    return slope(e, n) - 120.0 * np.exp(-((e - E0) ** 2) / (2 * 120.0**2))
+
+
+def test_route_stays_under_the_ceiling_above_the_ground(tmp_path: Path) -> None:
+    """bounds.z max is a height above the ground: crossing a valley the route must follow it
+    down instead of flying straight across 150 m above its floor (independent check with
+    scipy's bilinear surface of the posts)."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    e, n = posts()
+    dem = write_dem(tmp_path / "valley.tif", valley(e, n))
+    body = (
+        "bounds: {x: [-700, 700], y: [-300, 300], z: [0, 70]}\n"
+        "start: [-600, 0, 30]\ngoal: [600, 0, 30]\nsafety_margin: 10\n"
+        "planner: {seed: 2, iterations: 80, grid: {dx: 40, dy: 20, dz: 5}}\n"
+        "mission: {spacing: 40, end: rtl}\n"
+    )
+    path = scenario_file(tmp_path, dem.name, body)
+    out = tmp_path / "v.plan"
+    result = CliRunner().invoke(main, ["plan", str(path), "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.output
+    scn = load_scenario(path)
+    frame = EnuFrame.at(scn.origin)
+    datum = scn.origin.alt_m
+    interp = RegularGridInterpolator((n[::-1, 0], e[0]), valley(e, n)[::-1], method="linear")
+
+    def ground_z(xy: np.ndarray) -> np.ndarray:
+        lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
+        ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+        return np.asarray(interp(np.column_stack([nn, ee]))) - datum
+
+    flown = mission_polyline_enu(load_mission(out), frame, ground_z)
+    samples = sample_polyline(flown[2:], 1.0)
+    agl = samples[:, 2] - ground_z(samples[:, :2])
+    assert agl.min() >= 10.0 - 0.05
+    assert agl.max() <= 70.0 + 0.05, f"{agl.max():.1f} m above the ground"
+    # flying straight across would have been far above the valley floor
+    straight = np.linspace(flown[2], flown[-1], 200)
+    assert np.max(straight[:, 2] - ground_z(straight[:, :2])) > 100.0
