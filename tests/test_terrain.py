@@ -297,3 +297,27 @@ def test_route_stays_under_the_ceiling_above_the_ground(tmp_path: Path) -> None:
     # flying straight across would have been far above the valley floor
     straight = np.linspace(flown[2], flown[-1], 200)
     assert np.max(straight[:, 2] - ground_z(straight[:, :2])) > 100.0
+
+
+def test_exports_over_terrain_give_amsl_altitudes(hill_dem: Path, tmp_path: Path) -> None:
+    """GeoJSON and KML of a route over terrain carry AMSL altitudes (KML ``absolute``): the
+    route's altitudes stand at least the margin above the DEM surface under them."""
+    path = scenario_file(tmp_path, hill_dem.name, SLOPE_BODY)
+    gj, kml = tmp_path / "m.geojson", tmp_path / "m.kml"
+    for out in (gj, kml):
+        result = CliRunner().invoke(main, ["plan", str(path), "-o", str(out), "-q"])
+        assert result.exit_code == 0, result.output
+    doc = json.loads(gj.read_text())
+    route = next(f for f in doc["features"] if f["properties"]["kind"] == "route")
+    assert "above mean sea level" in route["properties"]["altitude_reference"]
+    lon, lat, alt = np.array(route["geometry"]["coordinates"]).T
+    agl = alt - hill_amsl(lat, lon)
+    assert agl[0] == pytest.approx(0.0, abs=0.01)  # home, on the ground
+    assert agl[2:-1].min() >= 12.0 - 0.5  # vertices of the flown legs (margin kept)
+    home = next(f for f in doc["features"] if f["properties"]["kind"] == "home")
+    assert home["geometry"]["coordinates"][2] == pytest.approx(
+        hill_amsl(np.array([lat[0]]), np.array([lon[0]]))[0], abs=0.01
+    )
+    text = kml.read_text()
+    assert "<altitudeMode>absolute</altitudeMode>" in text
+    assert "relativeToGround" not in text.split("<name>Waypoints</name>")[0]

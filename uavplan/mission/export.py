@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -56,6 +56,8 @@ from uavplan.route import PlannedRoute
 
 #: value of every feature's ``altitude_reference`` property
 ALTITUDE_REFERENCE = "height above home (the takeoff point on flat ground), metres"
+AMSL_REFERENCE = "metres above mean sea level (planned over a terrain model)"
+TERRAIN_REFERENCE = "height above the terrain beneath, metres (MAV_FRAME_GLOBAL_TERRAIN_ALT)"
 #: decimals kept for degrees (1e-8 deg is about 1 mm) and metres
 DEGREE_DECIMALS = 8
 METRE_DECIMALS = 3
@@ -82,6 +84,9 @@ class ExportExtras:
     name: str | None = None
     safety_margin_m: float | None = None
     properties: Mapping[str, Any] = field(default_factory=dict)
+    #: over terrain: ENU z is metres above this altitude AMSL, and the export gives AMSL
+    #: altitudes (KML ``absolute``) instead of heights above flat ground
+    datum_amsl_m: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -114,6 +119,7 @@ class ExportExtras:
             name=name,
             safety_margin_m=route.safety_margin_m,
             properties=dict(properties or {}),
+            datum_amsl_m=route.datum_amsl_m,
         )
 
     @property
@@ -131,7 +137,8 @@ class _Waypoint:
     seq: int
     index: int
     item: MissionItem
-    height_m: float  # above home
+    height_m: float  # above home (above the terrain for a terrain-frame item)
+    amsl_m: float | None = None  # over terrain: its altitude AMSL when known
 
 
 @dataclass(frozen=True)
@@ -151,18 +158,25 @@ class _Scene:
     waypoints: tuple[_Waypoint, ...]
     areas: tuple[_Area, ...]
     properties: dict[str, Any]
+    absolute: bool = False  # altitudes AMSL (over terrain) instead of above flat ground
 
 
 def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
     extras = extras or ExportExtras()
     home_alt = plan.home.alt_m if plan.home is not None else None
     waypoints = _waypoints(plan, home_alt)
+    datum = extras.datum_amsl_m
+    if datum is not None and home_alt is not None:
+        waypoints = tuple(
+            replace(wp, amsl_m=None if _terrain_frame(wp.item) else home_alt + wp.height_m)
+            for wp in waypoints
+        )
     route = None
     if extras.flown_enu is not None:  # a planned route's own line: not rebuilt from items
         assert extras.frame is not None
         route_enu = extras.flown_enu
         if len(route_enu) >= 2:
-            route = _enu_to_lonlatalt(route_enu, extras.frame)
+            route = _enu_to_lonlatalt(route_enu, extras.frame, datum)
     else:
         route_enu = _route_enu(plan)
         if len(route_enu) >= 2:
@@ -172,7 +186,7 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
     planned = None
     if extras.planned_path_enu is not None and len(extras.planned_path_enu) >= 2:
         assert extras.frame is not None
-        planned = _enu_to_lonlatalt(extras.planned_path_enu, extras.frame)
+        planned = _enu_to_lonlatalt(extras.planned_path_enu, extras.frame, datum)
     areas: list[_Area] = []
     if extras.obstacles:
         assert extras.frame is not None
@@ -188,14 +202,17 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
             if extras.safety_margin_m is not None:
                 props["safety_margin_m"] = extras.safety_margin_m
             ring = _xy_to_lonlat(fp.outline_enu(CIRCLE_SEGMENTS), extras.frame)
-            areas.append(_Area("obstacle", ring, props, fp.height_m))
+            top = fp.height_m if datum is None else datum + fp.height_m
+            if datum is not None:
+                props["top_amsl_m"] = round(top, METRE_DECIMALS)
+            areas.append(_Area("obstacle", ring, props, top))
     areas.extend(_fence_areas(plan))
     length = float(np.linalg.norm(np.diff(route_enu, axis=0), axis=1).sum())
     properties: dict[str, Any] = {
         "autopilot": plan.autopilot.label,
         "mission_items": len(plan.items),
         "route_length_m": round(length, METRE_DECIMALS),
-        "altitude_reference": ALTITUDE_REFERENCE,
+        "altitude_reference": ALTITUDE_REFERENCE if datum is None else AMSL_REFERENCE,
     }
     if plan.home is not None:
         properties["home_amsl_m"] = round(plan.home.alt_m, METRE_DECIMALS)
@@ -210,7 +227,12 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
         waypoints=waypoints,
         areas=tuple(areas),
         properties=properties,
+        absolute=datum is not None,
     )
+
+
+def _terrain_frame(item: MissionItem) -> bool:
+    return canonical_frame(item.frame) == MavFrame.GLOBAL_TERRAIN_ALT
 
 
 def _route_frame(plan: MissionPlan) -> EnuFrame | None:
@@ -249,11 +271,15 @@ def _waypoints(plan: MissionPlan, home_alt_m: float | None) -> tuple[_Waypoint, 
     return tuple(out)
 
 
-def _enu_to_lonlatalt(points_enu: NDArray[np.float64], frame: EnuFrame) -> NDArray[np.float64]:
-    """ENU points → [lon, lat, height]: lat/lon of the ground point below, height = z."""
+def _enu_to_lonlatalt(
+    points_enu: NDArray[np.float64], frame: EnuFrame, datum_amsl_m: float | None = None
+) -> NDArray[np.float64]:
+    """ENU points → [lon, lat, height]: lat/lon of the ground point below, height = z (over
+    terrain: datum + z, metres AMSL)."""
     ground = np.column_stack((points_enu[:, :2], np.zeros(len(points_enu))))
     lat, lon, _ = frame.to_geodetic(ground)
-    return np.column_stack((lon, lat, points_enu[:, 2]))
+    z = points_enu[:, 2] if datum_amsl_m is None else datum_amsl_m + points_enu[:, 2]
+    return np.column_stack((lon, lat, z))
 
 
 def _xy_to_lonlat(ring_enu: NDArray[np.float64], frame: EnuFrame) -> NDArray[np.float64]:
@@ -318,7 +344,7 @@ def to_geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> dict[st
         props = {
             "kind": "planned_path",
             "name": f"{scene.name}: planned path",
-            "altitude_reference": ALTITUDE_REFERENCE,
+            "altitude_reference": AMSL_REFERENCE if scene.absolute else ALTITUDE_REFERENCE,
         }
         features.append(_feature(_line(scene.planned_lonlatalt), props))
     if scene.home is not None:
@@ -326,9 +352,10 @@ def to_geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> dict[st
             "kind": "home",
             "name": "home",
             "altitude_amsl_m": round(scene.home.alt_m, METRE_DECIMALS),
-            "altitude_reference": ALTITUDE_REFERENCE,
+            "altitude_reference": AMSL_REFERENCE if scene.absolute else ALTITUDE_REFERENCE,
         }
-        point = _position(scene.home.lon_deg, scene.home.lat_deg, 0.0)
+        home_alt = scene.home.alt_m if scene.absolute else 0.0
+        point = _position(scene.home.lon_deg, scene.home.lat_deg, home_alt)
         features.append(_feature({"type": "Point", "coordinates": point}, props))
     for wp in scene.waypoints:
         item = wp.item
@@ -341,16 +368,23 @@ def to_geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> dict[st
             "command_name": _command_name(item.command),
             "frame": item.frame,
             "height_m": round(wp.height_m, METRE_DECIMALS),
-            "altitude_reference": ALTITUDE_REFERENCE,
+            "altitude_reference": _waypoint_reference(scene, wp),
             "params": list(item.params),
         }
-        point = _position(item.lon_deg, item.lat_deg, wp.height_m)
+        alt = wp.amsl_m if scene.absolute and wp.amsl_m is not None else wp.height_m
+        point = _position(item.lon_deg, item.lat_deg, alt)
         features.append(_feature({"type": "Point", "coordinates": point}, props))
     for area in scene.areas:
         ring = [_position(lon, lat) for lon, lat in area.ring_lonlat]
         ring.append(ring[0])
         features.append(_feature({"type": "Polygon", "coordinates": [ring]}, area.properties))
     return {"type": "FeatureCollection", "features": features}
+
+
+def _waypoint_reference(scene: _Scene, wp: _Waypoint) -> str:
+    if _terrain_frame(wp.item):
+        return TERRAIN_REFERENCE
+    return AMSL_REFERENCE if scene.absolute and wp.amsl_m is not None else ALTITUDE_REFERENCE
 
 
 def _line(points: NDArray[np.float64]) -> dict[str, Any]:
@@ -410,10 +444,10 @@ def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
     route_folder = _folder(doc, "Route")
     if scene.route_lonlatalt is not None:
         mark = _placemark(route_folder, "flown route", "route", _describe(scene.properties))
-        _line_string(mark, scene.route_lonlatalt, extrude=True)
+        _line_string(mark, scene.route_lonlatalt, extrude=True, absolute=scene.absolute)
     if scene.planned_lonlatalt is not None:
         mark = _placemark(route_folder, "planned path", "planned")
-        _line_string(mark, scene.planned_lonlatalt, extrude=False)
+        _line_string(mark, scene.planned_lonlatalt, extrude=False, absolute=scene.absolute)
 
     wp_folder = _folder(doc, "Waypoints")
     if scene.home is not None:
@@ -425,7 +459,10 @@ def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
         _extended_data(
             mark, {"seq": wp.seq, "command": wp.item.command, "height_m": round(wp.height_m, 3)}
         )
-        _point(mark, wp.item.lon_deg, wp.item.lat_deg, wp.height_m)
+        if scene.absolute and wp.amsl_m is not None:
+            _point(mark, wp.item.lon_deg, wp.item.lat_deg, wp.amsl_m, absolute=True)
+        else:
+            _point(mark, wp.item.lon_deg, wp.item.lat_deg, wp.height_m)
 
     obstacles = [a for a in scene.areas if a.kind == "obstacle"]
     if obstacles:
@@ -435,7 +472,7 @@ def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
             name = f"obstacle {props['index']} ({props['shape']}, {props['height_m']:g} m)"
             mark = _placemark(folder, name, "obstacle")
             _extended_data(mark, props)
-            _polygon(mark, area.ring_lonlat, area.height_m)
+            _polygon(mark, area.ring_lonlat, area.height_m, absolute=scene.absolute)
     fences = [a for a in scene.areas if a.kind == "fence"]
     if fences:
         folder = _folder(doc, "Geofence")
@@ -498,26 +535,37 @@ def _decimals(axis: int) -> int:
     return DEGREE_DECIMALS if axis < 2 else METRE_DECIMALS
 
 
-def _line_string(mark: ET.Element, points: NDArray[np.float64], *, extrude: bool) -> None:
+def _line_string(
+    mark: ET.Element, points: NDArray[np.float64], *, extrude: bool, absolute: bool = False
+) -> None:
     line = _sub(mark, "LineString")
     _sub(line, "extrude", "1" if extrude else "0")
     _sub(line, "tessellate", "0")
-    _sub(line, "altitudeMode", "relativeToGround")
+    _sub(line, "altitudeMode", "absolute" if absolute else "relativeToGround")
     _sub(line, "coordinates", _coordinates(points))
 
 
-def _point(mark: ET.Element, lon: float, lat: float, height_m: float) -> None:
+def _point(
+    mark: ET.Element, lon: float, lat: float, height_m: float, *, absolute: bool = False
+) -> None:
     point = _sub(mark, "Point")
-    _sub(point, "altitudeMode", "relativeToGround")
+    _sub(point, "altitudeMode", "absolute" if absolute else "relativeToGround")
     _sub(point, "coordinates", _coordinates([(lon, lat, height_m)]))
 
 
-def _polygon(mark: ET.Element, ring_lonlat: NDArray[np.float64], height_m: float | None) -> None:
-    """An extruded solid of ``height_m`` above the ground, or a ground-clamped area."""
+def _polygon(
+    mark: ET.Element,
+    ring_lonlat: NDArray[np.float64],
+    height_m: float | None,
+    *,
+    absolute: bool = False,
+) -> None:
+    """An extruded solid of ``height_m`` above the ground (or, ``absolute``, up to that
+    altitude AMSL), or a ground-clamped area."""
     polygon = _sub(mark, "Polygon")
     if height_m is not None:
         _sub(polygon, "extrude", "1")
-        _sub(polygon, "altitudeMode", "relativeToGround")
+        _sub(polygon, "altitudeMode", "absolute" if absolute else "relativeToGround")
     else:
         _sub(polygon, "tessellate", "1")
         _sub(polygon, "altitudeMode", "clampToGround")
