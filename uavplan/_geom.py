@@ -18,7 +18,14 @@ import math
 
 import numpy as np
 
-from uavplan import _ckernels as _c
+try:
+    from uavplan import _ckernels as _c
+except ImportError as exc:  # pragma: no cover - a source tree that was never built
+    raise ImportError(
+        "uavplan's compiled kernels (uavplan._ckernels) are not built: install the package "
+        "with `pip install .` (a source checkout: `pip install -e .`), which compiles them "
+        "with the system's C compiler"
+    ) from exc
 
 GOLD = 0.6180339887498949
 #: distances are resolved to this many metres

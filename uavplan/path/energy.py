@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from uavplan import _ckernels as _c
+from uavplan._geom import _c
 from uavplan.config import EnergyWeights
 
 #: spline samples per column interval used by the search fitness

@@ -24,8 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from uavplan import _ckernels as _c
-from uavplan._geom import world_arrays
+from uavplan._geom import _c, world_arrays
 
 #: how a proposal draws its random term for every attempt (``Proposal.draw``)
 DRAW_NONE = 0  # no random term

@@ -38,8 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from uavplan import _ckernels as _c
-from uavplan._geom import world_arrays
+from uavplan._geom import _c, world_arrays
 from uavplan.config import EnergyWeights
 from uavplan.path.frame import PathFrame
 from uavplan.world import World
