@@ -35,7 +35,9 @@ def node_resolve(
     j: int, y0: float, z0: float, y1: float, z1: float, cols: _A, dy: float, dz: float,
     start_m: _A, goal_m: _A, world: tuple[Any, ...], margin: float, keys: _A,
 ) -> int: ...  # fmt: skip
-def reachable(j: int, y0: float, z0: float, y1: float, z1: float, reach: tuple[Any, ...]) -> int: ...
+def reachable(
+    j: int, y0: float, z0: float, y1: float, z1: float, reach: tuple[Any, ...]
+) -> int: ...
 def clearance_table(
     cols: _A, ylim: _A, iy_lo: int, iy_hi: int, iz_lo: int, iz_hi: int, dy: float, dz: float,
     world: tuple[Any, ...], cap: float, tab: _A,
@@ -59,15 +61,15 @@ def stream_draws(seed: int, kind: int, n: int) -> list[Any]: ...
 def polyline_energy(
     points: _A, k0: float, k1: float, mu0: float, k2: float
 ) -> tuple[float, float, float]: ...
-def spline_points(
-    ys: _A, zs: _A, dx: float, n_sub: int, cp: _A, den: _A, out: _A
-) -> None: ...
+def spline_points(ys: _A, zs: _A, dx: float, n_sub: int, cp: _A, den: _A, out: _A) -> None: ...
 def population_energy(
     nodes: _A, start_yz: _A, goal_yz: _A, dx: float, dy: float, dz: float, n_sub: int,
     k0: float, k1: float, mu0: float, k2: float, smooth: int, cols: _A, straight: bool,
     out: _A,
 ) -> None: ...  # fmt: skip
-def node_clearance(px: float, py: float, pz: float, world: tuple[Any, ...], cap: float) -> float: ...
+def node_clearance(
+    px: float, py: float, pz: float, world: tuple[Any, ...], cap: float
+) -> float: ...
 def astar_kernel(
     lo: _A, shape: _A, steps: _A, start: _A, goal: _A, world: tuple[Any, ...], margin: float,
     cap: float, k0: float, k2: float, moves: _A,
