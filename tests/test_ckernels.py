@@ -235,6 +235,8 @@ def test_plan_runs_on_the_extension_without_numba(tmp_path: Path) -> None:
         "print(r.exit_code, 'numba' in sys.modules, 'uavplan._ckernels' in sys.modules, "
         "c.__file__.endswith('.so'))"
     )
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path
+    )
     assert res.stdout.split() == ["0", "False", "True", "True"], res.stdout + res.stderr
     assert out.stat().st_size > 0
