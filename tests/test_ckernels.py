@@ -240,3 +240,65 @@ def test_plan_runs_on_the_extension_without_numba(tmp_path: Path) -> None:
     )
     assert res.stdout.split() == ["0", "False", "True", "True"], res.stdout + res.stderr
     assert out.stat().st_size > 0
+
+
+def test_population_energy_matches_a_scipy_spline_reference() -> None:
+    from scipy.interpolate import CubicSpline
+
+    rng = np.random.default_rng(8)
+    dx, dy, dz, n_sub = 20.0, 5.0, 4.0, 3
+    nodes = rng.integers(-6, 7, (5, 9, 2)).astype(float)
+    start, goal = np.array([0.0, 30.0]), np.array([10.0, 42.0])
+    cols = np.zeros((11, 4))  # straight guide: ignored
+    got = energy.population_energy(
+        nodes, start, goal, dx, dy, dz, n_sub, 1.0, 2.0, 0.5, 3.0, 0, cols, True
+    )
+    for g in range(nodes.shape[0]):
+        ys = np.concatenate([[start[0]], nodes[g, :, 0] * dy, [goal[0]]])
+        zs = np.concatenate([[start[1]], nodes[g, :, 1] * dz, [goal[1]]])
+        x = np.arange(ys.shape[0]) * dx
+        xs = np.linspace(0.0, x[-1], (ys.shape[0] - 1) * n_sub + 1)
+        pts = np.column_stack(
+            [
+                xs,
+                CubicSpline(x, ys, bc_type="natural")(xs),
+                CubicSpline(x, zs, bc_type="natural")(xs),
+            ]
+        )
+        assert got[g] == pytest.approx(sum(ref_polyline_energy(pts, 1.0, 2.0, 0.5, 3.0)), rel=1e-9)
+
+
+def test_node_free_agrees_with_the_exact_segment_test() -> None:
+    from uavplan.config import EnergyWeights, GridSpec
+    from uavplan.planners.base import PathProblem
+
+    w = sample_world(margin_m=5.0)
+    problem = PathProblem.build(
+        w, (-250.0, 0.0, 20.0), (250.0, 10.0, 30.0), GridSpec(), EnergyWeights(), 0
+    )
+    reach = problem.reach
+    rng = np.random.default_rng(9)
+    n_inner = problem.n_inner
+    dy, dz = problem.steps[1], problem.steps[2]
+    free_count = 0
+    for _ in range(300):
+        j = int(rng.integers(2, n_inner))  # interior columns: one segment each
+        y0, y1 = (float(v) for v in rng.integers(-8, 9, 2))
+        z0, z1 = (float(v) for v in rng.integers(1, 12, 2))
+        cols = problem.frame.cols
+        p0 = [cols[j - 1, 0] + y0 * dy * cols[j - 1, 2], cols[j - 1, 1] + y0 * dy * cols[j - 1, 3],
+              z0 * dz]  # fmt: skip
+        p1 = [cols[j, 0] + y1 * dy * cols[j, 2], cols[j, 1] + y1 * dy * cols[j, 3], z1 * dz]
+        # the problem's world is in the path frame, with the problem's margin
+        seg = (np.array([p0]), np.array([p1]))
+        free = bool(_geom.segments_free(*seg, reach.world, reach.margin)[0])
+        assert K.node_free(j, y0, z0, y1, z1, reach) == free
+        status = K.node_status(
+            j, y0, z0, y1, z1, reach.cols, dy, dz, K.margin_limit(reach.margin), reach.table,
+            reach.table_off, reach.memo,
+        )  # fmt: skip
+        assert status in (-1, 0, 1)
+        if status >= 0:
+            assert status == int(free)
+        free_count += free
+    assert 0 < free_count < 300  # both answers were exercised
