@@ -407,18 +407,11 @@ def run_job(job: BenchJob) -> RunRecord:
 
 
 def _worker_init() -> None:
-    """Local worker processes run one job at a time: keep numba to one thread each. Ctrl-C
-    is the parent's to handle (it stops the pool); a worker ignores it, so it never raises
-    inside a compiled kernel."""
+    """Ctrl-C is the parent's to handle (it stops the pool); a worker ignores it, so it never
+    raises inside a compiled kernel. (The C kernels are single-threaded.)"""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        import numba
-
-        numba.set_num_threads(1)
-    except (ImportError, ValueError):  # pragma: no cover - numba is a dependency
-        pass
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""The energy fitness of the paper (eq. 1–2), compiled.
+"""The energy fitness of the paper (eq. 1–2), compiled (C: :mod:`uavplan._ckernels`).
 
 ``E = k0·Σ|segment| + k1·Σ μ0·(1 + cos θ) + k2·Σ|Δz|`` over a polyline, with θ the angle at a
 vertex between its two segments (straight: θ = 180°, term 0). The search evaluates it on the
@@ -10,123 +10,71 @@ individual and axis, so a whole population costs O(G·D).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from numba import njit
 
+from uavplan._geom import _c
 from uavplan.config import EnergyWeights
 
 #: spline samples per column interval used by the search fitness
 N_SUB = 3
 
 
-@njit(cache=True)
-def polyline_energy(points, k0, k1, mu0, k2):
+def _f64(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def polyline_energy(
+    points: np.ndarray, k0: float, k1: float, mu0: float, k2: float
+) -> tuple[float, float, float]:
     """(E_path, E_turning, E_climb) of the polyline ``points`` (n, 3), weights applied."""
-    n = points.shape[0]
-    length = 0.0
-    turn = 0.0
-    climb = 0.0
-    pdx = 0.0
-    pdy = 0.0
-    pdz = 0.0
-    plen = 0.0
-    for i in range(1, n):
-        dx = points[i, 0] - points[i - 1, 0]
-        dy = points[i, 1] - points[i - 1, 1]
-        dz = points[i, 2] - points[i - 1, 2]
-        seg = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if seg <= 1e-12:
-            continue
-        length += seg
-        climb += abs(dz)
-        if plen > 0.0:
-            # 1 + cos θ, θ the angle between the two segments at the vertex
-            turn += 1.0 - (pdx * dx + pdy * dy + pdz * dz) / (plen * seg)
-        pdx = dx
-        pdy = dy
-        pdz = dz
-        plen = seg
-    return k0 * length, k1 * mu0 * turn, k2 * climb
+    return _c.polyline_energy(_f64(points), float(k0), float(k1), float(mu0), float(k2))
 
 
-@njit(cache=True)
-def _thomas_factors(n):
+def _thomas_factors(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Forward-sweep factors of tridiag(1, 4, 1) of size n (natural spline, uniform knots)."""
     cp = np.empty(n)
     den = np.empty(n)
     prev = 0.0
     for i in range(n):
-        den[i] = 4.0 - prev
-        cp[i] = 1.0 / den[i]
-        prev = cp[i]
+        d = 4.0 - prev
+        den[i] = d
+        prev = 1.0 / d
+        cp[i] = prev
     return cp, den
 
 
-@njit(cache=True)
-def _second_derivs(vals, h, cp, den, out):
-    """Natural cubic spline second derivatives M (len D + 1) of knot values ``vals``."""
-    n = vals.shape[0] - 2
-    out[0] = 0.0
-    out[n + 1] = 0.0
-    if n <= 0:
-        return
-    scale = 6.0 / (h * h)
-    # forward sweep, storing d' in out[1..n]
-    prev = 0.0
-    for i in range(n):
-        r = scale * (vals[i] - 2.0 * vals[i + 1] + vals[i + 2])
-        prev = (r - prev) / den[i]
-        out[i + 1] = prev
-    for i in range(n - 2, -1, -1):
-        out[i + 1] -= cp[i] * out[i + 2]
-
-
-@njit(cache=True)
-def spline_points(ys, zs, dx, n_sub, cp, den, out):
+def spline_points(
+    ys: np.ndarray,
+    zs: np.ndarray,
+    dx: float,
+    n_sub: int,
+    cp: np.ndarray,
+    den: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """Sample the natural cubic splines y(x), z(x) through knots at x = j·dx.
 
     ``ys``, ``zs``: knot values (D + 1,) in metres. ``out``: (D·n_sub + 1, 3) filled.
     """
-    nk = ys.shape[0]
-    my = np.empty(nk)
-    mz = np.empty(nk)
-    _second_derivs(ys, dx, cp, den, my)
-    _second_derivs(zs, dx, cp, den, mz)
-    h2 = dx * dx / 6.0
-    row = 0
-    for i in range(nk - 1):
-        for k in range(n_sub):
-            u = k / n_sub
-            a = 1.0 - u
-            c = h2 * (a * a * a - a)
-            d = h2 * (u * u * u - u)
-            out[row, 0] = (i + u) * dx
-            out[row, 1] = a * ys[i] + u * ys[i + 1] + c * my[i] + d * my[i + 1]
-            out[row, 2] = a * zs[i] + u * zs[i + 1] + c * mz[i] + d * mz[i + 1]
-            row += 1
-    out[row, 0] = (nk - 1) * dx
-    out[row, 1] = ys[nk - 1]
-    out[row, 2] = zs[nk - 1]
+    _c.spline_points(_f64(ys), _f64(zs), float(dx), int(n_sub), _f64(cp), _f64(den), out)
 
 
-@njit(cache=True)
-def _moving_average(vals, half, out):
-    """Centred moving average over 2·half + 1 knots, the window shrunk symmetrically near
-    the ends so the end knots stay where they are."""
-    n = vals.shape[0]
-    for i in range(n):
-        h = min(half, i, n - 1 - i)
-        acc = 0.0
-        for k in range(i - h, i + h + 1):
-            acc += vals[k]
-        out[i] = acc / (2 * h + 1)
-
-
-@njit(cache=True)
-def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth,
-                      cols, straight):  # fmt: skip
+def population_energy(
+    nodes: np.ndarray,
+    start_yz: np.ndarray,
+    goal_yz: np.ndarray,
+    dx: float,
+    dy: float,
+    dz: float,
+    n_sub: int,
+    k0: float,
+    k1: float,
+    mu0: float,
+    k2: float,
+    smooth: int,
+    cols: np.ndarray,
+    straight: bool,
+) -> np.ndarray:
     """Energy (G,) of every individual: nodes (G, D − 1, 2) in grid units (y, z).
 
     ``start_yz`` / ``goal_yz`` are the fixed end points in metres. ``smooth`` > 0 evaluates
@@ -141,100 +89,19 @@ def population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, 
     paper; along a curved guide every knot is placed in the plane (origin + y·normal) and
     x, y and z are splines of the column index.
     """
-    g_count = nodes.shape[0]
-    inner = nodes.shape[1]
-    nk = inner + 2
-    cp, den = _thomas_factors(max(inner, 1))
-    out = np.empty(g_count)
-    ys = np.empty(nk)
-    zs = np.empty(nk)
-    sy = np.empty(nk)
-    sz = np.empty(nk)
-    sx = np.empty(nk)
-    my = np.empty(nk)
-    mz = np.empty(nk)
-    mx = np.zeros(nk)
-    h2 = dx * dx / 6.0
-    for g in range(g_count):
-        ys[0] = start_yz[0]
-        zs[0] = start_yz[1]
-        ys[nk - 1] = goal_yz[0]
-        zs[nk - 1] = goal_yz[1]
-        for j in range(inner):
-            ys[j + 1] = nodes[g, j, 0] * dy
-            zs[j + 1] = nodes[g, j, 1] * dz
-        if smooth > 0:
-            _moving_average(ys, smooth, sy)
-            _moving_average(zs, smooth, sz)
-        else:
-            sy[:] = ys
-            sz[:] = zs
-        if not straight:
-            for j in range(nk):  # lateral offsets → positions in the plane
-                lat = sy[j]
-                sx[j] = cols[j, 0] + lat * cols[j, 2]
-                sy[j] = cols[j, 1] + lat * cols[j, 3]
-            _second_derivs(sx, dx, cp, den, mx)
-        _second_derivs(sy, dx, cp, den, my)
-        _second_derivs(sz, dx, cp, den, mz)
-        length = 0.0
-        turn = 0.0
-        climb = 0.0
-        px = 0.0 if straight else sx[0]
-        py = sy[0]
-        pz = sz[0]
-        pdx = 0.0
-        pdy = 0.0
-        pdz = 0.0
-        plen = 0.0
-        for i in range(nk - 1):
-            for k in range(n_sub):
-                if i == 0 and k == 0:
-                    continue
-                u = k / n_sub
-                a = 1.0 - u
-                c = h2 * (a * a * a - a)
-                d = h2 * (u * u * u - u)
-                if straight:
-                    x = (i + u) * dx
-                else:
-                    x = a * sx[i] + u * sx[i + 1] + c * mx[i] + d * mx[i + 1]
-                y = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1]
-                z = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1]
-                ex = x - px
-                ey = y - py
-                ez = z - pz
-                seg = math.sqrt(ex * ex + ey * ey + ez * ez)
-                if seg > 1e-12:
-                    length += seg
-                    climb += abs(ez)
-                    if plen > 0.0:
-                        turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg)
-                    pdx = ex
-                    pdy = ey
-                    pdz = ez
-                    plen = seg
-                px = x
-                py = y
-                pz = z
-        # the last sample: the goal knot
-        ex = ((nk - 1) * dx if straight else sx[nk - 1]) - px
-        ey = sy[nk - 1] - py
-        ez = sz[nk - 1] - pz
-        seg = math.sqrt(ex * ex + ey * ey + ez * ez)
-        if seg > 1e-12:
-            length += seg
-            climb += abs(ez)
-            if plen > 0.0:
-                turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg)
-        out[g] = k0 * length + k1 * mu0 * turn + k2 * climb
+    nodes = _f64(nodes)
+    out = np.empty(nodes.shape[0])
+    _c.population_energy(
+        nodes, _f64(start_yz), _f64(goal_yz), float(dx), float(dy), float(dz), int(n_sub),
+        float(k0), float(k1), float(mu0), float(k2), int(smooth), _f64(cols), bool(straight),
+        out,
+    )  # fmt: skip
     return out
 
 
 def energy_terms(points: np.ndarray, weights: EnergyWeights) -> tuple[float, float, float]:
     """(path, turning, climb) energy of a polyline (n, 3) in metres."""
-    p = np.ascontiguousarray(points, dtype=float)
-    e = polyline_energy(p, weights.k0, weights.k1, weights.mu0, weights.k2)
+    e = polyline_energy(points, weights.k0, weights.k1, weights.mu0, weights.k2)
     return float(e[0]), float(e[1]), float(e[2])
 
 

@@ -1,0 +1,304 @@
+"""The compiled C kernels (uavplan._ckernels) against small pure-Python references: the
+geometry primitives, the cell grid, the random streams, the energy, and that a whole
+``uavplan plan`` runs on the extension without numba."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uavplan import _ckernels, _geom
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
+from uavplan.path import energy
+from uavplan.planners import _kernels as K
+from uavplan.world import World
+
+ROOT = Path(__file__).resolve().parent.parent
+BOUNDS = ((-300.0, 300.0), (-300.0, 300.0), (0.0, 200.0))
+
+
+def sample_world(margin_m: float = 5.0) -> World:
+    return World.build(
+        [
+            BoxObstacle((0.0, 0.0), (40.0, 20.0), 50.0),
+            CylinderObstacle((100.0, 50.0), 15.0, 80.0),
+            PrismObstacle(((-150.0, -100.0), (-90.0, -110.0), (-100.0, -40.0)), 35.0),
+        ],
+        bounds_xyz=BOUNDS,
+        margin_m=margin_m,
+    )
+
+
+# -- pure-Python references --------------------------------------------------------------------
+
+
+def ref_point_polygon(px: float, py: float, verts: list[tuple[float, float]]) -> float:
+    inside = True
+    best = math.inf
+    n = len(verts)
+    for i in range(n):
+        (ax, ay), (bx, by) = verts[i], verts[(i + 1) % n]
+        if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
+            inside = False
+        ex, ey = bx - ax, by - ay
+        den = ex * ex + ey * ey
+        t = 0.0 if den <= 0 else min(1.0, max(0.0, ((px - ax) * ex + (py - ay) * ey) / den))
+        best = min(best, (px - ax - t * ex) ** 2 + (py - ay - t * ey) ** 2)
+    return 0.0 if inside else math.sqrt(best)
+
+
+def ref_splitmix(seed: int, n: int) -> list[int]:
+    mask = (1 << 64) - 1
+    out = []
+    st = seed
+    for _ in range(n):
+        st = (st + 0x9E3779B97F4A7C15) & mask
+        z = st
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & mask
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & mask
+        out.append(z ^ (z >> 31))
+    return out
+
+
+def ref_polyline_energy(p: np.ndarray, k0: float, k1: float, mu0: float, k2: float):
+    length = turn = climb = 0.0
+    prev = None
+    for i in range(1, len(p)):
+        d = p[i] - p[i - 1]
+        seg = math.sqrt(float(d @ d))
+        if seg <= 1e-12:
+            continue
+        length += seg
+        climb += abs(d[2])
+        if prev is not None:
+            turn += 1.0 - float(prev[0] @ d) / (prev[1] * seg)
+        prev = (d, seg)
+    return k0 * length, k1 * mu0 * turn, k2 * climb
+
+
+# -- geometry ----------------------------------------------------------------------------------
+
+
+def test_point_polygon_distance_matches_reference() -> None:
+    rng = np.random.default_rng(1)
+    verts = [(0.0, 0.0), (30.0, -5.0), (40.0, 20.0), (5.0, 25.0)]
+    arr = np.array(verts + [(0.0, 0.0)] * 3)  # padded like the world's arrays
+    for _ in range(300):
+        px, py = rng.uniform(-30, 70, 2)
+        assert _geom.point_polygon_dist2d(px, py, arr, 4) == pytest.approx(
+            ref_point_polygon(px, py, verts), abs=1e-12
+        )
+
+
+def test_point_and_segment_piece_distances_match_dense_sampling() -> None:
+    w = sample_world()
+    rng = np.random.default_rng(2)
+    n_pieces = w.box.shape[0]
+    for _ in range(60):
+        a = rng.uniform((-250, -250, 0), (250, 250, 150))
+        b = rng.uniform((-250, -250, 0), (250, 250, 150))
+        k = int(rng.integers(n_pieces))
+        args = (w.poly_xy, w.poly_n, w.poly_h, w.circ)
+        ts = np.linspace(0.0, 1.0, 2001)
+        sampled = min(_geom.point_piece_dist(*(a + t * (b - a)), k, *args) for t in ts)
+        exact = _geom.seg_piece_dist(*a, *b, k, *args, w.box, -1.0)
+        # golden section on a convex function: never above the samples, and close to them
+        assert exact <= sampled + 1e-6
+        assert exact >= sampled - np.linalg.norm(b - a) / 2000
+        # the yes/no form answers on the right side of the threshold
+        thr = 10.0
+        early = _geom.seg_piece_dist(*a, *b, k, *args, w.box, thr)
+        assert (early < thr) == (exact < thr - 1e-6) or abs(exact - thr) < 1e-6
+
+
+def test_segments_free_agrees_with_exact_clearance() -> None:
+    w = sample_world(margin_m=5.0)
+    rng = np.random.default_rng(3)
+    p0 = rng.uniform((-280, -280, 1), (280, 280, 190), (400, 3))
+    p1 = rng.uniform((-280, -280, 1), (280, 280, 190), (400, 3))
+    free = _geom.segments_free(p0, p1, w.kernel_args, 5.0)
+    dist, _ = _geom.segments_clearance(p0, p1, w.kernel_args)
+    clear = np.abs(dist - 5.0) > 1e-6  # away from the boundary case
+    assert np.array_equal(free[clear], (dist >= 5.0)[clear])
+    one = [_geom.segment_free(*p0[i], *p1[i], w.kernel_args, 5.0) for i in range(20)]
+    assert one == list(free[:20])
+
+
+def test_cell_grid_lists_every_piece_in_every_cell_it_overlaps() -> None:
+    rng = np.random.default_rng(4)
+    lo = rng.uniform(-500, 400, (50, 2))
+    size = rng.uniform(1, 120, (50, 2))
+    box = np.column_stack([lo[:, 0], lo[:, 0] + size[:, 0], lo[:, 1], lo[:, 1] + size[:, 1],
+                           rng.uniform(5, 50, 50)])  # fmt: skip
+    gmeta, start, items, piece_cells = _geom.build_cells(box, 2.0, 37.0)
+    x0, y0, cell, nx, ny = gmeta[0], gmeta[1], gmeta[2], int(gmeta[3]), int(gmeta[4])
+    assert x0 == box[:, 0].min() - 2.0 and y0 == box[:, 2].min() - 2.0
+    assert start.shape == (nx * ny + 1,) and start[-1] == items.shape[0]
+    expected: dict[int, list[int]] = {c: [] for c in range(nx * ny)}
+    for k in range(box.shape[0]):
+        a0 = max(0, math.floor((box[k, 0] - 2.0 - x0) / cell))
+        a1 = min(nx - 1, math.floor((box[k, 1] + 2.0 - x0) / cell))
+        b0 = max(0, math.floor((box[k, 2] - 2.0 - y0) / cell))
+        b1 = min(ny - 1, math.floor((box[k, 3] + 2.0 - y0) / cell))
+        assert list(piece_cells[k]) == [a0, a1, b0, b1]
+        for cx in range(a0, a1 + 1):
+            for cy in range(b0, b1 + 1):
+                expected[cx * ny + cy].append(k)
+    for c, ks in expected.items():
+        assert list(items[start[c] : start[c + 1]]) == ks
+
+
+def test_points_clearance_is_the_minimum_over_pieces() -> None:
+    w = sample_world()
+    rng = np.random.default_rng(5)
+    p = rng.uniform((-250, -250, 0), (250, 250, 150), (100, 3))
+    dist, which = _geom.points_clearance(p, w.kernel_args)
+    args = (w.poly_xy, w.poly_n, w.poly_h, w.circ)
+    for i in range(p.shape[0]):
+        each = [_geom.point_piece_dist(*p[i], k, *args) for k in range(w.box.shape[0])]
+        assert dist[i] == min(each)
+        assert which[i] == int(np.argmin(each))
+
+
+def test_wrong_arrays_raise_clear_errors_not_crashes() -> None:
+    w = sample_world()
+    p = np.zeros((3, 3), dtype=np.float32)
+    with pytest.raises(TypeError, match="float64"):
+        _ckernels.segments_free(p, p, w.kernel_args, 1.0, np.empty(3, np.bool_))
+    with pytest.raises(ValueError, match="segments_free"):
+        _ckernels.segments_free(np.zeros((3, 3)), np.zeros((2, 3)), w.kernel_args, 1.0,
+                                np.empty(3, np.bool_))  # fmt: skip
+    with pytest.raises(IndexError):
+        _geom.point_piece_dist(0.0, 0.0, 0.0, 99, w.poly_xy, w.poly_n, w.poly_h, w.circ)
+    with pytest.raises(TypeError, match="world"):
+        _ckernels.segment_free(0.0, 0.0, 0.0, 1.0, 1.0, 1.0, (w.poly_xy,), 1.0)
+
+
+# -- random streams ----------------------------------------------------------------------------
+
+
+def test_splitmix_stream_matches_reference() -> None:
+    for seed in (0, 1, 2**63 + 12345, 2**64 - 1):
+        assert _ckernels.stream_draws(seed, -1, 50) == ref_splitmix(seed, 50)
+        uniform = _ckernels.stream_draws(seed, K.DRAW_UNIFORM, 50)
+        assert uniform == [(z >> 11) * (1.0 / 9007199254740992.0) for z in ref_splitmix(seed, 50)]
+
+
+def test_ziggurat_tables_match_the_python_construction() -> None:
+    kn, wn, fn = K._ziggurat_tables()
+    ckn, cwn, cfn = _ckernels.ziggurat_tables()
+    assert list(kn) == list(ckn) and list(wn) == list(cwn) and list(fn) == list(cfn)
+
+
+def test_normal_draws_look_standard_normal() -> None:
+    x = np.array(_ckernels.stream_draws(99, K.DRAW_NORMAL, 200_000))
+    assert abs(x.mean()) < 0.01 and abs(x.std() - 1.0) < 0.01
+    assert abs(np.mean(np.abs(x) > 3.442619855899) - 5.76e-4) < 3e-4  # the tail is sampled
+    sym = np.array(_ckernels.stream_draws(5, K.DRAW_SYMMETRIC, 10_000))
+    assert sym.min() >= -1.0 and sym.max() < 1.0
+    assert _ckernels.stream_draws(5, K.DRAW_NONE, 3) == [0.0, 0.0, 0.0]
+
+
+# -- energy ------------------------------------------------------------------------------------
+
+
+def test_polyline_energy_matches_reference() -> None:
+    rng = np.random.default_rng(6)
+    p = np.cumsum(rng.normal(0, 10, (40, 3)), axis=0)
+    p[10] = p[9]  # a zero-length segment is skipped
+    got = energy.polyline_energy(p, 1.0, 2.0, 0.5, 3.0)
+    assert got == pytest.approx(ref_polyline_energy(p, 1.0, 2.0, 0.5, 3.0), rel=1e-12)
+    assert energy.polyline_energy(np.zeros((0, 3)), 1.0, 1.0, 1.0, 1.0) == (0.0, 0.0, 0.0)
+
+
+def test_thomas_factors_solve_the_spline_system() -> None:
+    cp, den = energy._thomas_factors(6)
+    assert den[0] == 4.0 and cp[0] == 0.25
+    assert all(den[i] == 4.0 - cp[i - 1] for i in range(1, 6))
+
+
+# -- the whole command -------------------------------------------------------------------------
+
+
+def test_plan_runs_on_the_extension_without_numba(tmp_path: Path) -> None:
+    out = tmp_path / "env1.plan"
+    code = (
+        "import sys; from click.testing import CliRunner; from uavplan.cli import main; "
+        f"r = CliRunner().invoke(main, ['plan', {str(ROOT / 'missions/paper-env1.yaml')!r}, "
+        f"'-o', {str(out)!r}, '--iterations', '20', '--quiet']); "
+        "import uavplan._ckernels as c; "
+        "print(r.exit_code, 'numba' in sys.modules, 'uavplan._ckernels' in sys.modules, "
+        "c.__file__.endswith('.so'))"
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path
+    )
+    assert res.stdout.split() == ["0", "False", "True", "True"], res.stdout + res.stderr
+    assert out.stat().st_size > 0
+
+
+def test_population_energy_matches_a_scipy_spline_reference() -> None:
+    from scipy.interpolate import CubicSpline
+
+    rng = np.random.default_rng(8)
+    dx, dy, dz, n_sub = 20.0, 5.0, 4.0, 3
+    nodes = rng.integers(-6, 7, (5, 9, 2)).astype(float)
+    start, goal = np.array([0.0, 30.0]), np.array([10.0, 42.0])
+    cols = np.zeros((11, 4))  # straight guide: ignored
+    got = energy.population_energy(
+        nodes, start, goal, dx, dy, dz, n_sub, 1.0, 2.0, 0.5, 3.0, 0, cols, True
+    )
+    for g in range(nodes.shape[0]):
+        ys = np.concatenate([[start[0]], nodes[g, :, 0] * dy, [goal[0]]])
+        zs = np.concatenate([[start[1]], nodes[g, :, 1] * dz, [goal[1]]])
+        x = np.arange(ys.shape[0]) * dx
+        xs = np.linspace(0.0, x[-1], (ys.shape[0] - 1) * n_sub + 1)
+        pts = np.column_stack(
+            [
+                xs,
+                CubicSpline(x, ys, bc_type="natural")(xs),
+                CubicSpline(x, zs, bc_type="natural")(xs),
+            ]
+        )
+        assert got[g] == pytest.approx(sum(ref_polyline_energy(pts, 1.0, 2.0, 0.5, 3.0)), rel=1e-9)
+
+
+def test_node_free_agrees_with_the_exact_segment_test() -> None:
+    from uavplan.config import EnergyWeights, GridSpec
+    from uavplan.planners.base import PathProblem
+
+    w = sample_world(margin_m=5.0)
+    problem = PathProblem.build(
+        w, (-250.0, 0.0, 20.0), (250.0, 10.0, 30.0), GridSpec(), EnergyWeights(), 0
+    )
+    reach = problem.reach
+    rng = np.random.default_rng(9)
+    n_inner = problem.n_inner
+    dy, dz = problem.steps[1], problem.steps[2]
+    free_count = 0
+    for _ in range(300):
+        j = int(rng.integers(2, n_inner))  # interior columns: one segment each
+        y0, y1 = (float(v) for v in rng.integers(-8, 9, 2))
+        z0, z1 = (float(v) for v in rng.integers(1, 12, 2))
+        cols = problem.frame.cols
+        p0 = [cols[j - 1, 0] + y0 * dy * cols[j - 1, 2], cols[j - 1, 1] + y0 * dy * cols[j - 1, 3],
+              z0 * dz]  # fmt: skip
+        p1 = [cols[j, 0] + y1 * dy * cols[j, 2], cols[j, 1] + y1 * dy * cols[j, 3], z1 * dz]
+        # the problem's world is in the path frame, with the problem's margin
+        seg = (np.array([p0]), np.array([p1]))
+        free = bool(_geom.segments_free(*seg, reach.world, reach.margin)[0])
+        assert K.node_free(j, y0, z0, y1, z1, reach) == free
+        status = K.node_status(
+            j, y0, z0, y1, z1, reach.cols, dy, dz, K.margin_limit(reach.margin), reach.table,
+            reach.table_off, reach.memo,
+        )  # fmt: skip
+        assert status in (-1, 0, 1)
+        if status >= 0:
+            assert status == int(free)
+        free_count += free
+    assert 0 < free_count < 300  # both answers were exercised
