@@ -19,7 +19,6 @@ from uavplan.cli.common import (
 )
 from uavplan.cli.options import ALGORITHM
 from uavplan.errors import InputError, NoPathError
-from uavplan.fileio import atomic_write_text
 
 
 def _load_scenario(path: str):
@@ -135,6 +134,8 @@ def plan_command(
         finally:
             progress.close()
     if report:
+        from uavplan.fileio import atomic_write_text
+
         atomic_write_text(report, json.dumps(result.report(scn), indent=2) + "\n")
     route = require_route(scn, result)
     if not quiet:
