@@ -914,8 +914,8 @@ def _obstacle_fast(raw: Any) -> Obstacle | None:
     (tests/test_fast_yaml.py)."""
     if type(raw) is not dict:
         return None
-    kind = raw.get("type")
-    height = raw.get("height")
+    kind: Any = raw.get("type")
+    height: Any = raw.get("height")
     if type(height) not in _NUMBER_TYPES or not 0 < height <= MAX_ALTITUDE_M:
         return None
     if kind == "box" and type(kind) is str:

@@ -76,7 +76,7 @@ class _LazyGroup(click.Group):
         rows = []
         for name in names:
             if name in COMMANDS:
-                text = click.utils.make_default_short_help(COMMANDS[name][1], limit)
+                text = click.Command(name, help=COMMANDS[name][1]).get_short_help_str(limit)
             else:  # registered at run time by someone else
                 text = self.commands[name].get_short_help_str(limit)
             rows.append((name, text))
