@@ -751,6 +751,7 @@ _SEARCH_KEYS = (
     "t_max",
     "init_half_window",
     "fitness_smoothing",
+    "stall_iterations",
 )
 
 
