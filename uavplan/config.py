@@ -316,7 +316,7 @@ class GridSpec:
 #: the default early stop (:attr:`SearchParams.stall_iterations`): a search, or each restart of
 #: SPSA, ends once the best fitness has not improved for this many iterations; chosen from
 #: measurements on the bundled scenarios (docs/algorithm.md, "Termination")
-DEFAULT_STALL_ITERATIONS = 150
+DEFAULT_STALL_ITERATIONS = 100
 
 
 @dataclass(frozen=True)

@@ -49,7 +49,7 @@ def _load_scenario(path: str):
     type=click.IntRange(min=1),
     help="Run exactly this many iterations M (the paper's protocol). Default: the scenario's M "
     "(1000) as a budget, stopping once the best has not improved for planner.stall_iterations "
-    "(150).",
+    "(100).",
 )
 @click.option("--population", type=click.IntRange(min=4), help="Population size G (default 30).")
 @click.option(
