@@ -267,3 +267,33 @@ def test_plain_obstacles_take_the_fast_path() -> None:
     for raw in (box, cyl, prism):
         fast = S._obstacle_fast(raw)
         assert fast is not None and fast == S._obstacle(chk, raw, "obstacles[0]")
+
+
+def _reference_self_intersects(poly: list[tuple[float, float]]) -> bool:
+    """The all-pairs proper-crossing test written out plainly."""
+    n = len(poly)
+
+    def cross(o: Any, a: Any, b: Any) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    for i in range(n):
+        a, b = poly[i], poly[(i + 1) % n]
+        for j in range(i + 2, n):
+            if i == 0 and j == n - 1:
+                continue
+            c, d = poly[j], poly[(j + 1) % n]
+            if cross(c, d, a) * cross(c, d, b) < 0 and cross(a, b, c) * cross(a, b, d) < 0:
+                return True
+    return False
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.integers(-5, 5), st.integers(-5, 5)), min_size=3, max_size=16))
+def test_polygon_checks_match_the_plain_definitions(pts: list[tuple[int, int]]) -> None:
+    poly = [(float(x), float(y)) for x, y in pts]
+    n = len(poly)
+    area = 0.5 * sum(
+        poly[i][0] * poly[(i + 1) % n][1] - poly[(i + 1) % n][0] * poly[i][1] for i in range(n)
+    )
+    assert S._signed_area(poly) == area
+    assert S._self_intersects_small(poly) == _reference_self_intersects(poly)

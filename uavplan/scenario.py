@@ -658,10 +658,8 @@ def _height(chk: _Checker, raw: Any, key: str) -> float:
 
 
 def _signed_area(poly: Sequence[Sequence[float]]) -> float:
-    n = len(poly)
-    return 0.5 * sum(
-        poly[i][0] * poly[(i + 1) % n][1] - poly[(i + 1) % n][0] * poly[i][1] for i in range(n)
-    )
+    nxt = [*poly[1:], poly[0]]
+    return 0.5 * sum(a[0] * b[1] - b[0] * a[1] for a, b in zip(poly, nxt, strict=True))
 
 
 def _self_intersects(poly: Sequence[Sequence[float]]) -> bool:
@@ -695,18 +693,18 @@ def _self_intersects(poly: Sequence[Sequence[float]]) -> bool:
 def _self_intersects_small(poly: Sequence[Sequence[float]]) -> bool:
     """:func:`_self_intersects` for a few vertices (a plain loop is faster there)."""
     n = len(poly)
-
-    def cross(o: Sequence[float], a: Sequence[float], b: Sequence[float]) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
     for i in range(n):
-        a, b = poly[i], poly[(i + 1) % n]
-        for j in range(i + 2, n):
-            if i == 0 and j == n - 1:
-                continue
-            c, d = poly[j], poly[(j + 1) % n]
-            if cross(c, d, a) * cross(c, d, b) < 0 and cross(a, b, c) * cross(a, b, d) < 0:
-                return True
+        (ax, ay), (bx, by) = poly[i], poly[(i + 1) % n]
+        for j in range(i + 2, n - 1 if i == 0 else n):
+            (cx, cy), (dx, dy) = poly[j], poly[(j + 1) % n]
+            # the same products as cross(o, p, q) = (p - o) × (q - o), in the same order
+            d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+            d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+            if d1 * d2 < 0:
+                d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+                d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+                if d3 * d4 < 0:
+                    return True
     return False
 
 
