@@ -15,11 +15,13 @@ and a scenario whose path grid or search is larger than the documented limits
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import itertools
 import json
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -819,8 +821,28 @@ def _mission(chk: _Checker, raw: Any) -> MissionConfig:
     return MissionConfig(autopilot, spacing, end)
 
 
+@contextlib.contextmanager
+def _no_gc() -> Iterator[None]:
+    """Pause the cyclic garbage collector while a file's values are built: the hundreds of
+    thousands of new lists and dicts of a large map trigger full collections that make
+    loading grow faster than the file (20,000 obstacles: 0.9 s -> 0.6 s). They hold no
+    cycles; the collector is restarted (if it was running) whatever happens."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
 def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...]]:
     """Read a map file: (origin, bounds, obstacles); missing sections are ``None`` / empty."""
+    with _no_gc():
+        return _load_map(path)
+
+
+def _load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...]]:
     path = Path(path)
     chk = _Checker(str(path))
     raw = _read_yaml(path, "map")
@@ -999,6 +1021,11 @@ def _map_path(chk: _Checker, raw: Any, scenario: Path) -> Path:
 
 def load_scenario(path: str | Path) -> Scenario:
     """Load and validate a scenario file (and the map it names)."""
+    with _no_gc():
+        return _load_scenario(path)
+
+
+def _load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
     chk = _Checker(str(path))
     raw = _read_yaml(path, "scenario")
