@@ -297,3 +297,34 @@ def test_polygon_checks_match_the_plain_definitions(pts: list[tuple[int, int]]) 
     )
     assert S._signed_area(poly) == area
     assert S._self_intersects_small(poly) == _reference_self_intersects(poly)
+
+
+def test_plain_python_clearances_match_the_numpy_ones() -> None:
+    """Small scenarios are checked without numpy (`validate` starts faster); the distances
+    are the numpy footprints' own, obstacle by obstacle."""
+    import numpy as np
+
+    from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
+
+    rng = np.random.default_rng(5)
+    obstacles: list[Any] = []
+    for k in range(40):
+        x, y, h = rng.uniform(-300, 300), rng.uniform(-300, 300), rng.uniform(5, 100)
+        if k % 3 == 0:
+            obstacles.append(CylinderObstacle((x, y), rng.uniform(1, 40), h))
+        elif k % 3 == 1:
+            size = (rng.uniform(1, 60), rng.uniform(1, 60))
+            obstacles.append(BoxObstacle((x, y), size, h, rng.uniform(-180, 180)))
+        else:
+            ring = ((x, y), (x + 30, y), (x + 30, y + 10), (x + 10, y + 10), (x + 10, y + 40))
+            obstacles.append(PrismObstacle((*ring, (x, y + 40)), h))
+    fp = S._Footprints(obstacles)
+    for _ in range(300):
+        p = (rng.uniform(-350, 350), rng.uniform(-350, 350), rng.uniform(1, 150))
+        ref = fp.horizontal(p[:2])
+        mine = [S._horizontal_small(o, p[0], p[1]) for o in obstacles]
+        assert np.allclose(mine, ref, rtol=0, atol=1e-9)
+        dist, index = S._point_clearance(obstacles, p)
+        full = np.hypot(ref, np.maximum(p[2] - fp.heights, 0.0))
+        assert dist == pytest.approx(float(full.min()), abs=1e-9)
+        assert full[index] == pytest.approx(float(full.min()), abs=1e-9)
