@@ -1,76 +1,162 @@
 #!/usr/bin/env python3
-"""Planner speed and route quality on the bundled scenarios; prints a table.
+"""Where the time of a ``uavplan plan`` goes, per scenario; prints a table (issue 13).
 
-For every scenario: the median wall time of the planner core (search + post-processing, as
-``runtime_s`` in the report; start-up and file I/O excluded) over ``--runs`` seeds with the
-scenario's settings (default G = 30, M = 1000), the median of the search alone, the median
-wall time of the whole ``uavplan plan`` process, and the energy statistics over the seeds
-(mean, std / mean, collision-free count). ``guide s`` is the part of the core spent in the
-global (guide) search, which runs only where the straight start→goal columns cannot hold a
-path; ``search s`` is the first leg's swarm search.
+Each scenario is planned in a fresh interpreter that times its phases:
 
-    python tools/bench_plan.py                    # 5 seeds, 3 process runs per scenario
-    python tools/bench_plan.py --runs 30 missions/paper-env*.yaml   # the 30-seed protocol
+* ``import``: importing the CLI and the planning wiring (uavplan, numpy, the kernels' modules);
+* ``load``: reading and validating the scenario (:func:`uavplan.scenario.load_scenario`);
+* ``kernels``: loading (or compiling) the compiled kernels (:func:`uavplan.warmup.warm_up`);
+* ``build``: the world and the path problem;
+* ``search``: the planner (and the guide search where it runs);
+* ``post``: post-processing into waypoints (``runtime_s`` minus the search);
+* ``write``: building the mission and writing the .plan;
+
+then, apart, the whole ``uavplan plan SCENARIO -o x.plan -q`` process: wall time and peak
+resident memory (``os.wait4`` of that child). ``E`` is the final energy (seed 1, the
+scenario's settings: the default early stop), ``ref`` the ratio to the A* + line-of-sight
+reference (``--no-reference`` skips the A*). Medians over ``--repeat`` runs.
+
+    python tools/bench_plan.py                                  # the bundled scenarios
+    python tools/bench_plan.py missions/paper-env1.yaml --repeat 5
+    python tools/bench_plan.py --iterations 1000 missions/paper-env*.yaml   # fixed M
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
+PHASES = ("import", "load", "kernels", "build", "search", "post", "write")
+
+#: the child: runs one plan phase by phase and prints one JSON line
+CHILD = r"""
+import time
+t0 = time.perf_counter()
+import json, sys
+from pathlib import Path
+import uavplan.cli
+from uavplan import planning
+from uavplan.scenario import load_scenario
+from uavplan.warmup import warm_up
+from uavplan.mission.io import save_mission
+t1 = time.perf_counter()
+path, out, iterations, reference = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4] == "1"
+scn = load_scenario(path)
+if iterations:
+    from uavplan.cli.plan_cmd import overridden
+    scn = overridden(scn, None, None, iterations, None)
+t2 = time.perf_counter()
+warm_up()
+t3 = time.perf_counter()
+world = planning.build_world(scn)
+problem = planning.build_problem(scn, world) if not scn.via_m else None
+t4 = time.perf_counter()
+res = planning.plan_route(scn, world=world, problem=problem)
+t5 = time.perf_counter()
+search = sum(leg.planner.runtime_s + leg.guide_s for leg in res.legs) or res.planner.runtime_s
+row = {"import": t1 - t0, "load": t2 - t1, "kernels": t3 - t2, "build": t4 - t3,
+       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status.value,
+       "energy": res.energy, "iterations": int(sum(l.planner.iterations for l in res.legs)),
+       "obstacles": len(scn.obstacles), "length_m": res.length_m, "notes": list(res.notes),
+       "message": res.message}
+if res.ok:
+    mission = planning.mission_for(scn, res.route)
+    save_mission(mission, out, extras=planning.export_extras(scn, res.route, {}))
+row["write"] = time.perf_counter() - t5
+if reference and res.ok:
+    import itertools
+    from uavplan.path.energy import energy_terms
+    from uavplan.path.post import simplify
+    total, t6 = 0.0, time.perf_counter()
+    for a, b in itertools.pairwise(planning.route_points(scn)):
+        route = planning.reference_route(scn, world=world, start_m=a, goal_m=b)
+        if not route.found:
+            total = float("nan")
+            break
+        los = route.path_enu[simplify(route.path_enu, world)]
+        total += float(sum(energy_terms(los, scn.planner.energy)))
+    row["reference_energy"] = total
+    row["reference_s"] = time.perf_counter() - t6
+print(json.dumps(row))
+"""
 
 
-def bench_core(path: Path, runs: int) -> dict:
-    from uavplan.planning import build_world, plan_route
-    from uavplan.scenario import load_scenario
-
-    scn = load_scenario(path)
-    cfg = scn.planner
-    world = build_world(scn)
-    # warm-up: compile (or load) the kernels once
-    plan_route(scn.with_planner(search=replace(cfg.search, iterations=5)), world=world)
-    core, search, guide, energy, free = [], [], [], [], 0
-    for seed in range(1, runs + 1):
-        # every leg's problem is built afresh: its reachability memo starts empty, as in a run
-        result = plan_route(scn.with_planner(search=replace(cfg.search, seed=seed)), world=world)
-        core.append(result.runtime_s)
-        guide.append(result.guide_s)
-        search.append(result.planner.runtime_s)
-        energy.append(result.energy)
-        free += bool(result.collision_free)
-    e = np.array(energy)
-    return {
-        "core_s": statistics.median(core),
-        "search_s": statistics.median(search),
-        "guide_s": statistics.median(guide),
-        "energy_mean": float(e.mean()),
-        "energy_min": float(e.min()),
-        "energy_max": float(e.max()),
-        "spread_pct": float(100.0 * e.std() / e.mean()),
-        "free": free,
-        "runs": runs,
-    }
+def run_child(args: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
+    """(wall seconds, peak RSS MiB, stdout) of one child process."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    assert proc.stdout is not None and proc.stderr is not None
+    out = proc.stdout.read().decode()
+    err = proc.stderr.read().decode()
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode not in (0, 3):
+        raise RuntimeError(f"{' '.join(args)} exited {proc.returncode}: {err.strip()[-500:]}")
+    return wall, usage.ru_maxrss / 1024.0, out
 
 
-def bench_process(path: Path, runs: int) -> float:
-    exe = [sys.executable, "-m", "uavplan"]
-    times = []
+def phases(path: Path, iterations: int, reference: bool) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "m.plan"
-        for _ in range(runs):
-            t0 = time.perf_counter()
-            subprocess.run([*exe, "plan", str(path), "-o", str(out), "--quiet"], check=True)
-            times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+        args = [sys.executable, "-c", CHILD, str(path), str(Path(tmp) / "m.plan")]
+        _, _, out = run_child([*args, str(iterations), "1" if reference else "0"])
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def whole_process(path: Path, iterations: int) -> tuple[float, float, int]:
+    """(wall s, peak RSS MiB, exit code) of ``uavplan plan PATH -o x.plan -q``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "uavplan", "plan", str(path), "-o", str(Path(tmp) / "x.plan")]
+        cmd += ["-q", *(["--iterations", str(iterations)] if iterations else [])]
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        assert proc.stderr is not None
+        proc.stderr.read()
+        _, status, usage = os.wait4(proc.pid, 0)
+        return time.perf_counter() - t0, usage.ru_maxrss / 1024.0, os.waitstatus_to_exitcode(status)
+
+
+def measure(path: Path, repeat: int, iterations: int, reference: bool) -> dict[str, Any]:
+    """Median phases over ``repeat`` children (the reference once), then ``repeat`` whole
+    processes."""
+    rows = [phases(path, iterations, reference and k == 0) for k in range(repeat)]
+    out: dict[str, Any] = {
+        p: statistics.median(r.get(p, float("nan")) for r in rows) for p in PHASES
+    }
+    first = rows[0]
+    out.update({k: first[k] for k in first if k not in PHASES})
+    procs = [whole_process(path, iterations) for _ in range(repeat)]
+    out["process_s"] = statistics.median(p[0] for p in procs)
+    out["rss_mib"] = max(p[1] for p in procs)
+    out["exit"] = procs[0][2]
+    ref = first.get("reference_energy")
+    out["ratio"] = first["energy"] / ref if ref else float("nan")
+    return out
+
+
+HEADER = (
+    f"{'scenario':<22} {'obst':>6} {'import':>6} {'load':>6} {'kernels':>7} {'build':>6} "
+    f"{'search':>6} {'post':>6} {'write':>6} {'process':>7} {'RSS MiB':>7} {'iter':>5} "
+    f"{'E':>9} {'ref':>6}"
+)
+
+
+def format_row(name: str, r: dict[str, Any]) -> str:
+    return (
+        f"{name:<22} {r['obstacles']:>6} {r['import']:6.2f} {r['load']:6.2f} {r['kernels']:7.2f} "
+        f"{r['build']:6.2f} {r['search']:6.2f} {r['post']:6.2f} {r['write']:6.2f} "
+        f"{r['process_s']:7.2f} {r['rss_mib']:7.0f} {r['iterations']:>5} {r['energy']:9.1f} "
+        f"{r['ratio']:6.3f}"
+    )
 
 
 def main() -> int:
@@ -78,25 +164,22 @@ def main() -> int:
     ap.add_argument(
         "scenarios", nargs="*", type=Path, default=sorted((ROOT / "missions").glob("*.yaml"))
     )
-    ap.add_argument("--runs", type=int, default=5, help="seeds per scenario for the core")
-    ap.add_argument("--process-runs", type=int, default=3, help="whole-process runs")
-    args = ap.parse_args()
-    header = (
-        f"{'scenario':<20} {'core s':>7} {'search s':>8} {'guide s':>7} {'process s':>9} "
-        f"{'E mean':>8} {'E min':>8} {'E max':>8} {'std %':>6} {'free':>6}"
+    ap.add_argument("--repeat", type=int, default=3, help="runs per scenario (medians)")
+    ap.add_argument(
+        "--iterations", type=int, default=0, help="force M iterations (default: early stop)"
     )
-    print(header)
-    print("-" * len(header))
+    ap.add_argument("--no-reference", action="store_true", help="skip the A* reference")
+    args = ap.parse_args()
+    print(HEADER)
+    print("-" * len(HEADER))
     for path in args.scenarios:
-        r = bench_core(path, args.runs)
-        proc = bench_process(path, args.process_runs) if args.process_runs else float("nan")
-        print(
-            f"{path.stem:<20} {r['core_s']:7.2f} {r['search_s']:8.2f} {r['guide_s']:7.3f} "
-            f"{proc:9.2f} "
-            f"{r['energy_mean']:8.1f} {r['energy_min']:8.1f} {r['energy_max']:8.1f} "
-            f"{r['spread_pct']:6.2f} {r['free']:>3}/{r['runs']:<2}",
-            flush=True,
-        )
+        r = measure(path, args.repeat, args.iterations, not args.no_reference)
+        print(format_row(path.stem, r), flush=True)
+    print(
+        "seconds; medians of the phases in one process (search includes the guide search), "
+        "'process' = the whole `uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / "
+        "(A* + line of sight)"
+    )
     return 0
 
 

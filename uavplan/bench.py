@@ -309,7 +309,10 @@ def make_jobs(
     jobs: list[BenchJob] = []
     names: set[str] = set()
     for scn in scenarios:
-        changes = {k: v for k, v in (("iterations", iterations), ("population", population)) if v}
+        changes: dict[str, Any] = {"stall_iterations": None}  # the paper's protocol: all M
+        changes.update(
+            (k, v) for k, v in (("iterations", iterations), ("population", population)) if v
+        )
         changes.update(search or {})
         if changes:
             scn = scn.with_planner(search=override(scn.planner.search, changes))

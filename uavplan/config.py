@@ -313,6 +313,12 @@ class GridSpec:
     dz_m: float = _num(10.0, lo=0.1, hi=10_000, key="dz", doc="vertical lattice step, metres")
 
 
+#: the default early stop (:attr:`SearchParams.stall_iterations`): a search, or each restart of
+#: SPSA, ends once the best fitness has not improved for this many iterations; chosen from
+#: measurements on the bundled scenarios (docs/algorithm.md, "Termination")
+DEFAULT_STALL_ITERATIONS = 100
+
+
 @dataclass(frozen=True)
 class SearchParams:
     """Options shared by every planner: population, iterations, seed and the initialisation.
@@ -334,6 +340,15 @@ class SearchParams:
     )
     fitness_smoothing: int | None = _num(
         None, kind="int", lo=0, hi=1000, optional=True, doc="moving-average half-width"
+    )
+    stall_iterations: int | None = _num(
+        DEFAULT_STALL_ITERATIONS,
+        kind="int",
+        lo=1,
+        hi=1_000_000,
+        optional=True,
+        doc="stop a search (each restart) once the best fitness has not improved for this "
+        "many iterations; null: run all M (the paper's protocol)",
     )
 
 
@@ -527,6 +542,7 @@ PLANNER_KEYS: tuple[str, ...] = (
     "t_max",
     "init_half_window",
     "fitness_smoothing",
+    "stall_iterations",
     "grid",
     "energy",
     "post",

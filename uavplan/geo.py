@@ -23,11 +23,13 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import ArrayLike, NDArray
-
 if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike, NDArray
     from pyproj import Transformer
+
+# numpy is imported where a conversion runs, not here: GeoPoint is plain Python, and reading a
+# scenario (`uavplan validate`) should not pay numpy's import (0.1-0.3 s)
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,8 @@ ECEF_CRS = "EPSG:4978"
 
 def _up_vectors(lat_deg: NDArray[np.float64], lon_deg: NDArray[np.float64]) -> NDArray[np.float64]:
     """Unit ellipsoid normals (ECEF) at geodetic lat/lon: shape ``(n, 3)``."""
+    import numpy as np
+
     lat = np.radians(lat_deg)
     lon = np.radians(lon_deg)
     return np.column_stack((np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)))
@@ -86,6 +90,8 @@ class EnuFrame:
     @cached_property
     def _rotation(self) -> NDArray[np.float64]:
         """Rows are the east, north and up unit vectors in ECEF: ``enu = R @ (ecef - o)``."""
+        import numpy as np
+
         lat = math.radians(self.origin.lat_deg)
         lon = math.radians(self.origin.lon_deg)
         sin_lat, cos_lat = math.sin(lat), math.cos(lat)
@@ -101,6 +107,8 @@ class EnuFrame:
     @cached_property
     def origin_ecef_m(self) -> NDArray[np.float64]:
         """The origin in ECEF metres, shape ``(3,)``."""
+        import numpy as np
+
         x, y, z = self._transformer.transform(
             self.origin.lon_deg, self.origin.lat_deg, self.origin.alt_m
         )
@@ -125,6 +133,8 @@ class EnuFrame:
         ``alt_m`` is in the origin altitude's reference (AMSL for a scenario origin);
         longitudes are in [-180, 180].
         """
+        import numpy as np
+
         ecef = self.to_ecef(points_enu)
         lon_deg, lat_deg, alt_m = self._transformer.transform(
             ecef[:, 0], ecef[:, 1], ecef[:, 2], direction="INVERSE"
@@ -139,6 +149,8 @@ class EnuFrame:
         self, lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike
     ) -> NDArray[np.float64]:
         """Geodetic positions (scalars or arrays, broadcast together) → ENU points ``(n, 3)``."""
+        import numpy as np
+
         lat, lon, alt = _as_geodetic(lat_deg, lon_deg, alt_m)
         x, y, z = self._transformer.transform(lon, lat, alt)
         ecef = np.column_stack(
@@ -153,6 +165,8 @@ class EnuFrame:
         mission item at relative altitude ``h`` above flat ground is the ENU point
         ``(*to_enu_xy(lat, lon), h)`` in the scenario's flat-ground model.
         """
+        import numpy as np
+
         lat, lon, _ = _as_geodetic(lat_deg, lon_deg, 0.0)
         on_ellipsoid = self.to_enu(lat, lon, np.zeros_like(lat))
         direction = _up_vectors(lat, lon) @ self._rotation.T  # normals in ENU, (n, 3)
@@ -162,6 +176,8 @@ class EnuFrame:
 
 
 def _as_points(points: ArrayLike, name: str) -> NDArray[np.float64]:
+    import numpy as np
+
     arr = np.asarray(points, dtype=np.float64)
     if arr.ndim == 1:
         arr = arr.reshape(1, -1)
@@ -175,6 +191,8 @@ def _as_points(points: ArrayLike, name: str) -> NDArray[np.float64]:
 def _as_geodetic(
     lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    import numpy as np
+
     lat, lon, alt = np.broadcast_arrays(
         np.asarray(lat_deg, dtype=np.float64),
         np.asarray(lon_deg, dtype=np.float64),

@@ -299,7 +299,11 @@ def plan_route(
     warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.search.seed)
-    termination = Termination(cfg.search.iterations, should_stop=should_stop)
+    termination = Termination(
+        cfg.search.iterations,
+        stall_iterations=cfg.search.stall_iterations,
+        should_stop=should_stop,
+    )
     legs: list[Leg] = []
     for i in range(n_legs):
         if problem is not None and n_legs == 1:

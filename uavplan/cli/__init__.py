@@ -2,30 +2,96 @@
 
 Each command lives in its own module under :mod:`uavplan.cli` and registers itself on
 :data:`main`; this module only assembles them. Nothing in the library imports the CLI.
+
+Start-up is part of the product (``uavplan --help`` in well under a tenth of a second): the
+command modules are imported only when their command runs. :data:`COMMANDS` names each
+command's module and the one-line help ``uavplan --help`` lists, so listing the commands
+imports none of them (tests/test_startup.py checks the table against the commands).
 """
 
 from __future__ import annotations
+
+import importlib
+from typing import Any
 
 import click
 
 from uavplan import __version__
 
+#: command name → (the module that defines it, its one-line help as ``--help`` lists it)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "bench": (
+        "bench_cmd",
+        "Run every algorithm RUNS times on each SCENARIO and print the paper's Table 2: "
+        "mean / worst / best / std of the final energy, success rate and median runtime.",
+    ),
+    "clear": ("link_cmd", "Clear the vehicle's mission, geofence, rally points, or all three."),
+    "convert": (
+        "render_cmd",
+        "Convert mission file IN to OUT; the formats come from the extensions.",
+    ),
+    "download": (
+        "link_cmd",
+        "Read the vehicle's mission (and geofence / rally points for a .plan) into a file.",
+    ),
+    "import": (
+        "import_cmd",
+        "Read buildings and tall structures from SOURCE (.osm, .osm.pbf, GeoJSON, GeoPackage, "
+        "Shapefile, KML, ...) and write them as an editable map file (YAML).",
+    ),
+    "mock-vehicle": ("link_cmd", "Run a simulated vehicle on CONN until SIGINT / SIGTERM."),
+    "plan": (
+        "plan_cmd",
+        "Plan a collision-free route for SCENARIO and write it as a mission file.",
+    ),
+    "render": (
+        "render_cmd",
+        "Draw SCENARIO in 3-D and from above, with a planned route or a mission's route.",
+    ),
+    "upload": (
+        "link_cmd",
+        "Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).",
+    ),
+    "validate": ("plan_cmd", "Check a scenario file, or a mission file against a scenario."),
+}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+class _LazyGroup(click.Group):
+    """A group whose commands are imported on first use (see :data:`COMMANDS`)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*COMMANDS, *self.commands})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in self.commands and cmd_name in COMMANDS:
+            importlib.import_module(f"uavplan.cli.{COMMANDS[cmd_name][0]}")
+        return self.commands.get(cmd_name)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        # the listing from the table: no command module is imported to print it
+        names = self.list_commands(ctx)
+        if not names:
+            return
+        limit = formatter.width - 6 - max(len(n) for n in names)
+        rows = []
+        for name in names:
+            if name in COMMANDS:
+                text = click.Command(name, help=COMMANDS[name][1]).get_short_help_str(limit)
+            else:  # registered at run time by someone else
+                text = self.commands[name].get_short_help_str(limit)
+            rows.append((name, text))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+
+@click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="uavplan")
 def main() -> None:
     """Plan obstacle-avoiding UAV missions and move them over MAVLink."""
 
 
-def _register() -> None:
-    # Imported for their side effect of adding commands to ``main``.
-    from uavplan.cli import (  # noqa: F401
-        bench_cmd,
-        import_cmd,
-        link_cmd,
-        plan_cmd,
-        render_cmd,
-    )
-
-
-_register()
+def load_all_commands() -> dict[str, Any]:
+    """Import every command module; the registered commands by name (tests, completion)."""
+    for module in sorted({m for m, _ in COMMANDS.values()}):
+        importlib.import_module(f"uavplan.cli.{module}")
+    return dict(main.commands)

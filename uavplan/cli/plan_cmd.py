@@ -19,7 +19,6 @@ from uavplan.cli.common import (
 )
 from uavplan.cli.options import ALGORITHM
 from uavplan.errors import InputError, NoPathError
-from uavplan.fileio import atomic_write_text
 
 
 def _load_scenario(path: str):
@@ -45,7 +44,13 @@ def _load_scenario(path: str):
     help="Planner (default: the scenario's, else spsa).",
 )
 @click.option("--seed", type=click.IntRange(min=0), help="Random seed (reproducible runs).")
-@click.option("--iterations", type=click.IntRange(min=1), help="Iterations M (default 1000).")
+@click.option(
+    "--iterations",
+    type=click.IntRange(min=1),
+    help="Run exactly this many iterations M (the paper's protocol). Default: the scenario's M "
+    "(1000) as a budget, stopping once the best has not improved for planner.stall_iterations "
+    "(100).",
+)
 @click.option("--population", type=click.IntRange(min=4), help="Population size G (default 30).")
 @click.option(
     "--autopilot",
@@ -130,10 +135,15 @@ def plan_command(
     with interruptible() as stop_requested:
         if not quiet:
             search = scn.planner.search
+            budget = f"{search.iterations} iterations"
+            if search.stall_iterations is not None:
+                budget = (
+                    f"at most {search.iterations} iterations, stopping after "
+                    f"{search.stall_iterations} without improvement"
+                )
             click.echo(
                 f"planning {scn.name} with {scn.planner.algorithm} (population "
-                f"{search.population}, {search.iterations} iterations, seed {search.seed}); "
-                "Ctrl-C stops",
+                f"{search.population}, {budget}, seed {search.seed}); Ctrl-C stops",
                 err=True,
             )
         try:
@@ -141,6 +151,8 @@ def plan_command(
         finally:
             progress.close()
     if report:
+        from uavplan.fileio import atomic_write_text
+
         atomic_write_text(report, json.dumps(result.report(scn), indent=2) + "\n")
     route = require_route(scn, result)
     if not quiet:
@@ -186,7 +198,8 @@ def overridden(
     population: int | None,
 ) -> Any:
     """The scenario with the planner options given on the command line (validated like the
-    scenario's own values, and the size limits checked again)."""
+    scenario's own values, and the size limits checked again). ``--iterations`` forces that
+    many iterations: no early stop."""
     from uavplan.scenario import with_search
 
     for option, value in (
@@ -195,6 +208,8 @@ def overridden(
         ("--population", population),
     ):
         scn = with_search(scn, {option.lstrip("-"): value}, option)
+    if iterations is not None:
+        scn = scn.with_planner(search=replace(scn.planner.search, stall_iterations=None))
     if algorithm:
         scn = scn.with_planner(algorithm=algorithm)
     return scn

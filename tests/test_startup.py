@@ -1,0 +1,95 @@
+"""Start-up loads only what a command needs (issue 13).
+
+``uavplan --help`` imports no command module and none of the heavy libraries;
+``uavplan validate`` of a scenario needs neither the planner's kernels (numba) nor scipy,
+matplotlib or pyproj. Checked in a fresh interpreter each (``sys.modules`` after the command),
+never by wall time.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("numba", "llvmlite", "scipy", "matplotlib", "pyproj", "pymavlink", "osmium", "rasterio")
+
+
+def modules_after(*args: str) -> tuple[int, set[str]]:
+    """(exit code, top-level modules and uavplan modules loaded) of ``uavplan ARGS`` run in a
+    fresh interpreter."""
+    code = (
+        "import sys, json\n"
+        "from uavplan.cli import main\n"
+        "try:\n"
+        f"    main({list(args)!r})\n"
+        "except SystemExit as exc:\n"
+        "    rc = exc.code or 0\n"
+        "mods = sorted({m.split('.')[0] for m in sys.modules} | "
+        "{m for m in sys.modules if m.startswith('uavplan')})\n"
+        "print(json.dumps([rc, mods]))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    rc, mods = json.loads(out.stdout.strip().splitlines()[-1])
+    return rc, set(mods)
+
+
+def test_help_imports_no_command_and_no_heavy_library() -> None:
+    rc, mods = modules_after("--help")
+    assert rc == 0
+    assert not {m for m in mods if m.startswith("uavplan.cli.")}, mods
+    assert not mods & {*HEAVY, "numpy", "yaml"}, mods & {*HEAVY, "numpy", "yaml"}
+
+
+def test_validate_needs_no_kernels_and_no_heavy_library() -> None:
+    rc, mods = modules_after("validate", str(ROOT / "missions" / "paper-env1.yaml"))
+    assert rc == 0
+    # a small scenario is checked in plain Python: not even numpy
+    assert not mods & {*HEAVY, "numpy"}, mods & {*HEAVY, "numpy"}
+    assert "uavplan.world" not in mods and "uavplan.planners" not in mods
+
+
+def test_the_command_table_matches_the_commands() -> None:
+    """``uavplan --help`` lists the commands from :data:`uavplan.cli.COMMANDS` without
+    importing them: every command is in the table, in its module, with its own help line,
+    and the listing is the one click prints with every command loaded."""
+    import click
+
+    from uavplan.cli import COMMANDS, load_all_commands, main
+
+    lazy = CliRunner().invoke(main, ["--help"], prog_name="uavplan").output
+    commands = load_all_commands()
+    assert set(commands) == set(COMMANDS)
+    for name, cmd in commands.items():
+        module, short = COMMANDS[name]
+        assert cmd.callback is not None
+        assert f"uavplan.cli.{module}" in {cmd.callback.__module__, *_wrapped_modules(cmd)}
+        assert cmd.get_short_help_str(10_000) == short, name
+    eager = click.Group(
+        "uavplan", commands=commands, context_settings=main.context_settings, help=main.help
+    )
+    eager.params = main.params
+    assert lazy == CliRunner().invoke(eager, ["--help"], prog_name="uavplan").output
+
+
+def _wrapped_modules(cmd: object) -> set[str]:
+    fn = getattr(cmd, "callback", None)
+    out = set()
+    while fn is not None:
+        out.add(getattr(fn, "__module__", ""))
+        fn = getattr(fn, "__wrapped__", None)
+    return out
+
+
+def test_an_unknown_command_is_still_refused() -> None:
+    from uavplan.cli import main
+
+    result = CliRunner().invoke(main, ["nonsense"])
+    assert result.exit_code == 2
+    assert "No such command" in result.output
