@@ -63,7 +63,7 @@ from uavplan.fileio import atomic_write_bytes, atomic_write_text
 from uavplan.scenario import Scenario, check_limits
 from uavplan.scenario import resolved_config as scenario_config
 
-from .reference import ASTAR, OMPL_MISSING, OMPL_PLANNERS, REFERENCES, ompl_available
+from .reference import ASTAR, OMPL_PLANNERS, REFERENCES, ompl_available
 
 #: SPSA's contributions (paper section 4), each as the change that switches it off:
 #: label suffix → (SpsaParams changes, PostParams changes). Contribution 1, the
@@ -194,7 +194,6 @@ class Variant:
             post_changes=tuple(post.items()),
             search_changes=tuple(search.items()),
         )
-
 
     def _reference_params(self, params: dict[str, Any], label: str) -> Variant:
         allowed = {"time_s"} if self.algorithm in OMPL_PLANNERS else set()

@@ -190,7 +190,7 @@ def run_ompl(
         return bool(ref_world.points_clearance(p)[0][0] >= margin)
 
     class Motion(ob.MotionValidator):  # type: ignore[misc, name-defined]
-        def checkMotion(self, s1: object, s2: object, *_: object) -> bool:  # noqa: N802
+        def checkMotion(self, s1: object, s2: object, *_: object) -> bool:
             counts["motions_checked"] += 1
             p0 = np.array([[s1[0], s1[1], s1[2]]])  # type: ignore[index]
             p1 = np.array([[s2[0], s2[1], s2[2]]])  # type: ignore[index]
