@@ -51,7 +51,7 @@ DEFAULT_TIME_S = 1.0
 def ompl_available() -> bool:
     """Is the optional ``ompl`` package importable?"""
     try:
-        import ompl.geometric  # noqa: F401
+        import ompl.geometric  # type: ignore[import-untyped,import-not-found,unused-ignore]  # noqa: F401
     except ImportError:
         return False
     return True
@@ -159,9 +159,9 @@ def run_ompl(
     validity: inside the bounds and clearance ≥ margin (+ pad) by
     :meth:`World.points_clearance`; motion validity: :meth:`World.segments_free`, the exact
     segment test the swarm's reachability rule uses."""
-    from ompl import base as ob  # optional extra; lazy
-    from ompl import geometric as og
-    from ompl import util as ou
+    from ompl import base as ob  # type: ignore[import-untyped,import-not-found,unused-ignore]
+    from ompl import geometric as og  # type: ignore[import-untyped,import-not-found,unused-ignore]
+    from ompl import util as ou  # type: ignore[import-untyped,import-not-found,unused-ignore]
 
     if hasattr(ou, "setLogLevel"):
         ou.setLogLevel(ou.LogLevel.LOG_NONE)
