@@ -1,6 +1,6 @@
 """Regenerate the measured parts of ``docs/results.md``.
 
-    python tools/make_results.py [--workers 2] [--only protocol,ablation,...]
+    python tools/make_results.py [--only protocol-env1,references,...] [--no-run]
 
 Each part below is one ``uavplan bench`` command, run as a subprocess so that the command the
 document shows is exactly what produced its numbers; its files go to ``docs/bench/<part>/``.
@@ -36,18 +36,22 @@ REFERENCE_ROWS = "spsa,astar-los,ompl-rrtstar,ompl-informed-rrtstar,ompl-bitstar
 PARTS: dict[str, tuple[list[str], list[str]]] = {
     # the paper's protocol: 3 environments x 6 algorithms x 30 runs, M = 1000, G = 30, every
     # algorithm on the paper's fitness; the raw search result and the post-processed route
-    # are separate rows; plus the grid A* + line-of-sight reference
-    "protocol": (
-        PAPER_ENVS,
-        [
-            "--algorithms",
-            "spsa,ssa,pso,gwo,de,cso,astar-los",
-            "--runs",
-            "30",
-            "--fitness-smoothing",
-            "0",
-        ],
-    ),
+    # are separate rows; plus the grid A* + line-of-sight reference. One command per
+    # environment, so that a finished environment is kept if a later one is stopped.
+    **{
+        f"protocol-env{k}": (
+            [PAPER_ENVS[k - 1]],
+            [
+                "--algorithms",
+                "spsa,ssa,pso,gwo,de,cso,astar-los",
+                "--runs",
+                "30",
+                "--fitness-smoothing",
+                "0",
+            ],
+        )
+        for k in (1, 2, 3)
+    },
     # OMPL's sampling-based optimal planners for SPSA's mean wall time on each scenario
     "references": (
         PAPER_ENVS,
@@ -63,7 +67,7 @@ PARTS: dict[str, tuple[list[str], list[str]]] = {
             "--budget",
             "evaluations=30000",
             "--runs",
-            "5",
+            "3",
             "--fitness-smoothing",
             "0",
         ],
@@ -90,7 +94,7 @@ PARTS: dict[str, tuple[list[str], list[str]]] = {
             "gwo(a_start=2; a_end=0),"
             "cso(rooster_ratio=0.15; hen_ratio=0.7; mother_ratio=0.5)",
             "--runs",
-            "5",
+            "3",
             "--fitness-smoothing",
             "0",
         ],
@@ -112,7 +116,8 @@ PARTS: dict[str, tuple[list[str], list[str]]] = {
     "midtown": (["missions/midtown-manhattan.yaml"], ["--runs", "10", "--fitness-smoothing", "0"]),
 }
 #: what ``make_results.py`` runs without --only
-DEFAULT_PARTS = ["de-sensitivity", "sensitivity", "protocol", "references", "budget"]
+PROTOCOL = ["protocol-env1", "protocol-env2", "protocol-env3"]
+DEFAULT_PARTS = ["de-sensitivity", *PROTOCOL, "references", "sensitivity", "budget"]
 
 # The paper's Table 2 (mean, std) per environment, for the ratio comparison.
 PAPER = {
@@ -198,16 +203,21 @@ def block(part: str, workers: int) -> str:
     return "\n".join(lines).strip()
 
 
-def _rows(part: str) -> list[dict[str, str]]:
-    with open(ROOT / OUT / part / "summary.csv") as fh:
-        return list(csv.DictReader(fh))
+def _rows(*parts: str) -> list[dict[str, str]]:
+    rows: list[dict[str, str]] = []
+    for part in parts:
+        path = ROOT / OUT / part / "summary.csv"
+        if path.exists():
+            with open(path) as fh:
+                rows += list(csv.DictReader(fh))
+    return rows
 
 
-def ratios_block(part: str = "protocol") -> str:
+def ratios_block(parts: list[str] | None = None) -> str:
     """The paper's Table 2 next to ours: per environment and algorithm the paper's mean and
     std, our raw search result (the paper's protocol) and our post-processed route energy,
     and SPSA's mean as a fraction of each (ours raw / ours post-processed / paper)."""
-    ours = {(r["scenario"], r["algorithm"]): r for r in _rows(part)}
+    ours = {(r["scenario"], r["algorithm"]): r for r in _rows(*(parts or PROTOCOL))}
     algs = ["spsa", "ssa", "pso", "gwo", "de", "cso"]
     lines = [
         "Means (std) over all runs. *Raw*: the best fitness the search reached, the paper's "
@@ -224,6 +234,9 @@ def ratios_block(part: str = "protocol") -> str:
     for env in (1, 2, 3):
         scn = f"paper-env{env}"
         spsa = ours.get((scn, "spsa"))
+        if spsa is None:
+            lines.append(f"| {env} | (not measured) | | | | |")
+            continue
         for a in algs:
             r = ours.get((scn, a))
             pm, ps = PAPER[env][a]
@@ -329,7 +342,7 @@ def main() -> None:
             continue  # an older part: its block shows the command that produced it
         if (ROOT / OUT / part / "bench.json").exists() and f"BEGIN {part} -->" in text:
             text = replace_block(text, part, block(part, args.workers))
-    if (ROOT / OUT / "protocol" / "summary.csv").exists():
+    if any((ROOT / OUT / p / "summary.csv").exists() for p in PROTOCOL):
         text = replace_block(text, "ratios", ratios_block())
     if (ROOT / OUT / "de-sensitivity" / "summary.csv").exists():
         text = replace_block(text, "de-grid", de_grid_block())
