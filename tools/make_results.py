@@ -261,7 +261,7 @@ def de_grid_block(part: str = "de-sensitivity") -> str:
     population at all (the search's first convergence point vs its last)."""
     rows = {r["algorithm"]: r for r in _rows(part)}
     doc = json.loads((ROOT / OUT / part / "bench.json").read_text())
-    curves = next(iter(doc["mean_convergence"].values()), {})
+    curves: dict[str, list[float]] = next(iter(doc["mean_convergence"].values()), {})
     crs = sorted({cr for _, cr in DE_GRID})
     lines = [
         "Mean raw search fitness (mean post-processed route energy) on paper-env1; the last "
