@@ -415,7 +415,7 @@ def test_ompl_fixed_time_and_validity(tiny_path: Path) -> None:
     out = run_ompl(scn, world, "ompl-rrtstar", 1.0, seed=1)
     assert out.found and out.collision_free
     # the path goes round the box (it blocks the straight line), not through it
-    assert world.segments_free(np.array([[0.0, 0, 30]]), np.array([[300.0, 20, 40]]))[0] == False  # noqa: E712
+    assert not world.segments_free(np.array([[0.0, 0, 30]]), np.array([[300.0, 20, 40]]))[0]
     assert out.length_m > math.dist((0, 0, 30), (300, 20, 40))
     assert reference_world(scn, world).margin_m > scn.safety_margin_m
 
