@@ -310,12 +310,18 @@ def test_budget_stops_every_algorithm_at_the_same_evaluation_count(tiny_path: Pa
     )
     records = bench.run_jobs(jobs)
     g = 8  # the tiny scenario's population
+    cap = bench.ITERATION_CAP_FACTOR * math.ceil(budget / g)
     for r in records:
+        assert r.reach_checks > 0
+        if r.algorithm == "de" and r.termination == "iterations":
+            # DE (F = 0.1) collapses onto copies of its best paths and then scores only the
+            # few trials that differ from their parent: it may reach the iteration cap first
+            assert r.iterations == cap and r.evaluations < budget
+            continue
         assert r.termination == "budget", (r.algorithm, r.termination)
         # the check runs after each iteration: at most one iteration's evaluations over
         # (SPSA scores each individual a few times per iteration)
         assert budget <= r.evaluations < budget + 6 * g, (r.algorithm, r.evaluations)
-        assert r.reach_checks > 0
     # the iterations differ: the budget, not M, is what the algorithms share
     assert len({r.iterations for r in records}) > 1
     doc = bench.resolved_config(jobs)
