@@ -43,7 +43,7 @@ def _record(alg: str, energy: float, seed: int = 1, ok: bool = True) -> bench.Ru
         algorithm=alg,
         seed=seed,
         status="ok",
-        energy=energy,
+        route_energy=energy,
         search_fitness=energy + 10,
         collision_free=ok,
         min_clearance_m=10.0,
@@ -51,12 +51,15 @@ def _record(alg: str, energy: float, seed: int = 1, ok: bool = True) -> bench.Ru
         runtime_s=float(seed),
         iterations=3,
         deadlocks=0,
+        evaluations=100 * seed,
+        reach_checks=1000 * seed,
+        termination="iterations",
         convergence=np.array([energy + 2, energy + 1, energy]),
     )
 
 
 def _key(records: list[bench.RunRecord]) -> list[tuple]:
-    return [(r.scenario, r.algorithm, r.seed, r.energy, r.search_fitness) for r in records]
+    return [(r.scenario, r.algorithm, r.seed, r.route_energy, r.search_fitness) for r in records]
 
 
 # --- variants and jobs ------------------------------------------------------------------------
@@ -141,7 +144,7 @@ def test_a_bench_run_is_what_plan_route_returns(tiny_path: Path, label: str) -> 
     (job,) = bench.make_jobs([load_scenario(tiny_path)], [label], runs=1, seed0=2)
     rec = bench.run_job(job)
     direct = plan_route(bench.job_scenario(job))
-    assert rec.energy == direct.energy
+    assert rec.route_energy == direct.energy
     assert rec.search_fitness == direct.planner.best_fitness
     np.testing.assert_array_equal(rec.convergence, direct.planner.convergence)
 
@@ -158,7 +161,7 @@ def test_serial_runs_are_reproducible_and_in_job_order(tiny_path: Path) -> None:
     assert [r.index for r in a] == list(range(6))
     assert _key(a) == _key(b)
     for r in a:
-        assert r.status == "ok" and math.isfinite(r.energy)
+        assert r.status == "ok" and math.isfinite(r.route_energy)
         assert r.convergence.shape == (4,)
 
 
@@ -191,14 +194,26 @@ def test_summary_is_table_two_statistics() -> None:
     recs = [_record("spsa", e, i) for i, e in enumerate([100.0, 102.0, 104.0], 1)]
     recs += [_record("pso", e, i, ok=i != 2) for i, e in enumerate([200.0, 300.0], 1)]
     spsa, pso = bench.summarise(recs)
-    assert (spsa.mean, spsa.worst, spsa.best, spsa.std) == (102.0, 104.0, 100.0, 2.0)
+    assert (spsa.route_mean, spsa.route_worst, spsa.route_best, spsa.route_std) == (
+        102.0,
+        104.0,
+        100.0,
+        2.0,
+    )
+    assert (spsa.search_mean, spsa.search_std) == (112.0, 2.0)
     assert spsa.median_runtime_s == 2.0 and spsa.success_rate == 1.0
-    assert (pso.mean, pso.collision_free, pso.runs) == (250.0, 1, 2)
+    assert (spsa.mean_evaluations, spsa.mean_reach_checks) == (200.0, 2000.0)
+    assert (pso.route_mean, pso.collision_free, pso.runs) == (250.0, 1, 2)
     table = bench.format_table([spsa, pso], "s")
     assert "| s | spsa | pso |" in table
-    assert "| mean | 102.00 | 250.00 |" in table
+    assert "| search fitness mean (raw, Table 2) | 112.00 | 260.00 |" in table
+    assert "| route energy mean (post-processed) | 102.00 | 250.00 |" in table
     assert "| collision-free | 3/3 | 1/2 |" in table
-    assert "| SPSA mean ÷ mean | 1.000 | 0.408 |" in table
+    assert "| evaluations / run | 200 | 150 |" in table
+    assert "| wall time / run (s) | 2.00 | 1.50 |" in table
+    assert "| SPSA mean ÷ mean (raw) | 1.000 | 0.431 |" in table
+    assert "| SPSA mean ÷ mean (post-processed) | 1.000 | 0.408 |" in table
+    assert "stopped by the budget" not in table
     curve = bench.mean_convergence(recs)["s"]["spsa"]
     np.testing.assert_allclose(curve, [104.0, 103.0, 102.0])
 
@@ -219,7 +234,9 @@ def test_write_outputs(tmp_path: Path) -> None:
     assert len(rows) == 3 and rows[2]["algorithm"] == "de" and "convergence" not in rows[0]
     doc = json.loads((tmp_path / "out" / "bench.json").read_text())
     assert doc["config"] == {"runs": 2}
-    assert doc["summary"][0]["mean"] == 100.5
+    assert doc["summary"][0]["route_mean"] == 100.5
+    assert doc["summary"][0]["search_mean"] == 110.5
+    assert {"search_fitness", "route_energy", "evaluations", "reach_checks"} <= set(rows[0])
     assert len(doc["mean_convergence"]["s"]["de"]) == 3
     assert (tmp_path / "out" / "convergence-s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -281,3 +298,144 @@ def test_cli_bench_bad_scenario_is_input_error(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["bench", str(bad)])
     assert result.exit_code == EXIT_INPUT
     assert "bad.yaml" in result.output
+
+
+# --- the same budget for every algorithm ---------------------------------------------------
+
+
+def test_budget_stops_every_algorithm_at_the_same_evaluation_count(tiny_path: Path) -> None:
+    budget = 200
+    jobs = bench.make_jobs(
+        [load_scenario(tiny_path)], bench.default_algorithms(), runs=1, budget=budget
+    )
+    records = bench.run_jobs(jobs)
+    g = 8  # the tiny scenario's population
+    cap = bench.ITERATION_CAP_FACTOR * math.ceil(budget / g)
+    for r in records:
+        assert r.reach_checks > 0
+        if r.algorithm == "de" and r.termination == "iterations":
+            # DE (F = 0.1) collapses onto copies of its best paths and then scores only the
+            # few trials that differ from their parent: it may reach the iteration cap first
+            assert r.iterations == cap and r.evaluations < budget
+            continue
+        assert r.termination == "budget", (r.algorithm, r.termination)
+        # the check runs after each iteration: at most one iteration's evaluations over
+        # (SPSA scores each individual a few times per iteration)
+        assert budget <= r.evaluations < budget + 6 * g, (r.algorithm, r.evaluations)
+    # the iterations differ: the budget, not M, is what the algorithms share
+    assert len({r.iterations for r in records}) > 1
+    doc = bench.resolved_config(jobs)
+    assert doc["budget"] == {"evaluations": budget}
+
+
+def test_without_budget_evaluations_are_counted(tiny_path: Path) -> None:
+    jobs = bench.make_jobs([load_scenario(tiny_path)], ["pso", "de"], runs=1)
+    for r in bench.run_jobs(jobs):
+        assert r.termination == "iterations" and r.iterations == 4
+        assert 8 <= r.evaluations <= 8 * 5  # the initial population + at most G per iteration
+
+
+def test_cli_budget(tiny_path: Path, tmp_path: Path) -> None:
+    out = tmp_path / "res"
+    args = ["bench", str(tiny_path), "--algorithms", "spsa,de", "--runs", "1"]
+    result = CliRunner().invoke(main, [*args, "--budget", "evaluations=120", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "| stopped by the budget | 1/1 | 1/1 |" in result.output
+    with open(out / "runs.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert all(int(r["evaluations"]) >= 120 and r["termination"] == "budget" for r in rows)
+
+
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("evaluations=0", "evaluations must be in 1..1000000000"),
+        ("evaluations=many", "evaluations must be a whole number"),
+        ("iterations=10", "expected evaluations=N"),
+        ("30000", "expected evaluations=N"),
+    ],
+)
+def test_cli_bad_budget_is_an_input_error(tiny_path: Path, value: str, message: str) -> None:
+    result = CliRunner().invoke(main, ["bench", str(tiny_path), "--budget", value])
+    assert result.exit_code == EXIT_INPUT, result.output
+    assert message in result.output and "--budget" in result.output
+    assert "Traceback" not in result.output
+
+
+# --- reference rows -------------------------------------------------------------------------
+
+
+def test_astar_reference_row(tiny_path: Path) -> None:
+    jobs = bench.make_jobs([load_scenario(tiny_path)], ["spsa", "astar-los"], runs=2)
+    assert [j.variant.label for j in jobs] == ["spsa", "astar-los", "spsa"]  # A*: one run
+    records = bench.run_jobs(jobs)
+    ref = next(r for r in records if r.algorithm == "astar-los")
+    assert ref.status == "ok" and ref.collision_free
+    assert ref.min_clearance_m >= 10.0 - 1e-6  # the tiny scenario's default margin
+    # the raw A* polyline zig-zags on the grid; the shared chain shortens it
+    assert ref.route_energy < ref.search_fitness
+    straight = math.dist((0, 0, 30), (300, 20, 40))
+    assert straight < ref.length_m < 1.5 * straight
+
+
+def test_reference_labels() -> None:
+    assert bench.Variant.parse("ompl-rrtstar(time_s=0.5)").time_s == 0.5
+    assert bench.Variant.parse("ompl-bitstar").time_s is None
+    assert bench.Variant.parse("astar-los").reference
+    for bad, msg in [
+        ("ompl-rrtstar(time_s=0)", "time_s must be"),
+        ("ompl-rrtstar(range=3)", "unknown parameter 'range'"),
+        ("astar-los(time_s=1)", "unknown parameter 'time_s'"),
+    ]:
+        with pytest.raises(ValueError, match=msg):
+            bench.Variant.parse(bad)
+
+
+def test_ompl_rows_get_spsa_wall_time(tiny_path: Path) -> None:
+    pytest.importorskip("ompl")
+    labels = ["spsa", "ompl-rrtstar", "ompl-informed-rrtstar", "ompl-bitstar"]
+    jobs = bench.make_jobs([load_scenario(tiny_path)], labels, runs=1)
+    records = {r.algorithm: r for r in bench.run_jobs(jobs)}
+    spsa_s = records["spsa"].runtime_s
+    for label in labels[1:]:
+        r = records[label]
+        assert r.stats["time_limit_s"] == pytest.approx(spsa_s)
+        assert r.stats["motions_checked"] > 0
+        # SPSA's time on this tiny case is a fraction of a second: on a loaded machine a
+        # planner may find nothing in it, which the record must say (not crash)
+        if r.status == "ok":
+            assert r.collision_free and r.min_clearance_m >= 10.0 - 1e-6
+            # the chain smooths the polyline: a little longer, far fewer corners
+            assert abs(r.route_energy - r.search_fitness) < 0.1 * r.search_fitness
+        else:
+            assert "no exact solution" in r.message and not r.collision_free
+
+
+def test_ompl_fixed_time_and_validity(tiny_path: Path) -> None:
+    pytest.importorskip("ompl")
+    from uavplan.bench.reference import reference_world, run_ompl
+    from uavplan.planning import build_world
+
+    scn = load_scenario(tiny_path)
+    world = build_world(scn)
+    out = run_ompl(scn, world, "ompl-rrtstar", 1.0, seed=1)
+    assert out.found and out.collision_free
+    # the path goes round the box (it blocks the straight line), not through it
+    assert not world.segments_free(np.array([[0.0, 0, 30]]), np.array([[300.0, 20, 40]]))[0]
+    assert out.length_m > math.dist((0, 0, 30), (300, 20, 40))
+    assert reference_world(scn, world).margin_m > scn.safety_margin_m
+
+
+def test_cli_ompl_rows_without_ompl(tiny_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from uavplan.bench import reference
+
+    monkeypatch.setattr(reference, "ompl_available", lambda: False)
+    monkeypatch.setattr(bench, "ompl_available", lambda: False)
+    result = CliRunner().invoke(main, ["bench", str(tiny_path), "--algorithms", "ompl-rrtstar"])
+    assert result.exit_code == EXIT_INPUT
+    assert "pip install 'uavplan[ompl]'" in result.output
+    ok = CliRunner().invoke(
+        main, ["bench", str(tiny_path), "--algorithms", "spsa", "--references", "--runs", "1"]
+    )
+    assert ok.exit_code == 0, ok.output
+    assert "astar-los" in ok.output and "ompl-rrtstar" not in ok.output

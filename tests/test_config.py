@@ -256,7 +256,7 @@ def test_resolved_config_echoes_everything_a_run_needs(tmp_path: Path, algorithm
     assert set(p["post"]) >= {"simplify", "sample_step_m", "select"}
     assert p["postprocess"] is (algorithm == "spsa")
     if algorithm == "de":
-        assert p["params"] == {"f": 0.5, "cr": 0.3}
+        assert p["params"] == {"f": DeParams().f, "cr": 0.3}
     elif algorithm == "ssa":
         assert p["params"] == dataclasses.asdict(SpsaParams.ssa())  # the fixed SSA settings
     else:

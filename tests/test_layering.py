@@ -48,7 +48,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "mavlink": ("mavlink/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
     "scenario": ("scenario.py",),
-    "wiring": ("planning.py", "bench.py", "render.py", "reroute.py"),
+    "wiring": ("planning.py", "bench/*.py", "render.py", "reroute.py"),
     "cli": ("cli/*.py", "__main__.py"),
 }
 

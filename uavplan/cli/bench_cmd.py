@@ -59,6 +59,19 @@ from uavplan.errors import InputError
     help="Run the jobs on this Dask scheduler (e.g. tcp://host:8786) instead of locally.",
 )
 @click.option(
+    "--budget",
+    "budget_text",
+    metavar="evaluations=N",
+    help="Stop every algorithm after N fitness evaluations (individuals scored) instead of "
+    "after M iterations; the iterations become a cap (--iterations, or 20·N/G).",
+)
+@click.option(
+    "--references",
+    is_flag=True,
+    help="Also run the reference planners: grid A* + line of sight and, with the optional "
+    "'ompl' package, OMPL's RRT*, Informed RRT* and BIT* for SPSA's mean wall time.",
+)
+@click.option(
     "--ablation",
     is_flag=True,
     help="Also run SPSA with each of its contributions switched off in turn.",
@@ -81,22 +94,40 @@ def bench_command(
     seed0: int,
     workers: int,
     dask_address: str | None,
+    budget_text: str | None,
+    references: bool,
     ablation: bool,
     out_dir: str | None,
     quiet: bool,
 ) -> None:
-    """Run every algorithm RUNS times on each SCENARIO and print the paper's Table 2:
-    mean / worst / best / std of the final energy, success rate and median runtime."""
+    """Run every algorithm RUNS times on each SCENARIO and print the paper's Table 2 twice:
+    mean / worst / best / std of the raw search result and of the post-processed route
+    energy, with collision-free runs, evaluations, reachability checks and wall time per
+    run."""
     from uavplan import bench
+    from uavplan.bench.reference import OMPL_MISSING, OMPL_PLANNERS, ompl_available
     from uavplan.scenario import load_scenario
 
     if dask_address and workers != 1:
         raise click.UsageError("--workers and --dask are exclusive (Dask sizes its own workers)")
+    budget = None
+    if budget_text is not None:
+        try:
+            budget = bench.parse_budget(budget_text)
+        except ValueError as err:
+            raise InputError(str(err), key="--budget") from None
     if variants is None:
         variants = [bench.Variant.parse(name) for name in bench.default_algorithms()]
     if ablation:
         have = {v.label for v in variants}
         variants += [v for v in bench.ablation_variants() if v.label not in have]
+    if references:
+        have = {v.label for v in variants}
+        variants += [v for v in bench.reference_variants() if v.label not in have]
+        if not ompl_available() and not quiet:
+            click.echo(f"note: {OMPL_MISSING}", err=True)
+    if any(v.algorithm in OMPL_PLANNERS for v in variants) and not ompl_available():
+        raise InputError(OMPL_MISSING.removesuffix("; they were skipped"), key="--algorithms")
     loaded = [load_scenario(path) for path in scenarios]
     try:
         jobs = bench.make_jobs(
@@ -107,6 +138,7 @@ def bench_command(
             iterations=iterations,
             population=population,
             search=None if fitness_smoothing is None else {"fitness_smoothing": fitness_smoothing},
+            budget=budget,
         )
     except InputError:
         raise

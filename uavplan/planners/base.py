@@ -56,6 +56,10 @@ class PathProblem:
     memo: np.ndarray = field(default_factory=K.new_memo)
     #: evaluation budget used so far: fitness evaluations, reachability checks, exact tests
     counters: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int64))
+    #: a search on this problem stops once it made this many fitness evaluations (None: no
+    #: limit), like ``Termination.max_evaluations``; carried by the problem so a caller that
+    #: hands the problem to a pipeline (the bench) can share one budget among algorithms
+    max_evaluations: int | None = None
 
     @classmethod
     def build(
@@ -112,6 +116,10 @@ class PathProblem:
         """The same problem with an empty reachability memo (the memo is pure, but one that
         earlier runs filled only slows lookups down)."""
         return replace(self, memo=K.new_memo(), counters=np.zeros(3, dtype=np.int64))
+
+    def with_budget(self, max_evaluations: int | None) -> PathProblem:
+        """The same problem (sharing its memo) with an evaluation budget (None: none)."""
+        return replace(self, max_evaluations=max_evaluations)
 
     def with_fitness_smoothing(self, smoothing: int) -> PathProblem:
         """The same problem (sharing its memo) with another fitness smoothing."""
@@ -450,6 +458,12 @@ class SwarmPlanner:
         rounds = max(1, min(self.rounds, budget))
         lengths = np.full(rounds, budget // rounds)
         lengths[: budget % rounds] += 1
+        limits = [n for n in (term.max_evaluations, problem.max_evaluations) if n is not None]
+        max_evals = min(limits) if limits else None
+        # an evaluation budget is split over the rounds as the iterations are
+        round_evals = (
+            None if max_evals is None else [max_evals * int(c) / budget for c in np.cumsum(lengths)]
+        )
         convergence: list[float] = []
         finals_x: list[np.ndarray] = []
         finals_f: list[np.ndarray] = []
@@ -481,7 +495,7 @@ class SwarmPlanner:
                 exact_checks=int(used[2]),
             )
 
-        for n_iter in lengths:
+        for r, n_iter in enumerate(lengths):
             x, ok, dead = problem.initial_population(search.population, search, rng)
             deadlocks += dead
             if not ok.any():
@@ -520,8 +534,9 @@ class SwarmPlanner:
                     reason = TERMINATED_STALLED
                     break
                 used = problem.counters[0] - start_counts[0]
-                if term.max_evaluations is not None and used >= term.max_evaluations:
-                    reason = TERMINATED_BUDGET
+                if round_evals is not None and used >= round_evals[r]:
+                    if r == rounds - 1 or used >= max_evals:  # type: ignore[operator]
+                        reason = TERMINATED_BUDGET
                     break
             finals_x.append(pop.x.copy())
             finals_f.append(pop.f.copy())

@@ -8,9 +8,21 @@ Table-2 statistics (mean / worst / best / std of the final energy), success rate
 :func:`write_outputs` writes CSV, JSON, a Markdown table and convergence plots.
 
 Each run goes through :func:`uavplan.planning.plan_route`, the same pipeline as
-``uavplan plan``: the paper's protocol post-processes SPSA's best path only, baselines report
-their raw best path on its spline. Every algorithm gets the same seeds, so for a given seed
-every algorithm starts from the same initial population (eq. 8–10).
+``uavplan plan``: every algorithm's best path goes through the same post-processing chain
+(node simplification, spline, waypoint resampling; SPSA's refinement, string pulling and
+choice among its final population are SPSA's variant). A record keeps both numbers apart:
+``search_fitness``, the best fitness the search reached (the paper's Table-2 protocol), and
+``route_energy``, E of the post-processed route. Every algorithm gets the same seeds, so for a
+given seed every algorithm starts from the same initial population (eq. 8–10).
+
+Budgets: by default every algorithm runs the scenario's M iterations; with an evaluation
+budget (``budget=N``, ``uavplan bench --budget evaluations=N``) every algorithm stops once it
+made N fitness evaluations (individuals scored), its iteration count only a generous cap.
+Records count evaluations and reachability checks either way.
+
+Reference rows (:mod:`uavplan.bench.reference`): ``astar-los`` (grid A* + line of sight) and,
+with the optional ``ompl`` package, ``ompl-rrtstar``, ``ompl-informed-rrtstar``,
+``ompl-bitstar``, solved for SPSA's mean wall time on the same scenario (or ``time_s=``).
 
 An algorithm *variant* is a label: a registered algorithm (``spsa``, ``pso``, …) or SPSA with
 one contribution switched off (``spsa-no-escape``, …, see :data:`ABLATIONS`).
@@ -51,6 +63,8 @@ from uavplan.fileio import atomic_write_bytes, atomic_write_text
 from uavplan.scenario import Scenario, check_limits
 from uavplan.scenario import resolved_config as scenario_config
 
+from .reference import ASTAR, OMPL_PLANNERS, REFERENCES, ompl_available
+
 #: SPSA's contributions (paper section 4), each as the change that switches it off:
 #: label suffix → (SpsaParams changes, PostParams changes). Contribution 1, the
 #: initialisation, is shared by every algorithm. Our own post-processing steps (``refine``,
@@ -78,6 +92,12 @@ DEFAULT_ALGORITHMS: tuple[str, ...] = default_algorithms()
 #: how long to wait for a Dask scheduler before giving up (seconds)
 DASK_CONNECT_TIMEOUT_S = 10
 
+#: with an evaluation budget N, the iteration cap is this many times N / G: an algorithm that
+#: scores fewer than G / ITERATION_CAP_FACTOR individuals per iteration on average stops at
+#: the cap (its record says ``termination = "iterations"``) instead of running for ever
+ITERATION_CAP_FACTOR = 20
+MAX_ITERATIONS = 1_000_000
+
 ProgressCallback = Callable[[int, int, "RunRecord"], None]  # (done, total, record)
 
 
@@ -102,6 +122,17 @@ class Variant:
     search_changes: tuple[tuple[str, Any], ...] = ()  # SearchParams fields, any algorithm
 
     @property
+    def reference(self) -> bool:
+        """Is this a reference planner row (A*, OMPL), not a swarm algorithm?"""
+        return self.algorithm in REFERENCES
+
+    @property
+    def time_s(self) -> float | None:
+        """An OMPL row's fixed solve time (None: SPSA's mean wall time on the scenario)."""
+        value = dict(self.params_changes).get("time_s")
+        return None if value is None else float(value)
+
+    @property
     def spsa_changes(self) -> tuple[tuple[str, Any], ...]:
         """SPSA's parameter changes (empty for other algorithms)."""
         return self.params_changes if self.algorithm == "spsa" else ()
@@ -120,13 +151,13 @@ class Variant:
             head, _, params = label[:-1].partition("(")
         head = head.strip().lower()
         base, _, suffix = head.partition("-")
-        if head in PLANNERS:
+        if head in PLANNERS or head in REFERENCES:
             v = cls(head, head)
         elif base == "spsa" and suffix in ABLATIONS:
             spsa, post = ABLATIONS[suffix]
             v = cls(head, "spsa", tuple(spsa.items()), tuple(post.items()))
         else:
-            known = [*PLANNERS, *(f"spsa-{s}" for s in ABLATIONS)]
+            known = [*PLANNERS, *(f"spsa-{s}" for s in ABLATIONS), *REFERENCES]
             raise ValueError(f"unknown algorithm {head!r} (known: {', '.join(known)})")
         if not params.strip():
             return v
@@ -135,6 +166,8 @@ class Variant:
     def _with_params(self, params: dict[str, Any], label: str) -> Variant:
         if "seed" in params:
             raise ValueError(f"{label}: seeds come from --seed0 and --runs")
+        if self.reference:
+            return self._reference_params(params, label)
         entry = planner_entry(self.algorithm)
         search_keys = set(user_keys(SearchParams))
         post_keys = set(user_keys(PostParams)) if entry.postprocess else set()
@@ -161,6 +194,20 @@ class Variant:
             post_changes=tuple(post.items()),
             search_changes=tuple(search.items()),
         )
+
+    def _reference_params(self, params: dict[str, Any], label: str) -> Variant:
+        allowed = {"time_s"} if self.algorithm in OMPL_PLANNERS else set()
+        for key, value in params.items():
+            if key not in allowed:
+                known = ", ".join(sorted(allowed)) or "none"
+                raise ValueError(f"{label}: unknown parameter {key!r} (known: {known})")
+            if (
+                not isinstance(value, int | float)
+                or isinstance(value, bool)
+                or not 0 < value <= 3600
+            ):
+                raise ValueError(f"{label}: time_s must be a number of seconds in (0, 3600]")
+        return dataclasses.replace(self, label=label, params_changes=tuple(params.items()))
 
 
 def _parse_params(text: str) -> dict[str, Any]:
@@ -193,6 +240,28 @@ def split_labels(text: str) -> list[str]:
     return [label.strip() for label in labels if label.strip()]
 
 
+def reference_variants() -> list[Variant]:
+    """The reference rows: grid A* + line of sight, and the OMPL planners when the optional
+    ``ompl`` package is installed."""
+    labels = [ASTAR, *(OMPL_PLANNERS if ompl_available() else ())]
+    return [Variant.parse(label) for label in labels]
+
+
+def parse_budget(text: str) -> int:
+    """An evaluation budget from ``evaluations=N`` (N ≥ 1 fitness evaluations per run);
+    ValueError says what is wrong."""
+    key, eq, value = text.strip().partition("=")
+    if not eq or key.strip().lower() != "evaluations":
+        raise ValueError(f"expected evaluations=N, got {text.strip()!r}")
+    try:
+        n = int(value.strip())
+    except ValueError:
+        raise ValueError(f"evaluations must be a whole number, got {value.strip()!r}") from None
+    if not 1 <= n <= 10**9:
+        raise ValueError(f"evaluations must be in 1..1000000000, got {n}")
+    return n
+
+
 def ablation_variants() -> list[Variant]:
     """SPSA in full, then with each contribution switched off in turn."""
     return [Variant.parse("spsa"), *(Variant.parse(f"spsa-{s}") for s in ABLATIONS)]
@@ -211,20 +280,30 @@ class BenchJob:
     scenario_key: str
     variant: Variant
     seed: int
+    #: stop after this many fitness evaluations (None: the scenario's iterations)
+    max_evaluations: int | None = None
+    #: an OMPL row's solve time, filled in from SPSA's runs when the variant has none
+    time_s: float | None = None
 
 
 @dataclass
 class RunRecord:
-    """The outcome of one run. ``energy`` is E (eq. 1) of the final path, the Table-2 value;
-    ``search_fitness`` is the best fitness the search itself reached (before SPSA's
-    post-processing); ``convergence`` is the best fitness after each iteration."""
+    """The outcome of one run.
+
+    ``search_fitness``: the best fitness the search itself reached, on its own node path —
+    the paper's Table-2 protocol (for a reference row: E of its raw polyline);
+    ``route_energy``: E (eq. 1) of the route after the shared post-processing chain;
+    ``evaluations``: fitness evaluations (individuals scored); ``reach_checks`` /
+    ``exact_checks``: reachability checks and the exact segment tests among them;
+    ``termination``: why the search stopped (``iterations``, ``budget``, ...);
+    ``convergence``: the best fitness after each iteration."""
 
     index: int
     scenario: str
     algorithm: str
     seed: int
     status: str
-    energy: float
+    route_energy: float
     search_fitness: float
     collision_free: bool
     min_clearance_m: float
@@ -232,6 +311,11 @@ class RunRecord:
     runtime_s: float
     iterations: int
     deadlocks: int
+    evaluations: int = 0
+    reach_checks: int = 0
+    exact_checks: int = 0
+    termination: str = ""
+    message: str = ""
     stats: dict[str, float] = field(default_factory=dict)  # the planner's counters
     convergence: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0))
 
@@ -244,20 +328,30 @@ class RunRecord:
 
 @dataclass(frozen=True)
 class Summary:
-    """Table-2 statistics of one (scenario, algorithm) over its runs. Energy statistics are
-    over the runs that returned a path; ``std`` is the sample standard deviation."""
+    """Table-2 statistics of one (scenario, algorithm) over its runs, twice: ``search_*`` of
+    the raw search result (the paper's protocol) and ``route_*`` of the post-processed route's
+    energy. Statistics are over the runs that returned a path; ``*_std`` is the sample
+    standard deviation. Budget columns are means per run."""
 
     scenario: str
     algorithm: str
     runs: int
     solved: int
     collision_free: int
-    mean: float
-    worst: float
-    best: float
-    std: float
+    search_mean: float
+    search_worst: float
+    search_best: float
+    search_std: float
+    route_mean: float
+    route_worst: float
+    route_best: float
+    route_std: float
+    mean_evaluations: float
+    mean_reach_checks: float
+    mean_iterations: float
+    mean_runtime_s: float
     median_runtime_s: float
-    mean_search_fitness: float
+    budget_stops: int  # runs that ended because the evaluation budget was spent
 
     @property
     def success_rate(self) -> float:
@@ -292,14 +386,20 @@ def make_jobs(
     iterations: int | None = None,
     population: int | None = None,
     search: Mapping[str, Any] | None = None,
+    budget: int | None = None,
 ) -> list[BenchJob]:
     """Every (scenario, variant, seed) with seeds ``seed0 .. seed0 + runs − 1``.
     ``iterations``, ``population`` and the :class:`SearchParams` fields in ``search`` (for
     example ``{"fitness_smoothing": 0}``) override the scenarios' own settings for every
-    algorithm. Jobs are ordered scenario, seed, variant, so slow and fast algorithms
-    interleave across workers."""
+    algorithm. ``budget``: every algorithm stops after that many fitness evaluations; the
+    iterations become a cap (``iterations`` if given, else ITERATION_CAP_FACTOR · N / G).
+    The A* reference is deterministic: one run per scenario (the first seed). Jobs are
+    ordered scenario, seed, variant, so slow and fast algorithms interleave across
+    workers."""
     if runs < 1:
         raise ValueError("runs must be >= 1")
+    if budget is not None and budget < 1:
+        raise ValueError("the evaluation budget must be >= 1")
     vs = [v if isinstance(v, Variant) else Variant.parse(v) for v in variants]
     if not vs:
         raise ValueError("no algorithms to run")
@@ -314,6 +414,10 @@ def make_jobs(
             (k, v) for k, v in (("iterations", iterations), ("population", population)) if v
         )
         changes.update(search or {})
+        if budget is not None and not iterations:
+            g = population or scn.planner.search.population
+            cap = ITERATION_CAP_FACTOR * math.ceil(budget / g)
+            changes["iterations"] = min(MAX_ITERATIONS, max(scn.planner.search.iterations, cap))
         if changes:
             scn = scn.with_planner(search=override(scn.planner.search, changes))
             check_limits(scn)
@@ -326,7 +430,9 @@ def make_jobs(
         key = scenario_key(scn)
         for seed in range(seed0, seed0 + runs):
             for v in vs:
-                jobs.append(BenchJob(len(jobs), scn, key, v, seed))
+                if v.algorithm == ASTAR and seed != seed0:
+                    continue
+                jobs.append(BenchJob(len(jobs), scn, key, v, seed, budget))
     return jobs
 
 
@@ -368,6 +474,8 @@ def job_scenario(job: BenchJob) -> Scenario:
     algorithm's parameters start from the scenario's section for it (or its defaults)."""
     scn, v = job.scenario, job.variant
     cfg = scn.planner
+    if v.reference:  # not a swarm planner: the scenario as it is, with the seed
+        return scn.with_planner(search=override(cfg.search, {"seed": job.seed}))
     params = cfg.params_for(v.algorithm)
     if v.params_changes:
         params = override(params, dict(v.params_changes))
@@ -383,11 +491,16 @@ def job_scenario(job: BenchJob) -> Scenario:
 
 
 def run_job(job: BenchJob) -> RunRecord:
-    """Run one job through :func:`uavplan.planning.plan_route` and record the outcome."""
+    """Run one job through :func:`uavplan.planning.plan_route` (a reference row through
+    :mod:`uavplan.bench.reference`) and record the outcome."""
     from uavplan.planning import plan_route
 
     scn = job_scenario(job)
     world, problem = _world_and_problem(job, scn)
+    if job.variant.reference:
+        return _run_reference(job, scn, world)
+    if job.max_evaluations is not None:
+        problem = problem.with_budget(job.max_evaluations)
     res = plan_route(scn, world=world, problem=problem)
     pr = res.planner
     return RunRecord(
@@ -396,7 +509,7 @@ def run_job(job: BenchJob) -> RunRecord:
         algorithm=job.variant.label,
         seed=job.seed,
         status=res.status.value,
-        energy=float(res.energy),
+        route_energy=float(res.energy),
         search_fitness=float(pr.best_fitness),
         collision_free=bool(res.collision_free),
         min_clearance_m=float(res.min_clearance_m),
@@ -404,8 +517,44 @@ def run_job(job: BenchJob) -> RunRecord:
         runtime_s=float(res.runtime_s),
         iterations=int(pr.iterations),
         deadlocks=int(pr.deadlocks),
+        evaluations=int(pr.evaluations),
+        reach_checks=int(pr.reach_checks),
+        exact_checks=int(pr.exact_checks),
+        termination=str(pr.termination),
+        message=res.message,
         stats={k: float(v) for k, v in pr.stats.items() if isinstance(v, int | float)},
         convergence=np.asarray(pr.convergence, dtype=float),
+    )
+
+
+def _run_reference(job: BenchJob, scn: Scenario, world: Any) -> RunRecord:
+    from . import reference
+
+    label = job.variant.algorithm
+    if label == ASTAR:
+        out = reference.run_astar(scn, world)
+    else:
+        time_s = job.time_s if job.time_s is not None else job.variant.time_s
+        out = reference.run_ompl(
+            scn, world, label, reference.DEFAULT_TIME_S if time_s is None else time_s, job.seed
+        )
+    return RunRecord(
+        index=job.index,
+        scenario=scn.name,
+        algorithm=job.variant.label,
+        seed=job.seed,
+        status="ok" if out.found else "no_path",
+        route_energy=out.route_energy,
+        search_fitness=out.raw_energy,
+        collision_free=out.collision_free,
+        min_clearance_m=out.min_clearance_m,
+        length_m=out.length_m,
+        runtime_s=out.runtime_s,
+        iterations=0,
+        deadlocks=0,
+        termination="time" if label in OMPL_PLANNERS else "complete",
+        message=out.message,
+        stats=out.stats,
     )
 
 
@@ -447,16 +596,35 @@ def run_jobs(
         if progress is not None:
             progress(len(done), total, rec)
 
-    if dask is not None:
-        _run_dask(jobs, dask, finished)
-    elif workers > 1 and total > 1:
-        _run_processes(jobs, min(workers, total), finished, stop)
-    else:
-        for job in jobs:
-            if stop():
-                raise KeyboardInterrupt
-            finished(run_job(job))
+    # OMPL rows without a fixed time run last, for SPSA's mean wall time on their scenario
+    timed = [j for j in jobs if j.variant.algorithm in OMPL_PLANNERS and j.variant.time_s is None]
+    timed_ids = {j.index for j in timed}
+    first = [j for j in jobs if j.index not in timed_ids]
+    for phase in (first, timed):
+        if phase is timed and timed:
+            times = spsa_times(done)
+            phase = [dataclasses.replace(j, time_s=times.get(j.scenario.name)) for j in timed]
+        if not phase:
+            continue
+        if dask is not None:
+            _run_dask(phase, dask, finished)
+        elif workers > 1 and len(phase) > 1:
+            _run_processes(phase, min(workers, len(phase)), finished, stop)
+        else:
+            for job in phase:
+                if stop():
+                    raise KeyboardInterrupt
+                finished(run_job(job))
     return sorted(done, key=lambda r: r.index)
+
+
+def spsa_times(records: Iterable[RunRecord]) -> dict[str, float]:
+    """scenario → SPSA's mean wall time per run (the OMPL rows' solve time)."""
+    times: dict[str, list[float]] = {}
+    for r in records:
+        if r.algorithm == "spsa" and math.isfinite(r.runtime_s):
+            times.setdefault(r.scenario, []).append(r.runtime_s)
+    return {scn: float(np.mean(ts)) for scn, ts in times.items()}
 
 
 def _run_processes(
@@ -520,26 +688,36 @@ def summarise(records: Iterable[RunRecord]) -> list[Summary]:
     for r in records:
         groups.setdefault((r.scenario, r.algorithm), []).append(r)
     out = []
-    nan = math.nan
     for (scn, alg), rs in groups.items():
-        e = np.array([r.energy for r in rs if r.status == "ok" and math.isfinite(r.energy)])
-        s = np.array([r.search_fitness for r in rs if math.isfinite(r.search_fitness)])
+        ok = [r for r in rs if r.status == "ok"]
+        e = np.array([r.route_energy for r in ok if math.isfinite(r.route_energy)])
+        s = np.array([r.search_fitness for r in ok if math.isfinite(r.search_fitness)])
         out.append(
             Summary(
-                scenario=scn,
-                algorithm=alg,
-                runs=len(rs),
-                solved=int(e.size),
-                collision_free=sum(r.collision_free for r in rs),
-                mean=float(e.mean()) if e.size else nan,
-                worst=float(e.max()) if e.size else nan,
-                best=float(e.min()) if e.size else nan,
-                std=float(e.std(ddof=1)) if e.size > 1 else (0.0 if e.size else nan),
-                median_runtime_s=float(np.median([r.runtime_s for r in rs])),
-                mean_search_fitness=float(s.mean()) if s.size else nan,
+                scn,
+                alg,
+                len(rs),
+                int(e.size),
+                sum(r.collision_free for r in rs),
+                *_stats(s),
+                *_stats(e),
+                float(np.mean([r.evaluations for r in rs])),
+                float(np.mean([r.reach_checks for r in rs])),
+                float(np.mean([r.iterations for r in rs])),
+                float(np.mean([r.runtime_s for r in rs])),
+                float(np.median([r.runtime_s for r in rs])),
+                sum(r.termination == "budget" for r in rs),
             )
         )
     return out
+
+
+def _stats(v: np.ndarray) -> tuple[float, float, float, float]:
+    """(mean, worst, best, sample std) of ``v``; NaN when empty, std 0 for one value."""
+    if not v.size:
+        return (math.nan,) * 4
+    std = float(v.std(ddof=1)) if v.size > 1 else 0.0
+    return float(v.mean()), float(v.max()), float(v.min()), std
 
 
 def mean_convergence(records: Iterable[RunRecord]) -> dict[str, dict[str, np.ndarray]]:
@@ -562,10 +740,16 @@ def _fmt(v: float, digits: int = 2) -> str:
     return "—" if not math.isfinite(v) else f"{v:.{digits}f}"
 
 
+def _count(v: float) -> str:
+    return "—" if not math.isfinite(v) else f"{v:,.0f}"
+
+
 def format_table(summaries: Sequence[Summary], scenario: str) -> str:
-    """One scenario's results in the layout of the paper's Table 2 (Markdown): rows mean,
-    worst, best, std of the final energy, then success rate, median runtime and, when SPSA is
-    in the table, SPSA's mean as a fraction of each algorithm's."""
+    """One scenario's results (Markdown), one column per algorithm: the paper's Table-2
+    statistics (mean, worst, best, std) of the raw search result, then the same of the
+    post-processed route energy, then collision-free runs, the budget used per run
+    (evaluations, reachability checks, iterations, wall time) and, when SPSA is in the
+    table, SPSA's mean as a fraction of each algorithm's, raw and post-processed."""
     rows = [s for s in summaries if s.scenario == scenario]
     if not rows:
         return ""
@@ -576,18 +760,31 @@ def format_table(summaries: Sequence[Summary], scenario: str) -> str:
     def line(name: str, cells: Iterable[str]) -> None:
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
 
-    line("mean", (_fmt(s.mean) for s in rows))
-    line("worst", (_fmt(s.worst) for s in rows))
-    line("best", (_fmt(s.best) for s in rows))
-    line("std", (_fmt(s.std) for s in rows))
+    line("search fitness mean (raw, Table 2)", (_fmt(s.search_mean) for s in rows))
+    line("search fitness worst", (_fmt(s.search_worst) for s in rows))
+    line("search fitness best", (_fmt(s.search_best) for s in rows))
+    line("search fitness std", (_fmt(s.search_std) for s in rows))
+    line("route energy mean (post-processed)", (_fmt(s.route_mean) for s in rows))
+    line("route energy worst", (_fmt(s.route_worst) for s in rows))
+    line("route energy best", (_fmt(s.route_best) for s in rows))
+    line("route energy std", (_fmt(s.route_std) for s in rows))
     line("collision-free", (f"{s.collision_free}/{s.runs}" for s in rows))
-    line("median runtime (s)", (_fmt(s.median_runtime_s) for s in rows))
+    line("evaluations / run", (_count(s.mean_evaluations) for s in rows))
+    line("reachability checks / run", (_count(s.mean_reach_checks) for s in rows))
+    line("iterations / run", (_count(s.mean_iterations) for s in rows))
+    line("wall time / run (s)", (_fmt(s.mean_runtime_s) for s in rows))
+    if any(s.budget_stops for s in rows):
+        line("stopped by the budget", (f"{s.budget_stops}/{s.runs}" for s in rows))
     spsa = next((s for s in rows if s.algorithm == "spsa"), None)
-    if spsa is not None and math.isfinite(spsa.mean):
-        ratios = [
-            _fmt(spsa.mean / s.mean, 3) if s.mean and math.isfinite(s.mean) else "—" for s in rows
-        ]
-        line("SPSA mean ÷ mean", ratios)
+    if spsa is not None:
+        for name, key in (("raw", "search_mean"), ("post-processed", "route_mean")):
+            mine = getattr(spsa, key)
+            cells = []
+            for s in rows:
+                theirs = getattr(s, key)
+                ok = math.isfinite(mine) and math.isfinite(theirs) and theirs
+                cells.append(_fmt(mine / theirs, 3) if ok else "—")
+            line(f"SPSA mean ÷ mean ({name})", cells)
     return "\n".join(lines)
 
 
@@ -712,6 +909,12 @@ def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
             entry["energy"] = planner["energy"]
             entry["algorithms"] = {}
             out["scenarios"][scn.name] = entry
+        if job.variant.label not in entry["algorithms"] and job.variant.reference:
+            ref: dict[str, Any] = {"reference": job.variant.algorithm}
+            if job.variant.algorithm in OMPL_PLANNERS:
+                ref["time_s"] = job.variant.time_s or "SPSA's mean wall time on the scenario"
+            entry["algorithms"][job.variant.label] = ref
+            out["algorithms"].setdefault(job.variant.label, ref)
         if job.variant.label not in entry["algorithms"]:
             run = job_scenario(job).planner
             resolved = resolved_planner(run)
@@ -721,6 +924,10 @@ def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:
             entry["algorithms"][job.variant.label] = resolved
             out["algorithms"].setdefault(job.variant.label, resolved)
     out["seeds"] = sorted({job.seed for job in jobs})
+    budgets = {job.max_evaluations for job in jobs}
+    out["budget"] = (
+        {"evaluations": budgets.pop()} if budgets != {None} else "iterations (the scenario's M)"
+    )
     return _jsonable(out)
 
 
