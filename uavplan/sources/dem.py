@@ -379,8 +379,8 @@ class Terrain:
             ],
             axis=2,
         ).reshape(-1, 4, 2)
-        top = top.ravel()
-        low = low.ravel()
+        top_flat: NDArray[np.float64] = top.ravel()
+        low_flat: NDArray[np.float64] = low.ravel()
         # counter-clockwise (the raster may run either way in ENU), then grown outwards
         a = corners[:, 1] - corners[:, 0]
         b = corners[:, 3] - corners[:, 0]
@@ -396,9 +396,9 @@ class Terrain:
             & (hi[:, 1] >= y_m[0])
             & (lo[:, 1] <= y_m[1])
         )
-        if not np.all(np.isfinite(top[keep])) or not np.all(np.isfinite(low[keep])):
+        if not np.all(np.isfinite(top_flat[keep])) or not np.all(np.isfinite(low_flat[keep])):
             raise TerrainError("the DEM has nodata posts inside the area", file=self.source)
-        return corners[keep], top[keep], low[keep]
+        return corners[keep], top_flat[keep], low_flat[keep]
 
 
 def _bilinear_grid(
