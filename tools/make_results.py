@@ -55,7 +55,7 @@ PARTS: dict[str, tuple[list[str], list[str]]] = {
     # OMPL's sampling-based optimal planners for SPSA's mean wall time on each scenario
     "references": (
         PAPER_ENVS,
-        ["--algorithms", REFERENCE_ROWS, "--runs", "5", "--fitness-smoothing", "0"],
+        ["--algorithms", REFERENCE_ROWS, "--runs", "30", "--fitness-smoothing", "0"],
     ),
     # the OMPL planners with ten times SPSA's wall time (their collision checks are Python
     # callbacks: how much of the gap is that?)

@@ -1,7 +1,7 @@
 """Kernel readiness. The kernels are C (:mod:`uavplan._ckernels`), compiled by pip when the
 package is installed, so there is nothing to compile or load at run time: the first plan
-after installing is as fast as any later one. These two functions stay for the callers that
-used to wait for numba's compilation (the CLI's first-run notice, timed runs)."""
+after installing is as fast as any later one. ``warm_up`` keeps the extension's import out
+of timed sections (benchmarks); ``kernels_cached`` tells whether the extension is built."""
 
 from __future__ import annotations
 

@@ -71,7 +71,7 @@ def check_output_paths(*paths: str | None) -> None:
 @contextlib.contextmanager
 def interruptible() -> Iterator[Callable[[], bool]]:
     """While planning, Ctrl-C (SIGINT) sets a flag instead of raising inside a compiled kernel
-    (numba turns that into "SystemError: ... returned a result with an exception set"); the
+    (where the interrupt would only surface after the kernel returns, mid-update); the
     planner polls the flag every iteration and stops, and the command exits 130. Yields the
     poll function. A second Ctrl-C raises KeyboardInterrupt at once."""
     import signal

@@ -108,7 +108,6 @@ def plan_command(
         def _overrides(scn: Any) -> Any:
             return overridden(scn, algorithm, seed, iterations, population)
 
-        _compile_notice(quiet)
         reroute_command(
             scenario, output, scenario_path=scenario_path, overrides=_overrides,
             autopilot=autopilot, report=report, plot=plot, fence=fence, quiet=quiet,
@@ -130,7 +129,6 @@ def plan_command(
             "which PX4 missions do not fly (ArduPilot does); use relative or amsl for PX4",
             err=True,
         )
-    _compile_notice(quiet)
     progress = Progress(show_progress(quiet), f"{scn.planner.algorithm} {scn.name}")
     with interruptible() as stop_requested:
         if not quiet:
@@ -229,17 +227,6 @@ def require_route(scn: Any, result: Any) -> Any:
             f"(safety margin {scn.safety_margin_m:g} m)"
         )
     return result.route
-
-
-def _compile_notice(quiet: bool) -> None:
-    from uavplan.warmup import kernels_cached
-
-    if not quiet and not kernels_cached():
-        click.echo(
-            "first run after installation: compiling the planner's kernels "
-            "(about half a minute, cached for later runs)",
-            err=True,
-        )
 
 
 def _write_mission(

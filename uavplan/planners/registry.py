@@ -1,7 +1,7 @@
 """Name → planner object, from the planner table :data:`uavplan.config.PLANNERS`.
 
 Classes are imported lazily from each entry's ``"module:Class"`` target, so reading a scenario
-or listing the planners never loads the optimisers (or numba).
+or listing the planners never loads the optimisers (or the compiled kernels).
 """
 
 from __future__ import annotations
