@@ -24,7 +24,8 @@ from uavplan.geo import EnuFrame  # noqa: E402
 from uavplan.mission.builder import build_mission, mission_polyline_enu  # noqa: E402
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot, MavFrame  # noqa: E402
-from uavplan.planning import build_world, sample_polyline  # noqa: E402
+from uavplan.planning import build_world  # noqa: E402
+from uavplan.route import densify  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
 from uavplan.world import GROUND  # noqa: E402
 
@@ -210,7 +211,7 @@ def test_mission_over_a_hill_keeps_the_margin(
 
     flown = mission_polyline_enu(plan, frame, known_ground_z)
     # the climb from home and the landing descent touch the ground by design: check the legs
-    samples = sample_polyline(flown[2:-1], 1.0)
+    samples = densify(flown[2:-1], 1.0)
     agl = samples[:, 2] - known_ground_z(samples[:, :2])
     assert agl.min() >= 12.0 - 0.05, f"{agl.min():.2f} m above the ground"
     # the hill is in the way: the route had to climb over or go round it
@@ -290,7 +291,7 @@ def test_route_stays_under_the_ceiling_above_the_ground(tmp_path: Path) -> None:
         return np.asarray(interp(np.column_stack([nn, ee]))) - datum
 
     flown = mission_polyline_enu(load_mission(out), frame, ground_z)
-    samples = sample_polyline(flown[2:], 1.0)
+    samples = densify(flown[2:], 1.0)
     agl = samples[:, 2] - ground_z(samples[:, :2])
     assert agl.min() >= 10.0 - 0.05
     assert agl.max() <= 70.0 + 0.05, f"{agl.max():.1f} m above the ground"

@@ -11,7 +11,6 @@ file I/O and knows nothing of MAVLink.
 from __future__ import annotations
 
 import enum
-import itertools
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -37,7 +36,7 @@ from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.guide import find_guide, guided_problem
 from uavplan.planners.registry import make_planner
-from uavplan.route import EndAction, PlannedRoute, flown_polyline
+from uavplan.route import EndAction, PlannedRoute, densify, flown_polyline
 from uavplan.scenario import Scenario, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
@@ -395,7 +394,7 @@ TERRAIN_SAMPLE_M = 2.0
 def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
     """What the user should know about the route over the terrain: its lowest height above
     the DEM surface, and any stretch above the ceiling (bounds.z max above the ground)."""
-    samples = sample_polyline(waypoints_enu, TERRAIN_SAMPLE_M)
+    samples = densify(waypoints_enu, TERRAIN_SAMPLE_M)
     agl = samples[:, 2] - ground.z_at(samples)
     notes = [f"terrain: the route flies {agl.min():.1f} to {agl.max():.1f} m above the DEM surface"]
     over = agl > ground.ceiling_agl_m + 1e-6
@@ -409,17 +408,6 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
             "highest ground plus bounds.z max"
         )
     return notes
-
-
-def sample_polyline(points: np.ndarray, step_m: float) -> np.ndarray:
-    """Points along the polyline at most ``step_m`` apart, every vertex included."""
-    p = np.asarray(points, dtype=np.float64)
-    out = [p[:1]]
-    for a, b in itertools.pairwise(p):
-        n = max(1, math.ceil(float(np.linalg.norm(b - a)) / step_m))
-        t = np.arange(1, n + 1)[:, None] / n
-        out.append(a + t * (b - a))
-    return np.vstack(out)
 
 
 def _plan_leg(

@@ -11,6 +11,7 @@ single definition of it; the mission builder's inverse (items → ENU) produces 
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -53,6 +54,20 @@ def flown_polyline(
         gx, gy, _ = (float(v) for v in w[-1])
         rows.append(np.array([[gx, gy, landing_z]]))
     return drop_repeats(np.vstack(rows))
+
+
+def densify(points: NDArray[np.float64], step_m: float) -> NDArray[np.float64]:
+    """The polyline sampled at most ``step_m`` apart horizontally, every vertex included (a
+    vertical leg keeps just its ends): for checks against things that vary over the ground."""
+    p = np.asarray(points, dtype=np.float64)
+    if len(p) < 2:
+        return p
+    pieces = [p[:1]]
+    for a, b in itertools.pairwise(p):
+        n = max(1, math.ceil(float(np.hypot(*(b[:2] - a[:2]))) / step_m))
+        t = np.arange(1, n + 1)[:, None] / n
+        pieces.append(a + t * (b - a))
+    return np.vstack(pieces)
 
 
 def drop_repeats(points: NDArray[np.float64], tol_m: float = 1e-9) -> NDArray[np.float64]:

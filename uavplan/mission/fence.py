@@ -41,7 +41,6 @@ flown polyline in ENU or the :class:`~uavplan.route.PlannedRoute` carrying it, i
 from __future__ import annotations
 
 import enum
-import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -53,7 +52,7 @@ from uavplan import geometry2d as g2
 from uavplan.geo import EnuFrame
 from uavplan.mission.items import FenceCircle, FencePolygon, GeoFence
 from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle
-from uavplan.route import PlannedRoute
+from uavplan.route import PlannedRoute, densify
 
 _Arr = NDArray[np.float64]
 
@@ -444,21 +443,9 @@ def _footprint_distance(
     return float(g2.segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
 
 
-def _densify(route: NDArray[np.float64], step_m: float) -> NDArray[np.float64]:
-    """The polyline sampled at most ``step_m`` apart (horizontally), vertices included."""
-    if len(route) < 2:
-        return route
-    pieces = [route[:1]]
-    for a, b in itertools.pairwise(route):
-        n = max(1, math.ceil(float(np.hypot(*(b[:2] - a[:2]))) / step_m))
-        t = np.arange(1, n + 1)[:, None] / n
-        pieces.append(a + t * (b - a))
-    return np.vstack(pieces)
-
-
 def _height_above_top(fp: Footprint, route: NDArray[np.float64], margin_m: float) -> float:
     """Lowest ``z - height`` of the route where it is horizontally within the margin."""
-    samples = _densify(route, SAMPLE_STEP_M)
+    samples = densify(route, SAMPLE_STEP_M)
     xy = samples[:, :2]
     if fp.is_circle:
         assert fp.center_enu is not None and fp.radius_m is not None
