@@ -1388,66 +1388,20 @@ done:
 
 /* rebuild(base, active, anchor, offset, spread, draw, spread2, draw2, clamp, first, use_first,
  * explicit, n_explicit, escape, t_max, v_min, v_max, reach, seeds, out, ok) -> escapes */
-static PyObject *py_rebuild(PyObject *self, PyObject *args) {
-    PyObject *o[14], *ro, *oseeds, *oout, *ook;
-    long long t_max, v_min, v_max;
-    enum { BASE, ACTIVE, ANCHOR, OFFSET, SPREAD, DRAW1, SPREAD2, DRAW2, CLAMP, FIRST, USEFIRST,
-           EXPLICIT, NEXPLICIT, ESCAPE, NB };
-    static const char *names[NB] = {"base",  "active",  "anchor",    "offset",     "spread",
-                                    "draw",  "spread2", "draw2",     "clamp",      "first",
-                                    "use_first", "explicit", "n_explicit", "escape"};
-    static const int types[NB] = {T_F64, T_BOOL, T_F64, T_F64, T_F64, T_I64, T_F64,
-                                  T_I64, T_F64, T_F64, T_BOOL, T_F64, T_I64, T_BOOL};
-    static const int ndims[NB] = {3, 1, 3, 3, 3, 1, 3, 1, 1, 3, 1, 4, 1, 1};
-    Buf b[NB], bseeds = {0}, bout = {0}, bok = {0};
-    Reach r;
-    ReachBufs rb;
-    memset(b, 0, sizeof(b));
-    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOOLLLOOOO", &o[0], &o[1], &o[2], &o[3], &o[4],
-                          &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13],
-                          &t_max, &v_min, &v_max, &ro, &oseeds, &oout, &ook))
-        return NULL;
-    if (reach_get(ro, &r, &rb) < 0) return NULL;
-    PyObject *ret = NULL;
-    for (int i = 0; i < NB; i++)
-        if (get_buf(o[i], &b[i], types[i], ndims[i], 0, names[i]) < 0) goto done;
-    if (get_buf(oseeds, &bseeds, T_U64, 1, 0, "seeds") < 0 ||
-        get_buf(oout, &bout, T_F64, 3, 1, "out") < 0 || get_buf(ook, &bok, T_BOOL, 1, 1, "ok") < 0)
-        goto done;
-    int64_t n_pop = dim(&b[BASE], 0);
-    int64_t n_inner = dim(&b[BASE], 1);
-    int64_t n_att = dim(&b[EXPLICIT], 0);
-    {
-        int shapes_ok = dim(&b[BASE], 2) == 2 && n_inner <= r.ncols - 2 &&
-                        dim(&b[CLAMP], 0) == 2 && dim(&bseeds, 0) == n_pop &&
-                        dim(&bok, 0) == n_pop;
-        int g3[] = {ANCHOR, OFFSET, SPREAD, SPREAD2, FIRST};
-        for (int i = 0; i < 5; i++)
-            shapes_ok = shapes_ok && dim(&b[g3[i]], 0) == n_pop &&
-                        dim(&b[g3[i]], 1) == n_inner && dim(&b[g3[i]], 2) == 2;
-        shapes_ok = shapes_ok && dim(&bout, 0) == n_pop && dim(&bout, 1) == n_inner &&
-                    dim(&bout, 2) == 2;
-        int g1[] = {ACTIVE, DRAW1, DRAW2, USEFIRST, NEXPLICIT, ESCAPE};
-        for (int i = 0; i < 6; i++) shapes_ok = shapes_ok && dim(&b[g1[i]], 0) == n_pop;
-        shapes_ok = shapes_ok && (n_att == 0 || (dim(&b[EXPLICIT], 1) == n_pop &&
-                                                 dim(&b[EXPLICIT], 2) == n_inner &&
-                                                 dim(&b[EXPLICIT], 3) == 2));
-        if (need(shapes_ok, "rebuild: inconsistent shapes") < 0) goto done;
-        const int64_t *nexp = I64(b[NEXPLICIT]);
-        for (int64_t g = 0; g < n_pop; g++)
-            if (need(nexp[g] <= n_att || t_max <= n_att,
-                     "rebuild: n_explicit larger than explicit's first axis") < 0)
-                goto done;
-    }
-    const double *base = F64(b[BASE]), *anchor = F64(b[ANCHOR]), *offset = F64(b[OFFSET]);
-    const double *spread = F64(b[SPREAD]), *spread2 = F64(b[SPREAD2]), *clamp = F64(b[CLAMP]);
-    const double *first = F64(b[FIRST]), *explicit_ = F64(b[EXPLICIT]);
-    const unsigned char *active = BOOL(b[ACTIVE]), *use_first = BOOL(b[USEFIRST]),
-                        *escape = BOOL(b[ESCAPE]);
-    const int64_t *draw = I64(b[DRAW1]), *draw2 = I64(b[DRAW2]), *n_explicit = I64(b[NEXPLICIT]);
-    const uint64_t *seeds = U64(bseeds);
-    double *out = F64(bout);
-    unsigned char *ok = BOOL(bok);
+/* The generic proposal-and-repair step (see rebuild in uavplan/planners/_kernels.py) on raw
+ * arrays. ``offset`` and ``spread2`` may be NULL (all zeros), ``draw2`` NULL (no second
+ * draw), ``first`` / ``use_first`` NULL (no first attempts), ``explicit_`` NULL when
+ * ``n_att`` is 0. Returns the escapes used; adds the checks made to *n_chk, *n_exact. */
+static int64_t rebuild_core(const double *base, int64_t n_pop, int64_t n_inner,
+                            const unsigned char *active, const double *anchor,
+                            const double *offset, const double *spread, const int64_t *draw,
+                            const double *spread2, const int64_t *draw2, const double *clamp,
+                            const double *first, const unsigned char *use_first,
+                            const double *explicit_, const int64_t *n_explicit,
+                            const unsigned char *escape, int64_t t_max, int64_t v_min,
+                            int64_t v_max, const Reach *rp, const uint64_t *seeds, double *out,
+                            unsigned char *ok, int64_t *n_chk_out, int64_t *n_exact_out) {
+    const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0, esc_total = 0;
     memcpy(out, base, sizeof(double) * n_pop * n_inner * 2);
     for (int64_t g = 0; g < n_pop; g++) ok[g] = 1;
@@ -1455,8 +1409,8 @@ static PyObject *py_rebuild(PyObject *self, PyObject *args) {
         if (!active[g]) continue;
         uint64_t st = seeds[g];
         int64_t kind1 = draw[g];
-        int64_t kind2 = draw2[g];
-        int64_t n_exp = n_explicit[g];
+        int64_t kind2 = draw2 ? draw2[g] : DRAW_NONE;
+        int64_t n_exp = n_explicit ? n_explicit[g] : 0;
         double py = 0.0;
         double pz = 0.0;
         int same = 1;
@@ -1471,11 +1425,11 @@ static PyObject *py_rebuild(PyObject *self, PyObject *args) {
                     double v;
                     if (attempt < n_exp) {
                         v = explicit_[(attempt * n_pop * n_inner) * 2 + gj + a];
-                    } else if (attempt == 0 && use_first[g]) {
+                    } else if (attempt == 0 && use_first && use_first[g]) {
                         v = first[gj + a];
                     } else {
-                        double step = offset[gj + a] + spread[gj + a] * draw_kind(kind1, &st);
-                        step = step + spread2[gj + a] * draw_kind(kind2, &st);
+                        double step = (offset ? offset[gj + a] : 0.0) + spread[gj + a] * draw_kind(kind1, &st);
+                        step = step + (spread2 ? spread2[gj + a] : 0.0) * draw_kind(kind2, &st);
                         double c = clamp[a];
                         if (step > c)
                             step = c;
@@ -1543,6 +1497,76 @@ static PyObject *py_rebuild(PyObject *self, PyObject *args) {
         }
         if (!ok[g]) memcpy(out + g * n_inner * 2, bg_, sizeof(double) * n_inner * 2);
     }
+    *n_chk_out += n_chk;
+    *n_exact_out += n_exact;
+    return esc_total;
+}
+
+static PyObject *py_rebuild(PyObject *self, PyObject *args) {
+    PyObject *o[14], *ro, *oseeds, *oout, *ook;
+    long long t_max, v_min, v_max;
+    enum { BASE, ACTIVE, ANCHOR, OFFSET, SPREAD, DRAW1, SPREAD2, DRAW2, CLAMP, FIRST, USEFIRST,
+           EXPLICIT, NEXPLICIT, ESCAPE, NB };
+    static const char *names[NB] = {"base",  "active",  "anchor",    "offset",     "spread",
+                                    "draw",  "spread2", "draw2",     "clamp",      "first",
+                                    "use_first", "explicit", "n_explicit", "escape"};
+    static const int types[NB] = {T_F64, T_BOOL, T_F64, T_F64, T_F64, T_I64, T_F64,
+                                  T_I64, T_F64, T_F64, T_BOOL, T_F64, T_I64, T_BOOL};
+    static const int ndims[NB] = {3, 1, 3, 3, 3, 1, 3, 1, 1, 3, 1, 4, 1, 1};
+    Buf b[NB], bseeds = {0}, bout = {0}, bok = {0};
+    Reach r;
+    ReachBufs rb;
+    memset(b, 0, sizeof(b));
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOOLLLOOOO", &o[0], &o[1], &o[2], &o[3], &o[4],
+                          &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13],
+                          &t_max, &v_min, &v_max, &ro, &oseeds, &oout, &ook))
+        return NULL;
+    if (reach_get(ro, &r, &rb) < 0) return NULL;
+    PyObject *ret = NULL;
+    for (int i = 0; i < NB; i++)
+        if (get_buf(o[i], &b[i], types[i], ndims[i], 0, names[i]) < 0) goto done;
+    if (get_buf(oseeds, &bseeds, T_U64, 1, 0, "seeds") < 0 ||
+        get_buf(oout, &bout, T_F64, 3, 1, "out") < 0 || get_buf(ook, &bok, T_BOOL, 1, 1, "ok") < 0)
+        goto done;
+    int64_t n_pop = dim(&b[BASE], 0);
+    int64_t n_inner = dim(&b[BASE], 1);
+    int64_t n_att = dim(&b[EXPLICIT], 0);
+    {
+        int shapes_ok = dim(&b[BASE], 2) == 2 && n_inner <= r.ncols - 2 &&
+                        dim(&b[CLAMP], 0) == 2 && dim(&bseeds, 0) == n_pop &&
+                        dim(&bok, 0) == n_pop;
+        int g3[] = {ANCHOR, OFFSET, SPREAD, SPREAD2, FIRST};
+        for (int i = 0; i < 5; i++)
+            shapes_ok = shapes_ok && dim(&b[g3[i]], 0) == n_pop &&
+                        dim(&b[g3[i]], 1) == n_inner && dim(&b[g3[i]], 2) == 2;
+        shapes_ok = shapes_ok && dim(&bout, 0) == n_pop && dim(&bout, 1) == n_inner &&
+                    dim(&bout, 2) == 2;
+        int g1[] = {ACTIVE, DRAW1, DRAW2, USEFIRST, NEXPLICIT, ESCAPE};
+        for (int i = 0; i < 6; i++) shapes_ok = shapes_ok && dim(&b[g1[i]], 0) == n_pop;
+        shapes_ok = shapes_ok && (n_att == 0 || (dim(&b[EXPLICIT], 1) == n_pop &&
+                                                 dim(&b[EXPLICIT], 2) == n_inner &&
+                                                 dim(&b[EXPLICIT], 3) == 2));
+        if (need(shapes_ok, "rebuild: inconsistent shapes") < 0) goto done;
+        const int64_t *nexp = I64(b[NEXPLICIT]);
+        for (int64_t g = 0; g < n_pop; g++)
+            if (need(nexp[g] <= n_att || t_max <= n_att,
+                     "rebuild: n_explicit larger than explicit's first axis") < 0)
+                goto done;
+    }
+    const double *base = F64(b[BASE]), *anchor = F64(b[ANCHOR]), *offset = F64(b[OFFSET]);
+    const double *spread = F64(b[SPREAD]), *spread2 = F64(b[SPREAD2]), *clamp = F64(b[CLAMP]);
+    const double *first = F64(b[FIRST]), *explicit_ = F64(b[EXPLICIT]);
+    const unsigned char *active = BOOL(b[ACTIVE]), *use_first = BOOL(b[USEFIRST]),
+                        *escape = BOOL(b[ESCAPE]);
+    const int64_t *draw = I64(b[DRAW1]), *draw2 = I64(b[DRAW2]), *n_explicit = I64(b[NEXPLICIT]);
+    const uint64_t *seeds = U64(bseeds);
+    double *out = F64(bout);
+    unsigned char *ok = BOOL(bok);
+    int64_t n_chk = 0, n_exact = 0;
+    int64_t esc_total = rebuild_core(base, n_pop, n_inner, active, anchor, offset, spread, draw,
+                                     spread2, draw2, clamp, first, use_first, explicit_,
+                                     n_explicit, escape, t_max, v_min, v_max, &r, seeds, out, ok,
+                                     &n_chk, &n_exact);
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
     ret = PyLong_FromLongLong(esc_total);
@@ -1556,35 +1580,12 @@ done:
 }
 
 /* moving_average_repair(nodes, goal_u, window, reach, skip, moved) */
-static PyObject *py_moving_average_repair(PyObject *self, PyObject *args) {
-    PyObject *on, *ogu, *ro, *osk, *om;
-    long long window;
-    Buf bn = {0}, bgu = {0}, bsk = {0}, bm = {0};
-    Reach r;
-    ReachBufs rb;
-    double *new_ = NULL;
-    if (!PyArg_ParseTuple(args, "OOLOOO", &on, &ogu, &window, &ro, &osk, &om)) return NULL;
-    if (reach_get(ro, &r, &rb) < 0) return NULL;
-    PyObject *ret = NULL;
-    if (get_buf(on, &bn, T_F64, 3, 1, "nodes") < 0 ||
-        get_buf(ogu, &bgu, T_F64, 1, 0, "goal_u") < 0 ||
-        get_buf(osk, &bsk, T_BOOL, 1, 0, "skip") < 0 || get_buf(om, &bm, T_I64, 1, 1, "moved") < 0)
-        goto done;
-    int64_t n_pop = dim(&bn, 0);
-    int64_t n_inner = dim(&bn, 1);
-    if (need(dim(&bn, 2) == 2 && n_inner <= r.ncols - 2 && dim(&bgu, 0) >= 2 &&
-                 dim(&bsk, 0) == n_pop && dim(&bm, 0) == n_pop,
-             "moving_average_repair: inconsistent shapes") < 0)
-        goto done;
-    double *nodes = F64(bn);
-    const double *goal_u = F64(bgu);
-    const unsigned char *skip = BOOL(bsk);
-    int64_t *moved = I64(bm);
-    new_ = malloc(sizeof(double) * 2 * (n_inner > 0 ? n_inner : 1));
-    if (new_ == NULL) {
-        PyErr_NoMemory();
-        goto done;
-    }
+/* Eq. 13's moving-average repair (see moving_average_repair in
+ * uavplan/planners/_kernels.py) on raw arrays; ``new_`` is scratch for 2·n_inner values. */
+static void mar_core(double *nodes, int64_t n_pop, int64_t n_inner, const double *goal_u,
+                     int64_t window, const Reach *rp, const unsigned char *skip, int64_t *moved,
+                     double *new_, int64_t *n_chk_out, int64_t *n_exact_out) {
+    const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0;
     double dy = r.dy, dz = r.dz;
     for (int64_t g = 0; g < n_pop; g++) {
@@ -1652,6 +1653,41 @@ static PyObject *py_moving_average_repair(PyObject *self, PyObject *args) {
             moved[g] = count;
         }
     }
+    *n_chk_out += n_chk;
+    *n_exact_out += n_exact;
+}
+
+static PyObject *py_moving_average_repair(PyObject *self, PyObject *args) {
+    PyObject *on, *ogu, *ro, *osk, *om;
+    long long window;
+    Buf bn = {0}, bgu = {0}, bsk = {0}, bm = {0};
+    Reach r;
+    ReachBufs rb;
+    double *new_ = NULL;
+    if (!PyArg_ParseTuple(args, "OOLOOO", &on, &ogu, &window, &ro, &osk, &om)) return NULL;
+    if (reach_get(ro, &r, &rb) < 0) return NULL;
+    PyObject *ret = NULL;
+    if (get_buf(on, &bn, T_F64, 3, 1, "nodes") < 0 ||
+        get_buf(ogu, &bgu, T_F64, 1, 0, "goal_u") < 0 ||
+        get_buf(osk, &bsk, T_BOOL, 1, 0, "skip") < 0 || get_buf(om, &bm, T_I64, 1, 1, "moved") < 0)
+        goto done;
+    int64_t n_pop = dim(&bn, 0);
+    int64_t n_inner = dim(&bn, 1);
+    if (need(dim(&bn, 2) == 2 && n_inner <= r.ncols - 2 && dim(&bgu, 0) >= 2 &&
+                 dim(&bsk, 0) == n_pop && dim(&bm, 0) == n_pop,
+             "moving_average_repair: inconsistent shapes") < 0)
+        goto done;
+    double *nodes = F64(bn);
+    const double *goal_u = F64(bgu);
+    const unsigned char *skip = BOOL(bsk);
+    int64_t *moved = I64(bm);
+    new_ = malloc(sizeof(double) * 2 * (n_inner > 0 ? n_inner : 1));
+    if (new_ == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    int64_t n_chk = 0, n_exact = 0;
+    mar_core(nodes, n_pop, n_inner, goal_u, window, &r, skip, moved, new_, &n_chk, &n_exact);
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
     ret = Py_NewRef(Py_None);
@@ -1838,17 +1874,129 @@ static void moving_average(const double *vals, int64_t n, int64_t half, double *
     }
 }
 
+/* What the fitness of one problem reads (see population_energy in uavplan/path/energy.py);
+ * ``work`` is scratch for 2·max(inner, 1) + 8·(inner + 2) values (energy_init fills the
+ * Thomas factors at its start). */
+typedef struct {
+    const double *start_yz, *goal_yz, *cols;
+    double dx, dy, dz, k0, k1, mu0, k2;
+    int64_t n_sub, smooth, inner;
+    int straight;
+    double *work;
+} Energy;
+
+static int energy_init(Energy *e) {
+    int64_t nf = e->inner > 1 ? e->inner : 1;
+    int64_t nk = e->inner + 2;
+    e->work = malloc(sizeof(double) * (2 * nf + 8 * nk));
+    if (e->work == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    thomas_factors(nf, e->work, e->work + nf);
+    double *mx = e->work + 2 * nf + 7 * nk;
+    for (int64_t i = 0; i < nk; i++) mx[i] = 0.0;
+    return 0;
+}
+
+/* The energy of one individual's inner nodes (inner, 2) in grid units. */
+static double energy_one(const double *nodes, const Energy *e) {
+    int64_t inner = e->inner;
+    int64_t nk = inner + 2;
+    int64_t nf = inner > 1 ? inner : 1;
+    double *cp = e->work, *den = e->work + nf;
+    double *ys = den + nf, *zs = ys + nk, *sy = zs + nk, *sz = sy + nk, *sx = sz + nk;
+    double *my = sx + nk, *mz = my + nk, *mx = mz + nk;
+    const double *cols = e->cols;
+    int straight = e->straight;
+    int64_t n_sub = e->n_sub;
+    double dx = e->dx;
+    double h2 = dx * dx / 6.0;
+    ys[0] = e->start_yz[0];
+    zs[0] = e->start_yz[1];
+    ys[nk - 1] = e->goal_yz[0];
+    zs[nk - 1] = e->goal_yz[1];
+    for (int64_t j = 0; j < inner; j++) {
+        ys[j + 1] = nodes[j * 2] * e->dy;
+        zs[j + 1] = nodes[j * 2 + 1] * e->dz;
+    }
+    if (e->smooth > 0) {
+        moving_average(ys, nk, e->smooth, sy);
+        moving_average(zs, nk, e->smooth, sz);
+    } else {
+        memcpy(sy, ys, sizeof(double) * nk);
+        memcpy(sz, zs, sizeof(double) * nk);
+    }
+    if (!straight) {
+        for (int64_t j = 0; j < nk; j++) {
+            double lat = sy[j];
+            sx[j] = cols[4 * j] + lat * cols[4 * j + 2];
+            sy[j] = cols[4 * j + 1] + lat * cols[4 * j + 3];
+        }
+        second_derivs(sx, nk, dx, cp, den, mx);
+    }
+    second_derivs(sy, nk, dx, cp, den, my);
+    second_derivs(sz, nk, dx, cp, den, mz);
+    double length = 0.0, turn = 0.0, climb = 0.0;
+    double px = straight ? 0.0 : sx[0];
+    double py = sy[0];
+    double pz = sz[0];
+    double pdx = 0.0, pdy = 0.0, pdz = 0.0, plen = 0.0;
+    for (int64_t i = 0; i < nk - 1; i++) {
+        for (int64_t k = 0; k < n_sub; k++) {
+            if (i == 0 && k == 0) continue;
+            double u = (double)k / (double)n_sub;
+            double a = 1.0 - u;
+            double c = h2 * (a * a * a - a);
+            double d = h2 * (u * u * u - u);
+            double x;
+            if (straight)
+                x = ((double)i + u) * dx;
+            else
+                x = a * sx[i] + u * sx[i + 1] + c * mx[i] + d * mx[i + 1];
+            double y = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1];
+            double z = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1];
+            double ex = x - px;
+            double ey = y - py;
+            double ez = z - pz;
+            double seg = sqrt(ex * ex + ey * ey + ez * ez);
+            if (seg > 1e-12) {
+                length += seg;
+                climb += fabs(ez);
+                if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
+                pdx = ex;
+                pdy = ey;
+                pdz = ez;
+                plen = seg;
+            }
+            px = x;
+            py = y;
+            pz = z;
+        }
+    }
+    double ex = (straight ? (double)(nk - 1) * dx : sx[nk - 1]) - px;
+    double ey = sy[nk - 1] - py;
+    double ez = sz[nk - 1] - pz;
+    double seg = sqrt(ex * ex + ey * ey + ez * ez);
+    if (seg > 1e-12) {
+        length += seg;
+        climb += fabs(ez);
+        if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
+    }
+    return e->k0 * length + e->k1 * e->mu0 * turn + e->k2 * climb;
+}
+
 /* population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth, cols,
  * straight, out) */
 static PyObject *py_population_energy(PyObject *self, PyObject *args) {
     PyObject *on, *os, *og, *oc, *oo;
-    double dx, dy, dz, k0, k1, mu0, k2;
+    Energy e;
     long long n_sub, smooth;
     int straight;
     Buf bn = {0}, bs = {0}, bg = {0}, bc = {0}, bo = {0};
-    double *work = NULL;
-    if (!PyArg_ParseTuple(args, "OOOdddLddddLOpO", &on, &os, &og, &dx, &dy, &dz, &n_sub, &k0,
-                          &k1, &mu0, &k2, &smooth, &oc, &straight, &oo))
+    memset(&e, 0, sizeof(e));
+    if (!PyArg_ParseTuple(args, "OOOdddLddddLOpO", &on, &os, &og, &e.dx, &e.dy, &e.dz, &n_sub,
+                          &e.k0, &e.k1, &e.mu0, &e.k2, &smooth, &oc, &straight, &oo))
         return NULL;
     PyObject *ret = NULL;
     if (get_buf(on, &bn, T_F64, 3, 0, "nodes") < 0 ||
@@ -1863,102 +2011,386 @@ static PyObject *py_population_energy(PyObject *self, PyObject *args) {
                  dim(&bo, 0) == g_count && (straight || (dim(&bc, 0) >= nk && dim(&bc, 1) == 4)),
              "population_energy: inconsistent shapes") < 0)
         goto done;
-    int64_t nf = inner > 1 ? inner : 1;
-    work = malloc(sizeof(double) * (2 * nf + 8 * nk));
-    if (work == NULL) {
-        PyErr_NoMemory();
-        goto done;
-    }
-    double *cp = work, *den = work + nf;
-    double *ys = den + nf, *zs = ys + nk, *sy = zs + nk, *sz = sy + nk, *sx = sz + nk;
-    double *my = sx + nk, *mz = my + nk, *mx = mz + nk;
-    thomas_factors(nf, cp, den);
-    for (int64_t i = 0; i < nk; i++) mx[i] = 0.0;
-    const double *nodes = F64(bn), *start_yz = F64(bs), *goal_yz = F64(bg), *cols = F64(bc);
+    e.start_yz = F64(bs);
+    e.goal_yz = F64(bg);
+    e.cols = F64(bc);
+    e.n_sub = n_sub;
+    e.smooth = smooth;
+    e.inner = inner;
+    e.straight = straight;
+    if (energy_init(&e) < 0) goto done;
+    const double *nodes = F64(bn);
     double *out = F64(bo);
-    double h2 = dx * dx / 6.0;
-    for (int64_t g = 0; g < g_count; g++) {
-        ys[0] = start_yz[0];
-        zs[0] = start_yz[1];
-        ys[nk - 1] = goal_yz[0];
-        zs[nk - 1] = goal_yz[1];
-        for (int64_t j = 0; j < inner; j++) {
-            ys[j + 1] = nodes[(g * inner + j) * 2] * dy;
-            zs[j + 1] = nodes[(g * inner + j) * 2 + 1] * dz;
-        }
-        if (smooth > 0) {
-            moving_average(ys, nk, smooth, sy);
-            moving_average(zs, nk, smooth, sz);
-        } else {
-            memcpy(sy, ys, sizeof(double) * nk);
-            memcpy(sz, zs, sizeof(double) * nk);
-        }
-        if (!straight) {
-            for (int64_t j = 0; j < nk; j++) {
-                double lat = sy[j];
-                sx[j] = cols[4 * j] + lat * cols[4 * j + 2];
-                sy[j] = cols[4 * j + 1] + lat * cols[4 * j + 3];
-            }
-            second_derivs(sx, nk, dx, cp, den, mx);
-        }
-        second_derivs(sy, nk, dx, cp, den, my);
-        second_derivs(sz, nk, dx, cp, den, mz);
-        double length = 0.0, turn = 0.0, climb = 0.0;
-        double px = straight ? 0.0 : sx[0];
-        double py = sy[0];
-        double pz = sz[0];
-        double pdx = 0.0, pdy = 0.0, pdz = 0.0, plen = 0.0;
-        for (int64_t i = 0; i < nk - 1; i++) {
-            for (int64_t k = 0; k < n_sub; k++) {
-                if (i == 0 && k == 0) continue;
-                double u = (double)k / (double)n_sub;
-                double a = 1.0 - u;
-                double c = h2 * (a * a * a - a);
-                double d = h2 * (u * u * u - u);
-                double x;
-                if (straight)
-                    x = ((double)i + u) * dx;
-                else
-                    x = a * sx[i] + u * sx[i + 1] + c * mx[i] + d * mx[i + 1];
-                double y = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1];
-                double z = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1];
-                double ex = x - px;
-                double ey = y - py;
-                double ez = z - pz;
-                double seg = sqrt(ex * ex + ey * ey + ez * ez);
-                if (seg > 1e-12) {
-                    length += seg;
-                    climb += fabs(ez);
-                    if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
-                    pdx = ex;
-                    pdy = ey;
-                    pdz = ez;
-                    plen = seg;
-                }
-                px = x;
-                py = y;
-                pz = z;
-            }
-        }
-        double ex = (straight ? (double)(nk - 1) * dx : sx[nk - 1]) - px;
-        double ey = sy[nk - 1] - py;
-        double ez = sz[nk - 1] - pz;
-        double seg = sqrt(ex * ex + ey * ey + ez * ez);
-        if (seg > 1e-12) {
-            length += seg;
-            climb += fabs(ez);
-            if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
-        }
-        out[g] = k0 * length + k1 * mu0 * turn + k2 * climb;
-    }
+    for (int64_t g = 0; g < g_count; g++) out[g] = energy_one(nodes + g * inner * 2, &e);
     ret = Py_NewRef(Py_None);
 done:
-    free(work);
+    free(e.work);
     rel(&bn);
     rel(&bs);
     rel(&bg);
     rel(&bc);
     rel(&bo);
+    return ret;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * One SPSA / SSA iteration (uavplan/planners/sparrow.py)
+ */
+
+/* An energy tuple (start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth,
+ * straight) as PathProblem.energy_args builds it; work buffers allocated by energy_init. */
+static int energy_get(PyObject *o, Energy *e, Buf *bufs, int64_t inner) {
+    long long n_sub, smooth;
+    int straight;
+    PyObject *os, *og, *oc;
+    memset(e, 0, sizeof(*e));
+    if (!PyArg_ParseTuple(o, "OOOdddLddddLp", &os, &og, &oc, &e->dx, &e->dy, &e->dz, &n_sub,
+                          &e->k0, &e->k1, &e->mu0, &e->k2, &smooth, &straight))
+        return -1;
+    if (get_buf(os, &bufs[0], T_F64, 1, 0, "energy.start_yz") < 0 ||
+        get_buf(og, &bufs[1], T_F64, 1, 0, "energy.goal_yz") < 0 ||
+        get_buf(oc, &bufs[2], T_F64, 2, 0, "energy.cols") < 0)
+        return -1;
+    if (need(dim(&bufs[0], 0) >= 2 && dim(&bufs[1], 0) >= 2 && n_sub >= 1 &&
+                 (straight || (dim(&bufs[2], 0) >= inner + 2 && dim(&bufs[2], 1) == 4)),
+             "energy: inconsistent arrays") < 0)
+        return -1;
+    e->start_yz = F64(bufs[0]);
+    e->goal_yz = F64(bufs[1]);
+    e->cols = F64(bufs[2]);
+    e->n_sub = n_sub;
+    e->smooth = smooth;
+    e->inner = inner;
+    e->straight = straight;
+    return energy_init(e);
+}
+
+enum {
+    SPSA_START_END = 1,  /* contribution 2: producers pulled toward the start-end line */
+    SPSA_LITERAL = 2,    /* eq. 11 read literally (else the deviation reading) */
+    SPSA_POP_INDEX = 4,  /* eq. 4's i ranked in the whole population (else among scroungers) */
+    SPSA_ESCAPE = 8,     /* contribution 3: scroungers may escape (eq. 12) */
+    SPSA_OSCILLATE = 16, /* contribution 4: oscillation optimisation (eq. 13) */
+};
+
+#define SPSA_EPS 1e-50
+
+static int same_path(const double *a, const double *b, int64_t m) {
+    for (int64_t i = 0; i < m; i++)
+        if (a[i] != b[i]) return 0;
+    return 1;
+}
+
+/* spsa_step(x, f, osc_fixed, line, goal_u, reach, energy, n_prod, iterations, t_max, v_min,
+ *           v_max, window, flags, warn, warning_value, pdraw, signs, aware, seeds1, seeds2,
+ *           counts)
+ *
+ * One iteration of SparrowPlanner.step, in place on x (G, n, 2), f (G,) and osc_fixed (G,):
+ * producers (eq. 11 or eq. 3), their rebuild under the reachability rule and fitness, then
+ * scroungers (eq. 4 with eq. 12's escape) and danger-aware sparrows (eq. 5), their rebuild,
+ * the oscillation optimisation (eq. 13) and greedy selection. The random numbers numpy's
+ * Generator draws for the step arrive drawn (``warn``: R2; ``pdraw`` (n_prod,): α = 1 − U
+ * when R2 < ST else Q ~ N(0, 1); ``signs`` (near, n, 2): eq. 4's ±1; ``aware``: the
+ * danger-aware sparrows; ``seeds1`` / ``seeds2`` (G,): the two rebuilds' streams), so the
+ * step is the same function of the Generator as the numpy formulation in the tests
+ * (tests/spsa_reference.py). ``counts`` (3,) int64 gets += (evaluations, escapes, failed
+ * updates). */
+static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
+    PyObject *ox, *of, *ofix, *oline, *ogoal, *ro, *oen, *opd, *osg, *oaw, *os1, *os2, *ocnt;
+    long long n_prod, iters, t_max, v_min, v_max, window, flags;
+    double warn, st_value;
+    Buf bx = {0}, bf = {0}, bfix = {0}, bline = {0}, bgoal = {0}, bpd = {0}, bsg = {0},
+        baw = {0}, bs1 = {0}, bs2 = {0}, bcnt = {0}, ben[3];
+    Energy e;
+    Reach r;
+    ReachBufs rb;
+    double *mem = NULL;
+    memset(ben, 0, sizeof(ben));
+    memset(&e, 0, sizeof(e));
+    if (!PyArg_ParseTuple(args, "OOOOOOOLLLLLLLddOOOOOO", &ox, &of, &ofix, &oline, &ogoal, &ro,
+                          &oen, &n_prod, &iters, &t_max, &v_min, &v_max, &window, &flags, &warn,
+                          &st_value, &opd, &osg, &oaw, &os1, &os2, &ocnt))
+        return NULL;
+    if (reach_get(ro, &r, &rb) < 0) return NULL;
+    PyObject *ret = NULL;
+    if (get_buf(ox, &bx, T_F64, 3, 1, "x") < 0 || get_buf(of, &bf, T_F64, 1, 1, "f") < 0 ||
+        get_buf(ofix, &bfix, T_BOOL, 1, 1, "osc_fixed") < 0 ||
+        get_buf(oline, &bline, T_F64, 2, 0, "line") < 0 ||
+        get_buf(ogoal, &bgoal, T_F64, 1, 0, "goal_u") < 0 ||
+        get_buf(opd, &bpd, T_F64, 1, 0, "pdraw") < 0 ||
+        get_buf(osg, &bsg, T_F64, 3, 0, "signs") < 0 ||
+        get_buf(oaw, &baw, T_I64, 1, 0, "aware") < 0 ||
+        get_buf(os1, &bs1, T_U64, 1, 0, "seeds1") < 0 ||
+        get_buf(os2, &bs2, T_U64, 1, 0, "seeds2") < 0 ||
+        get_buf(ocnt, &bcnt, T_I64, 1, 1, "counts") < 0)
+        goto done;
+    int64_t G = dim(&bx, 0), n = dim(&bx, 1);
+    int64_t m = 2 * n;
+    int64_t n_scr = G - n_prod;
+    int64_t n_aw = dim(&baw, 0);
+    if (need(dim(&bx, 2) == 2 && n >= 1 && n <= r.ncols - 2 && dim(&bf, 0) == G &&
+                 dim(&bfix, 0) == G && dim(&bline, 0) == n && dim(&bline, 1) == 2 &&
+                 dim(&bgoal, 0) >= 2 && 1 <= n_prod && n_prod < G && dim(&bpd, 0) == n_prod &&
+                 dim(&bs1, 0) == G && dim(&bs2, 0) == G && dim(&bcnt, 0) == 3 && n_aw <= G &&
+                 iters >= 1 && t_max >= 1 && window >= 3 && 1 <= v_min && v_min <= v_max &&
+                 (dim(&bsg, 0) == 0 || (dim(&bsg, 1) == n && dim(&bsg, 2) == 2)),
+             "spsa_step: inconsistent arguments") < 0)
+        goto done;
+    {
+        const int64_t *aw = I64(baw);
+        for (int64_t i = 0; i < n_aw; i++)
+            if (need(0 <= aw[i] && aw[i] < G, "spsa_step: aware index out of range") < 0)
+                goto done;
+    }
+    if (energy_get(oen, &e, ben, n) < 0) goto done;
+    /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m),
+     * f_cand, f_prod (G), then int64 order, moved (G) and bytes */
+    size_t nd = (size_t)(5 * G * m + 2 * m + 2 * G);
+    size_t ni = (size_t)(2 * G);
+    mem = malloc(sizeof(double) * nd + sizeof(int64_t) * (ni + G) + 8 * (size_t)G);
+    if (mem == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *x = F64(bx), *f = F64(bf);
+    unsigned char *fixed = BOOL(bfix);
+    const double *line = F64(bline), *goal_u = F64(bgoal), *pdraw = F64(bpd), *signs = F64(bsg);
+    const int64_t *aware = I64(baw);
+    int64_t *counts = I64(bcnt);
+    double *cand = mem, *cand_s = cand + G * m, *anchor = cand_s + G * m;
+    double *spread = anchor + G * m, *first = spread + G * m, *p_best = first + G * m;
+    double *new_ = p_best + m, *f_cand = new_ + m, *f_prod = f_cand + G;
+    int64_t *order = (int64_t *)(f_prod + G), *moved = order + G, *draw = moved + G;
+    unsigned char *active = (unsigned char *)(draw + G), *use_first = active + G;
+    unsigned char *escape = use_first + G, *ok_p = escape + G, *ok_s = ok_p + G;
+    unsigned char *fresh = ok_s + G, *changed = fresh + G, *spare = changed + G;
+    (void)spare;
+    int64_t n_chk = 0, n_exact = 0, evals = 0;
+    /* order: a stable argsort of f (insertion sort; G is a population) */
+    for (int64_t i = 0; i < G; i++) {
+        int64_t k = i;
+        while (k > 0 && f[order[k - 1]] > f[i]) {
+            order[k] = order[k - 1];
+            k--;
+        }
+        order[k] = i;
+    }
+    int64_t best_i = order[0], worst_i = order[G - 1];
+
+    /* --- producers: eq. 11 (or SSA's eq. 3); the alarm case P + Q·L ------------------- */
+    memcpy(anchor, x, sizeof(double) * G * m);
+    memset(spread, 0, sizeof(double) * G * m);
+    memset(first, 0, sizeof(double) * G * m);
+    for (int64_t g = 0; g < G; g++) {
+        draw[g] = DRAW_NONE;
+        active[g] = 0;
+        use_first[g] = 0;
+        escape[g] = 0;
+    }
+    if (warn < st_value) {
+        for (int64_t i = 0; i < n_prod; i++) {
+            int64_t g = order[i];
+            /* e = exp(−i/(α·M)), i the producer's rank, α = pdraw[i] */
+            double ex = exp((double)(-(i + 1)) / (pdraw[i] * (double)iters));
+            double *an = anchor + g * m, *sp = spread + g * m;
+            const double *p = x + g * m;
+            active[g] = 1;
+            for (int64_t k = 0; k < m; k++) {
+                double l = line[k];
+                if (!(flags & SPSA_START_END)) {
+                    an[k] = l + (p[k] - l) * ex; /* eq. 3 about the line, no random term */
+                } else if (flags & SPSA_LITERAL) {
+                    an[k] = p[k] + ex;
+                    sp[k] = l - p[k];
+                } else {
+                    double d = p[k] - l;
+                    an[k] = l + d * ex;
+                    sp[k] = -d;
+                }
+            }
+            if (flags & SPSA_START_END) draw[g] = DRAW_UNIFORM;
+        }
+        if (flags & SPSA_START_END) {
+            /* the best producer: P + rand·(P_ST − P) */
+            double *an = anchor + best_i * m, *sp = spread + best_i * m;
+            const double *p = x + best_i * m;
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = p[k];
+                sp[k] = line[k] - p[k];
+            }
+        }
+    } else {
+        for (int64_t i = 0; i < n_prod; i++) {
+            int64_t g = order[i];
+            double *sp = spread + g * m, *fi = first + g * m;
+            const double *p = x + g * m;
+            active[g] = 1;
+            draw[g] = DRAW_NORMAL;
+            use_first[g] = 1;
+            for (int64_t k = 0; k < m; k++) {
+                sp[k] = 1.0;
+                fi[k] = p[k] + pdraw[i];
+            }
+        }
+    }
+    rebuild_core(x, G, n, active, anchor, NULL, spread, draw, NULL, NULL, (double[2]){INFINITY, INFINITY},
+                 first, use_first, NULL, NULL, escape, t_max, v_min, v_max, &r, U64(bs1), cand,
+                 ok_p, &n_chk, &n_exact);
+    int64_t pb = -1;
+    for (int64_t i = 0; i < n_prod; i++) {
+        int64_t g = order[i];
+        fresh[g] = 1;
+        if (same_path(cand + g * m, x + g * m, m)) {
+            f_prod[g] = f[g];
+        } else {
+            f_prod[g] = energy_one(cand + g * m, &e);
+            evals++;
+        }
+        if (pb < 0 || f_prod[g] < f_prod[pb]) pb = g;
+    }
+    memcpy(p_best, cand + pb * m, sizeof(double) * m);
+    for (int64_t i = n_prod; i < G; i++) fresh[order[i]] = 0;
+
+    /* --- scroungers (eq. 4, eq. 12's escape) and danger-aware sparrows (eq. 5) ------------ */
+    memcpy(anchor, x, sizeof(double) * G * m);
+    memset(spread, 0, sizeof(double) * G * m);
+    for (int64_t g = 0; g < G; g++) {
+        draw[g] = DRAW_NONE;
+        active[g] = 0;
+        escape[g] = 0;
+    }
+    {
+        int64_t i0 = (flags & SPSA_POP_INDEX) ? n_prod + 1 : 1;
+        double half = (flags & SPSA_POP_INDEX) ? (double)G / 2.0 : (double)n_scr / 2.0;
+        int64_t near_k = 0;
+        const double *xw = x + worst_i * m;
+        for (int64_t s = 0; s < n_scr; s++) {
+            int64_t g = order[n_prod + s];
+            int64_t idx = i0 + s;
+            double *an = anchor + g * m, *sp = spread + g * m;
+            const double *p = x + g * m;
+            active[g] = 1;
+            escape[g] = (flags & SPSA_ESCAPE) ? 1 : 0;
+            if ((double)idx > half) {
+                /* i > n/2: Q·exp((P_worst − P)/i²) about the line */
+                double i2 = (double)idx * (double)idx;
+                for (int64_t k = 0; k < m; k++) {
+                    double v = ((xw[k] - line[k]) - (p[k] - line[k])) / i2;
+                    an[k] = line[k];
+                    sp[k] = exp(v > 50.0 ? 50.0 : v);
+                }
+                draw[g] = DRAW_NORMAL;
+            } else {
+                /* P_p + |P − P_p|·A⁺·L: one offset per path */
+                const double *sg = signs + near_k * m;
+                double sy = 0.0, sz = 0.0;
+                for (int64_t j = 0; j < n; j++) {
+                    sy += fabs(p[2 * j] - p_best[2 * j]) * sg[2 * j];
+                    sz += fabs(p[2 * j + 1] - p_best[2 * j + 1]) * sg[2 * j + 1];
+                }
+                sy = sy / (double)n;
+                sz = sz / (double)n;
+                for (int64_t j = 0; j < n; j++) {
+                    an[2 * j] = p_best[2 * j] + sy;
+                    an[2 * j + 1] = p_best[2 * j + 1] + sz;
+                }
+                near_k++;
+            }
+        }
+        if (need(near_k == dim(&bsg, 0), "spsa_step: signs: one row per near scrounger") < 0)
+            goto done;
+    }
+    for (int64_t i = 0; i < n_aw; i++) {
+        int64_t g = aware[i];
+        double *an = anchor + g * m, *sp = spread + g * m;
+        const double *p = x + g * m;
+        active[g] = 1;
+        escape[g] = 0;
+        if (!(f[g] <= f[best_i])) {
+            /* not the best: P_best + β·|P − P_best| */
+            const double *xb = x + best_i * m;
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = xb[k];
+                sp[k] = fabs(p[k] - xb[k]);
+            }
+            draw[g] = DRAW_NORMAL;
+        } else {
+            /* the best: P + K·|P − P_worst|/(f_i − f_w + ε) */
+            const double *xw = x + worst_i * m;
+            double kk = 1.0 / (f[g] - f[worst_i] + SPSA_EPS);
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = p[k];
+                sp[k] = fabs(p[k] - xw[k]) * kk;
+            }
+            draw[g] = DRAW_SYMMETRIC;
+        }
+    }
+    int64_t esc = rebuild_core(x, G, n, active, anchor, NULL, spread, draw, NULL, NULL,
+                               (double[2]){INFINITY, INFINITY}, NULL, NULL, NULL, NULL, escape,
+                               t_max, v_min, v_max, &r, U64(bs2), cand_s, ok_s, &n_chk, &n_exact);
+    for (int64_t g = 0; g < G; g++)
+        if (active[g]) {
+            memcpy(cand + g * m, cand_s + g * m, sizeof(double) * m);
+            fresh[g] = 0;
+        }
+
+    /* --- adaptive oscillation optimisation (eq. 13) -------------------------------------- */
+    for (int64_t g = 0; g < G; g++) changed[g] = !same_path(cand + g * m, x + g * m, m);
+    if (flags & SPSA_OSCILLATE) {
+        for (int64_t g = 0; g < G; g++) {
+            moved[g] = 0;
+            use_first[g] = !changed[g] && fixed[g]; /* skip: a known fixed point */
+        }
+        mar_core(cand, G, n, goal_u, window, &r, use_first, moved, new_, &n_chk, &n_exact);
+        for (int64_t g = 0; g < G; g++) {
+            if (!changed[g] && !use_first[g]) fixed[g] = moved[g] == 0;
+            if (moved[g] > 0) {
+                fresh[g] = 0;
+                changed[g] = !same_path(cand + g * m, x + g * m, m);
+            }
+        }
+    }
+
+    /* --- greedy selection ------------------------------------------------------------------ */
+    int64_t failed = 0;
+    for (int64_t g = 0; g < G; g++) {
+        failed += !ok_p[g] + !ok_s[g];
+        if (!changed[g]) continue;
+        double fc;
+        if (fresh[g]) {
+            fc = f_prod[g]; /* a producer's candidate evaluated above and not moved since */
+        } else {
+            fc = energy_one(cand + g * m, &e);
+            evals++;
+        }
+        if (fc < f[g]) {
+            memcpy(x + g * m, cand + g * m, sizeof(double) * m);
+            f[g] = fc;
+            if (flags & SPSA_OSCILLATE) fixed[g] = 0;
+        }
+    }
+    r.counts[0] += n_chk;
+    r.counts[1] += n_exact;
+    counts[0] += evals;
+    counts[1] += esc;
+    counts[2] += failed;
+    ret = Py_NewRef(Py_None);
+done:
+    free(mem);
+    free(e.work);
+    for (int i = 0; i < 3; i++) rel(&ben[i]);
+    rel(&bx);
+    rel(&bf);
+    rel(&bfix);
+    rel(&bline);
+    rel(&bgoal);
+    rel(&bpd);
+    rel(&bsg);
+    rel(&baw);
+    rel(&bs1);
+    rel(&bs2);
+    rel(&bcnt);
+    reach_release(&rb);
     return ret;
 }
 
@@ -2323,6 +2755,7 @@ static PyMethodDef methods[] = {
     {"polyline_energy", py_polyline_energy, METH_VARARGS, NULL},
     {"spline_points", py_spline_points, METH_VARARGS, NULL},
     {"population_energy", py_population_energy, METH_VARARGS, NULL},
+    {"spsa_step", py_spsa_step, METH_VARARGS, NULL},
     {"node_clearance", py_node_clearance, METH_VARARGS, NULL},
     {"astar_kernel", py_astar_kernel, METH_VARARGS, NULL},
     {NULL, NULL, 0, NULL},

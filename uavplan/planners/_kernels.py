@@ -350,3 +350,49 @@ def paths_feasible(nodes: np.ndarray, reach: Reach) -> np.ndarray:
     out = np.ones(nodes.shape[0], dtype=np.bool_)
     _c.paths_feasible(nodes, reach, out)
     return out
+
+
+#: switches of :func:`spsa_step` (``flags``)
+SPSA_START_END = 1  # contribution 2: producers pulled toward the start-end line (eq. 11)
+SPSA_LITERAL = 2  # eq. 11 read literally (else the deviation reading)
+SPSA_POP_INDEX = 4  # eq. 4's i ranked in the whole population (else among the scroungers)
+SPSA_ESCAPE = 8  # contribution 3: the adaptive variable-speed escape (eq. 12)
+SPSA_OSCILLATE = 16  # contribution 4: the adaptive oscillation optimisation (eq. 13)
+
+
+def spsa_step(
+    x: np.ndarray,
+    f: np.ndarray,
+    osc_fixed: np.ndarray,
+    line: np.ndarray,
+    goal_u: np.ndarray,
+    reach: Reach,
+    energy: tuple,
+    n_prod: int,
+    iterations: int,
+    t_max: int,
+    v_range: tuple[int, int],
+    window: int,
+    flags: int,
+    warn: float,
+    warning_value: float,
+    pdraw: np.ndarray,
+    signs: np.ndarray,
+    aware: np.ndarray,
+    seeds: tuple[np.ndarray, np.ndarray],
+    counts: np.ndarray,
+) -> None:
+    """One SPSA / SSA iteration in place on ``x`` (G, n, 2), ``f`` (G,) and ``osc_fixed``
+    (G,) (see :meth:`uavplan.planners.sparrow.SparrowPlanner.step`, which draws the random
+    numbers: ``warn`` R2, ``pdraw`` (n_prod,) α or Q, ``signs`` (near, n, 2) eq. 4's ±1,
+    ``aware`` the danger-aware sparrows, ``seeds`` the two rebuilds' streams). ``line``
+    (n, 2): the start-end line at the inner columns; ``energy``:
+    :attr:`PathProblem.energy_args`. ``counts`` (3,) int64 gets += (fitness evaluations,
+    escapes, failed updates)."""
+    _c.spsa_step(
+        x, f, osc_fixed, line, _f64(goal_u), reach, energy, int(n_prod), int(iterations),
+        int(t_max), int(v_range[0]), int(v_range[1]), int(window), int(flags), float(warn),
+        float(warning_value), _f64(pdraw), _f64(signs), np.ascontiguousarray(aware, np.int64),
+        np.ascontiguousarray(seeds[0], np.uint64), np.ascontiguousarray(seeds[1], np.uint64),
+        counts,
+    )  # fmt: skip

@@ -15,6 +15,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -131,9 +132,10 @@ class PathProblem:
     def n_inner(self) -> int:
         return self.frame.n_cols - 1
 
-    @property
+    @cached_property
     def reach(self) -> K.Reach:
-        """Everything the kernels' reachability rule reads, by name."""
+        """Everything the kernels' reachability rule reads, by name (built once per problem:
+        its arrays are the problem's own, the memo and the counters shared)."""
         dx, dy, dz = self.steps
         return K.Reach(
             self.world.kernel_args,
@@ -166,6 +168,21 @@ class PathProblem:
     def steps(self) -> tuple[float, float, float]:
         g = self.frame.grid
         return (self.frame.dx_m, g.dy_m, g.dz_m)
+
+    @cached_property
+    def energy_args(self) -> tuple:
+        """The fitness's fixed arguments as the fused kernels read them (see
+        :func:`~uavplan.planners._kernels.spsa_step`)."""
+        w = self.energy
+        dx, dy, dz = self.steps
+        return (
+            np.ascontiguousarray(self.start_m[1:]),
+            np.ascontiguousarray(self.goal_m[1:]),
+            np.ascontiguousarray(self.frame.cols, dtype=np.float64),
+            float(dx), float(dy), float(dz), N_SUB,
+            float(w.k0), float(w.k1), float(w.mu0), float(w.k2),
+            int(self.fitness_smoothing), bool(self.frame.straight),
+        )  # fmt: skip
 
     def fitness(self, nodes: np.ndarray) -> np.ndarray:
         """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
