@@ -1883,17 +1883,29 @@ typedef struct {
     int64_t n_sub, smooth, inner;
     int straight;
     double *work;
+    double *coef; /* per sub-step k: u, a = 1 − u, c, d (the spline's weights) */
 } Energy;
 
 static int energy_init(Energy *e) {
     int64_t nf = e->inner > 1 ? e->inner : 1;
     int64_t nk = e->inner + 2;
-    e->work = malloc(sizeof(double) * (2 * nf + 8 * nk));
+    e->work = malloc(sizeof(double) * (2 * nf + 8 * nk + 4 * e->n_sub));
     if (e->work == NULL) {
         PyErr_NoMemory();
         return -1;
     }
     thomas_factors(nf, e->work, e->work + nf);
+    /* the weights depend on the sub-step only: computed once, by the same expressions */
+    double h2 = e->dx * e->dx / 6.0;
+    e->coef = e->work + 2 * nf + 8 * nk;
+    for (int64_t k = 0; k < e->n_sub; k++) {
+        double u = (double)k / (double)e->n_sub;
+        double a = 1.0 - u;
+        e->coef[4 * k] = u;
+        e->coef[4 * k + 1] = a;
+        e->coef[4 * k + 2] = h2 * (a * a * a - a);
+        e->coef[4 * k + 3] = h2 * (u * u * u - u);
+    }
     double *mx = e->work + 2 * nf + 7 * nk;
     for (int64_t i = 0; i < nk; i++) mx[i] = 0.0;
     return 0;
@@ -1911,7 +1923,7 @@ static double energy_one(const double *nodes, const Energy *e) {
     int straight = e->straight;
     int64_t n_sub = e->n_sub;
     double dx = e->dx;
-    double h2 = dx * dx / 6.0;
+    const double *coef = e->coef;
     ys[0] = e->start_yz[0];
     zs[0] = e->start_yz[1];
     ys[nk - 1] = e->goal_yz[0];
@@ -1945,10 +1957,7 @@ static double energy_one(const double *nodes, const Energy *e) {
     for (int64_t i = 0; i < nk - 1; i++) {
         for (int64_t k = 0; k < n_sub; k++) {
             if (i == 0 && k == 0) continue;
-            double u = (double)k / (double)n_sub;
-            double a = 1.0 - u;
-            double c = h2 * (a * a * a - a);
-            double d = h2 * (u * u * u - u);
+            double u = coef[4 * k], a = coef[4 * k + 1], c = coef[4 * k + 2], d = coef[4 * k + 3];
             double x;
             if (straight)
                 x = ((double)i + u) * dx;

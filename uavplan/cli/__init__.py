@@ -12,7 +12,14 @@ imports none of them (tests/test_startup.py checks the table against the command
 from __future__ import annotations
 
 import importlib
+import os
 from typing import Any
+
+# numpy's OpenBLAS starts a thread pool at import whose threads spin after every call; the
+# planner's only BLAS calls are 2 × 2 solves, so the pool is pure cost: 0.1–0.15 s of CPU per
+# run, all of it stolen from the planner when the process has one core. A user's own
+# setting stands.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import click
 
