@@ -18,6 +18,7 @@ from spsa_reference import ReferenceSparrow
 
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, Termination
 from uavplan.planners.sparrow import SparrowPlanner
 from uavplan.world import World
@@ -93,3 +94,17 @@ def test_the_reference_is_not_the_product() -> None:
     )
     assert not np.array_equal(ref.population, other.population)
     assert ReferenceSparrow.step is not SparrowPlanner.step
+
+
+@pytest.mark.parametrize("shape", [(0, 5, 2), (1, 1, 1), (3, 99, 2), (7, 13, 2)])
+def test_sign_draws_are_numpys_integers(shape: tuple[int, ...]) -> None:
+    """The kernel's ±1 draws are numpy's ``2·integers(0, 2) − 1``, and leave the Generator
+    where numpy leaves it (odd counts included: the next 32-bit half stays buffered)."""
+    a, b = np.random.default_rng(11), np.random.default_rng(11)
+    a.random()
+    b.random()
+    fast = K.sign_draws(a, shape)
+    ref = 2.0 * b.integers(0, 2, size=shape) - 1.0
+    assert np.array_equal(fast, ref)
+    assert np.array_equal(a.integers(0, 2, size=9), b.integers(0, 2, size=9))
+    assert a.random() == b.random()

@@ -1304,6 +1304,28 @@ static inline double window_draw(double t, double h, double lo, double hi, bitge
     return a + u * (b - a);
 }
 
+/* sign_draws(capsule, out): out (float64, any shape) filled with ±1, 2·b − 1 for b the top bit
+ * of each of the bit generator's next 32-bit draws; for numpy's Generator this is
+ * 2.0 · rng.integers(0, 2, size) − 1.0 draw for draw (Lemire's bounded draw of {0, 1} keeps
+ * the top bit of a 32-bit draw and never rejects), at a fraction of its cost. The caller holds
+ * the bit generator's lock. */
+static PyObject *py_sign_draws(PyObject *self, PyObject *args) {
+    PyObject *cap, *oo;
+    Buf bo = {0};
+    if (!PyArg_ParseTuple(args, "OO", &cap, &oo)) return NULL;
+    bitgen_t *bg = PyCapsule_GetPointer(cap, "BitGenerator");
+    if (bg == NULL) return NULL;
+    if (get_buf(oo, &bo, T_F64, -1, 1, "out") < 0) return NULL;
+    double *out = F64(bo);
+    Py_ssize_t n = bo.view.len / (Py_ssize_t)sizeof(double);
+    for (Py_ssize_t i = 0; i < n; i++) {
+        uint32_t u = bg->next_uint32(bg->state);
+        out[i] = 2.0 * (double)(u >> 31) - 1.0;
+    }
+    rel(&bo);
+    return Py_NewRef(Py_None);
+}
+
 /* init_population(n_pop, n_inner, start_u, goal_u, half_window, t_max, max_attempts, window,
  * reach, capsule, nodes, ok) -> deadlocks */
 static PyObject *py_init_population(PyObject *self, PyObject *args) {
@@ -2765,6 +2787,7 @@ static PyMethodDef methods[] = {
     {"spline_points", py_spline_points, METH_VARARGS, NULL},
     {"population_energy", py_population_energy, METH_VARARGS, NULL},
     {"spsa_step", py_spsa_step, METH_VARARGS, NULL},
+    {"sign_draws", py_sign_draws, METH_VARARGS, NULL},
     {"node_clearance", py_node_clearance, METH_VARARGS, NULL},
     {"astar_kernel", py_astar_kernel, METH_VARARGS, NULL},
     {NULL, NULL, 0, NULL},

@@ -67,6 +67,7 @@ def population_energy(
     k0: float, k1: float, mu0: float, k2: float, smooth: int, cols: _A, straight: bool,
     out: _A,
 ) -> None: ...  # fmt: skip
+def sign_draws(capsule: Any, out: _A) -> None: ...
 def spsa_step(
     x: _A, f: _A, osc_fixed: _A, line: _A, goal_u: _A, reach: tuple[Any, ...],
     energy: tuple[Any, ...], n_prod: int, iterations: int, t_max: int, v_min: int, v_max: int,

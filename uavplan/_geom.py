@@ -41,11 +41,20 @@ def _i64(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
+class KernelWorld(tuple):
+    """A world tuple whose arrays are already C-contiguous and of the kernels' dtype (what
+    :func:`world_arrays` returns), so it is not checked again on every call."""
+
+    __slots__ = ()
+
+
 def world_arrays(W: tuple) -> tuple:
     """The world tuple with every array C-contiguous and of the kernels' dtype (no copy when
     it already is: the arrays :class:`uavplan.world.World` builds are)."""
+    if type(W) is KernelWorld:
+        return W
     kinds = (_f64, _i64, _f64, _f64, _f64, _f64, _f64, _f64, _i64, _i64, _i64)
-    return tuple(kind(a) for kind, a in zip(kinds, W, strict=False))
+    return KernelWorld(kind(a) for kind, a in zip(kinds, W, strict=False))
 
 
 def point_polygon_dist2d(px: float, py: float, verts: np.ndarray, n: int) -> float:

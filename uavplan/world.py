@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -220,18 +221,20 @@ class World:
         )
 
     # -- queries -----------------------------------------------------------------------
-    @property
+    @cached_property
     def kernel_args(self) -> tuple:
-        """The world tuple ``W`` the kernels of :mod:`uavplan._geom` take."""
-        return (
-            self.poly_xy,
-            self.poly_n,
-            self.poly_h,
-            self.circ,
-            self.box,
-            self.hp,
-            self.zlim,
-            *self.cells,
+        """The world tuple ``W`` the kernels of :mod:`uavplan._geom` take (checked once)."""
+        return _geom.world_arrays(
+            (
+                self.poly_xy,
+                self.poly_n,
+                self.poly_h,
+                self.circ,
+                self.box,
+                self.hp,
+                self.zlim,
+                *self.cells,
+            )
         )
 
     def segments_free(

@@ -255,6 +255,17 @@ def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return kn, wn, fn
 
 
+def sign_draws(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """±1.0 of ``shape`` drawn from ``rng``: the same numbers, in the same order, as
+    ``2.0 * rng.integers(0, 2, size=shape) - 1.0`` (tests/test_spsa_step.py holds the two
+    together), without numpy's per-element overhead."""
+    out = np.empty(shape)
+    bitgen = rng.bit_generator
+    with bitgen.lock:
+        _c.sign_draws(bitgen.capsule, out)
+    return out
+
+
 def stream_seeds(rng: np.random.Generator, n: int) -> np.ndarray:
     """One seed per individual for the kernels' random streams, drawn from ``rng``.
 

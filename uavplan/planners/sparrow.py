@@ -85,32 +85,16 @@ class SparrowPlanner(SwarmPlanner):
         """
         prm, search = self.params, self.search
         n_pop, n_inner = pop.x.shape[0], pop.x.shape[1]
-        n_prod = min(n_pop - 1, max(1, round(prm.producer_ratio * n_pop)))
+        n_prod, n_near, n_danger, flags = self._sizes(n_pop)
         warn = rng.random()
         if warn < prm.warning_value:
             pdraw = 1.0 - rng.random(n_prod)  # α in (0, 1]
         else:
             pdraw = rng.standard_normal(n_prod)  # Q
         seeds1 = K.stream_seeds(rng, n_pop)
-        n_scr = n_pop - n_prod
-        if prm.scrounger_index == "scrounger":
-            n_near = int((np.arange(1, n_scr + 1) <= n_scr / 2.0).sum())
-        else:
-            n_near = int((np.arange(n_prod + 1, n_pop + 1) <= n_pop / 2.0).sum())
-        if n_near:
-            signs = 2.0 * rng.integers(0, 2, size=(n_near, n_inner, 2)) - 1.0
-        else:
-            signs = np.zeros((0, n_inner, 2))
-        n_danger = min(n_pop, round(prm.danger_ratio * n_pop))
+        signs = K.sign_draws(rng, (n_near, n_inner, 2))  # 2·rng.integers(0, 2) − 1
         aware = rng.permutation(n_pop)[:n_danger]
         seeds2 = K.stream_seeds(rng, n_pop)
-        flags = (
-            (K.SPSA_START_END if prm.start_end_producer else 0)
-            | (K.SPSA_LITERAL if prm.producer_rule == "literal" else 0)
-            | (K.SPSA_POP_INDEX if prm.scrounger_index == "population" else 0)
-            | (K.SPSA_ESCAPE if prm.escape else 0)
-            | (K.SPSA_OSCILLATE if prm.oscillation else 0)
-        )
         fixed = pop.state.get("osc_fixed")
         if fixed is None:
             fixed = pop.state["osc_fixed"] = np.zeros(n_pop, dtype=np.bool_)
@@ -124,6 +108,26 @@ class SparrowPlanner(SwarmPlanner):
         problem.counters[0] += counts[0]
         pop.count("escapes", int(counts[1]))
         pop.count("failed_updates", int(counts[2]))
+
+    def _sizes(self, n_pop: int) -> tuple[int, int, int, int]:
+        """(producers, scroungers with i <= n/2, danger-aware sparrows, the kernel's flags)
+        for a population of ``n_pop``."""
+        prm = self.params
+        n_prod = min(n_pop - 1, max(1, round(prm.producer_ratio * n_pop)))
+        n_scr = n_pop - n_prod
+        if prm.scrounger_index == "scrounger":
+            n_near = sum(1 for i in range(1, n_scr + 1) if i <= n_scr / 2.0)
+        else:
+            n_near = sum(1 for i in range(n_prod + 1, n_pop + 1) if i <= n_pop / 2.0)
+        n_danger = min(n_pop, round(prm.danger_ratio * n_pop))
+        flags = (
+            (K.SPSA_START_END if prm.start_end_producer else 0)
+            | (K.SPSA_LITERAL if prm.producer_rule == "literal" else 0)
+            | (K.SPSA_POP_INDEX if prm.scrounger_index == "population" else 0)
+            | (K.SPSA_ESCAPE if prm.escape else 0)
+            | (K.SPSA_OSCILLATE if prm.oscillation else 0)
+        )
+        return n_prod, n_near, n_danger, flags
 
     @staticmethod
     def _line(problem: PathProblem) -> np.ndarray:
