@@ -1906,12 +1906,14 @@ typedef struct {
     int straight;
     double *work;
     double *coef; /* per sub-step k: u, a = 1 − u, c, d (the spline's weights) */
+    double *samp; /* 7 × samples: x, y, z of every sample, then each step's ex, ey, ez, length */
 } Energy;
 
 static int energy_init(Energy *e) {
     int64_t nf = e->inner > 1 ? e->inner : 1;
     int64_t nk = e->inner + 2;
-    e->work = malloc(sizeof(double) * (2 * nf + 8 * nk + 4 * e->n_sub));
+    int64_t ns = (nk - 1) * e->n_sub + 1; /* spline samples, ends included */
+    e->work = malloc(sizeof(double) * (2 * nf + 8 * nk + 4 * e->n_sub + 7 * ns));
     if (e->work == NULL) {
         PyErr_NoMemory();
         return -1;
@@ -1928,6 +1930,7 @@ static int energy_init(Energy *e) {
         e->coef[4 * k + 2] = h2 * (a * a * a - a);
         e->coef[4 * k + 3] = h2 * (u * u * u - u);
     }
+    e->samp = e->coef + 4 * e->n_sub;
     double *mx = e->work + 2 * nf + 7 * nk;
     for (int64_t i = 0; i < nk; i++) mx[i] = 0.0;
     return 0;
@@ -1971,48 +1974,55 @@ static double energy_one(const double *nodes, const Energy *e) {
     }
     second_derivs(sy, nk, dx, cp, den, my);
     second_derivs(sz, nk, dx, cp, den, mz);
-    double length = 0.0, turn = 0.0, climb = 0.0;
-    double px = straight ? 0.0 : sx[0];
-    double py = sy[0];
-    double pz = sz[0];
-    double pdx = 0.0, pdy = 0.0, pdz = 0.0, plen = 0.0;
+    /* Three passes with the same expressions, in the same order, as one sequential walk
+     * over the samples (so the result is the same to the bit), but the first two have no
+     * dependency between samples: the samples, then every step's vector and length, then
+     * the sums. */
+    int64_t ns = (nk - 1) * n_sub + 1;
+    double *qx = e->samp, *qy = qx + ns, *qz = qy + ns;
+    double *vx = qz + ns, *vy = vx + ns, *vz = vy + ns, *vl = vz + ns;
+    qx[0] = straight ? 0.0 : sx[0];
+    qy[0] = sy[0];
+    qz[0] = sz[0];
+    int64_t q = 1;
     for (int64_t i = 0; i < nk - 1; i++) {
-        for (int64_t k = 0; k < n_sub; k++) {
-            if (i == 0 && k == 0) continue;
+        for (int64_t k = (i == 0 ? 1 : 0); k < n_sub; k++) {
             double u = coef[4 * k], a = coef[4 * k + 1], c = coef[4 * k + 2], d = coef[4 * k + 3];
-            double x;
             if (straight)
-                x = ((double)i + u) * dx;
+                qx[q] = ((double)i + u) * dx;
             else
-                x = a * sx[i] + u * sx[i + 1] + c * mx[i] + d * mx[i + 1];
-            double y = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1];
-            double z = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1];
-            double ex = x - px;
-            double ey = y - py;
-            double ez = z - pz;
-            double seg = sqrt(ex * ex + ey * ey + ez * ez);
-            if (seg > 1e-12) {
-                length += seg;
-                climb += fabs(ez);
-                if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
-                pdx = ex;
-                pdy = ey;
-                pdz = ez;
-                plen = seg;
-            }
-            px = x;
-            py = y;
-            pz = z;
+                qx[q] = a * sx[i] + u * sx[i + 1] + c * mx[i] + d * mx[i + 1];
+            qy[q] = a * sy[i] + u * sy[i + 1] + c * my[i] + d * my[i + 1];
+            qz[q] = a * sz[i] + u * sz[i + 1] + c * mz[i] + d * mz[i + 1];
+            q++;
         }
     }
-    double ex = (straight ? (double)(nk - 1) * dx : sx[nk - 1]) - px;
-    double ey = sy[nk - 1] - py;
-    double ez = sz[nk - 1] - pz;
-    double seg = sqrt(ex * ex + ey * ey + ez * ez);
-    if (seg > 1e-12) {
-        length += seg;
-        climb += fabs(ez);
-        if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
+    qx[q] = straight ? (double)(nk - 1) * dx : sx[nk - 1];
+    qy[q] = sy[nk - 1];
+    qz[q] = sz[nk - 1];
+    for (int64_t t = 1; t < ns; t++) {
+        double ex = qx[t] - qx[t - 1];
+        double ey = qy[t] - qy[t - 1];
+        double ez = qz[t] - qz[t - 1];
+        vx[t] = ex;
+        vy[t] = ey;
+        vz[t] = ez;
+        vl[t] = sqrt(ex * ex + ey * ey + ez * ez);
+    }
+    double length = 0.0, turn = 0.0, climb = 0.0;
+    double pdx = 0.0, pdy = 0.0, pdz = 0.0, plen = 0.0;
+    for (int64_t t = 1; t < ns; t++) {
+        double seg = vl[t];
+        if (seg > 1e-12) {
+            double ex = vx[t], ey = vy[t], ez = vz[t];
+            length += seg;
+            climb += fabs(ez);
+            if (plen > 0.0) turn += 1.0 - (pdx * ex + pdy * ey + pdz * ez) / (plen * seg);
+            pdx = ex;
+            pdy = ey;
+            pdz = ez;
+            plen = seg;
+        }
     }
     return e->k0 * length + e->k1 * e->mu0 * turn + e->k2 * climb;
 }
@@ -2209,9 +2219,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     int64_t best_i = order[0], worst_i = order[G - 1];
 
     /* --- producers: eq. 11 (or SSA's eq. 3); the alarm case P + Q·L ------------------- */
-    memcpy(anchor, x, sizeof(double) * G * m);
-    memset(spread, 0, sizeof(double) * G * m);
-    memset(first, 0, sizeof(double) * G * m);
+    /* (the rebuild reads the proposal rows of active individuals only: those are set whole) */
     for (int64_t g = 0; g < G; g++) {
         draw[g] = DRAW_NONE;
         active[g] = 0;
@@ -2230,6 +2238,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
                 double l = line[k];
                 if (!(flags & SPSA_START_END)) {
                     an[k] = l + (p[k] - l) * ex; /* eq. 3 about the line, no random term */
+                    sp[k] = 0.0;
                 } else if (flags & SPSA_LITERAL) {
                     an[k] = p[k] + ex;
                     sp[k] = l - p[k];
@@ -2253,12 +2262,13 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     } else {
         for (int64_t i = 0; i < n_prod; i++) {
             int64_t g = order[i];
-            double *sp = spread + g * m, *fi = first + g * m;
+            double *an = anchor + g * m, *sp = spread + g * m, *fi = first + g * m;
             const double *p = x + g * m;
             active[g] = 1;
             draw[g] = DRAW_NORMAL;
             use_first[g] = 1;
             for (int64_t k = 0; k < m; k++) {
+                an[k] = p[k];
                 sp[k] = 1.0;
                 fi[k] = p[k] + pdraw[i];
             }
@@ -2283,8 +2293,6 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     for (int64_t i = n_prod; i < G; i++) fresh[order[i]] = 0;
 
     /* --- scroungers (eq. 4, eq. 12's escape) and danger-aware sparrows (eq. 5) ------------ */
-    memcpy(anchor, x, sizeof(double) * G * m);
-    memset(spread, 0, sizeof(double) * G * m);
     for (int64_t g = 0; g < G; g++) {
         draw[g] = DRAW_NONE;
         active[g] = 0;
@@ -2324,6 +2332,8 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
                 for (int64_t j = 0; j < n; j++) {
                     an[2 * j] = p_best[2 * j] + sy;
                     an[2 * j + 1] = p_best[2 * j + 1] + sz;
+                    sp[2 * j] = 0.0;
+                    sp[2 * j + 1] = 0.0;
                 }
                 near_k++;
             }
