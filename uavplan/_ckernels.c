@@ -1425,8 +1425,11 @@ static int64_t rebuild_core(const double *base, int64_t n_pop, int64_t n_inner,
                             unsigned char *ok, int64_t *n_chk_out, int64_t *n_exact_out) {
     const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0, esc_total = 0;
-    memcpy(out, base, sizeof(double) * n_pop * n_inner * 2);
-    for (int64_t g = 0; g < n_pop; g++) ok[g] = 1;
+    int64_t m = n_inner * 2;
+    for (int64_t g = 0; g < n_pop; g++) {
+        ok[g] = 1;
+        if (!active[g]) memcpy(out + g * m, base + g * m, sizeof(double) * m);
+    }
     for (int64_t g = 0; g < n_pop; g++) {
         if (!active[g]) continue;
         uint64_t st = seeds[g];
@@ -1830,6 +1833,32 @@ static void second_derivs(const double *vals, int64_t nv, double h, const double
     for (int64_t i = n - 2; i > -1; i--) out[i + 1] -= cp[i] * out[i + 2];
 }
 
+/* second_derivs of two knot sequences at once: the same expressions, in the same order, for
+ * each (bit-identical to two calls); the two division chains overlap. */
+static void second_derivs2(const double *va, const double *vb, int64_t nv, double h,
+                           const double *cp, const double *den, double *oa, double *ob) {
+    int64_t n = nv - 2;
+    oa[0] = 0.0;
+    oa[n + 1] = 0.0;
+    ob[0] = 0.0;
+    ob[n + 1] = 0.0;
+    if (n <= 0) return;
+    double scale = 6.0 / (h * h);
+    double pa = 0.0, pb = 0.0;
+    for (int64_t i = 0; i < n; i++) {
+        double ra = scale * (va[i] - 2.0 * va[i + 1] + va[i + 2]);
+        double rb = scale * (vb[i] - 2.0 * vb[i + 1] + vb[i + 2]);
+        pa = (ra - pa) / den[i];
+        pb = (rb - pb) / den[i];
+        oa[i + 1] = pa;
+        ob[i + 1] = pb;
+    }
+    for (int64_t i = n - 2; i > -1; i--) {
+        oa[i + 1] -= cp[i] * oa[i + 2];
+        ob[i + 1] -= cp[i] * ob[i + 2];
+    }
+}
+
 /* spline_points(ys, zs, dx, n_sub, cp, den, out) */
 static PyObject *py_spline_points(PyObject *self, PyObject *args) {
     PyObject *oy, *oz, *ocp, *oden, *oo;
@@ -1972,8 +2001,7 @@ static double energy_one(const double *nodes, const Energy *e) {
         }
         second_derivs(sx, nk, dx, cp, den, mx);
     }
-    second_derivs(sy, nk, dx, cp, den, my);
-    second_derivs(sz, nk, dx, cp, den, mz);
+    second_derivs2(sy, sz, nk, dx, cp, den, my, mz);
     /* Three passes with the same expressions, in the same order, as one sequential walk
      * over the samples (so the result is the same to the bit), but the first two have no
      * dependency between samples: the samples, then every step's vector and length, then
