@@ -93,3 +93,28 @@ def test_an_unknown_command_is_still_refused() -> None:
     result = CliRunner().invoke(main, ["nonsense"])
     assert result.exit_code == 2
     assert "No such command" in result.output
+
+
+def test_plan_loads_only_what_planning_needs(tmp_path: Path) -> None:
+    """A plan needs numpy, PyYAML, the kernels and pyproj (for the geodetic mission), not
+    scipy, matplotlib, MAVLink or the GIS readers, and not numpy.ma (np.median and np.unique
+    would pull it in: 20 ms of every plan)."""
+    code = (
+        "import sys, json\n"
+        "from uavplan.cli import main\n"
+        "try:\n"
+        f"    main(['plan', {str(ROOT / 'missions' / 'paper-env1.yaml')!r}, '-o',"
+        f" {str(tmp_path / 'p.plan')!r}, '-q', '--iterations', '20'])\n"
+        "except SystemExit as exc:\n"
+        "    rc = exc.code or 0\n"
+        "print(json.dumps([rc, sorted(sys.modules)]))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    rc, mods = json.loads(out.stdout.strip().splitlines()[-1])
+    loaded = set(mods)
+    assert rc == 0, out.stderr
+    assert {"numpy", "yaml", "pyproj", "uavplan._ckernels"} <= loaded
+    unwanted = {*HEAVY, "shapely", "pyogrio", "numpy.ma"} - {"pyproj"}
+    assert not loaded & unwanted, loaded & unwanted

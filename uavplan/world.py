@@ -31,8 +31,11 @@ def _cell_size(box: np.ndarray) -> float:
     """Grid cell edge: about the typical piece size, never below 25 m."""
     if box.shape[0] == 0:
         return 100.0
-    sizes = np.maximum(box[:, 1] - box[:, 0], box[:, 3] - box[:, 2])
-    return float(max(25.0, 1.5 * np.median(sizes)))
+    sizes = np.sort(np.maximum(box[:, 1] - box[:, 0], box[:, 3] - box[:, 2]))
+    # the median, as np.median gives it (which would import numpy.ma: 20-50 ms per plan)
+    n = sizes.shape[0]
+    median = sizes[n // 2] if n % 2 else (sizes[n // 2 - 1] + sizes[n // 2]) / 2.0
+    return float(max(25.0, 1.5 * median))
 
 
 def _convex_pieces(obstacle: BoxObstacle | PrismObstacle) -> list[list[tuple[float, float]]]:
