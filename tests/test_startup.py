@@ -19,9 +19,9 @@ ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "llvmlite", "scipy", "matplotlib", "pyproj", "pymavlink", "osmium", "rasterio")
 
 
-def modules_after(*args: str) -> tuple[int, set[str]]:
-    """(exit code, top-level modules and uavplan modules loaded) of ``uavplan ARGS`` run in a
-    fresh interpreter."""
+def loaded_after(*args: str) -> tuple[int, set[str], str]:
+    """(exit code, every module loaded, stderr) of ``uavplan ARGS`` run in a fresh
+    interpreter."""
     code = (
         "import sys, json\n"
         "from uavplan.cli import main\n"
@@ -29,15 +29,20 @@ def modules_after(*args: str) -> tuple[int, set[str]]:
         f"    main({list(args)!r})\n"
         "except SystemExit as exc:\n"
         "    rc = exc.code or 0\n"
-        "mods = sorted({m.split('.')[0] for m in sys.modules} | "
-        "{m for m in sys.modules if m.startswith('uavplan')})\n"
-        "print(json.dumps([rc, mods]))\n"
+        "print(json.dumps([rc, sorted(sys.modules)]))\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT
     )
     rc, mods = json.loads(out.stdout.strip().splitlines()[-1])
-    return rc, set(mods)
+    return rc, set(mods), out.stderr
+
+
+def modules_after(*args: str) -> tuple[int, set[str]]:
+    """(exit code, top-level modules and uavplan modules loaded) of ``uavplan ARGS`` run in a
+    fresh interpreter."""
+    rc, mods, _ = loaded_after(*args)
+    return rc, {m.split(".")[0] for m in mods} | {m for m in mods if m.startswith("uavplan")}
 
 
 def test_help_imports_no_command_and_no_heavy_library() -> None:
@@ -99,22 +104,11 @@ def test_plan_loads_only_what_planning_needs(tmp_path: Path) -> None:
     """A plan needs numpy, PyYAML, the kernels and pyproj (for the geodetic mission), not
     scipy, matplotlib, MAVLink or the GIS readers, and not numpy.ma (np.median and np.unique
     would pull it in: 20 ms of every plan)."""
-    code = (
-        "import sys, json\n"
-        "from uavplan.cli import main\n"
-        "try:\n"
-        f"    main(['plan', {str(ROOT / 'missions' / 'paper-env1.yaml')!r}, '-o',"
-        f" {str(tmp_path / 'p.plan')!r}, '-q', '--iterations', '20'])\n"
-        "except SystemExit as exc:\n"
-        "    rc = exc.code or 0\n"
-        "print(json.dumps([rc, sorted(sys.modules)]))\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT
-    )
-    rc, mods = json.loads(out.stdout.strip().splitlines()[-1])
-    loaded = set(mods)
-    assert rc == 0, out.stderr
+    rc, loaded, err = loaded_after(
+        "plan", str(ROOT / "missions" / "paper-env1.yaml"), "-o", str(tmp_path / "p.plan"), "-q",
+        "--iterations", "20",
+    )  # fmt: skip
+    assert rc == 0, err
     assert {"numpy", "yaml", "pyproj", "uavplan._ckernels"} <= loaded
     unwanted = {*HEAVY, "shapely", "pyogrio", "numpy.ma"} - {"pyproj"}
     assert not loaded & unwanted, loaded & unwanted

@@ -2055,57 +2055,6 @@ static double energy_one(const double *nodes, const Energy *e) {
     return e->k0 * length + e->k1 * e->mu0 * turn + e->k2 * climb;
 }
 
-/* population_energy(nodes, start_yz, goal_yz, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth, cols,
- * straight, out) */
-static PyObject *py_population_energy(PyObject *self, PyObject *args) {
-    PyObject *on, *os, *og, *oc, *oo;
-    Energy e;
-    long long n_sub, smooth;
-    int straight;
-    Buf bn = {0}, bs = {0}, bg = {0}, bc = {0}, bo = {0};
-    memset(&e, 0, sizeof(e));
-    if (!PyArg_ParseTuple(args, "OOOdddLddddLOpO", &on, &os, &og, &e.dx, &e.dy, &e.dz, &n_sub,
-                          &e.k0, &e.k1, &e.mu0, &e.k2, &smooth, &oc, &straight, &oo))
-        return NULL;
-    PyObject *ret = NULL;
-    if (get_buf(on, &bn, T_F64, 3, 0, "nodes") < 0 ||
-        get_buf(os, &bs, T_F64, 1, 0, "start_yz") < 0 ||
-        get_buf(og, &bg, T_F64, 1, 0, "goal_yz") < 0 || get_buf(oc, &bc, T_F64, 2, 0, "cols") < 0 ||
-        get_buf(oo, &bo, T_F64, 1, 1, "out") < 0)
-        goto done;
-    int64_t g_count = dim(&bn, 0);
-    int64_t inner = dim(&bn, 1);
-    int64_t nk = inner + 2;
-    if (need(dim(&bn, 2) == 2 && dim(&bs, 0) >= 2 && dim(&bg, 0) >= 2 && n_sub >= 1 &&
-                 dim(&bo, 0) == g_count && (straight || (dim(&bc, 0) >= nk && dim(&bc, 1) == 4)),
-             "population_energy: inconsistent shapes") < 0)
-        goto done;
-    e.start_yz = F64(bs);
-    e.goal_yz = F64(bg);
-    e.cols = F64(bc);
-    e.n_sub = n_sub;
-    e.smooth = smooth;
-    e.inner = inner;
-    e.straight = straight;
-    if (energy_init(&e) < 0) goto done;
-    const double *nodes = F64(bn);
-    double *out = F64(bo);
-    for (int64_t g = 0; g < g_count; g++) out[g] = energy_one(nodes + g * inner * 2, &e);
-    ret = Py_NewRef(Py_None);
-done:
-    free(e.work);
-    rel(&bn);
-    rel(&bs);
-    rel(&bg);
-    rel(&bc);
-    rel(&bo);
-    return ret;
-}
-
-/* ------------------------------------------------------------------------------------------
- * One SPSA / SSA iteration (uavplan/planners/sparrow.py)
- */
-
 /* An energy tuple (start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth,
  * straight) as PathProblem.energy_args builds it; work buffers allocated by energy_init. */
 static int energy_get(PyObject *o, Energy *e, Buf *bufs, int64_t inner) {
@@ -2133,6 +2082,39 @@ static int energy_get(PyObject *o, Energy *e, Buf *bufs, int64_t inner) {
     e->straight = straight;
     return energy_init(e);
 }
+
+/* population_energy(nodes, energy, out): the energy (G,) of nodes (G, n, 2) */
+static PyObject *py_population_energy(PyObject *self, PyObject *args) {
+    PyObject *on, *oen, *oo;
+    Energy e;
+    Buf bn = {0}, bo = {0}, ben[3];
+    memset(ben, 0, sizeof(ben));
+    memset(&e, 0, sizeof(e));
+    if (!PyArg_ParseTuple(args, "OOO", &on, &oen, &oo)) return NULL;
+    PyObject *ret = NULL;
+    if (get_buf(on, &bn, T_F64, 3, 0, "nodes") < 0 || get_buf(oo, &bo, T_F64, 1, 1, "out") < 0)
+        goto done;
+    int64_t g_count = dim(&bn, 0);
+    int64_t inner = dim(&bn, 1);
+    if (need(dim(&bn, 2) == 2 && dim(&bo, 0) == g_count,
+             "population_energy: inconsistent shapes") < 0)
+        goto done;
+    if (energy_get(oen, &e, ben, inner) < 0) goto done;
+    const double *nodes = F64(bn);
+    double *out = F64(bo);
+    for (int64_t g = 0; g < g_count; g++) out[g] = energy_one(nodes + g * inner * 2, &e);
+    ret = Py_NewRef(Py_None);
+done:
+    free(e.work);
+    for (int i = 0; i < 3; i++) rel(&ben[i]);
+    rel(&bn);
+    rel(&bo);
+    return ret;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * One SPSA / SSA iteration (uavplan/planners/sparrow.py)
+ */
 
 enum {
     SPSA_START_END = 1,  /* contribution 2: producers pulled toward the start-end line */
@@ -2212,11 +2194,10 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
                 goto done;
     }
     if (energy_get(oen, &e, ben, n) < 0) goto done;
-    /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m),
-     * f_cand, f_prod (G), then int64 order, moved (G) and bytes */
-    size_t nd = (size_t)(5 * G * m + 2 * m + 2 * G);
-    size_t ni = (size_t)(2 * G);
-    mem = malloc(sizeof(double) * nd + sizeof(int64_t) * (ni + G) + 8 * (size_t)G);
+    /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m), f_prod
+     * (G); int64 order, moved, draw (G each); 8 byte flags (G each) */
+    size_t nd = (size_t)(5 * G * m + 2 * m + G);
+    mem = malloc(sizeof(double) * nd + sizeof(int64_t) * 3 * (size_t)G + 8 * (size_t)G);
     if (mem == NULL) {
         PyErr_NoMemory();
         goto done;
@@ -2228,12 +2209,11 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     int64_t *counts = I64(bcnt);
     double *cand = mem, *cand_s = cand + G * m, *anchor = cand_s + G * m;
     double *spread = anchor + G * m, *first = spread + G * m, *p_best = first + G * m;
-    double *new_ = p_best + m, *f_cand = new_ + m, *f_prod = f_cand + G;
+    double *new_ = p_best + m, *f_prod = new_ + m;
     int64_t *order = (int64_t *)(f_prod + G), *moved = order + G, *draw = moved + G;
     unsigned char *active = (unsigned char *)(draw + G), *use_first = active + G;
     unsigned char *escape = use_first + G, *ok_p = escape + G, *ok_s = ok_p + G;
-    unsigned char *fresh = ok_s + G, *changed = fresh + G, *spare = changed + G;
-    (void)spare;
+    unsigned char *fresh = ok_s + G, *changed = fresh + G, *skip = changed + G;
     int64_t n_chk = 0, n_exact = 0, evals = 0;
     /* order: a stable argsort of f (insertion sort; G is a population) */
     for (int64_t i = 0; i < G; i++) {
@@ -2408,11 +2388,11 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     if (flags & SPSA_OSCILLATE) {
         for (int64_t g = 0; g < G; g++) {
             moved[g] = 0;
-            use_first[g] = !changed[g] && fixed[g]; /* skip: a known fixed point */
+            skip[g] = !changed[g] && fixed[g]; /* a known fixed point of eq. 13 */
         }
-        mar_core(cand, G, n, goal_u, window, &r, use_first, moved, new_, &n_chk, &n_exact);
+        mar_core(cand, G, n, goal_u, window, &r, skip, moved, new_, &n_chk, &n_exact);
         for (int64_t g = 0; g < G; g++) {
-            if (!changed[g] && !use_first[g]) fixed[g] = moved[g] == 0;
+            if (!changed[g] && !skip[g]) fixed[g] = moved[g] == 0;
             if (moved[g] > 0) {
                 fresh[g] = 0;
                 changed[g] = !same_path(cand + g * m, x + g * m, m);

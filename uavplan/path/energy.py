@@ -89,13 +89,20 @@ def population_energy(
     paper; along a curved guide every knot is placed in the plane (origin + y·normal) and
     x, y and z are splines of the column index.
     """
+    energy = (
+        _f64(start_yz), _f64(goal_yz), _f64(cols), float(dx), float(dy), float(dz), int(n_sub),
+        float(k0), float(k1), float(mu0), float(k2), int(smooth), bool(straight),
+    )  # fmt: skip
+    return energy_of(nodes, energy)
+
+
+def energy_of(nodes: np.ndarray, energy: tuple) -> np.ndarray:
+    """:func:`population_energy` with its fixed arguments packed once, as the tuple
+    ``(start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth, straight)`` that
+    ``PathProblem.energy_args`` builds and the fused SPSA step reads too."""
     nodes = _f64(nodes)
     out = np.empty(nodes.shape[0])
-    _c.population_energy(
-        nodes, _f64(start_yz), _f64(goal_yz), float(dx), float(dy), float(dz), int(n_sub),
-        float(k0), float(k1), float(mu0), float(k2), int(smooth), _f64(cols), bool(straight),
-        out,
-    )  # fmt: skip
+    _c.population_energy(nodes, energy, out)
     return out
 
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EnergyWeights, GridSpec, SearchParams
-from uavplan.path.energy import N_SUB, population_energy
+from uavplan.path.energy import N_SUB, energy_of
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
 from uavplan.planners.proposal import Proposal
@@ -171,8 +171,8 @@ class PathProblem:
 
     @cached_property
     def energy_args(self) -> tuple:
-        """The fitness's fixed arguments as the fused kernels read them (see
-        :func:`~uavplan.planners._kernels.spsa_step`)."""
+        """The fitness's fixed arguments as the kernels read them (see
+        :func:`~uavplan.path.energy.energy_of`)."""
         w = self.energy
         dx, dy, dz = self.steps
         return (
@@ -186,25 +186,8 @@ class PathProblem:
 
     def fitness(self, nodes: np.ndarray) -> np.ndarray:
         """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
-        w = self.energy
-        dx, dy, dz = self.steps
         self.counters[0] += nodes.shape[0]
-        return population_energy(
-            np.ascontiguousarray(nodes),
-            self.start_m[1:],
-            self.goal_m[1:],
-            dx,
-            dy,
-            dz,
-            N_SUB,
-            w.k0,
-            w.k1,
-            w.mu0,
-            w.k2,
-            self.fitness_smoothing,
-            self.frame.cols,
-            self.frame.straight,
-        )
+        return energy_of(nodes, self.energy_args)
 
     def fitness_of_changed(
         self, cand: np.ndarray, parent: np.ndarray, parent_f: np.ndarray

@@ -85,7 +85,10 @@ class SparrowPlanner(SwarmPlanner):
         """
         prm, search = self.params, self.search
         n_pop, n_inner = pop.x.shape[0], pop.x.shape[1]
-        n_prod, n_near, n_danger, flags = self._sizes(n_pop)
+        sizes = pop.state.get("sizes")
+        if sizes is None:
+            sizes = pop.state["sizes"] = self._sizes(n_pop)
+        n_prod, n_near, n_danger, flags = sizes
         warn = rng.random()
         if warn < prm.warning_value:
             pdraw = 1.0 - rng.random(n_prod)  # α in (0, 1]
