@@ -129,6 +129,32 @@ def test_segments_free_agrees_with_exact_clearance() -> None:
     assert one == list(free[:20])
 
 
+def ref_farthest_visible(p: np.ndarray, w: World) -> list[int]:
+    """Node simplification as first written: test every later node, jump to the largest
+    free one (the next node when none is)."""
+    keep, i, n = [0], 0, p.shape[0]
+    while i < n - 1:
+        later = np.arange(i + 1, n)
+        free = w.segments_free(np.repeat(p[i : i + 1], later.size, axis=0), p[later])
+        i = int(later[free].max()) if free.any() else i + 1
+        keep.append(i)
+    return keep
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_farthest_visible_matches_testing_every_later_node(seed: int) -> None:
+    w = sample_world(margin_m=5.0)
+    rng = np.random.default_rng(seed)
+    # random walks through the obstacles, some with blocked steps (the guard case)
+    n = int(rng.integers(1, 60))
+    steps = rng.normal(0.0, 30.0, (n, 3)) * (1.0, 1.0, 0.3)
+    p = np.clip(rng.uniform((-250, -250, 10), (250, 250, 150)) + np.cumsum(steps, axis=0),
+                (-290, -290, 1), (290, 290, 190))  # fmt: skip
+    got = w.farthest_visible(p).tolist()
+    assert got == ref_farthest_visible(p, w)
+    assert got[0] == 0 and got[-1] == n - 1
+
+
 def test_cell_grid_lists_every_piece_in_every_cell_it_overlaps() -> None:
     rng = np.random.default_rng(4)
     lo = rng.uniform(-500, 400, (50, 2))

@@ -548,6 +548,49 @@ done:
     return ret;
 }
 
+/* farthest_visible(p, W, margin, keep) -> count: the greedy farthest-reachable chain of the
+ * polyline p (n, 3) (node simplification, Figure 4): from node i jump to the last j > i whose
+ * segment i→j is free (i + 1 when none is); keep (n,) int64 gets the indices, 0 first and
+ * n − 1 last. Scanning j downward stops at the first free segment: the same j as testing
+ * every later node and taking the largest free one. */
+static PyObject *py_farthest_visible(PyObject *self, PyObject *args) {
+    PyObject *op, *wt, *ok;
+    double margin;
+    Buf bp = {0}, bk = {0};
+    WorldBufs wb;
+    if (!PyArg_ParseTuple(args, "OOdO", &op, &wt, &margin, &ok)) return NULL;
+    if (world_get(wt, &wb, 11) < 0) return NULL;
+    PyObject *ret = NULL;
+    if (get_buf(op, &bp, T_F64, 2, 0, "p") < 0 || get_buf(ok, &bk, T_I64, 1, 1, "keep") < 0)
+        goto done;
+    Py_ssize_t n = dim(&bp, 0);
+    if (need(n >= 1 && dim(&bp, 1) == 3 && dim(&bk, 0) >= n,
+             "farthest_visible: p (n, 3), keep (n,)") < 0)
+        goto done;
+    const double *p = F64(bp);
+    int64_t *keep = I64(bk);
+    Py_ssize_t count = 0, i = 0;
+    keep[count++] = 0;
+    while (i < n - 1) {
+        Py_ssize_t next = i + 1;
+        for (Py_ssize_t j = n - 1; j > i; j--) {
+            const double *a = p + 3 * i, *b = p + 3 * j;
+            if (segment_free(a[0], a[1], a[2], b[0], b[1], b[2], &wb.w, margin)) {
+                next = j;
+                break;
+            }
+        }
+        i = next;
+        keep[count++] = i;
+    }
+    ret = PyLong_FromSsize_t(count);
+done:
+    rel(&bp);
+    rel(&bk);
+    world_release(&wb);
+    return ret;
+}
+
 /* points_clearance(p, W, dist, which): dist pre-filled with inf, which with -1 */
 static PyObject *py_points_clearance(PyObject *self, PyObject *args) {
     PyObject *op, *wt, *od, *ow;
@@ -2787,6 +2830,7 @@ static PyMethodDef methods[] = {
     {"seg_piece_dist", py_seg_piece_dist, METH_VARARGS, NULL},
     {"segment_free", py_segment_free, METH_VARARGS, NULL},
     {"segments_free", py_segments_free, METH_VARARGS, NULL},
+    {"farthest_visible", py_farthest_visible, METH_VARARGS, NULL},
     {"points_clearance", py_points_clearance, METH_VARARGS, NULL},
     {"segments_clearance", py_segments_clearance, METH_VARARGS, NULL},
     {"cells_count", py_cells_count, METH_VARARGS, NULL},

@@ -131,6 +131,16 @@ def segments_free(p0: np.ndarray, p1: np.ndarray, W: tuple, margin: float) -> np
     return out
 
 
+def farthest_visible(p: np.ndarray, W: tuple, margin: float) -> np.ndarray:
+    """Indices of the greedy farthest-reachable chain through the polyline ``p`` (n, 3):
+    from each kept node the last later node whose segment is free (the next one when none
+    is), starting at 0 and ending at n − 1."""
+    p = _f64(p)
+    keep = np.empty(max(p.shape[0], 1), dtype=np.int64)
+    count = _c.farthest_visible(p, world_arrays(W), float(margin), keep)
+    return keep[:count].copy()
+
+
 def points_clearance(p: np.ndarray, W: tuple) -> tuple[np.ndarray, np.ndarray]:
     """Exact distance from each point (n, 3) to the nearest piece, and that piece's index."""
     p = _f64(p)

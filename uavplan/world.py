@@ -249,6 +249,14 @@ class World:
         margin = self.margin_m if margin_m is None else float(margin_m)
         return _geom.segments_free(p0, p1, self.kernel_args, margin)
 
+    def farthest_visible(self, points: np.ndarray, margin_m: float | None = None) -> np.ndarray:
+        """Indices of the greedy farthest-reachable chain through the polyline ``points``
+        (n, 3): from each kept point jump to the last later one whose segment is free
+        (:meth:`segments_free`; the next point when none is); 0 first, n − 1 last."""
+        p = np.ascontiguousarray(np.atleast_2d(points), dtype=float)
+        margin = self.margin_m if margin_m is None else float(margin_m)
+        return _geom.farthest_visible(p, self.kernel_args, margin)
+
     def points_inside_bounds(self, points: np.ndarray, tol_m: float = 1e-9) -> np.ndarray:
         """(n,) bool: inside the bounds, allowing ``tol_m`` outside (e.g. for positions that
         went through float32 / 1e-7° rounding)."""
