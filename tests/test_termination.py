@@ -6,13 +6,15 @@ import dataclasses
 import json
 from pathlib import Path
 
+import numpy as np
 from click.testing import CliRunner
 
 from uavplan import bench
 from uavplan.cli import main
 from uavplan.cli.plan_cmd import overridden
-from uavplan.config import DEFAULT_STALL_ITERATIONS, SearchParams
-from uavplan.planning import plan_route
+from uavplan.config import DEFAULT_RESTART_STALL_ITERATIONS, DEFAULT_STALL_ITERATIONS, SearchParams
+from uavplan.planners.base import SwarmPlanner, Termination
+from uavplan.planning import build_problem, make_planner, plan_route
 from uavplan.scenario import load_scenario
 
 SCENARIO = """\
@@ -35,6 +37,61 @@ def write(tmp_path: Path, text: str = SCENARIO) -> Path:
 
 def test_the_default_is_the_stated_rule() -> None:
     assert SearchParams().stall_iterations == DEFAULT_STALL_ITERATIONS == 100
+    assert SearchParams().restart_stall_iterations == DEFAULT_RESTART_STALL_ITERATIONS == 25
+
+
+def searches(tmp_path: Path, term: Termination) -> tuple[list[float], list[int]]:
+    """The run's convergence and the iteration at which each search (restart) began."""
+    scn = load_scenario(write(tmp_path))
+    planner = make_planner("spsa", scn.planner)
+    starts: list[int] = []
+    done = [0]
+    setup = planner.setup
+
+    def record(problem, pop, rng):  # type: ignore[no-untyped-def]
+        starts.append(done[0])
+        setup(problem, pop, rng)
+
+    def progress(it: int, _total: int, _best: float) -> None:
+        done[0] = it
+
+    planner.setup = record  # type: ignore[method-assign]
+    res = SwarmPlanner.solve(planner, build_problem(scn), np.random.default_rng(5), progress, term)
+    return list(res.convergence), starts
+
+
+def expected_end(conv: list[float], start: int, length: int, limit: int | None) -> int:
+    """Where a search that began at ``start`` must end under the stated rule: ``limit``
+    iterations in a row without improving the run's best, or its share of M."""
+    best = conv[start - 1] if start > 0 else float("inf")
+    stalled = 0
+    for t in range(start, start + length):
+        if conv[t] < best:
+            best, stalled = conv[t], 0
+        else:
+            stalled += 1
+        if limit is not None and stalled >= limit:
+            return t + 1
+    return start + length
+
+
+def test_restarts_stop_after_their_own_stall_limit(tmp_path: Path) -> None:
+    term = Termination(400, stall_iterations=12, restart_stall_iterations=4)
+    conv, starts = searches(tmp_path, term)
+    assert len(starts) == 4  # SPSA's four restarts of 100 iterations each
+    ends = [*starts[1:], len(conv)]
+    for r, (s, e) in enumerate(zip(starts, ends, strict=True)):
+        assert e == expected_end(conv, s, 100, 12 if r == 0 else 4)
+    assert any(e - s < 12 for s, e in zip(starts[1:], ends[1:], strict=True))
+
+
+def test_restart_limit_null_means_the_first_search_limit(tmp_path: Path) -> None:
+    conv, starts = searches(tmp_path, Termination(400, stall_iterations=6))
+    ends = [*starts[1:], len(conv)]
+    for s, e in zip(starts, ends, strict=True):
+        assert e == expected_end(conv, s, 100, 6)
+    assert Termination(9, 6).stall_limit(2) == 6
+    assert Termination(9, None, restart_stall_iterations=3).stall_limit(1) is None
 
 
 def test_a_run_stops_once_the_best_stalls(tmp_path: Path) -> None:

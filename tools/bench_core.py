@@ -15,10 +15,13 @@ two back to back.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
 from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as `uavplan` itself does: before numpy
 
 import numpy as np
 
@@ -34,6 +37,7 @@ def run(path: Path, mode: str, repeat: int) -> dict[str, float]:
     scn = load_scenario(path)
     search = scn.planner.search
     stall = search.stall_iterations if mode == "default" else None
+    again = search.restart_stall_iterations if mode == "default" else None
     world = planning.build_world(scn)
     times = []
     for _ in range(repeat):
@@ -42,7 +46,8 @@ def run(path: Path, mode: str, repeat: int) -> dict[str, float]:
         problem = problem.with_fitness_smoothing(planner.fitness_smoothing())
         rng = np.random.default_rng(search.seed)
         t0 = time.perf_counter()
-        res = planner.solve(problem, rng, None, Termination(search.iterations, stall))
+        term = Termination(search.iterations, stall, restart_stall_iterations=again)
+        res = planner.solve(problem, rng, None, term)
         times.append(time.perf_counter() - t0)
     return {
         "min": min(times),

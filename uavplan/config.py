@@ -313,10 +313,12 @@ class GridSpec:
     dz_m: float = _num(10.0, lo=0.1, hi=10_000, key="dz", doc="vertical lattice step, metres")
 
 
-#: the default early stop (:attr:`SearchParams.stall_iterations`): a search, or each restart of
-#: SPSA, ends once the best fitness has not improved for this many iterations; chosen from
-#: measurements on the bundled scenarios (docs/algorithm.md, "Termination")
+#: the default early stop (:attr:`SearchParams.stall_iterations`): the first search ends once
+#: the run's best fitness has not improved for this many iterations, each further restart of
+#: SPSA after :data:`DEFAULT_RESTART_STALL_ITERATIONS`; chosen from measurements on the bundled
+#: scenarios (docs/algorithm.md, "Termination")
 DEFAULT_STALL_ITERATIONS = 100
+DEFAULT_RESTART_STALL_ITERATIONS = 25
 
 
 @dataclass(frozen=True)
@@ -347,8 +349,16 @@ class SearchParams:
         lo=1,
         hi=1_000_000,
         optional=True,
-        doc="stop a search (each restart) once the best fitness has not improved for this "
+        doc="stop the first search once the run's best fitness has not improved for this "
         "many iterations; null: run all M (the paper's protocol)",
+    )
+    restart_stall_iterations: int | None = _num(
+        DEFAULT_RESTART_STALL_ITERATIONS,
+        kind="int",
+        lo=1,
+        hi=1_000_000,
+        optional=True,
+        doc="the same for every restart after the first (SPSA's restarts); null: stall_iterations",
     )
 
 
@@ -547,6 +557,7 @@ PLANNER_KEYS: tuple[str, ...] = (
     "init_half_window",
     "fitness_smoothing",
     "stall_iterations",
+    "restart_stall_iterations",
     "grid",
     "energy",
     "post",

@@ -308,6 +308,7 @@ def plan_route(
         cfg.search.iterations,
         stall_iterations=cfg.search.stall_iterations,
         should_stop=should_stop,
+        restart_stall_iterations=cfg.search.restart_stall_iterations,
     )
     legs: list[Leg] = []
     for i in range(n_legs):

@@ -764,6 +764,7 @@ _SEARCH_KEYS = (
     "init_half_window",
     "fitness_smoothing",
     "stall_iterations",
+    "restart_stall_iterations",
 )
 
 

@@ -48,8 +48,9 @@ def _load_scenario(path: str):
     "--iterations",
     type=click.IntRange(min=1),
     help="Run exactly this many iterations M (the paper's protocol). Default: the scenario's M "
-    "(1000) as a budget, stopping once the best has not improved for planner.stall_iterations "
-    "(100).",
+    "(1000) as a budget: the first search stops once the best has not improved for "
+    "planner.stall_iterations (100), each further restart after planner.restart_stall_iterations "
+    "(25).",
 )
 @click.option("--population", type=click.IntRange(min=4), help="Population size G (default 30).")
 @click.option(
@@ -135,9 +136,11 @@ def plan_command(
             search = scn.planner.search
             budget = f"{search.iterations} iterations"
             if search.stall_iterations is not None:
+                again = search.restart_stall_iterations
                 budget = (
                     f"at most {search.iterations} iterations, stopping after "
                     f"{search.stall_iterations} without improvement"
+                    + ("" if again is None else f" ({again} in a restart)")
                 )
             click.echo(
                 f"planning {scn.name} with {scn.planner.algorithm} (population "

@@ -325,10 +325,12 @@ class Termination:
     """When a run stops (STYLE: termination kept apart from the algorithm).
 
     ``iterations``: the budget M of iterations (the paper's protocol runs all of them);
-    ``stall_iterations``: stop early once the best fitness has not improved for that many
-    iterations (None: never); ``should_stop``: polled once per iteration, e.g. a Ctrl-C flag
-    (the run then ends as "interrupted" and returns what it has); ``max_evaluations``: stop
-    once this many fitness evaluations were made (a budget every algorithm can share).
+    ``stall_iterations``: stop a search early once the run's best fitness has not improved
+    for that many iterations (None: never); ``restart_stall_iterations``: the same for every
+    restart after the first (SPSA's restarts; None: ``stall_iterations``); ``should_stop``:
+    polled once per iteration, e.g. a Ctrl-C flag (the run then ends as "interrupted" and
+    returns what it has); ``max_evaluations``: stop once this many fitness evaluations were
+    made (a budget every algorithm can share).
     """
 
     def __init__(
@@ -337,11 +339,22 @@ class Termination:
         stall_iterations: int | None = None,
         should_stop: Callable[[], bool] | None = None,
         max_evaluations: int | None = None,
+        restart_stall_iterations: int | None = None,
     ) -> None:
         self.iterations = iterations
         self.stall_iterations = stall_iterations
+        self.restart_stall_iterations = restart_stall_iterations
         self.should_stop = should_stop
         self.max_evaluations = max_evaluations
+
+    def stall_limit(self, search_index: int) -> int | None:
+        """The early stop of search ``search_index`` (0: the first; later ones are restarts);
+        None: no early stop."""
+        if self.stall_iterations is None:
+            return None
+        if search_index > 0 and self.restart_stall_iterations is not None:
+            return self.restart_stall_iterations
+        return self.stall_iterations
 
 
 #: why a run ended (``PlannerResult.termination``)
@@ -515,6 +528,7 @@ class SwarmPlanner:
             pop = Population(x, problem.fitness(x), 0, int(n_iter))
             self.setup(problem, pop, rng)
             stalled = 0
+            stall_limit = term.stall_limit(r)
             for it in range(n_iter):
                 pop.iteration = it
                 self.step(problem, pop, rng)
@@ -530,7 +544,7 @@ class SwarmPlanner:
                 if term.should_stop is not None and term.should_stop():
                     reason = TERMINATED_INTERRUPTED
                     break
-                if term.stall_iterations is not None and stalled >= term.stall_iterations:
+                if stall_limit is not None and stalled >= stall_limit:
                     reason = TERMINATED_STALLED
                     break
                 used = problem.counters[0] - start_counts[0]
