@@ -14,6 +14,7 @@ import pytest
 
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.path import post
 from uavplan.path.energy import energy_terms
 from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
 from uavplan.planners.base import PathProblem, PlanStatus
@@ -333,6 +334,62 @@ def test_tighten_and_refine_never_raise_energy_and_keep_the_margin() -> None:
             assert dense_clearance(WALL.world, poly) >= 10.0 - 1e-3
             assert np.allclose(poly[0], v[0]) and np.allclose(poly[-1], v[-1])
     del rng
+
+
+def ref_window_energy(p: np.ndarray, w: EnergyWeights) -> np.ndarray:
+    """Energy of polylines p (..., k, 3) as the numpy pattern search computed it."""
+    d = np.diff(p, axis=-2)
+    length = np.linalg.norm(d, axis=-1)
+    dots = (d[..., :-1, :] * d[..., 1:, :]).sum(-1)
+    turn = 1.0 - dots / np.maximum(length[..., :-1] * length[..., 1:], 1e-12)
+    return w.k0 * length.sum(-1) + w.k1 * w.mu0 * turn.sum(-1) + w.k2 * np.abs(d[..., 2]).sum(-1)
+
+
+def ref_refine_sweeps(vertices: np.ndarray, world: World, w: EnergyWeights) -> np.ndarray:
+    """The pattern search of post.refine as first written in numpy (before the subdivided
+    polyline is simplified and tightened); equal gains go to the first move."""
+    v = post.subdivide(vertices, post.REFINE_LEG_M)
+    for step in post.REFINE_STEPS_M:
+        for _ in range(post.REFINE_PASSES):
+            improved = False
+            for k in range(1, v.shape[0] - 1):
+                lo, hi = max(0, k - 2), min(v.shape[0], k + 3)
+                window = v[lo:hi]
+                cand = v[k] + step * post._MOVES
+                trial = np.repeat(window[None], cand.shape[0], axis=0)
+                trial[:, k - lo] = cand
+                gain = ref_window_energy(window, w) - ref_window_energy(trial, w)
+                better = np.flatnonzero(gain > 1e-9)
+                if better.size == 0:
+                    continue
+                better = better[np.argsort(-gain[better], kind="stable")]
+                n = better.size
+                a = np.repeat(v[k - 1 : k], n, axis=0)
+                b = np.repeat(v[k + 1 : k + 2], n, axis=0)
+                free = world.segments_free(
+                    np.vstack([a, cand[better]]), np.vstack([cand[better], b])
+                )
+                ok = free[:n] & free[n:]
+                if ok.any():
+                    v[k] = cand[better[int(np.argmax(ok))]]
+                    improved = True
+            if not improved:
+                break
+    return v
+
+
+@pytest.mark.parametrize("weights", [W, EnergyWeights(k0=1.0, k1=40.0, mu0=0.5, k2=3.0)])
+def test_compiled_refine_is_the_numpy_pattern_search(weights: EnergyWeights) -> None:
+    problem = make_problem(
+        BoxObstacle((200.0, 0.0), (40.0, 200.0), 150.0), CylinderObstacle((120.0, 90.0), 30.0, 80.0)
+    )
+    for nodes in _population(problem, n=6, seed=5):
+        pts = problem.node_points(nodes)
+        v = pts[simplify(pts, problem.world)]
+        got = refine(v, problem.world, weights)
+        want = ref_refine_sweeps(v, problem.world, weights)
+        want = tighten(want[simplify(want, problem.world)], problem.world)
+        assert got.shape == want.shape and np.array_equal(got, want)  # to the bit
 
 
 def test_smoothing_and_resampling_keep_the_margin_on_every_leg() -> None:

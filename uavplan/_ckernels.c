@@ -591,6 +591,121 @@ done:
     return ret;
 }
 
+/* Energy (eq. 1-2) of the polyline p (k, 3), k >= 3, as uavplan.path.post's numpy window
+ * energy computes it: lengths sqrt((x² + y²) + z²), every sum left to right, turn
+ * 1 − dot/max(l_i·l_{i+1}, 1e-12), then k0·L + (k1·mu0)·T + k2·C. */
+static double window_energy(const double *p, int64_t k, double k0, double k1mu0, double k2) {
+    double d[4 * 3], len[4];
+    for (int64_t i = 0; i < k - 1; i++) {
+        double dx = p[3 * (i + 1)] - p[3 * i];
+        double dy = p[3 * (i + 1) + 1] - p[3 * i + 1];
+        double dz = p[3 * (i + 1) + 2] - p[3 * i + 2];
+        d[3 * i] = dx;
+        d[3 * i + 1] = dy;
+        d[3 * i + 2] = dz;
+        len[i] = sqrt(dx * dx + dy * dy + dz * dz);
+    }
+    double length = len[0], climb = fabs(d[2]), turn = 0.0;
+    for (int64_t i = 1; i < k - 1; i++) {
+        length += len[i];
+        climb += fabs(d[3 * i + 2]);
+    }
+    for (int64_t i = 0; i < k - 2; i++) {
+        const double *a = d + 3 * i, *b = d + 3 * (i + 1);
+        double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        double den = len[i] * len[i + 1];
+        if (den < 1e-12) den = 1e-12;
+        double t = 1.0 - dot / den;
+        turn = i == 0 ? t : turn + t;
+    }
+    return k0 * length + k1mu0 * turn + k2 * climb;
+}
+
+/* refine_vertices(v, moves, steps, passes, W, margin, (k0, k1mu0, k2)) -> None: the pattern
+ * search of uavplan.path.post.refine, in place on v (n, 3). For each step size, up to
+ * ``passes`` sweeps (stopping after one that moved nothing); in a sweep every interior vertex
+ * k in turn moves to the neighbour v[k] + step·move (moves (m, 3)) of largest energy gain
+ * (> 1e-9) over the window v[k-2 .. k+2] whose two legs are free; equal gains: the first move
+ * in ``moves``. */
+static PyObject *py_refine_vertices(PyObject *self, PyObject *args) {
+    PyObject *ov, *om, *os, *wt;
+    long long passes;
+    double margin, k0, k1mu0, k2;
+    Buf bv = {0}, bm = {0}, bs = {0};
+    WorldBufs wb;
+    if (!PyArg_ParseTuple(args, "OOOLOd(ddd)", &ov, &om, &os, &passes, &wt, &margin, &k0, &k1mu0,
+                          &k2))
+        return NULL;
+    if (world_get(wt, &wb, 11) < 0) return NULL;
+    PyObject *ret = NULL;
+    double *gain = NULL;
+    int64_t *order = NULL;
+    if (get_buf(ov, &bv, T_F64, 2, 1, "v") < 0 || get_buf(om, &bm, T_F64, 2, 0, "moves") < 0 ||
+        get_buf(os, &bs, T_F64, 1, 0, "steps") < 0)
+        goto done;
+    int64_t n = dim(&bv, 0), nm = dim(&bm, 0), ns = dim(&bs, 0);
+    if (need(dim(&bv, 1) == 3 && dim(&bm, 1) == 3 && nm >= 1 && passes >= 0,
+             "refine_vertices: v (n, 3), moves (m, 3)") < 0)
+        goto done;
+    gain = malloc(sizeof(double) * (size_t)nm);
+    order = malloc(sizeof(int64_t) * (size_t)nm);
+    if (gain == NULL || order == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *v = F64(bv);
+    const double *mv = F64(bm), *steps = F64(bs);
+    for (int64_t si = 0; si < ns; si++) {
+        double step = steps[si];
+        for (long long pass = 0; pass < passes; pass++) {
+            int improved = 0;
+            for (int64_t k = 1; k < n - 1; k++) {
+                int64_t lo = k - 2 > 0 ? k - 2 : 0, hi = k + 3 < n ? k + 3 : n;
+                int64_t ws = hi - lo, at = k - lo;
+                double win[5 * 3], trial[5 * 3], cand[3];
+                memcpy(win, v + 3 * lo, sizeof(double) * 3 * (size_t)ws);
+                memcpy(trial, win, sizeof(double) * 3 * (size_t)ws);
+                double e0 = window_energy(win, ws, k0, k1mu0, k2);
+                int64_t nb = 0;
+                for (int64_t q = 0; q < nm; q++) {
+                    for (int a = 0; a < 3; a++) trial[3 * at + a] = v[3 * k + a] + step * mv[3 * q + a];
+                    gain[q] = e0 - window_energy(trial, ws, k0, k1mu0, k2);
+                    if (gain[q] > 1e-9) {
+                        /* insertion by descending gain; equal gains keep the move order */
+                        int64_t i = nb++;
+                        while (i > 0 && gain[order[i - 1]] < gain[q]) {
+                            order[i] = order[i - 1];
+                            i--;
+                        }
+                        order[i] = q;
+                    }
+                }
+                const double *a = v + 3 * (k - 1), *b = v + 3 * (k + 1);
+                for (int64_t i = 0; i < nb; i++) {
+                    int64_t q = order[i];
+                    for (int c = 0; c < 3; c++) cand[c] = v[3 * k + c] + step * mv[3 * q + c];
+                    if (segment_free(a[0], a[1], a[2], cand[0], cand[1], cand[2], &wb.w, margin) &&
+                        segment_free(cand[0], cand[1], cand[2], b[0], b[1], b[2], &wb.w, margin)) {
+                        memcpy(v + 3 * k, cand, sizeof(cand));
+                        improved = 1;
+                        break;
+                    }
+                }
+            }
+            if (!improved) break;
+        }
+    }
+    ret = Py_NewRef(Py_None);
+done:
+    free(gain);
+    free(order);
+    rel(&bv);
+    rel(&bm);
+    rel(&bs);
+    world_release(&wb);
+    return ret;
+}
+
 /* points_clearance(p, W, dist, which): dist pre-filled with inf, which with -1 */
 static PyObject *py_points_clearance(PyObject *self, PyObject *args) {
     PyObject *op, *wt, *od, *ow;
@@ -2831,6 +2946,7 @@ static PyMethodDef methods[] = {
     {"segment_free", py_segment_free, METH_VARARGS, NULL},
     {"segments_free", py_segments_free, METH_VARARGS, NULL},
     {"farthest_visible", py_farthest_visible, METH_VARARGS, NULL},
+    {"refine_vertices", py_refine_vertices, METH_VARARGS, NULL},
     {"points_clearance", py_points_clearance, METH_VARARGS, NULL},
     {"segments_clearance", py_segments_clearance, METH_VARARGS, NULL},
     {"cells_count", py_cells_count, METH_VARARGS, NULL},

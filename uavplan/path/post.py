@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from uavplan._geom import _c, world_arrays
 from uavplan.config import EnergyWeights
 from uavplan.world import World
 
@@ -56,15 +57,6 @@ REFINE_PASSES = 3
 REFINE_LEG_M = 40.0
 
 
-def _window_energy(p: np.ndarray, w: EnergyWeights) -> np.ndarray:
-    """Energy of polylines p (..., k, 3) — the terms of eq. 1–2, vectorised."""
-    d = np.diff(p, axis=-2)
-    length = np.linalg.norm(d, axis=-1)
-    dots = (d[..., :-1, :] * d[..., 1:, :]).sum(-1)
-    turn = 1.0 - dots / np.maximum(length[..., :-1] * length[..., 1:], 1e-12)
-    return w.k0 * length.sum(-1) + w.k1 * w.mu0 * turn.sum(-1) + w.k2 * np.abs(d[..., 2]).sum(-1)
-
-
 def subdivide(vertices: np.ndarray, max_leg_m: float) -> np.ndarray:
     """Insert evenly spaced vertices so no leg is longer than ``max_leg_m``."""
     v = np.asarray(vertices, dtype=float)
@@ -77,34 +69,19 @@ def subdivide(vertices: np.ndarray, max_leg_m: float) -> np.ndarray:
 
 def refine(vertices: np.ndarray, world: World, weights: EnergyWeights) -> np.ndarray:
     """Pattern search on a feasible polyline (see module doc); returns a feasible polyline
-    whose energy is not higher, simplified and tightened."""
-    v = subdivide(vertices, REFINE_LEG_M)
-    for step in REFINE_STEPS_M:
-        for _ in range(REFINE_PASSES):
-            improved = False
-            for k in range(1, v.shape[0] - 1):
-                lo, hi = max(0, k - 2), min(v.shape[0], k + 3)
-                window = v[lo:hi]
-                cand = v[k] + step * _MOVES
-                trial = np.repeat(window[None], cand.shape[0], axis=0)
-                trial[:, k - lo] = cand
-                gain = _window_energy(window, weights) - _window_energy(trial, weights)
-                better = np.flatnonzero(gain > 1e-9)
-                if better.size == 0:
-                    continue
-                better = better[np.argsort(-gain[better])]
-                n = better.size
-                a = np.repeat(v[k - 1 : k], n, axis=0)
-                b = np.repeat(v[k + 1 : k + 2], n, axis=0)
-                free = world.segments_free(
-                    np.vstack([a, cand[better]]), np.vstack([cand[better], b])
-                )
-                ok = free[:n] & free[n:]
-                if ok.any():
-                    v[k] = cand[better[int(np.argmax(ok))]]
-                    improved = True
-            if not improved:
-                break
+    whose energy is not higher, simplified and tightened.
+
+    The legs are subdivided (at most ``REFINE_LEG_M``); then for each step size, up to
+    ``REFINE_PASSES`` sweeps (until one moves nothing) in which every interior vertex in turn
+    moves to the neighbour (one of the 26 unit moves) that lowers the energy of its window of
+    two vertices either side the most, among those whose two legs keep the margin; equal
+    gains go to the first move. Compiled (:func:`uavplan._ckernels.refine_vertices`)."""
+    v = np.ascontiguousarray(subdivide(vertices, REFINE_LEG_M), dtype=float)
+    w = weights
+    _c.refine_vertices(
+        v, _MOVES, np.array(REFINE_STEPS_M), REFINE_PASSES, world_arrays(world.kernel_args),
+        world.margin_m, (w.k0, w.k1 * w.mu0, w.k2),
+    )  # fmt: skip
     return tighten(v[simplify(v, world)], world)
 
 
