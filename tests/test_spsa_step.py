@@ -82,6 +82,44 @@ def test_compiled_step_equals_the_numpy_formulation(variant: str, curved: bool) 
     assert fast.convergence[0] > fast.convergence[-1]
 
 
+class CachedSparrow(SparrowPlanner):
+    """The product's step with a fitness cache of a given size (0: none)."""
+
+    slots = 0
+
+    def setup(self, problem, pop, rng):  # type: ignore[no-untyped-def]
+        super().setup(problem, pop, rng)
+        pop.state["energy_cache"] = K.new_energy_cache(pop.x.shape[1], self.slots)
+
+
+@pytest.mark.parametrize("slots", [0, 1, 8])
+def test_recalled_fitness_is_the_computed_fitness(slots: int) -> None:
+    """With no cache, a one-slot cache (every path shares the slot: only the stored path
+    decides a hit) or a small one, the run is the oracle's to the bit."""
+    search = SearchParams(population=16, iterations=40, seed=3, fitness_smoothing=2)
+    problem = _problem(True).with_fitness_smoothing(2)
+    CachedSparrow.slots = slots
+    fast = CachedSparrow(search).solve(
+        problem.with_fresh_memo(), np.random.default_rng(3), None, Termination(40)
+    )
+    ref = ReferenceSparrow(search).solve(
+        problem.with_fresh_memo(), np.random.default_rng(3), None, Termination(40)
+    )
+    assert np.array_equal(fast.convergence, ref.convergence)
+    assert np.array_equal(fast.population, ref.population)
+    assert np.array_equal(fast.population_fitness, ref.population_fitness)
+
+
+def test_energy_cache_size() -> None:
+    filled, values, paths = K.new_energy_cache(99)
+    assert filled.shape == values.shape == (1024,) and paths.shape == (1024, 198)
+    big = K.new_energy_cache(2499)[2]  # a 50 km route: 2 MiB of stored paths at most
+    assert big.shape[0] & (big.shape[0] - 1) == 0 and big.nbytes <= K.ENERGY_CACHE_BYTES
+    assert K.new_energy_cache(5, 0)[0].size == 0
+    with pytest.raises(ValueError):
+        K.new_energy_cache(5, 3)
+
+
 def test_the_reference_is_not_the_product() -> None:
     """The oracle must be independent: a change to one update rule shows up as a difference."""
     search = SearchParams(population=16, iterations=30, seed=2)

@@ -27,7 +27,7 @@
  * Buffers
  */
 
-enum { T_F64, T_I64, T_BOOL, T_U64 };
+enum { T_F64, T_I64, T_BOOL, T_U64, T_I32 };
 
 typedef struct {
     Py_buffer view;
@@ -39,6 +39,7 @@ static const char *type_name(int t) {
     case T_F64: return "float64";
     case T_I64: return "int64";
     case T_BOOL: return "bool";
+    case T_I32: return "int32";
     default: return "uint64";
     }
 }
@@ -51,6 +52,7 @@ static int format_ok(const Py_buffer *v, int t) {
     case T_F64: return v->itemsize == 8 && f[0] == 'd';
     case T_I64: return v->itemsize == 8 && (f[0] == 'l' || f[0] == 'q');
     case T_U64: return v->itemsize == 8 && (f[0] == 'L' || f[0] == 'Q');
+    case T_I32: return v->itemsize == 4 && (f[0] == 'i' || f[0] == 'l');
     default: return v->itemsize == 1 && f[0] == '?';
     }
 }
@@ -2284,6 +2286,47 @@ enum {
 
 #define SPSA_EPS 1e-50
 
+/* A cache of recent fitness values (recalled, not recomputed, when a candidate path was seen
+ * before): ``slots`` (a power of two) entries, each a path stored as int32 grid values and its
+ * energy; a path's slot is picked by a hash of its values, and a hit is a stored path equal
+ * to it value for value (nothing else is trusted). Paths with a value that is not an int32
+ * (or is −0.0) are not cached. The values are energy_one's: a hit returns exactly what a
+ * recomputation would. */
+typedef struct {
+    unsigned char *filled; /* (slots,) */
+    double *vals;          /* (slots,) */
+    int32_t *paths;        /* (slots, m) */
+    int64_t slots, m;
+} ECache;
+
+static double energy_cached(const double *path, const Energy *e, ECache *c) {
+    if (c == NULL || c->slots == 0) return energy_one(path, e);
+    int64_t m = c->m;
+    uint64_t h = 0x9E3779B97F4A7C15ULL;
+    for (int64_t i = 0; i < m; i++) {
+        double v = path[i];
+        if (!(v >= -2147483648.0 && v <= 2147483647.0) || v != floor(v) ||
+            (v == 0.0 && signbit(v)))
+            return energy_one(path, e);
+        h = (h ^ (uint64_t)(uint32_t)(int32_t)v) * 0x100000001B3ULL;
+    }
+    h ^= h >> 29;
+    h *= 0xBF58476D1CE4E5B9ULL;
+    h ^= h >> 32;
+    int64_t slot = (int64_t)(h & (uint64_t)(c->slots - 1));
+    int32_t *stored = c->paths + slot * m;
+    if (c->filled[slot]) {
+        int64_t i = 0;
+        while (i < m && stored[i] == (int32_t)path[i]) i++;
+        if (i == m) return c->vals[slot];
+    }
+    double energy = energy_one(path, e);
+    for (int64_t i = 0; i < m; i++) stored[i] = (int32_t)path[i];
+    c->vals[slot] = energy;
+    c->filled[slot] = 1;
+    return energy;
+}
+
 static int same_path(const double *a, const double *b, int64_t m) {
     for (int64_t i = 0; i < m; i++)
         if (a[i] != b[i]) return 0;
@@ -2306,19 +2349,22 @@ static int same_path(const double *a, const double *b, int64_t m) {
  * updates). */
 static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     PyObject *ox, *of, *ofix, *oline, *ogoal, *ro, *oen, *opd, *osg, *oaw, *os1, *os2, *ocnt;
+    PyObject *ocache;
     long long n_prod, iters, t_max, v_min, v_max, window, flags;
     double warn, st_value;
     Buf bx = {0}, bf = {0}, bfix = {0}, bline = {0}, bgoal = {0}, bpd = {0}, bsg = {0},
-        baw = {0}, bs1 = {0}, bs2 = {0}, bcnt = {0}, ben[3];
+        baw = {0}, bs1 = {0}, bs2 = {0}, bcnt = {0}, ben[3], bc[3];
     Energy e;
+    ECache cache = {0}, *cp = NULL;
     Reach r;
     ReachBufs rb;
     double *mem = NULL;
     memset(ben, 0, sizeof(ben));
+    memset(bc, 0, sizeof(bc));
     memset(&e, 0, sizeof(e));
-    if (!PyArg_ParseTuple(args, "OOOOOOOLLLLLLLddOOOOOO", &ox, &of, &ofix, &oline, &ogoal, &ro,
+    if (!PyArg_ParseTuple(args, "OOOOOOOLLLLLLLddOOOOOOO", &ox, &of, &ofix, &oline, &ogoal, &ro,
                           &oen, &n_prod, &iters, &t_max, &v_min, &v_max, &window, &flags, &warn,
-                          &st_value, &opd, &osg, &oaw, &os1, &os2, &ocnt))
+                          &st_value, &opd, &osg, &oaw, &os1, &os2, &ocnt, &ocache))
         return NULL;
     if (reach_get(ro, &r, &rb) < 0) return NULL;
     PyObject *ret = NULL;
@@ -2352,6 +2398,25 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
                 goto done;
     }
     if (energy_get(oen, &e, ben, n) < 0) goto done;
+    if (ocache != Py_None) {
+        PyObject *of_, *ov_, *op_;
+        if (!PyArg_ParseTuple(ocache, "OOO", &of_, &ov_, &op_)) goto done;
+        if (get_buf(of_, &bc[0], T_BOOL, 1, 1, "cache.filled") < 0 ||
+            get_buf(ov_, &bc[1], T_F64, 1, 1, "cache.values") < 0 ||
+            get_buf(op_, &bc[2], T_I32, 2, 1, "cache.paths") < 0)
+            goto done;
+        cache.slots = dim(&bc[0], 0);
+        cache.m = m;
+        if (need(dim(&bc[1], 0) == cache.slots && dim(&bc[2], 0) == cache.slots &&
+                     dim(&bc[2], 1) == m && (cache.slots & (cache.slots - 1)) == 0,
+                 "spsa_step: cache: (slots,) flags and values, (slots, 2n) paths, slots a power "
+                 "of two") < 0)
+            goto done;
+        cache.filled = BOOL(bc[0]);
+        cache.vals = F64(bc[1]);
+        cache.paths = (int32_t *)bc[2].view.buf;
+        cp = &cache;
+    }
     /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m), f_prod
      * (G); int64 order, moved, draw (G each); 8 byte flags (G each) */
     size_t nd = (size_t)(5 * G * m + 2 * m + G);
@@ -2450,7 +2515,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         if (same_path(cand + g * m, x + g * m, m)) {
             f_prod[g] = f[g];
         } else {
-            f_prod[g] = energy_one(cand + g * m, &e);
+            f_prod[g] = energy_cached(cand + g * m, &e, cp);
             evals++;
         }
         if (pb < 0 || f_prod[g] < f_prod[pb]) pb = g;
@@ -2567,7 +2632,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         if (fresh[g]) {
             fc = f_prod[g]; /* a producer's candidate evaluated above and not moved since */
         } else {
-            fc = energy_one(cand + g * m, &e);
+            fc = energy_cached(cand + g * m, &e, cp);
             evals++;
         }
         if (fc < f[g]) {
@@ -2586,6 +2651,7 @@ done:
     free(mem);
     free(e.work);
     for (int i = 0; i < 3; i++) rel(&ben[i]);
+    for (int i = 0; i < 3; i++) rel(&bc[i]);
     rel(&bx);
     rel(&bf);
     rel(&bfix);

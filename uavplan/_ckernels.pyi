@@ -78,7 +78,7 @@ def spsa_step(
     x: _A, f: _A, osc_fixed: _A, line: _A, goal_u: _A, reach: tuple[Any, ...],
     energy: tuple[Any, ...], n_prod: int, iterations: int, t_max: int, v_min: int, v_max: int,
     window: int, flags: int, warn: float, warning_value: float, pdraw: _A, signs: _A,
-    aware: _A, seeds1: _A, seeds2: _A, counts: _A,
+    aware: _A, seeds1: _A, seeds2: _A, counts: _A, cache: tuple[_A, _A, _A] | None,
 ) -> None: ...  # fmt: skip
 def node_clearance(
     px: float, py: float, pz: float, world: tuple[Any, ...], cap: float

@@ -371,6 +371,33 @@ SPSA_ESCAPE = 8  # contribution 3: the adaptive variable-speed escape (eq. 12)
 SPSA_OSCILLATE = 16  # contribution 4: the adaptive oscillation optimisation (eq. 13)
 
 
+#: what an energy cache may hold (bytes of stored paths) and its largest number of slots
+ENERGY_CACHE_BYTES = 2 << 20
+ENERGY_CACHE_SLOTS = 1024
+
+#: (filled (slots,) bool, values (slots,) float64, paths (slots, 2n) int32)
+EnergyCache = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def new_energy_cache(n_inner: int, slots: int | None = None) -> EnergyCache:
+    """An empty fitness cache for paths of ``n_inner`` nodes (see :func:`spsa_step`): a power
+    of two of slots, at most :data:`ENERGY_CACHE_SLOTS` and :data:`ENERGY_CACHE_BYTES` of
+    stored paths (``slots=0``: no cache). The fitness of a path is a pure function of the path
+    for one problem, so a recalled value is the value a recomputation gives; a cache belongs
+    to one problem."""
+    m = 2 * max(n_inner, 1)
+    if slots is None:
+        fit = max(1, ENERGY_CACHE_BYTES // (4 * m))
+        slots = min(ENERGY_CACHE_SLOTS, 1 << (fit.bit_length() - 1))
+    if slots < 0 or slots & (slots - 1):
+        raise ValueError(f"energy cache: {slots} slots, not a power of two")
+    return (
+        np.zeros(slots, dtype=np.bool_),
+        np.zeros(slots, dtype=np.float64),
+        np.zeros((slots, m), dtype=np.int32),
+    )
+
+
 def spsa_step(
     x: np.ndarray,
     f: np.ndarray,
@@ -392,6 +419,7 @@ def spsa_step(
     aware: np.ndarray,
     seeds: tuple[np.ndarray, np.ndarray],
     counts: np.ndarray,
+    cache: EnergyCache | None = None,
 ) -> None:
     """One SPSA / SSA iteration in place on ``x`` (G, n, 2), ``f`` (G,) and ``osc_fixed``
     (G,) (see :meth:`uavplan.planners.sparrow.SparrowPlanner.step`, which draws the random
@@ -399,11 +427,12 @@ def spsa_step(
     ``aware`` the danger-aware sparrows, ``seeds`` the two rebuilds' streams). ``line``
     (n, 2): the start-end line at the inner columns; ``energy``:
     :attr:`PathProblem.energy_args`. ``counts`` (3,) int64 gets += (fitness evaluations,
-    escapes, failed updates)."""
+    escapes, failed updates): a fitness recalled from ``cache`` (:func:`new_energy_cache`)
+    counts as an evaluation, so evaluation budgets mean the same with and without it."""
     _c.spsa_step(
         x, f, osc_fixed, line, _f64(goal_u), reach, energy, int(n_prod), int(iterations),
         int(t_max), int(v_range[0]), int(v_range[1]), int(window), int(flags), float(warn),
         float(warning_value), _f64(pdraw), _f64(signs), np.ascontiguousarray(aware, np.int64),
         np.ascontiguousarray(seeds[0], np.uint64), np.ascontiguousarray(seeds[1], np.uint64),
-        counts,
+        counts, cache,
     )  # fmt: skip

@@ -102,11 +102,14 @@ class SparrowPlanner(SwarmPlanner):
         if fixed is None:
             fixed = pop.state["osc_fixed"] = np.zeros(n_pop, dtype=np.bool_)
         counts = np.zeros(3, dtype=np.int64)
+        cache = pop.state.get("energy_cache")
+        if cache is None:
+            cache = pop.state["energy_cache"] = K.new_energy_cache(n_inner)
         K.spsa_step(
             pop.x, pop.f, fixed, self._line(problem), problem.goal_u, problem.reach,
             problem.energy_args, n_prod, pop.iterations, search.t_max, (prm.v_min, prm.v_max),
             prm.oscillation_window, flags, warn, prm.warning_value, pdraw, signs, aware,
-            (seeds1, seeds2), counts,
+            (seeds1, seeds2), counts, cache,
         )  # fmt: skip
         problem.counters[0] += counts[0]
         pop.count("escapes", int(counts[1]))
