@@ -32,9 +32,7 @@ from uavplan.path.post import (
     smooth_route,
     tighten,
 )
-from uavplan.planners.astar import GridRoute, astar
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
-from uavplan.planners.guide import find_guide, guided_problem
 from uavplan.planners.registry import make_planner
 from uavplan.route import EndAction, PlannedRoute, densify, flown_polyline
 from uavplan.scenario import Scenario, resolved_config
@@ -45,6 +43,7 @@ if TYPE_CHECKING:
     from uavplan.mission.export import ExportExtras
     from uavplan.mission.fence import FenceBuild
     from uavplan.mission.items import MissionPlan
+    from uavplan.planners.astar import GridRoute
     from uavplan.render import Scene
 
 
@@ -191,6 +190,8 @@ def reference_route(
     """The grid A* route of ``scenario`` (its grid, margin and energy weights) in the path
     frame of its start and goal (or of ``start_m`` → ``goal_m``, one leg): the independent
     reference (``route.found`` tells)."""
+    from uavplan.planners.astar import astar
+
     world = world or build_world(scenario)
     start = scenario.start_m if start_m is None else start_m
     goal = scenario.goal_m if goal_m is None else goal_m
@@ -436,6 +437,8 @@ def _plan_leg(
     route_pf: np.ndarray | None = None
     if not res.solved:
         # the straight start→goal columns cannot hold a path: search the whole volume
+        from uavplan.planners.guide import find_guide, guided_problem
+
         guide = find_guide(problem)
         guide_s = guide.runtime_s
         if not guide.found:

@@ -247,7 +247,7 @@ def _write_mission(
             for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
                 click.echo(line, err=True)
     summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
-    save_mission(mission, output, extras=export_extras(scn, route, summary))
+    save_mission(mission, output, extras=lambda: export_extras(scn, route, summary))
     return mission, built
 
 

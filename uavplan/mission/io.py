@@ -26,7 +26,6 @@ from uavplan.errors import MissionFileError
 from uavplan.fileio import OutputFileError, atomic_write_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.mission.qgc_plan import plan_from_json, plan_to_json
-from uavplan.mission.waypoints_file import waypoints_from_text, waypoints_to_text
 
 if TYPE_CHECKING:
     from uavplan.mission.export import ExportExtras
@@ -50,8 +49,16 @@ class MissionFormat:
 
 
 def _load_waypoints(text: str, *, file: str, autopilot: Autopilot | None) -> MissionPlan:
+    from uavplan.mission.waypoints_file import waypoints_from_text  # only for this format
+
     # The format has no autopilot field; it is ArduPilot's native layout (home = seq 0).
     return waypoints_from_text(text, file=file, autopilot=autopilot or Autopilot.ARDUPILOT)
+
+
+def _dump_waypoints(plan: MissionPlan) -> str:
+    from uavplan.mission.waypoints_file import waypoints_to_text
+
+    return waypoints_to_text(plan)
 
 
 def _geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
@@ -67,7 +74,7 @@ def _kml(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
 
 
 PLAN_FORMAT = MissionFormat("QGroundControl plan", plan_to_json, plan_from_json)
-WAYPOINTS_FORMAT = MissionFormat("QGC WPL 110 waypoints", waypoints_to_text, _load_waypoints)
+WAYPOINTS_FORMAT = MissionFormat("QGC WPL 110 waypoints", _dump_waypoints, _load_waypoints)
 GEOJSON_FORMAT = MissionFormat("GeoJSON", _geojson, None, _geojson)
 KML_FORMAT = MissionFormat("KML", _kml, None, _kml)
 
@@ -98,18 +105,18 @@ def save_mission(
     plan: MissionPlan,
     path: str | os.PathLike[str],
     *,
-    extras: ExportExtras | None = None,
+    extras: ExportExtras | Callable[[], ExportExtras] | None = None,
 ) -> None:
     """Write ``plan`` to ``path`` in the format of its extension, atomically.
 
     ``extras`` (obstacles, planned path) are drawn by the export formats and ignored by the
-    mission formats. Any failure is a :class:`MissionFileError` naming ``path``; nothing is
-    written then.
+    mission formats; a callable is called only when the format draws them. Any failure is a
+    :class:`MissionFileError` naming ``path``; nothing is written then.
     """
     fmt = format_for(path)
     try:
         if extras is not None and fmt.dumps_extras is not None:
-            text = fmt.dumps_extras(plan, extras)
+            text = fmt.dumps_extras(plan, extras() if callable(extras) else extras)
         else:
             text = fmt.dumps(plan)
     except MissionFileError as err:
