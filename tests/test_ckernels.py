@@ -129,6 +129,29 @@ def test_segments_free_agrees_with_exact_clearance() -> None:
     assert one == list(free[:20])
 
 
+def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
+    """Many pieces on a cell grid: short segments go through the cells, long ones (a box
+    over more cells than there are pieces) through the pieces; both agree with the exact
+    clearance."""
+    rng = np.random.default_rng(11)
+    centres = rng.uniform(-260.0, 260.0, (80, 2))
+    w = World.build(
+        [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres],
+        bounds_xyz=BOUNDS,
+        margin_m=5.0,
+    )
+    assert w.kernel_args[7][3] > 1  # a cell grid is in use
+    p0 = rng.uniform((-280, -280, 1), (280, 280, 100), (600, 3))
+    p1 = np.vstack([rng.uniform((-280, -280, 1), (280, 280, 100), (300, 3)),
+                    p0[300:] + rng.normal(0.0, 15.0, (300, 3))])  # fmt: skip
+    p1 = np.clip(p1, (-290, -290, 1), (290, 290, 190))
+    free = _geom.segments_free(p0, p1, w.kernel_args, 5.0)
+    dist, _ = _geom.segments_clearance(p0, p1, w.kernel_args)
+    clear = np.abs(dist - 5.0) > 1e-6
+    assert np.array_equal(free[clear], (dist >= 5.0)[clear])
+    assert free[:300].any() and not free[:300].all() and free[300:].any()
+
+
 def ref_farthest_visible(p: np.ndarray, w: World) -> list[int]:
     """Node simplification as first written: test every later node, jump to the largest
     free one (the next node when none is)."""

@@ -368,14 +368,25 @@ static int segment_free(double ax, double ay, double az, double bx, double by, d
     int64_t nx = (int64_t)w->gmeta[3];
     int64_t ny = (int64_t)w->gmeta[4];
     if (npieces == 0) return 1;
-    if (nx == 0) {
-        for (int64_t k = 0; k < npieces; k++)
+    int64_t cx0 = 0, cx1 = -1, cy0 = 0, cy1 = -1;
+    if (nx != 0) {
+        cell_range(dmin(ax, bx) - margin, dmax(ax, bx) + margin, gx0, cell, nx, &cx0, &cx1);
+        cell_range(dmin(ay, by) - margin, dmax(ay, by) + margin, gy0, cell, ny, &cy0, &cy1);
+    }
+    /* No grid, or a segment whose box spans more cells than there are pieces (a long leg):
+     * walk the pieces in index order instead of the cells, testing the same pieces (those
+     * whose cells meet the segment's); "free" does not depend on the order of the tests. */
+    if (nx == 0 || (cx1 - cx0 + 1) * (cy1 - cy0 + 1) > (int64_t)npieces) {
+        for (int64_t k = 0; k < npieces; k++) {
+            if (nx != 0) {
+                const int64_t *pc = w->piece_cells + 4 * k;
+                if (pc[0] > pc[1] || pc[2] > pc[3]) continue; /* in no cell */
+                if (pc[1] < cx0 || pc[0] > cx1 || pc[3] < cy0 || pc[2] > cy1) continue;
+            }
             if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) return 0;
+        }
         return 1;
     }
-    int64_t cx0, cx1, cy0, cy1;
-    cell_range(dmin(ax, bx) - margin, dmax(ax, bx) + margin, gx0, cell, nx, &cx0, &cx1);
-    cell_range(dmin(ay, by) - margin, dmax(ay, by) + margin, gy0, cell, ny, &cy0, &cy1);
     for (int64_t cx = cx0; cx <= cx1; cx++) {
         for (int64_t cy = cy0; cy <= cy1; cy++) {
             int64_t c = cx * ny + cy;
