@@ -356,8 +356,12 @@ static inline void cell_range(double lo, double hi, double origin, double cell, 
     *b_out = b;
 }
 
-static int segment_free(double ax, double ay, double az, double bx, double by, double bz,
-                        const World *w, double margin) {
+/* Whether the segment a→b keeps ``margin`` from every piece and stays inside the bounds.
+ * ``hint`` (may be NULL): a piece to test first, and where the blocking piece is left when
+ * the segment is not free (consecutive queries along a polyline are often blocked by the same
+ * piece). The pieces tested are always the same set, so the answer does not depend on it. */
+static int segment_free_h(double ax, double ay, double az, double bx, double by, double bz,
+                          const World *w, double margin, int64_t *hint) {
     if (!(inside_bounds(ax, ay, az, w) && inside_bounds(bx, by, bz, w))) return 0;
     double thr = margin - 1e-9;
     if (thr < 1e-9) thr = 1e-9;
@@ -373,32 +377,51 @@ static int segment_free(double ax, double ay, double az, double bx, double by, d
         cell_range(dmin(ax, bx) - margin, dmax(ax, bx) + margin, gx0, cell, nx, &cx0, &cx1);
         cell_range(dmin(ay, by) - margin, dmax(ay, by) + margin, gy0, cell, ny, &cy0, &cy1);
     }
+    /* the pieces tested: with a grid, those whose cells meet the segment's */
+#define SF_TESTED(k)                                                                          \
+    (nx == 0 || (w->piece_cells[4 * (k)] <= w->piece_cells[4 * (k) + 1] &&                      \
+                 w->piece_cells[4 * (k) + 2] <= w->piece_cells[4 * (k) + 3] &&                  \
+                 w->piece_cells[4 * (k) + 1] >= cx0 && w->piece_cells[4 * (k)] <= cx1 &&        \
+                 w->piece_cells[4 * (k) + 3] >= cy0 && w->piece_cells[4 * (k) + 2] <= cy1))
+    int64_t first = -1;
+    if (hint != NULL && *hint >= 0 && *hint < (int64_t)npieces && SF_TESTED(*hint)) {
+        first = *hint;
+        if (seg_piece_dist(ax, ay, az, bx, by, bz, first, w, thr) < thr) return 0;
+    }
     /* No grid, or a segment whose box spans more cells than there are pieces (a long leg):
-     * walk the pieces in index order instead of the cells, testing the same pieces (those
-     * whose cells meet the segment's); "free" does not depend on the order of the tests. */
+     * walk the pieces in index order instead of the cells, testing the same pieces; "free"
+     * does not depend on the order of the tests. */
     if (nx == 0 || (cx1 - cx0 + 1) * (cy1 - cy0 + 1) > (int64_t)npieces) {
         for (int64_t k = 0; k < npieces; k++) {
-            if (nx != 0) {
-                const int64_t *pc = w->piece_cells + 4 * k;
-                if (pc[0] > pc[1] || pc[2] > pc[3]) continue; /* in no cell */
-                if (pc[1] < cx0 || pc[0] > cx1 || pc[3] < cy0 || pc[2] > cy1) continue;
+            if (k == first || !SF_TESTED(k)) continue;
+            if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) {
+                if (hint != NULL) *hint = k;
+                return 0;
             }
-            if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) return 0;
         }
         return 1;
     }
+#undef SF_TESTED
     for (int64_t cx = cx0; cx <= cx1; cx++) {
         for (int64_t cy = cy0; cy <= cy1; cy++) {
             int64_t c = cx * ny + cy;
             for (int64_t t = w->cell_start[c]; t < w->cell_start[c + 1]; t++) {
                 int64_t k = w->cell_items[t];
                 const int64_t *pc = w->piece_cells + 4 * k;
-                if (cx != imax(cx0, pc[0]) || cy != imax(cy0, pc[2])) continue;
-                if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) return 0;
+                if (cx != imax(cx0, pc[0]) || cy != imax(cy0, pc[2]) || k == first) continue;
+                if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) {
+                    if (hint != NULL) *hint = k;
+                    return 0;
+                }
             }
         }
     }
     return 1;
+}
+
+static int segment_free(double ax, double ay, double az, double bx, double by, double bz,
+                        const World *w, double margin) {
+    return segment_free_h(ax, ay, az, bx, by, bz, w, margin, NULL);
 }
 
 static inline double box_gap(double x0, double x1, double y0, double y1, double z0, double z1,
@@ -584,11 +607,12 @@ static PyObject *py_farthest_visible(PyObject *self, PyObject *args) {
     int64_t *keep = I64(bk);
     Py_ssize_t count = 0, i = 0;
     keep[count++] = 0;
+    int64_t blocker = -1;
     while (i < n - 1) {
         Py_ssize_t next = i + 1;
         for (Py_ssize_t j = n - 1; j > i; j--) {
             const double *a = p + 3 * i, *b = p + 3 * j;
-            if (segment_free(a[0], a[1], a[2], b[0], b[1], b[2], &wb.w, margin)) {
+            if (segment_free_h(a[0], a[1], a[2], b[0], b[1], b[2], &wb.w, margin, &blocker)) {
                 next = j;
                 break;
             }
