@@ -16,7 +16,7 @@ from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, astar
-from uavplan.planning import reference_route
+from uavplan.planning import build_world, reference_energy, reference_route
 from uavplan.scenario import PlannerConfig, Scenario
 from uavplan.world import World
 
@@ -121,6 +121,7 @@ def test_walled_in_goal_has_no_path() -> None:
     assert route.path_enu is None and route.expanded > 0
     scn = scenario(walls, start, goal)
     assert not reference_route(scn).found
+    assert math.isnan(reference_energy(scn))
     assert reference_route(scenario(walls[:3], start, goal)).found  # one wall gone: open
 
 
@@ -222,3 +223,23 @@ def test_bundled_scenario_has_a_reference_route_that_keeps_the_margin() -> None:
     route = reference_route(scn)
     assert route.found
     assert_keeps_margin(build_world(scn), route.path_enu)
+
+
+def test_reference_energy_is_the_line_of_sight_route_over_every_leg() -> None:
+    """One A* per leg, each shortened by line of sight, joined: the turn at a via point
+    counts, as in the polyline the drone would fly (the repeated via point is a zero-length
+    step, which the energy skips)."""
+    from dataclasses import replace
+
+    walls = wall_with_gap(30.0, 70.0)
+    start, via, goal = (0.0, 0.0, 30.0), (200.0, 50.0, 30.0), (400.0, 0.0, 30.0)
+    one = scenario(walls, start, goal)
+    route = reference_route(one)
+    world = build_world(one)
+    los = route.path_enu[simplify(route.path_enu, world)]
+    assert reference_energy(one, world) == pytest.approx(sum(energy_terms(los, WEIGHTS)))
+    assert reference_energy(one) >= line_cost(start, goal)
+    toured = replace(one, via_m=(via,))
+    legs = [reference_route(toured, start_m=a, goal_m=b) for a, b in ((start, via), (via, goal))]
+    joined = np.vstack([r.path_enu[simplify(r.path_enu, world)] for r in legs])
+    assert reference_energy(toured) == pytest.approx(sum(energy_terms(joined, WEIGHTS)))

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import itertools
 import os
 import sys
 from pathlib import Path
@@ -24,29 +23,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as `uavplan` itself does: 
 
 import numpy as np
 
-from uavplan.path.energy import energy_terms
-from uavplan.path.post import simplify
-from uavplan.planning import build_world, plan_route, reference_route, route_points
-from uavplan.scenario import Scenario, load_scenario
-from uavplan.world import World
+from uavplan.planning import build_world, plan_route, reference_energy
+from uavplan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = [
     ROOT / "missions" / f"{name}.yaml"
     for name in ("paper-env1", "paper-env2", "paper-env3", "midtown-manhattan", "helsinki-centre")
 ]
-
-
-def reference_energy(scenario: Scenario, world: World) -> float:
-    """E of the A* + line-of-sight polyline, one A* per leg."""
-    legs = []
-    for a, b in itertools.pairwise(route_points(scenario)):
-        route = reference_route(scenario, world=world, start_m=a, goal_m=b)
-        if not route.found:
-            raise SystemExit(f"{scenario.name}: A* found no path from {a} to {b}")
-        leg = route.path_enu[simplify(route.path_enu, world)]
-        legs.append(leg if not legs else leg[1:])
-    return float(sum(energy_terms(np.vstack(legs), scenario.planner.energy)))
 
 
 def parse_rule(text: str) -> tuple[int | None, int | None]:
@@ -69,6 +53,8 @@ def main() -> int:
         scenario = load_scenario(path)
         world = build_world(scenario)
         ref = reference_energy(scenario, world)
+        if not ref == ref:  # NaN
+            raise SystemExit(f"{scenario.name}: A* found no reference path")
         for name, (first, again) in rules:
             ratios, iterations = [], []
             for seed in range(1, args.runs + 1):

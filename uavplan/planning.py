@@ -11,6 +11,7 @@ file I/O and knows nothing of MAVLink.
 from __future__ import annotations
 
 import enum
+import itertools
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -198,6 +199,21 @@ def reference_route(
     frame = PathFrame.build(start, goal, scenario.planner.grid)
     world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
     return astar(world_pf, frame, scenario.planner.energy)
+
+
+def reference_energy(scenario: Scenario, world: World | None = None) -> float:
+    """E (eq. 1) of the independent reference route: one grid A* per leg (start, via points,
+    goal), each shortened by line of sight (:func:`simplify`), joined into one polyline; NaN
+    when A* finds no path for a leg."""
+    world = world or build_world(scenario)
+    legs: list[np.ndarray] = []
+    for a, b in itertools.pairwise(route_points(scenario)):
+        route = reference_route(scenario, world=world, start_m=a, goal_m=b)
+        if not route.found or route.path_enu is None:
+            return math.nan
+        leg = route.path_enu[simplify(route.path_enu, world)]
+        legs.append(leg if not legs else leg[1:])
+    return float(sum(energy_terms(np.vstack(legs), scenario.planner.energy)))
 
 
 def _best_simplified(
