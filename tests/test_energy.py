@@ -12,7 +12,14 @@ from hypothesis import strategies as st
 from scipy.interpolate import CubicSpline
 
 from uavplan.config import EnergyWeights
-from uavplan.path.energy import N_SUB, column_spline, energy_terms, population_energy
+from uavplan.path.energy import (
+    N_SUB,
+    column_spline,
+    energy_bounds,
+    energy_of,
+    energy_terms,
+    population_energy,
+)
 
 UNIT = EnergyWeights(k0=1.0, k1=1.0, mu0=1.0, k2=1.0)
 
@@ -255,3 +262,73 @@ def test_population_energy_matches_energy_of_column_spline(
         knots[1:-1, 1] = nodes[i, :, 1] * dz
         expected = sum(energy_terms(column_spline(knots, dx, n_sub), w))
         assert got[i] == pytest.approx(expected, rel=1e-12, abs=1e-9)
+
+
+# --- the lower bound greedy selection uses (energy_bounds) -----------------------------------
+
+
+def energy_tuple(d, rng, *, dx, dy, dz, n_sub, weights, smooth, straight):
+    """An energy tuple as PathProblem.energy_args builds it: straight columns, or a curved
+    guide (origins along a random bend, unit normals)."""
+    if straight:
+        cols = straight_cols(d - 1, dx)
+    else:
+        heading = np.cumsum(rng.uniform(-0.4, 0.4, d + 1))
+        xy = np.cumsum(np.stack([np.cos(heading), np.sin(heading)], axis=1) * dx, axis=0)
+        cols = np.column_stack([xy, -np.sin(heading), np.cos(heading)])
+    start_yz = np.array([rng.uniform(-20.0, 20.0), rng.uniform(0.0, 100.0)])
+    goal_yz = np.array([rng.uniform(-20.0, 20.0), rng.uniform(0.0, 100.0)])
+    k0, k1, mu0, k2 = weights
+    return (
+        start_yz, goal_yz, np.ascontiguousarray(cols), dx, dy, dz, n_sub, k0, k1, mu0, k2,
+        smooth, straight,
+    )  # fmt: skip
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    d=st.integers(2, 40),
+    n_sub=st.integers(1, 6),
+    smooth=st.integers(0, 3),
+    straight=st.booleans(),
+    dx=st.floats(1.0, 60.0),
+    dy=st.floats(1.0, 30.0),
+    dz=st.floats(1.0, 20.0),
+    weights=st.tuples(*[st.floats(0.0, 5.0)] * 4),
+)
+def test_energy_bound_never_exceeds_the_energy(
+    seed, d, n_sub, smooth, straight, dx, dy, dz, weights
+) -> None:
+    """The fused step rejects a candidate when bound·(1 − 1e-9) >= its parent's fitness: that
+    must never reject a candidate whose energy is lower. Smoothed knots, curved guides and
+    every sub-sampling included."""
+    rng = np.random.default_rng(seed)
+    energy = energy_tuple(
+        d, rng, dx=dx, dy=dy, dz=dz, n_sub=n_sub, weights=weights, smooth=smooth,
+        straight=straight,
+    )  # fmt: skip
+    nodes = rng.uniform(-10.0, 10.0, (6, d - 1, 2)).round()
+    bound = energy_bounds(nodes, energy)
+    exact = energy_of(nodes, energy)
+    assert (bound >= 0.0).all()
+    assert (bound * (1.0 - 1e-9) <= exact).all(), (bound, exact)
+
+
+def test_energy_bound_is_tight_on_a_straight_path_and_absent_for_negative_weights() -> None:
+    rng = np.random.default_rng(3)
+    energy = energy_tuple(
+        10, rng, dx=20.0, dy=20.0, dz=10.0, n_sub=3, weights=(1.0, 1.0, 1.0, 1.0), smooth=2,
+        straight=True,
+    )  # fmt: skip
+    start_yz, goal_yz = energy[0], energy[1]
+    t = np.arange(1, 10) / 10.0
+    nodes = np.stack(
+        [(start_yz[0] + (goal_yz[0] - start_yz[0]) * t) / 20.0,
+         (start_yz[1] + (goal_yz[1] - start_yz[1]) * t) / 10.0], axis=1,
+    )[None]  # fmt: skip
+    bound, exact = energy_bounds(nodes, energy)[0], energy_of(nodes, energy)[0]
+    assert bound == pytest.approx(exact, rel=1e-9)
+    assert bound > 200.0
+    negative = (*energy[:7], 1.0, -1.0, 1.0, 1.0, *energy[11:])
+    assert energy_bounds(nodes, negative)[0] == -1.0

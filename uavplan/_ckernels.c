@@ -2160,19 +2160,14 @@ static int energy_init(Energy *e) {
     return 0;
 }
 
-/* The energy of one individual's inner nodes (inner, 2) in grid units. */
-static double energy_one(const double *nodes, const Energy *e) {
+/* The spline's knots (inner + 2 of them, ends included) in metres, in e->work: sy, sz, and
+ * sx unless the frame is straight (a straight frame's x is the column's i·dx). */
+static void energy_knots(const double *nodes, const Energy *e) {
     int64_t inner = e->inner;
     int64_t nk = inner + 2;
     int64_t nf = inner > 1 ? inner : 1;
-    double *cp = e->work, *den = e->work + nf;
-    double *ys = den + nf, *zs = ys + nk, *sy = zs + nk, *sz = sy + nk, *sx = sz + nk;
-    double *my = sx + nk, *mz = my + nk, *mx = mz + nk;
+    double *ys = e->work + 2 * nf, *zs = ys + nk, *sy = zs + nk, *sz = sy + nk, *sx = sz + nk;
     const double *cols = e->cols;
-    int straight = e->straight;
-    int64_t n_sub = e->n_sub;
-    double dx = e->dx;
-    const double *coef = e->coef;
     ys[0] = e->start_yz[0];
     zs[0] = e->start_yz[1];
     ys[nk - 1] = e->goal_yz[0];
@@ -2188,14 +2183,52 @@ static double energy_one(const double *nodes, const Energy *e) {
         memcpy(sy, ys, sizeof(double) * nk);
         memcpy(sz, zs, sizeof(double) * nk);
     }
-    if (!straight) {
+    if (!e->straight) {
         for (int64_t j = 0; j < nk; j++) {
             double lat = sy[j];
             sx[j] = cols[4 * j] + lat * cols[4 * j + 2];
             sy[j] = cols[4 * j + 1] + lat * cols[4 * j + 3];
         }
-        second_derivs(sx, nk, dx, cp, den, mx);
     }
+}
+
+/* A lower bound of energy_one: k0 · (length of the knots' polyline) + k2 · (its climb). The
+ * spline's samples include every knot exactly (u = 0 gives a = 1 and c = d = 0), so the
+ * sampled polyline is the knots' polyline with vertices added: by the triangle inequality
+ * it is no shorter and climbs no less, and the turn term is >= 0. Valid for k0, k2, k1·μ0
+ * >= 0 (the configuration's bounds); -1 (no bound) otherwise. */
+static double energy_bound(const double *nodes, const Energy *e) {
+    if (!(e->k0 >= 0.0 && e->k2 >= 0.0 && e->k1 * e->mu0 >= 0.0)) return -1.0;
+    energy_knots(nodes, e);
+    int64_t nk = e->inner + 2;
+    int64_t nf = e->inner > 1 ? e->inner : 1;
+    const double *sy = e->work + 2 * nf + 2 * nk, *sz = sy + nk, *sx = sz + nk;
+    int straight = e->straight;
+    double dx = e->dx;
+    double length = 0.0, climb = 0.0;
+    for (int64_t j = 1; j < nk; j++) {
+        double ex = straight ? dx : sx[j] - sx[j - 1];
+        double ey = sy[j] - sy[j - 1], ez = sz[j] - sz[j - 1];
+        length += sqrt(ex * ex + ey * ey + ez * ez);
+        climb += fabs(ez);
+    }
+    return e->k0 * length + e->k2 * climb;
+}
+
+/* The energy of one individual's inner nodes (inner, 2) in grid units. */
+static double energy_one(const double *nodes, const Energy *e) {
+    int64_t inner = e->inner;
+    int64_t nk = inner + 2;
+    int64_t nf = inner > 1 ? inner : 1;
+    double *cp = e->work, *den = e->work + nf;
+    double *sy = den + nf + 2 * nk, *sz = sy + nk, *sx = sz + nk;
+    double *my = sx + nk, *mz = my + nk, *mx = mz + nk;
+    int straight = e->straight;
+    int64_t n_sub = e->n_sub;
+    double dx = e->dx;
+    const double *coef = e->coef;
+    energy_knots(nodes, e);
+    if (!straight) second_derivs(sx, nk, dx, cp, den, mx);
     second_derivs2(sy, sz, nk, dx, cp, den, my, mz);
     /* Three passes with the same expressions, in the same order, as one sequential walk
      * over the samples (so the result is the same to the bit), but the first two have no
@@ -2278,8 +2311,8 @@ static int energy_get(PyObject *o, Energy *e, Buf *bufs, int64_t inner) {
     return energy_init(e);
 }
 
-/* population_energy(nodes, energy, out): the energy (G,) of nodes (G, n, 2) */
-static PyObject *py_population_energy(PyObject *self, PyObject *args) {
+/* fn (energy_one or energy_bound) of every individual of nodes (G, n, 2) into out (G,) */
+static PyObject *population_map(PyObject *args, double (*fn)(const double *, const Energy *)) {
     PyObject *on, *oen, *oo;
     Energy e;
     Buf bn = {0}, bo = {0}, ben[3];
@@ -2297,7 +2330,7 @@ static PyObject *py_population_energy(PyObject *self, PyObject *args) {
     if (energy_get(oen, &e, ben, inner) < 0) goto done;
     const double *nodes = F64(bn);
     double *out = F64(bo);
-    for (int64_t g = 0; g < g_count; g++) out[g] = energy_one(nodes + g * inner * 2, &e);
+    for (int64_t g = 0; g < g_count; g++) out[g] = fn(nodes + g * inner * 2, &e);
     ret = Py_NewRef(Py_None);
 done:
     free(e.work);
@@ -2305,6 +2338,16 @@ done:
     rel(&bn);
     rel(&bo);
     return ret;
+}
+
+/* population_energy(nodes, energy, out): the energy (G,) of nodes (G, n, 2) */
+static PyObject *py_population_energy(PyObject *self, PyObject *args) {
+    return population_map(args, energy_one);
+}
+
+/* energy_bounds(nodes, energy, out): energy_bound (G,) of nodes (G, n, 2) (-1: no bound) */
+static PyObject *py_energy_bounds(PyObject *self, PyObject *args) {
+    return population_map(args, energy_bound);
 }
 
 /* ------------------------------------------------------------------------------------------
@@ -2334,31 +2377,48 @@ typedef struct {
     int64_t slots, m;
 } ECache;
 
-static double energy_cached(const double *path, const Energy *e, ECache *c) {
-    if (c == NULL || c->slots == 0) return energy_one(path, e);
-    int64_t m = c->m;
+/* energy_bound's margin: far above the bound's and the energy's rounding (relative 1e-13) */
+#define BOUND_MARGIN 1e-9
+
+/* The path's slot in the cache, or -1 when there is no cache or the path is not cacheable. */
+static int64_t cache_slot(const double *path, const ECache *c) {
+    if (c == NULL || c->slots == 0) return -1;
     uint64_t h = 0x9E3779B97F4A7C15ULL;
-    for (int64_t i = 0; i < m; i++) {
+    for (int64_t i = 0; i < c->m; i++) {
         double v = path[i];
         if (!(v >= -2147483648.0 && v <= 2147483647.0) || v != floor(v) ||
             (v == 0.0 && signbit(v)))
-            return energy_one(path, e);
+            return -1;
         h = (h ^ (uint64_t)(uint32_t)(int32_t)v) * 0x100000001B3ULL;
     }
     h ^= h >> 29;
     h *= 0xBF58476D1CE4E5B9ULL;
     h ^= h >> 32;
-    int64_t slot = (int64_t)(h & (uint64_t)(c->slots - 1));
-    int32_t *stored = c->paths + slot * m;
-    if (c->filled[slot]) {
+    return (int64_t)(h & (uint64_t)(c->slots - 1));
+}
+
+/* The path's energy: energy_one's value, recalled when the cache holds the path. With a
+ * finite ``cutoff`` (greedy selection, which only asks whether a candidate beats its parent's
+ * fitness), a path that is not cached and whose energy_bound proves its energy >= cutoff
+ * gets ``cutoff`` itself, without the energy being computed. */
+static double energy_cached(const double *path, const Energy *e, ECache *c, double cutoff) {
+    int64_t slot = cache_slot(path, c);
+    int32_t *stored = slot >= 0 ? c->paths + slot * c->m : NULL;
+    if (slot >= 0 && c->filled[slot]) {
         int64_t i = 0;
-        while (i < m && stored[i] == (int32_t)path[i]) i++;
-        if (i == m) return c->vals[slot];
+        while (i < c->m && stored[i] == (int32_t)path[i]) i++;
+        if (i == c->m) return c->vals[slot];
+    }
+    if (cutoff < INFINITY) {
+        double lb = energy_bound(path, e);
+        if (lb >= 0.0 && lb * (1.0 - BOUND_MARGIN) >= cutoff) return cutoff;
     }
     double energy = energy_one(path, e);
-    for (int64_t i = 0; i < m; i++) stored[i] = (int32_t)path[i];
-    c->vals[slot] = energy;
-    c->filled[slot] = 1;
+    if (slot >= 0) {
+        for (int64_t i = 0; i < c->m; i++) stored[i] = (int32_t)path[i];
+        c->vals[slot] = energy;
+        c->filled[slot] = 1;
+    }
     return energy;
 }
 
@@ -2550,7 +2610,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         if (same_path(cand + g * m, x + g * m, m)) {
             f_prod[g] = f[g];
         } else {
-            f_prod[g] = energy_cached(cand + g * m, &e, cp);
+            f_prod[g] = energy_cached(cand + g * m, &e, cp, INFINITY);
             evals++;
         }
         if (pb < 0 || f_prod[g] < f_prod[pb]) pb = g;
@@ -2667,7 +2727,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         if (fresh[g]) {
             fc = f_prod[g]; /* a producer's candidate evaluated above and not moved since */
         } else {
-            fc = energy_cached(cand + g * m, &e, cp);
+            fc = energy_cached(cand + g * m, &e, cp, f[g]);
             evals++;
         }
         if (fc < f[g]) {
@@ -3065,6 +3125,7 @@ static PyMethodDef methods[] = {
     {"polyline_energy", py_polyline_energy, METH_VARARGS, NULL},
     {"spline_points", py_spline_points, METH_VARARGS, NULL},
     {"population_energy", py_population_energy, METH_VARARGS, NULL},
+    {"energy_bounds", py_energy_bounds, METH_VARARGS, NULL},
     {"spsa_step", py_spsa_step, METH_VARARGS, NULL},
     {"sign_draws", py_sign_draws, METH_VARARGS, NULL},
     {"node_clearance", py_node_clearance, METH_VARARGS, NULL},

@@ -106,6 +106,19 @@ def energy_of(nodes: np.ndarray, energy: tuple) -> np.ndarray:
     return out
 
 
+def energy_bounds(nodes: np.ndarray, energy: tuple) -> np.ndarray:
+    """A lower bound (G,) of :func:`energy_of` that costs a fraction of it: k0 times the
+    length of the knots' polyline plus k2 times its climb (the spline's samples include the
+    knots, so its polyline is no shorter and climbs no less, and the turn term is >= 0).
+    -1 where the weights allow no bound (a negative weight). The fused SPSA step uses it in
+    greedy selection: a candidate whose bound already reaches its parent's fitness is
+    rejected without its energy being computed (the decision is the same)."""
+    nodes = _f64(nodes)
+    out = np.empty(nodes.shape[0])
+    _c.energy_bounds(nodes, energy, out)
+    return out
+
+
 def energy_terms(points: np.ndarray, weights: EnergyWeights) -> tuple[float, float, float]:
     """(path, turning, climb) energy of a polyline (n, 3) in metres."""
     e = polyline_energy(points, weights.k0, weights.k1, weights.mu0, weights.k2)
