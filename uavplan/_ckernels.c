@@ -2192,14 +2192,14 @@ static void energy_knots(const double *nodes, const Energy *e) {
     }
 }
 
-/* A lower bound of energy_one: k0 · (length of the knots' polyline) + k2 · (its climb). The
- * spline's samples include every knot exactly (u = 0 gives a = 1 and c = d = 0), so the
- * sampled polyline is the knots' polyline with vertices added: by the triangle inequality
- * it is no shorter and climbs no less, and the turn term is >= 0. Valid for k0, k2, k1·μ0
- * >= 0 (the configuration's bounds); -1 (no bound) otherwise. */
-static double energy_bound(const double *nodes, const Energy *e) {
-    if (!(e->k0 >= 0.0 && e->k2 >= 0.0 && e->k1 * e->mu0 >= 0.0)) return -1.0;
-    energy_knots(nodes, e);
+/* Whether energy_bound is a lower bound for these weights: k0, k2, k1·μ0 >= 0 (the
+ * configuration's bounds). */
+static int bound_valid(const Energy *e) {
+    return e->k0 >= 0.0 && e->k2 >= 0.0 && e->k1 * e->mu0 >= 0.0;
+}
+
+/* energy_bound of the knots energy_knots left in e->work. */
+static double bound_from_knots(const Energy *e) {
     int64_t nk = e->inner + 2;
     int64_t nf = e->inner > 1 ? e->inner : 1;
     const double *sy = e->work + 2 * nf + 2 * nk, *sz = sy + nk, *sx = sz + nk;
@@ -2215,8 +2215,19 @@ static double energy_bound(const double *nodes, const Energy *e) {
     return e->k0 * length + e->k2 * climb;
 }
 
-/* The energy of one individual's inner nodes (inner, 2) in grid units. */
-static double energy_one(const double *nodes, const Energy *e) {
+/* A lower bound of energy_one: k0 · (length of the knots' polyline) + k2 · (its climb). The
+ * spline's samples include every knot exactly (u = 0 gives a = 1 and c = d = 0), so the
+ * sampled polyline is the knots' polyline with vertices added: by the triangle inequality
+ * it is no shorter and climbs no less, and the turn term is >= 0. -1 (no bound) unless
+ * bound_valid. */
+static double energy_bound(const double *nodes, const Energy *e) {
+    if (!bound_valid(e)) return -1.0;
+    energy_knots(nodes, e);
+    return bound_from_knots(e);
+}
+
+/* energy_one of the knots energy_knots left in e->work. */
+static double energy_from_knots(const Energy *e) {
     int64_t inner = e->inner;
     int64_t nk = inner + 2;
     int64_t nf = inner > 1 ? inner : 1;
@@ -2227,7 +2238,6 @@ static double energy_one(const double *nodes, const Energy *e) {
     int64_t n_sub = e->n_sub;
     double dx = e->dx;
     const double *coef = e->coef;
-    energy_knots(nodes, e);
     if (!straight) second_derivs(sx, nk, dx, cp, den, mx);
     second_derivs2(sy, sz, nk, dx, cp, den, my, mz);
     /* Three passes with the same expressions, in the same order, as one sequential walk
@@ -2281,6 +2291,12 @@ static double energy_one(const double *nodes, const Energy *e) {
         }
     }
     return e->k0 * length + e->k1 * e->mu0 * turn + e->k2 * climb;
+}
+
+/* The energy of one individual's inner nodes (inner, 2) in grid units. */
+static double energy_one(const double *nodes, const Energy *e) {
+    energy_knots(nodes, e);
+    return energy_from_knots(e);
 }
 
 /* An energy tuple (start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth,
@@ -2409,11 +2425,11 @@ static double energy_cached(const double *path, const Energy *e, ECache *c, doub
         while (i < c->m && stored[i] == (int32_t)path[i]) i++;
         if (i == c->m) return c->vals[slot];
     }
-    if (cutoff < INFINITY) {
-        double lb = energy_bound(path, e);
-        if (lb >= 0.0 && lb * (1.0 - BOUND_MARGIN) >= cutoff) return cutoff;
-    }
-    double energy = energy_one(path, e);
+    energy_knots(path, e);
+    if (cutoff < INFINITY && bound_valid(e) &&
+        bound_from_knots(e) * (1.0 - BOUND_MARGIN) >= cutoff)
+        return cutoff;
+    double energy = energy_from_knots(e); /* the knots are computed once for both */
     if (slot >= 0) {
         for (int64_t i = 0; i < c->m; i++) stored[i] = (int32_t)path[i];
         c->vals[slot] = energy;
