@@ -912,7 +912,7 @@ done:
  */
 
 #define MEMO_PROBES 16
-#define EMPTY (-1)
+#define EMPTY 0 /* an empty memo slot (a key is >= 2^48: its column is >= 1) */
 
 static inline double round_grid(double v) {
     if (!(v < 1e6))
@@ -931,7 +931,7 @@ static inline int64_t memo_key(int64_t j, double y0, double z0, double y1, doubl
     int64_t b = (int64_t)z0 + 2048;
     int64_t c = (int64_t)y1 + 2048;
     int64_t d = (int64_t)z1 + 2048;
-    if (j < 0 || j >= 4096 || a < 0 || a >= 4096 || b < 0 || b >= 4096) return -1;
+    if (j < 1 || j >= 4096 || a < 0 || a >= 4096 || b < 0 || b >= 4096) return -1;
     if (c < 0 || c >= 4096 || d < 0 || d >= 4096) return -1;
     return (((((j << 12) | a) << 12 | b) << 12 | c) << 12) | d;
 }
