@@ -351,3 +351,24 @@ def test_node_free_agrees_with_the_exact_segment_test() -> None:
             assert status == int(free)
         free_count += free
     assert 0 < free_count < 300  # both answers were exercised
+
+
+def test_grid_rounding_is_floor_of_v_plus_half_to_the_bit() -> None:
+    """The kernels round proposals with a truncation-based floor (no library call): it must
+    give ``_kernels._round``'s value, sign of zero included, for every input: halves,
+    integers, tiny and huge values, the clamp, NaN and infinities."""
+    rng = np.random.default_rng(7)
+    special = [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994,
+               -1e-300, 1e-300, 3.0, -3.0, 999_999.5, -999_999.5, 1e6, -1e6, 1e6 + 1, -1e6 - 1,
+               1e300, -1e300, math.inf, -math.inf, math.nan, -0.5000000000000001, 0.5000000000000001]  # fmt: skip
+    values = np.concatenate([
+        special,
+        rng.uniform(-50.0, 50.0, 20_000),
+        rng.integers(-2000, 2000, 2_000) + 0.5,
+        rng.integers(-2000, 2000, 2_000).astype(float),
+        rng.uniform(-2e6, 2e6, 2_000),
+    ])  # fmt: skip
+    got = np.empty_like(values)
+    _ckernels.round_grid(values, got)
+    want = np.array([K._round(float(v)) for v in values])
+    assert got.tobytes() == want.tobytes()
