@@ -358,9 +358,11 @@ def test_grid_rounding_is_floor_of_v_plus_half_to_the_bit() -> None:
     give ``_kernels._round``'s value, sign of zero included, for every input: halves,
     integers, tiny and huge values, the clamp, NaN and infinities."""
     rng = np.random.default_rng(7)
-    special = [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994,
-               -1e-300, 1e-300, 3.0, -3.0, 999_999.5, -999_999.5, 1e6, -1e6, 1e6 + 1, -1e6 - 1,
-               1e300, -1e300, math.inf, -math.inf, math.nan, -0.5000000000000001, 0.5000000000000001]  # fmt: skip
+    special = [
+        0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994,
+        -1e-300, 1e-300, 3.0, -3.0, 999_999.5, -999_999.5, 1e6, -1e6, 1e6 + 1, -1e6 - 1,
+        1e300, -1e300, math.inf, -math.inf, math.nan, -0.5000000000000001, 0.5000000000000001,
+    ]  # fmt: skip
     values = np.concatenate([
         special,
         rng.uniform(-50.0, 50.0, 20_000),
