@@ -17,6 +17,7 @@ from uavplan.obstacles import BoxObstacle, CylinderObstacle
 from uavplan.path import post
 from uavplan.path.energy import energy_terms
 from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
+from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, PlanStatus
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner, oscillate
@@ -231,6 +232,83 @@ def test_oscillation_keeps_a_path_that_hugs_an_obstacle_feasible() -> None:
     assert WALL.feasible(y).all()
     # and it lowers the fitness of the jagged initial paths
     assert WALL.fitness(y).mean() < WALL.fitness(x).mean()
+
+
+def ref_oscillate(problem: PathProblem, nodes: np.ndarray, window: int) -> np.ndarray:
+    """Eq. 13's repair written out from its description (K.moving_average_repair): node j
+    becomes round(mean(P_{j-1}, P_j, ..., P_{j+N_p-2})), the previous node already replaced
+    (the start for j = 0), the window cut at the goal; N_p drops by one while the result is
+    unreachable, and below 3 the node is kept; an individual whose kept node became
+    unreachable is left as it was. In place; returns the nodes moved per individual."""
+    reach = problem.reach
+    start_y = float(reach.start_m[1]) / float(reach.steps[1])
+    start_z = float(reach.start_m[2]) / float(reach.steps[2])
+    gy, gz = float(problem.goal_u[0]), float(problem.goal_u[1])
+    n = nodes.shape[1]
+    moved = np.zeros(nodes.shape[0], dtype=np.int64)
+    for g in range(nodes.shape[0]):
+        old = nodes[g].copy()
+        new = old.copy()
+        py = pz = 0.0
+        same, ok, count = True, True, 0
+        for j in range(n):
+            placed = False
+            for n_p in range(window, 2, -1):
+                ys = [py if j > 0 else start_y]
+                zs = [pz if j > 0 else start_z]
+                for k in range(j, j + n_p - 1):
+                    if k >= n:
+                        ys.append(gy)
+                        zs.append(gz)
+                        break
+                    ys.append(old[k, 0])
+                    zs.append(old[k, 1])
+                sy, sz = ys[0], zs[0]
+                for a, b in zip(ys[1:], zs[1:], strict=True):  # left to right, as the kernel
+                    sy += a
+                    sz += b
+                ny, nz = K._round(sy / len(ys)), K._round(sz / len(zs))
+                if same and ny == old[j, 0] and nz == old[j, 1]:
+                    placed = True
+                    break
+                if K.node_free(j + 1, py, pz, ny, nz, reach):
+                    placed = True
+                    break
+            if not placed:
+                ny, nz = old[j]
+                if not same and not K.node_free(j + 1, py, pz, ny, nz, reach):
+                    ok = False
+                    break
+            same = ny == old[j, 0] and nz == old[j, 1]
+            count += not same
+            new[j] = (ny, nz)
+            py, pz = ny, nz
+        if ok:
+            nodes[g] = new
+            moved[g] = count
+    return moved
+
+
+CROWDED = make_problem(
+    *[CylinderObstacle((x, y), 18.0, 120.0) for x, y in [(90, 30), (150, -40), (210, 10),
+                                                          (270, -20), (330, 40)]]
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("window", [3, 4, 5, 7])
+@pytest.mark.parametrize("name", ["wall", "crowded"])
+def test_oscillation_kernel_matches_the_equation_written_out(name: str, window: int) -> None:
+    problem = {"wall": WALL, "crowded": CROWDED}[name]
+    rng = np.random.default_rng(window)
+    x = _population(problem, n=16, seed=window)
+    # jagged variants too: some nodes pushed off by a few cells
+    x[8:] += rng.integers(-3, 4, x[8:].shape)
+    got, want = x.copy(), x.copy()
+    moved = oscillate(problem, got, window)
+    moved_ref = ref_oscillate(problem, want, window)
+    assert np.array_equal(got, want)
+    assert np.array_equal(moved, moved_ref)
+    assert moved.sum() > 0
 
 
 # --- the whole search: greedy, convergence, seeds, SSA vs SPSA ------------------------------

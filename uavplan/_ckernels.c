@@ -1847,16 +1847,17 @@ static void mar_core(double *nodes, int64_t n_pop, int64_t n_inner, const double
                 double sy = j > 0 ? py : r.start_m[1] / dy;
                 double sz = j > 0 ? pz : r.start_m[2] / dz;
                 int64_t cnt = 1;
-                for (int64_t k = j; k < j + np_ - 1; k++) {
-                    if (k < n_inner) {
-                        sy += ng[2 * k];
-                        sz += ng[2 * k + 1];
-                    } else {
-                        sy += goal_u[0];
-                        sz += goal_u[1];
-                    }
+                /* the window's nodes, then the goal if the window reaches past the last node */
+                int64_t k_end = imin(j + np_ - 1, n_inner);
+                for (int64_t k = j; k < k_end; k++) {
+                    sy += ng[2 * k];
+                    sz += ng[2 * k + 1];
                     cnt += 1;
-                    if (k >= n_inner) break;
+                }
+                if (j + np_ - 1 > n_inner) {
+                    sy += goal_u[0];
+                    sz += goal_u[1];
+                    cnt += 1;
                 }
                 ny = round_grid(sy / (double)cnt);
                 nz = round_grid(sz / (double)cnt);
@@ -2139,7 +2140,13 @@ static void moving_average(const double *vals, int64_t n, int64_t half, double *
     for (int64_t i = 0; i < n; i++) {
         int64_t h = imin(imin(half, i), n - 1 - i);
         double acc = 0.0;
-        for (int64_t k = i - h; k < i + h + 1; k++) acc += vals[k];
+        if (h == 2) {
+            /* the fitness's default half-width, unrolled: the same sums in the same order */
+            const double *v = vals + i - 2;
+            acc = ((((acc + v[0]) + v[1]) + v[2]) + v[3]) + v[4];
+        } else {
+            for (int64_t k = i - h; k < i + h + 1; k++) acc += vals[k];
+        }
         out[i] = acc / (double)(2 * h + 1);
     }
 }
