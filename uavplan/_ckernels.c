@@ -2540,6 +2540,15 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
             if (need(0 <= aw[i] && aw[i] < G, "spsa_step: aware index out of range") < 0)
                 goto done;
     }
+    {
+        /* eq. 4's near scroungers (rank i <= n/2): one row of signs each */
+        int64_t i0 = (flags & SPSA_POP_INDEX) ? n_prod + 1 : 1;
+        double half = (flags & SPSA_POP_INDEX) ? (double)G / 2.0 : (double)n_scr / 2.0;
+        int64_t near = 0;
+        for (int64_t s = 0; s < n_scr; s++) near += (double)(i0 + s) <= half;
+        if (need(near == dim(&bsg, 0), "spsa_step: signs: one row per near scrounger") < 0)
+            goto done;
+    }
     if (energy_get(oen, &e, ben, n) < 0) goto done;
     if (ocache != Py_None) {
         PyObject *of_, *ov_, *op_;
@@ -2581,6 +2590,9 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     unsigned char *escape = use_first + G, *ok_p = escape + G, *ok_s = ok_p + G;
     unsigned char *fresh = ok_s + G, *changed = fresh + G, *skip = changed + G;
     int64_t n_chk = 0, n_exact = 0, evals = 0;
+    /* From here to the counts, plain C on the buffers acquired above: other Python threads
+     * run meanwhile (the CLI imports the mission writer's libraries during the search). */
+    PyThreadState *ts = PyEval_SaveThread();
     /* order: a stable argsort of f (insertion sort; G is a population) */
     for (int64_t i = 0; i < G; i++) {
         int64_t k = i;
@@ -2712,8 +2724,6 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
                 near_k++;
             }
         }
-        if (need(near_k == dim(&bsg, 0), "spsa_step: signs: one row per near scrounger") < 0)
-            goto done;
     }
     for (int64_t i = 0; i < n_aw; i++) {
         int64_t g = aware[i];
@@ -2789,6 +2799,7 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     counts[0] += evals;
     counts[1] += esc;
     counts[2] += failed;
+    PyEval_RestoreThread(ts);
     ret = Py_NewRef(Py_None);
 done:
     free(mem);

@@ -24,12 +24,37 @@ from functools import cached_property
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import threading
+
     import numpy as np
     from numpy.typing import ArrayLike, NDArray
     from pyproj import Transformer
 
 # numpy is imported where a conversion runs, not here: GeoPoint is plain Python, and reading a
 # scenario (`uavplan validate`) should not pay numpy's import (0.1-0.3 s)
+
+
+def import_in_background(module: str = "pyproj") -> threading.Thread | None:
+    """Start importing ``module`` (by default pyproj, the geodetic library the mission writer
+    needs: about 0.2 s of imports on a slow machine) on a daemon thread, so that it overlaps
+    work that releases the GIL, such as the search's compiled SPSA step, on another core.
+    Returns the thread, or None when the module is already imported. A failed import is left
+    to the import where the module is used (it reports it there); nothing is printed here."""
+    import sys
+    import threading
+
+    if module in sys.modules:
+        return None
+
+    def run() -> None:
+        try:
+            __import__(module)
+        except Exception:  # reported by the import that needs it
+            pass
+
+    thread = threading.Thread(target=run, name=f"import {module}", daemon=True)
+    thread.start()
+    return thread
 
 
 @dataclass(frozen=True)

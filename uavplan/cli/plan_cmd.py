@@ -119,6 +119,10 @@ def plan_command(
     from uavplan.planning import plan_route
 
     _check_outputs(output, report, plot, fence)
+    # the mission writer's geodetic library loads on another core while the search runs
+    from uavplan.geo import import_in_background
+
+    import_in_background()
     scn = overridden(_load_scenario(scenario), algorithm, seed, iterations, population)
     if autopilot:
         from uavplan.mission.items import Autopilot
