@@ -116,3 +116,24 @@ def test_plan_loads_only_what_planning_needs(tmp_path: Path) -> None:
     unwanted |= {f"uavplan.mission.{m}" for m in ("export", "fence", "waypoints_file")}
     unwanted |= {"uavplan.planners.astar", "uavplan.planners.guide"}
     assert not loaded & unwanted, loaded & unwanted
+
+
+def test_background_import_loads_the_module_and_fails_silently() -> None:
+    """``plan`` imports pyproj on a daemon thread during the search: the thread really
+    imports it (a second call has nothing to do), and a module that cannot be imported
+    prints nothing (its import where it is used reports it)."""
+    code = (
+        "import sys\n"
+        "from uavplan.geo import import_in_background\n"
+        "assert 'pyproj' not in sys.modules\n"
+        "t = import_in_background()\n"
+        "t.join(60)\n"
+        "assert 'pyproj' in sys.modules and import_in_background() is None\n"
+        "import_in_background('uavplan_no_such_module').join(60)\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+    assert out.stderr == ""
