@@ -129,6 +129,7 @@ def test_background_import_loads_the_module_and_fails_silently() -> None:
         "t = import_in_background()\n"
         "t.join(60)\n"
         "assert 'pyproj' in sys.modules and import_in_background() is None\n"
+        "assert sys.getswitchinterval() == 0.005, sys.getswitchinterval()\n"
         "import_in_background('uavplan_no_such_module').join(60)\n"
         "print('ok')\n"
     )
