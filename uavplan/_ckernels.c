@@ -631,6 +631,57 @@ done:
 /* Energy (eq. 1-2) of the polyline p (k, 3), k >= 3, as uavplan.path.post's numpy window
  * energy computes it: lengths sqrt((x² + y²) + z²), every sum left to right, turn
  * 1 − dot/max(l_i·l_{i+1}, 1e-12), then k0·L + (k1·mu0)·T + k2·C. */
+/* Whether a→(p + f·step)→b keeps the margin (both legs), the bend point computed as numpy
+ * computes ``p + f * step``. */
+static int bent_free(const double *p, const double *step, const double *a, const double *b,
+                     double f, const World *w, double margin) {
+    double c[3];
+    for (int i = 0; i < 3; i++) c[i] = p[i] + f * step[i];
+    return segment_free(a[0], a[1], a[2], c[0], c[1], c[2], w, margin) &&
+           segment_free(c[0], c[1], c[2], b[0], b[1], b[2], w, margin);
+}
+
+/* largest_free_fraction(p, step, a, b, world, margin, bisections): the largest f in [0, 1]
+ * with a→p+f·step→b free: 1 if it is, else ``bisections`` halvings of [0, 1] keeping the
+ * free end (uavplan.path.post.tighten). */
+static PyObject *py_largest_free_fraction(PyObject *self, PyObject *args) {
+    PyObject *o[4], *wt;
+    double margin;
+    long long bisections;
+    Buf b[4];
+    WorldBufs wb;
+    memset(b, 0, sizeof(b));
+    if (!PyArg_ParseTuple(args, "OOOOOdL", &o[0], &o[1], &o[2], &o[3], &wt, &margin, &bisections))
+        return NULL;
+    if (world_get(wt, &wb, 11) < 0) return NULL;
+    PyObject *ret = NULL;
+    static const char *names[4] = {"p", "step", "a", "b"};
+    for (int i = 0; i < 4; i++) {
+        if (get_buf(o[i], &b[i], T_F64, 1, 0, names[i]) < 0) goto done;
+        if (need(dim(&b[i], 0) == 3, "largest_free_fraction: p, step, a, b are 3-vectors") < 0)
+            goto done;
+    }
+    const double *p = F64(b[0]), *step = F64(b[1]), *a = F64(b[2]), *bb = F64(b[3]);
+    double lo = 0.0;
+    if (bent_free(p, step, a, bb, 1.0, &wb.w, margin)) {
+        lo = 1.0;
+    } else {
+        double hi = 1.0;
+        for (long long k = 0; k < bisections; k++) {
+            double mid = 0.5 * (lo + hi);
+            if (bent_free(p, step, a, bb, mid, &wb.w, margin))
+                lo = mid;
+            else
+                hi = mid;
+        }
+    }
+    ret = PyFloat_FromDouble(lo);
+done:
+    for (int i = 0; i < 4; i++) rel(&b[i]);
+    world_release(&wb);
+    return ret;
+}
+
 static double window_energy(const double *p, int64_t k, double k0, double k1mu0, double k2) {
     double d[4 * 3], len[4];
     for (int64_t i = 0; i < k - 1; i++) {
@@ -3184,6 +3235,7 @@ static PyMethodDef methods[] = {
     {"polyline_energy", py_polyline_energy, METH_VARARGS, NULL},
     {"spline_points", py_spline_points, METH_VARARGS, NULL},
     {"population_energy", py_population_energy, METH_VARARGS, NULL},
+    {"largest_free_fraction", py_largest_free_fraction, METH_VARARGS, NULL},
     {"round_grid", py_round_grid, METH_VARARGS, NULL},
     {"energy_bounds", py_energy_bounds, METH_VARARGS, NULL},
     {"spsa_step", py_spsa_step, METH_VARARGS, NULL},

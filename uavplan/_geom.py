@@ -131,6 +131,24 @@ def segments_free(p0: np.ndarray, p1: np.ndarray, W: tuple, margin: float) -> np
     return out
 
 
+def largest_free_fraction(
+    p: np.ndarray,
+    step: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    W: tuple,
+    margin: float,
+    bisections: int,
+) -> float:
+    """The largest f in [0, 1] with a → p + f·step → b free (both segments): 1.0 when it is,
+    else ``bisections`` halvings of [0, 1] that keep the free end."""
+    return float(
+        _c.largest_free_fraction(
+            _f64(p), _f64(step), _f64(a), _f64(b), world_arrays(W), float(margin), int(bisections)
+        )
+    )
+
+
 def farthest_visible(p: np.ndarray, W: tuple, margin: float) -> np.ndarray:
     """Indices of the greedy farthest-reachable chain through the polyline ``p`` (n, 3):
     from each kept node the last later node whose segment is free (the next one when none

@@ -257,6 +257,16 @@ class World:
         margin = self.margin_m if margin_m is None else float(margin_m)
         return _geom.farthest_visible(p, self.kernel_args, margin)
 
+    def largest_free_fraction(
+        self, p: np.ndarray, step: np.ndarray, a: np.ndarray, b: np.ndarray, bisections: int
+    ) -> float:
+        """The largest f in [0, 1] for which a → p + f·step → b keeps the margin (both
+        segments, :meth:`segments_free`): 1.0 when it does, else found by ``bisections``
+        halvings of [0, 1]."""
+        return _geom.largest_free_fraction(
+            p, step, a, b, self.kernel_args, self.margin_m, bisections
+        )
+
     def points_inside_bounds(self, points: np.ndarray, tol_m: float = 1e-9) -> np.ndarray:
         """(n,) bool: inside the bounds, allowing ``tol_m`` outside (e.g. for positions that
         went through float32 / 1e-7° rounding)."""

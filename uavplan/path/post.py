@@ -121,22 +121,9 @@ def tighten(vertices: np.ndarray, world: World, tol_m: float = 1e-3) -> np.ndarr
 def _largest_free_fraction(
     p: np.ndarray, step: np.ndarray, a: np.ndarray, b: np.ndarray, world: World
 ) -> float:
-    """Largest f in [0, 1] (to bisection precision) with a→p+f·step→b free."""
-
-    def ok(f: float) -> bool:
-        c = p + f * step
-        return bool(world.segments_free(np.stack([a, c]), np.stack([c, b])).all())
-
-    if ok(1.0):
-        return 1.0
-    lo, hi = 0.0, 1.0
-    for _ in range(TIGHTEN_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        if ok(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    """Largest f in [0, 1] (to bisection precision) with a→p+f·step→b free (compiled:
+    :meth:`World.largest_free_fraction`)."""
+    return world.largest_free_fraction(p, step, a, b, TIGHTEN_BISECTIONS)
 
 
 @dataclass(frozen=True)
