@@ -2242,13 +2242,20 @@ static int energy_init(Energy *e) {
     return 0;
 }
 
+/* Where energy_knots leaves the knots in e->work (after the Thomas factors and the raw
+ * knots): sy, then sz, then sx, inner + 2 values each. */
+static double *knots_y(const Energy *e) {
+    int64_t nf = e->inner > 1 ? e->inner : 1;
+    return e->work + 2 * nf + 2 * (e->inner + 2);
+}
+
 /* The spline's knots (inner + 2 of them, ends included) in metres, in e->work: sy, sz, and
  * sx unless the frame is straight (a straight frame's x is the column's i·dx). */
 static void energy_knots(const double *nodes, const Energy *e) {
     int64_t inner = e->inner;
     int64_t nk = inner + 2;
     int64_t nf = inner > 1 ? inner : 1;
-    double *ys = e->work + 2 * nf, *zs = ys + nk, *sy = zs + nk, *sz = sy + nk, *sx = sz + nk;
+    double *ys = e->work + 2 * nf, *zs = ys + nk, *sy = knots_y(e), *sz = sy + nk, *sx = sz + nk;
     const double *cols = e->cols;
     ys[0] = e->start_yz[0];
     zs[0] = e->start_yz[1];
@@ -2283,8 +2290,7 @@ static int bound_valid(const Energy *e) {
 /* energy_bound of the knots energy_knots left in e->work. */
 static double bound_from_knots(const Energy *e) {
     int64_t nk = e->inner + 2;
-    int64_t nf = e->inner > 1 ? e->inner : 1;
-    const double *sy = e->work + 2 * nf + 2 * nk, *sz = sy + nk, *sx = sz + nk;
+    const double *sy = knots_y(e), *sz = sy + nk, *sx = sz + nk;
     int straight = e->straight;
     double dx = e->dx;
     double length = 0.0, climb = 0.0;
@@ -2314,7 +2320,7 @@ static double energy_from_knots(const Energy *e) {
     int64_t nk = inner + 2;
     int64_t nf = inner > 1 ? inner : 1;
     double *cp = e->work, *den = e->work + nf;
-    double *sy = den + nf + 2 * nk, *sz = sy + nk, *sx = sz + nk;
+    double *sy = knots_y(e), *sz = sy + nk, *sx = sz + nk;
     double *my = sx + nk, *mz = my + nk, *mx = mz + nk;
     int straight = e->straight;
     int64_t n_sub = e->n_sub;

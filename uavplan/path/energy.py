@@ -10,6 +10,8 @@ individual and axis, so a whole population costs O(G·D).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from uavplan._geom import _c
@@ -100,10 +102,7 @@ def energy_of(nodes: np.ndarray, energy: tuple) -> np.ndarray:
     """:func:`population_energy` with its fixed arguments packed once, as the tuple
     ``(start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth, straight)`` that
     ``PathProblem.energy_args`` builds and the fused SPSA step reads too."""
-    nodes = _f64(nodes)
-    out = np.empty(nodes.shape[0])
-    _c.population_energy(nodes, energy, out)
-    return out
+    return _per_individual(_c.population_energy, nodes, energy)
 
 
 def energy_bounds(nodes: np.ndarray, energy: tuple) -> np.ndarray:
@@ -113,9 +112,14 @@ def energy_bounds(nodes: np.ndarray, energy: tuple) -> np.ndarray:
     -1 where the weights allow no bound (a negative weight). The fused SPSA step uses it in
     greedy selection: a candidate whose bound already reaches its parent's fitness is
     rejected without its energy being computed (the decision is the same)."""
+    return _per_individual(_c.energy_bounds, nodes, energy)
+
+
+def _per_individual(kernel: Callable[..., None], nodes: np.ndarray, energy: tuple) -> np.ndarray:
+    """``kernel(nodes, energy, out)`` for nodes (G, n, 2): one value per individual."""
     nodes = _f64(nodes)
     out = np.empty(nodes.shape[0])
-    _c.energy_bounds(nodes, energy, out)
+    kernel(nodes, energy, out)
     return out
 
 
