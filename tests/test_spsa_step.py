@@ -146,3 +146,41 @@ def test_sign_draws_are_numpys_integers(shape: tuple[int, ...]) -> None:
     assert np.array_equal(fast, ref)
     assert np.array_equal(a.integers(0, 2, size=9), b.integers(0, 2, size=9))
     assert a.random() == b.random()
+
+
+@pytest.mark.parametrize("variant", ["spsa", "ssa", "alarm-always"])
+def test_the_step_gives_the_same_run_on_any_number_of_threads(variant: str) -> None:
+    """The fused step shares its per-individual work among threads (individuals taken one at
+    a time, the fitness cache split between them, the reachability memo shared): the run is
+    the same to the bit on 1, 2, 3 and 8 threads, and so are the fitness evaluations and the
+    reachability checks (only the count of exact tests may differ: a lost race on the memo
+    repeats a test)."""
+    search = SearchParams(population=16, iterations=50, seed=4, fitness_smoothing=2)
+    problem = _problem(True).with_fitness_smoothing(2)
+    runs = []
+    for threads in (1, 2, 3, 8):
+        planner = SparrowPlanner(search, VARIANTS[variant])
+        planner.threads = threads
+        p = problem.with_fresh_memo()
+        res = planner.solve(p, np.random.default_rng(4), None, Termination(50))
+        runs.append((res, p))
+    (one, p_one), *others = runs
+    assert one.solved and one.convergence[0] > one.convergence[-1]
+    for res, p in others:
+        assert np.array_equal(res.convergence, one.convergence)
+        assert np.array_equal(res.population, one.population)
+        assert np.array_equal(res.population_fitness, one.population_fitness)
+        assert res.stats == one.stats
+        assert p.counters[0] == p_one.counters[0] and p.counters[1] == p_one.counters[1]
+
+
+def test_step_threads_follows_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("UAVPLAN_THREADS", "1")
+    assert K.step_threads() == 1
+    monkeypatch.setenv("UAVPLAN_THREADS", "3")
+    assert K.step_threads() == 3
+    monkeypatch.setenv("UAVPLAN_THREADS", "500")
+    assert K.step_threads() == K.STEP_THREADS_MAX
+    for junk in ("", "0", "-2", "two"):
+        monkeypatch.setenv("UAVPLAN_THREADS", junk)
+        assert 1 <= K.step_threads() <= K.STEP_THREADS_AUTO_MAX

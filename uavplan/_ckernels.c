@@ -19,6 +19,20 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Threads for the fused SPSA step (spsa_step's ``threads``): POSIX threads and gcc's / clang's
+ * __atomic builtins; elsewhere the step runs on the calling thread only. */
+#if defined(__GNUC__) && !defined(_WIN32)
+#include <pthread.h>
+#include <sched.h>
+#define HAVE_THREADS 1
+#define LOAD_RELAXED(p) __atomic_load_n((p), __ATOMIC_RELAXED)
+#define STORE_RELAXED(p, v) __atomic_store_n((p), (v), __ATOMIC_RELAXED)
+#else
+#define HAVE_THREADS 0
+#define LOAD_RELAXED(p) (*(p))
+#define STORE_RELAXED(p, v) (*(p) = (v))
+#endif
+
 #define GOLD 0.6180339887498949
 #define DIST_TOL_M 1e-7
 #define FAR 1e300
@@ -1022,7 +1036,7 @@ static inline int64_t memo_slot(const int64_t *keys, int64_t nkeys, int64_t key)
     h = mul_wrap(h, mix2) ^ (mul_wrap(h, mix2) >> 31);
     h &= mask;
     for (int p = 0; p < MEMO_PROBES; p++) {
-        int64_t k = keys[h];
+        int64_t k = LOAD_RELAXED(&keys[h]);
         if (k == EMPTY || (k >> 1) == key) return h;
         h = (h + 1) & mask;
     }
@@ -1107,8 +1121,10 @@ static inline int node_status(int64_t j, double y0, double z0, double y1, double
     int64_t key = memo_key(j, y0, z0, y1, z1);
     if (key < 0) return -1;
     int64_t slot = memo_slot(r->keys, r->nkeys, key);
-    if (slot < 0 || r->keys[slot] == EMPTY) return -1;
-    return (int)(r->keys[slot] & 1);
+    if (slot < 0) return -1;
+    int64_t entry = LOAD_RELAXED(&r->keys[slot]);
+    if (entry == EMPTY) return -1;
+    return (int)(entry & 1);
 }
 
 static int node_resolve(int64_t j, double y0, double z0, double y1, double z1, const Reach *r) {
@@ -1116,7 +1132,7 @@ static int node_resolve(int64_t j, double y0, double z0, double y1, double z1, c
     int64_t key = memo_key(j, y0, z0, y1, z1);
     if (key >= 0) {
         int64_t slot = memo_slot(r->keys, r->nkeys, key);
-        if (slot >= 0) r->keys[slot] = 2 * key + (free_ ? 1 : 0);
+        if (slot >= 0) STORE_RELAXED(&r->keys[slot], 2 * key + (free_ ? 1 : 0));
     }
     return free_ ? 1 : 0;
 }
@@ -1680,6 +1696,8 @@ done:
 
 /* rebuild(base, active, anchor, offset, spread, draw, spread2, draw2, clamp, first, use_first,
  * explicit, n_explicit, escape, t_max, v_min, v_max, reach, seeds, out, ok) -> escapes */
+/* (rebuild_core and mar_core visit the individuals g0, g0 + gstep, ...: the fused step's
+ * threads share a population this way; everyone else passes 0, 1) */
 /* The generic proposal-and-repair step (see rebuild in uavplan/planners/_kernels.py) on raw
  * arrays. ``offset`` and ``spread2`` may be NULL (all zeros), ``draw2`` NULL (no second
  * draw), ``first`` / ``use_first`` NULL (no first attempts), ``explicit_`` NULL when
@@ -1692,15 +1710,16 @@ static int64_t rebuild_core(const double *base, int64_t n_pop, int64_t n_inner,
                             const double *explicit_, const int64_t *n_explicit,
                             const unsigned char *escape, int64_t t_max, int64_t v_min,
                             int64_t v_max, const Reach *rp, const uint64_t *seeds, double *out,
-                            unsigned char *ok, int64_t *n_chk_out, int64_t *n_exact_out) {
+                            unsigned char *ok, int64_t *n_chk_out, int64_t *n_exact_out,
+                            int64_t g0, int64_t gstep) {
     const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0, esc_total = 0;
     int64_t m = n_inner * 2;
-    for (int64_t g = 0; g < n_pop; g++) {
+    for (int64_t g = g0; g < n_pop; g += gstep) {
         ok[g] = 1;
         if (!active[g]) memcpy(out + g * m, base + g * m, sizeof(double) * m);
     }
-    for (int64_t g = 0; g < n_pop; g++) {
+    for (int64_t g = g0; g < n_pop; g += gstep) {
         if (!active[g]) continue;
         uint64_t st = seeds[g];
         int64_t kind1 = draw[g];
@@ -1861,7 +1880,7 @@ static PyObject *py_rebuild(PyObject *self, PyObject *args) {
     int64_t esc_total = rebuild_core(base, n_pop, n_inner, active, anchor, offset, spread, draw,
                                      spread2, draw2, clamp, first, use_first, explicit_,
                                      n_explicit, escape, t_max, v_min, v_max, &r, seeds, out, ok,
-                                     &n_chk, &n_exact);
+                                     &n_chk, &n_exact, 0, 1);
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
     ret = PyLong_FromLongLong(esc_total);
@@ -1879,11 +1898,12 @@ done:
  * uavplan/planners/_kernels.py) on raw arrays; ``new_`` is scratch for 2·n_inner values. */
 static void mar_core(double *nodes, int64_t n_pop, int64_t n_inner, const double *goal_u,
                      int64_t window, const Reach *rp, const unsigned char *skip, int64_t *moved,
-                     double *new_, int64_t *n_chk_out, int64_t *n_exact_out) {
+                     double *new_, int64_t *n_chk_out, int64_t *n_exact_out, int64_t g0,
+                     int64_t gstep) {
     const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0;
     double dy = r.dy, dz = r.dz;
-    for (int64_t g = 0; g < n_pop; g++) {
+    for (int64_t g = g0; g < n_pop; g += gstep) {
         if (skip[g]) continue;
         double *ng = nodes + g * n_inner * 2;
         double py = 0.0;
@@ -1983,7 +2003,8 @@ static PyObject *py_moving_average_repair(PyObject *self, PyObject *args) {
         goto done;
     }
     int64_t n_chk = 0, n_exact = 0;
-    mar_core(nodes, n_pop, n_inner, goal_u, window, &r, skip, moved, new_, &n_chk, &n_exact);
+    mar_core(nodes, n_pop, n_inner, goal_u, window, &r, skip, moved, new_, &n_chk, &n_exact, 0,
+             1);
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
     ret = Py_NewRef(Py_None);
@@ -2479,6 +2500,7 @@ typedef struct {
     double *vals;          /* (slots,) */
     int32_t *paths;        /* (slots, m) */
     int64_t slots, m;
+    int64_t part, nparts;  /* this user's share: the slots s with s mod nparts = part */
 } ECache;
 
 /* energy_bound's margin: far above the bound's and the energy's rounding (relative 1e-13) */
@@ -2499,7 +2521,9 @@ static int64_t cache_slot(const double *path, const ECache *c) {
     h ^= h >> 29;
     h *= 0xBF58476D1CE4E5B9ULL;
     h ^= h >> 32;
-    return (int64_t)(h & (uint64_t)(c->slots - 1));
+    int64_t slot = (int64_t)(h & (uint64_t)(c->slots - 1));
+    if (c->nparts > 1 && slot % c->nparts != c->part) return -1; /* another thread's share */
+    return slot;
 }
 
 /* The path's energy: energy_one's value, recalled when the cache holds the path. With a
@@ -2533,9 +2557,380 @@ static int same_path(const double *a, const double *b, int64_t m) {
     return 1;
 }
 
+/* The fused step on up to STEP_MAX_THREADS threads. Every phase that works per individual
+ * (the two rebuilds, the oscillation, the fitness) is shared out g = tid, tid + nth, ...;
+ * ranking, the producers' best and the selection run on thread 0 between barriers. An
+ * individual's work reads only its own random stream and the shared inputs of its phase, so
+ * every result is the same, bit for bit, on any number of threads. What threads share: the
+ * reachability memo (entries are single int64 stores, read and written with relaxed atomics;
+ * a lost race only means an exact test is run again, so the count of exact tests, and only
+ * that, can vary between runs with threads) and the fitness cache (thread t uses only its
+ * share of the slots: slot mod nth = t). */
+#define STEP_MAX_THREADS 8
+
+typedef struct {
+    int n, count, sense;
+} Barrier;
+
+/* A sense-reversing spin barrier (the phases are tens of microseconds: too short to sleep) */
+static void barrier_wait(Barrier *b, int *local) {
+#if HAVE_THREADS
+    if (b->n <= 1) return;
+    *local = !*local;
+    if (__atomic_add_fetch(&b->count, 1, __ATOMIC_ACQ_REL) == b->n) {
+        __atomic_store_n(&b->count, 0, __ATOMIC_RELAXED);
+        __atomic_store_n(&b->sense, *local, __ATOMIC_RELEASE);
+    } else {
+        unsigned spins = 0;
+        while (__atomic_load_n(&b->sense, __ATOMIC_ACQUIRE) != *local)
+            if (++spins % 256 == 0) sched_yield();
+    }
+#else
+    (void)b;
+    (void)local;
+#endif
+}
+
+struct Step;
+
+/* The next unclaimed index of a parallel phase: threads take individuals one at a time, so
+ * a thread that drew cheap individuals takes more of them (an individual's cost varies
+ * severalfold: failed proposals, escapes, exact tests). */
+static inline int64_t take_next(int64_t *next) {
+#if HAVE_THREADS
+    return __atomic_fetch_add(next, 1, __ATOMIC_RELAXED);
+#else
+    return (*next)++;
+#endif
+}
+
+typedef struct {
+    struct Step *s;
+    int tid;
+    Energy e;      /* this thread's energy scratch */
+    ECache cache;  /* this thread's share of the fitness cache */
+    ECache *cp;    /* &cache, or NULL without a cache */
+    double *new_;  /* oscillation scratch (m) */
+    int64_t n_chk, n_exact, evals, esc;
+} StepLocal;
+
+typedef struct Step {
+    double *x, *f;
+    unsigned char *fixed;
+    const double *line, *goal_u, *pdraw, *signs;
+    const int64_t *aware;
+    const uint64_t *seeds1, *seeds2;
+    int64_t G, n, m, n_prod, n_aw, iters, t_max, v_min, v_max, window, flags;
+    double warn, st_value;
+    const Reach *r;
+    double *cand, *cand_s, *anchor, *spread, *first, *p_best, *f_prod, *fc;
+    int64_t *order, *moved, *draw, *scr_idx, *near_row;
+    unsigned char *active, *use_first, *escape, *ok_p, *ok_s, *fresh, *changed, *skip, *aware_of;
+    int64_t best_i, worst_i, failed;
+    int64_t next[2]; /* the parallel phases' next individual (or producer rank) to take */
+    int nth, go;
+    Barrier bar;
+    StepLocal loc[STEP_MAX_THREADS];
+} Step;
+
+/* thread 0: ranking, then the producers' proposals (eq. 11 or SSA's eq. 3; the alarm case
+ * P + Q·L) */
+static void step_rank_and_propose(Step *s) {
+    int64_t G = s->G, m = s->m, n_prod = s->n_prod, flags = s->flags;
+    const double *x = s->x, *f = s->f, *line = s->line, *pdraw = s->pdraw;
+    int64_t *order = s->order;
+    /* order: a stable argsort of f (insertion sort; G is a population) */
+    for (int64_t i = 0; i < G; i++) {
+        int64_t k = i;
+        while (k > 0 && f[order[k - 1]] > f[i]) {
+            order[k] = order[k - 1];
+            k--;
+        }
+        order[k] = i;
+    }
+    s->best_i = order[0];
+    s->worst_i = order[G - 1];
+    /* (the rebuild reads the proposal rows of active individuals only: those are set whole) */
+    for (int64_t g = 0; g < G; g++) {
+        s->draw[g] = DRAW_NONE;
+        s->active[g] = 0;
+        s->use_first[g] = 0;
+        s->escape[g] = 0;
+    }
+    if (s->warn < s->st_value) {
+        for (int64_t i = 0; i < n_prod; i++) {
+            int64_t g = order[i];
+            /* e = exp(−i/(α·M)), i the producer's rank, α = pdraw[i] */
+            double ex = exp((double)(-(i + 1)) / (pdraw[i] * (double)s->iters));
+            double *an = s->anchor + g * m, *sp = s->spread + g * m;
+            const double *p = x + g * m;
+            s->active[g] = 1;
+            for (int64_t k = 0; k < m; k++) {
+                double l = line[k];
+                if (!(flags & SPSA_START_END)) {
+                    an[k] = l + (p[k] - l) * ex; /* eq. 3 about the line, no random term */
+                    sp[k] = 0.0;
+                } else if (flags & SPSA_LITERAL) {
+                    an[k] = p[k] + ex;
+                    sp[k] = l - p[k];
+                } else {
+                    double d = p[k] - l;
+                    an[k] = l + d * ex;
+                    sp[k] = -d;
+                }
+            }
+            if (flags & SPSA_START_END) s->draw[g] = DRAW_UNIFORM;
+        }
+        if (flags & SPSA_START_END) {
+            /* the best producer: P + rand·(P_ST − P) */
+            double *an = s->anchor + s->best_i * m, *sp = s->spread + s->best_i * m;
+            const double *p = x + s->best_i * m;
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = p[k];
+                sp[k] = line[k] - p[k];
+            }
+        }
+    } else {
+        for (int64_t i = 0; i < n_prod; i++) {
+            int64_t g = order[i];
+            double *an = s->anchor + g * m, *sp = s->spread + g * m, *fi = s->first + g * m;
+            const double *p = x + g * m;
+            s->active[g] = 1;
+            s->draw[g] = DRAW_NORMAL;
+            s->use_first[g] = 1;
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = p[k];
+                sp[k] = 1.0;
+                fi[k] = p[k] + pdraw[i];
+            }
+        }
+    }
+    /* what the first rebuild leaves for everyone else: their own row, no failure */
+    for (int64_t g = 0; g < G; g++) {
+        s->ok_p[g] = 1;
+        if (!s->active[g]) memcpy(s->cand + g * m, x + g * m, sizeof(double) * m);
+    }
+}
+
+/* every thread: producers' rebuild and fitness, one producer at a time (the others' rows of
+ * cand are copied by step_rest's rebuild, which covers every individual) */
+static void step_producers(Step *s, StepLocal *L) {
+    int64_t m = s->m, i;
+    while ((i = take_next(&s->next[0])) < s->n_prod) {
+        int64_t g = s->order[i];
+        rebuild_core(s->x, s->G, s->n, s->active, s->anchor, NULL, s->spread, s->draw, NULL,
+                     NULL, (double[2]){INFINITY, INFINITY}, s->first, s->use_first, NULL, NULL,
+                     s->escape, s->t_max, s->v_min, s->v_max, s->r, s->seeds1, s->cand, s->ok_p,
+                     &L->n_chk, &L->n_exact, g, s->G);
+        s->fresh[g] = 1;
+        if (same_path(s->cand + g * m, s->x + g * m, m)) {
+            s->f_prod[g] = s->f[g];
+        } else {
+            s->f_prod[g] = energy_cached(s->cand + g * m, &L->e, L->cp, INFINITY);
+            L->evals++;
+        }
+    }
+}
+
+/* thread 0: the producers' best; which individuals are scroungers (their eq. 4 index) and
+ * danger-aware sparrows (their proposals are made by the threads, in step_propose_rest) */
+static void step_roles(Step *s) {
+    int64_t G = s->G, m = s->m, n_prod = s->n_prod, flags = s->flags;
+    int64_t n_scr = G - n_prod;
+    int64_t pb = -1;
+    for (int64_t i = 0; i < n_prod; i++) {
+        int64_t g = s->order[i];
+        if (pb < 0 || s->f_prod[g] < s->f_prod[pb]) pb = g;
+    }
+    memcpy(s->p_best, s->cand + pb * m, sizeof(double) * m);
+    for (int64_t i = n_prod; i < G; i++) s->fresh[s->order[i]] = 0;
+    for (int64_t g = 0; g < G; g++) {
+        s->scr_idx[g] = -1;
+        s->near_row[g] = -1;
+        s->aware_of[g] = 0;
+    }
+    int64_t i0 = (flags & SPSA_POP_INDEX) ? n_prod + 1 : 1;
+    double half = (flags & SPSA_POP_INDEX) ? (double)G / 2.0 : (double)n_scr / 2.0;
+    int64_t near_k = 0;
+    for (int64_t k0 = 0; k0 < n_scr; k0++) {
+        int64_t g = s->order[n_prod + k0];
+        s->scr_idx[g] = i0 + k0;
+        if (!((double)(i0 + k0) > half)) s->near_row[g] = near_k++;
+    }
+    for (int64_t i = 0; i < s->n_aw; i++) s->aware_of[s->aware[i]] = 1;
+}
+
+/* individual g's second proposal: a scrounger's (eq. 4, eq. 12's escape), then, for a
+ * danger-aware sparrow, eq. 5's in its place; sets active, escape and draw for g */
+static void step_propose_rest(Step *s, int64_t g) {
+    int64_t G = s->G, n = s->n, m = s->m, flags = s->flags;
+    int64_t n_scr = G - s->n_prod;
+    const double *x = s->x, *f = s->f, *line = s->line;
+    double *an = s->anchor + g * m, *sp = s->spread + g * m;
+    const double *p = x + g * m;
+    s->draw[g] = DRAW_NONE;
+    s->active[g] = 0;
+    s->escape[g] = 0;
+    if (s->scr_idx[g] >= 0) {
+        int64_t idx = s->scr_idx[g];
+        double half = (flags & SPSA_POP_INDEX) ? (double)G / 2.0 : (double)n_scr / 2.0;
+        s->active[g] = 1;
+        s->escape[g] = (flags & SPSA_ESCAPE) ? 1 : 0;
+        if ((double)idx > half) {
+            /* i > n/2: Q·exp((P_worst − P)/i²) about the line */
+            const double *xw = x + s->worst_i * m;
+            double i2 = (double)idx * (double)idx;
+            for (int64_t k = 0; k < m; k++) {
+                double v = ((xw[k] - line[k]) - (p[k] - line[k])) / i2;
+                an[k] = line[k];
+                sp[k] = exp(v > 50.0 ? 50.0 : v);
+            }
+            s->draw[g] = DRAW_NORMAL;
+        } else {
+            /* P_p + |P − P_p|·A⁺·L: one offset per path */
+            const double *sg = s->signs + s->near_row[g] * m;
+            const double *pbest = s->p_best;
+            double sy = 0.0, sz = 0.0;
+            for (int64_t j = 0; j < n; j++) {
+                sy += fabs(p[2 * j] - pbest[2 * j]) * sg[2 * j];
+                sz += fabs(p[2 * j + 1] - pbest[2 * j + 1]) * sg[2 * j + 1];
+            }
+            sy = sy / (double)n;
+            sz = sz / (double)n;
+            for (int64_t j = 0; j < n; j++) {
+                an[2 * j] = pbest[2 * j] + sy;
+                an[2 * j + 1] = pbest[2 * j + 1] + sz;
+                sp[2 * j] = 0.0;
+                sp[2 * j + 1] = 0.0;
+            }
+        }
+    }
+    if (s->aware_of[g]) {
+        s->active[g] = 1;
+        s->escape[g] = 0;
+        if (!(f[g] <= f[s->best_i])) {
+            /* not the best: P_best + β·|P − P_best| */
+            const double *xb = x + s->best_i * m;
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = xb[k];
+                sp[k] = fabs(p[k] - xb[k]);
+            }
+            s->draw[g] = DRAW_NORMAL;
+        } else {
+            /* the best: P + K·|P − P_worst|/(f_i − f_w + ε) */
+            const double *xw = x + s->worst_i * m;
+            double kk = 1.0 / (f[g] - f[s->worst_i] + SPSA_EPS);
+            for (int64_t k = 0; k < m; k++) {
+                an[k] = p[k];
+                sp[k] = fabs(p[k] - xw[k]) * kk;
+            }
+            s->draw[g] = DRAW_SYMMETRIC;
+        }
+    }
+}
+
+/* every thread: its scroungers' and danger-aware sparrows' rebuild, the oscillation
+ * optimisation (eq. 13) and the candidates' fitness */
+static void step_rest(Step *s, StepLocal *L) {
+    int64_t G = s->G, m = s->m, g;
+    while ((g = take_next(&s->next[1])) < G) {
+        step_propose_rest(s, g);
+        /* (an inactive individual's row: copied from x, unchanged) */
+        L->esc += rebuild_core(s->x, G, s->n, s->active, s->anchor, NULL, s->spread, s->draw,
+                               NULL, NULL, (double[2]){INFINITY, INFINITY}, NULL, NULL, NULL,
+                               NULL, s->escape, s->t_max, s->v_min, s->v_max, s->r, s->seeds2,
+                               s->cand_s, s->ok_s, &L->n_chk, &L->n_exact, g, G);
+        if (s->active[g]) {
+            memcpy(s->cand + g * m, s->cand_s + g * m, sizeof(double) * m);
+            s->fresh[g] = 0;
+        }
+        s->changed[g] = !same_path(s->cand + g * m, s->x + g * m, m);
+        if (s->flags & SPSA_OSCILLATE) {
+            s->moved[g] = 0;
+            s->skip[g] = !s->changed[g] && s->fixed[g]; /* a known fixed point of eq. 13 */
+            mar_core(s->cand, G, s->n, s->goal_u, s->window, s->r, s->skip, s->moved, L->new_,
+                     &L->n_chk, &L->n_exact, g, G);
+            if (!s->changed[g] && !s->skip[g]) s->fixed[g] = s->moved[g] == 0;
+            if (s->moved[g] > 0) {
+                s->fresh[g] = 0;
+                s->changed[g] = !same_path(s->cand + g * m, s->x + g * m, m);
+            }
+        }
+        if (!s->changed[g]) continue;
+        if (s->fresh[g]) {
+            s->fc[g] = s->f_prod[g]; /* a producer's candidate evaluated above, not moved since */
+        } else {
+            s->fc[g] = energy_cached(s->cand + g * m, &L->e, L->cp, s->f[g]);
+            L->evals++;
+        }
+    }
+}
+
+/* thread 0: greedy selection */
+static void step_select(Step *s) {
+    int64_t m = s->m;
+    int64_t failed = 0;
+    for (int64_t g = 0; g < s->G; g++) {
+        failed += !s->ok_p[g] + !s->ok_s[g];
+        if (!s->changed[g]) continue;
+        if (s->fc[g] < s->f[g]) {
+            memcpy(s->x + g * m, s->cand + g * m, sizeof(double) * m);
+            s->f[g] = s->fc[g];
+            if (s->flags & SPSA_OSCILLATE) s->fixed[g] = 0;
+        }
+    }
+    s->failed = failed;
+}
+
+static void step_run(StepLocal *L) {
+    Step *s = L->s;
+    int sense = 0;
+    if (L->tid == 0) step_rank_and_propose(s);
+    barrier_wait(&s->bar, &sense);
+    step_producers(s, L);
+    barrier_wait(&s->bar, &sense);
+    if (L->tid == 0) step_roles(s);
+    barrier_wait(&s->bar, &sense);
+    step_rest(s, L);
+    barrier_wait(&s->bar, &sense);
+    if (L->tid == 0) step_select(s);
+}
+
+#if HAVE_THREADS
+static void *step_thread(void *arg) {
+    StepLocal *L = (StepLocal *)arg;
+    /* wait until the caller knows how many threads started */
+    while (!__atomic_load_n(&L->s->go, __ATOMIC_ACQUIRE)) sched_yield();
+    if (L->tid < L->s->nth) step_run(L);
+    return NULL;
+}
+#endif
+
+/* Runs the step on s->nth threads (the caller's and nth − 1 new ones; fewer if the system
+ * refuses a thread: the results are the same). */
+static void step_parallel(Step *s) {
+#if HAVE_THREADS
+    pthread_t th[STEP_MAX_THREADS];
+    int started = 1;
+    for (int t = 1; t < s->nth; t++) {
+        if (pthread_create(&th[t], NULL, step_thread, &s->loc[t]) != 0) break;
+        started++;
+    }
+    s->nth = started;
+    s->bar.n = started;
+    __atomic_store_n(&s->go, 1, __ATOMIC_RELEASE);
+    step_run(&s->loc[0]);
+    for (int t = 1; t < started; t++) pthread_join(th[t], NULL);
+#else
+    s->nth = 1;
+    s->bar.n = 1;
+    step_run(&s->loc[0]);
+#endif
+}
+
 /* spsa_step(x, f, osc_fixed, line, goal_u, reach, energy, n_prod, iterations, t_max, v_min,
  *           v_max, window, flags, warn, warning_value, pdraw, signs, aware, seeds1, seeds2,
- *           counts)
+ *           counts, cache, threads)
  *
  * One iteration of SparrowPlanner.step, in place on x (G, n, 2), f (G,) and osc_fixed (G,):
  * producers (eq. 11 or eq. 3), their rebuild under the reachability rule and fitness, then
@@ -2550,7 +2945,7 @@ static int same_path(const double *a, const double *b, int64_t m) {
 static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     PyObject *ox, *of, *ofix, *oline, *ogoal, *ro, *oen, *opd, *osg, *oaw, *os1, *os2, *ocnt;
     PyObject *ocache;
-    long long n_prod, iters, t_max, v_min, v_max, window, flags;
+    long long n_prod, iters, t_max, v_min, v_max, window, flags, threads;
     double warn, st_value;
     Buf bx = {0}, bf = {0}, bfix = {0}, bline = {0}, bgoal = {0}, bpd = {0}, bsg = {0},
         baw = {0}, bs1 = {0}, bs2 = {0}, bcnt = {0}, ben[3], bc[3];
@@ -2562,9 +2957,10 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     memset(ben, 0, sizeof(ben));
     memset(bc, 0, sizeof(bc));
     memset(&e, 0, sizeof(e));
-    if (!PyArg_ParseTuple(args, "OOOOOOOLLLLLLLddOOOOOOO", &ox, &of, &ofix, &oline, &ogoal, &ro,
-                          &oen, &n_prod, &iters, &t_max, &v_min, &v_max, &window, &flags, &warn,
-                          &st_value, &opd, &osg, &oaw, &os1, &os2, &ocnt, &ocache))
+    if (!PyArg_ParseTuple(args, "OOOOOOOLLLLLLLddOOOOOOOL", &ox, &of, &ofix, &oline, &ogoal,
+                          &ro, &oen, &n_prod, &iters, &t_max, &v_min, &v_max, &window, &flags,
+                          &warn, &st_value, &opd, &osg, &oaw, &os1, &os2, &ocnt, &ocache,
+                          &threads))
         return NULL;
     if (reach_get(ro, &r, &rb) < 0) return NULL;
     PyObject *ret = NULL;
@@ -2626,236 +3022,107 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         cache.paths = (int32_t *)bc[2].view.buf;
         cp = &cache;
     }
-    /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m), f_prod
-     * (G); int64 order, moved, draw (G each); 8 byte flags (G each) */
-    size_t nd = (size_t)(5 * G * m + 2 * m + G);
-    mem = malloc(sizeof(double) * nd + sizeof(int64_t) * 3 * (size_t)G + 8 * (size_t)G);
+    /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m per
+     * thread), f_prod, fc (G each); int64 order, moved, draw, scr_idx, near_row (G each); 9
+     * byte flags (G each) */
+    int nth = threads < 1 ? 1 : threads > STEP_MAX_THREADS ? STEP_MAX_THREADS : (int)threads;
+    if (nth > G) nth = (int)G;
+    if (!HAVE_THREADS) nth = 1;
+    size_t nd = (size_t)(5 * G * m + m + (int64_t)nth * m + 2 * G);
+    mem = malloc(sizeof(double) * nd + sizeof(int64_t) * 5 * (size_t)G + 9 * (size_t)G);
     if (mem == NULL) {
         PyErr_NoMemory();
         goto done;
     }
-    double *x = F64(bx), *f = F64(bf);
-    unsigned char *fixed = BOOL(bfix);
-    const double *line = F64(bline), *goal_u = F64(bgoal), *pdraw = F64(bpd), *signs = F64(bsg);
-    const int64_t *aware = I64(baw);
-    int64_t *counts = I64(bcnt);
-    double *cand = mem, *cand_s = cand + G * m, *anchor = cand_s + G * m;
-    double *spread = anchor + G * m, *first = spread + G * m, *p_best = first + G * m;
-    double *new_ = p_best + m, *f_prod = new_ + m;
-    int64_t *order = (int64_t *)(f_prod + G), *moved = order + G, *draw = moved + G;
-    unsigned char *active = (unsigned char *)(draw + G), *use_first = active + G;
-    unsigned char *escape = use_first + G, *ok_p = escape + G, *ok_s = ok_p + G;
-    unsigned char *fresh = ok_s + G, *changed = fresh + G, *skip = changed + G;
-    int64_t n_chk = 0, n_exact = 0, evals = 0;
+    Step st;
+    memset(&st, 0, sizeof(st));
+    st.x = F64(bx);
+    st.f = F64(bf);
+    st.fixed = BOOL(bfix);
+    st.line = F64(bline);
+    st.goal_u = F64(bgoal);
+    st.pdraw = F64(bpd);
+    st.signs = F64(bsg);
+    st.aware = I64(baw);
+    st.seeds1 = U64(bs1);
+    st.seeds2 = U64(bs2);
+    st.G = G;
+    st.n = n;
+    st.m = m;
+    st.n_prod = n_prod;
+    st.n_aw = n_aw;
+    st.iters = iters;
+    st.t_max = t_max;
+    st.v_min = v_min;
+    st.v_max = v_max;
+    st.window = window;
+    st.flags = flags;
+    st.warn = warn;
+    st.st_value = st_value;
+    st.r = &r;
+    st.cand = mem;
+    st.cand_s = st.cand + G * m;
+    st.anchor = st.cand_s + G * m;
+    st.spread = st.anchor + G * m;
+    st.first = st.spread + G * m;
+    st.p_best = st.first + G * m;
+    double *news = st.p_best + m;
+    st.f_prod = news + (int64_t)nth * m;
+    st.fc = st.f_prod + G;
+    st.order = (int64_t *)(st.fc + G);
+    st.moved = st.order + G;
+    st.draw = st.moved + G;
+    st.scr_idx = st.draw + G;
+    st.near_row = st.scr_idx + G;
+    st.active = (unsigned char *)(st.near_row + G);
+    st.use_first = st.active + G;
+    st.escape = st.use_first + G;
+    st.ok_p = st.escape + G;
+    st.ok_s = st.ok_p + G;
+    st.fresh = st.ok_s + G;
+    st.changed = st.fresh + G;
+    st.skip = st.changed + G;
+    st.aware_of = st.skip + G;
+    /* per thread: energy scratch, a share of the fitness cache, oscillation scratch */
+    for (int t = 0; t < nth; t++) {
+        StepLocal *L = &st.loc[t];
+        L->s = &st;
+        L->tid = t;
+        L->new_ = news + (int64_t)t * m;
+        L->e = e;
+        if (t > 0) {
+            L->e.work = NULL;
+            if (energy_init(&L->e) < 0) {
+                for (int u = 1; u < t; u++) free(st.loc[u].e.work);
+                goto done;
+            }
+        }
+        if (cp != NULL) {
+            L->cache = cache;
+            L->cache.part = t;
+            L->cache.nparts = nth;
+            L->cp = &L->cache;
+        }
+    }
+    st.nth = nth;
     /* From here to the counts, plain C on the buffers acquired above: other Python threads
      * run meanwhile (the CLI imports the mission writer's libraries during the search). */
     PyThreadState *ts = PyEval_SaveThread();
-    /* order: a stable argsort of f (insertion sort; G is a population) */
-    for (int64_t i = 0; i < G; i++) {
-        int64_t k = i;
-        while (k > 0 && f[order[k - 1]] > f[i]) {
-            order[k] = order[k - 1];
-            k--;
-        }
-        order[k] = i;
-    }
-    int64_t best_i = order[0], worst_i = order[G - 1];
-
-    /* --- producers: eq. 11 (or SSA's eq. 3); the alarm case P + Q·L ------------------- */
-    /* (the rebuild reads the proposal rows of active individuals only: those are set whole) */
-    for (int64_t g = 0; g < G; g++) {
-        draw[g] = DRAW_NONE;
-        active[g] = 0;
-        use_first[g] = 0;
-        escape[g] = 0;
-    }
-    if (warn < st_value) {
-        for (int64_t i = 0; i < n_prod; i++) {
-            int64_t g = order[i];
-            /* e = exp(−i/(α·M)), i the producer's rank, α = pdraw[i] */
-            double ex = exp((double)(-(i + 1)) / (pdraw[i] * (double)iters));
-            double *an = anchor + g * m, *sp = spread + g * m;
-            const double *p = x + g * m;
-            active[g] = 1;
-            for (int64_t k = 0; k < m; k++) {
-                double l = line[k];
-                if (!(flags & SPSA_START_END)) {
-                    an[k] = l + (p[k] - l) * ex; /* eq. 3 about the line, no random term */
-                    sp[k] = 0.0;
-                } else if (flags & SPSA_LITERAL) {
-                    an[k] = p[k] + ex;
-                    sp[k] = l - p[k];
-                } else {
-                    double d = p[k] - l;
-                    an[k] = l + d * ex;
-                    sp[k] = -d;
-                }
-            }
-            if (flags & SPSA_START_END) draw[g] = DRAW_UNIFORM;
-        }
-        if (flags & SPSA_START_END) {
-            /* the best producer: P + rand·(P_ST − P) */
-            double *an = anchor + best_i * m, *sp = spread + best_i * m;
-            const double *p = x + best_i * m;
-            for (int64_t k = 0; k < m; k++) {
-                an[k] = p[k];
-                sp[k] = line[k] - p[k];
-            }
-        }
-    } else {
-        for (int64_t i = 0; i < n_prod; i++) {
-            int64_t g = order[i];
-            double *an = anchor + g * m, *sp = spread + g * m, *fi = first + g * m;
-            const double *p = x + g * m;
-            active[g] = 1;
-            draw[g] = DRAW_NORMAL;
-            use_first[g] = 1;
-            for (int64_t k = 0; k < m; k++) {
-                an[k] = p[k];
-                sp[k] = 1.0;
-                fi[k] = p[k] + pdraw[i];
-            }
-        }
-    }
-    rebuild_core(x, G, n, active, anchor, NULL, spread, draw, NULL, NULL, (double[2]){INFINITY, INFINITY},
-                 first, use_first, NULL, NULL, escape, t_max, v_min, v_max, &r, U64(bs1), cand,
-                 ok_p, &n_chk, &n_exact);
-    int64_t pb = -1;
-    for (int64_t i = 0; i < n_prod; i++) {
-        int64_t g = order[i];
-        fresh[g] = 1;
-        if (same_path(cand + g * m, x + g * m, m)) {
-            f_prod[g] = f[g];
-        } else {
-            f_prod[g] = energy_cached(cand + g * m, &e, cp, INFINITY);
-            evals++;
-        }
-        if (pb < 0 || f_prod[g] < f_prod[pb]) pb = g;
-    }
-    memcpy(p_best, cand + pb * m, sizeof(double) * m);
-    for (int64_t i = n_prod; i < G; i++) fresh[order[i]] = 0;
-
-    /* --- scroungers (eq. 4, eq. 12's escape) and danger-aware sparrows (eq. 5) ------------ */
-    for (int64_t g = 0; g < G; g++) {
-        draw[g] = DRAW_NONE;
-        active[g] = 0;
-        escape[g] = 0;
-    }
-    {
-        int64_t i0 = (flags & SPSA_POP_INDEX) ? n_prod + 1 : 1;
-        double half = (flags & SPSA_POP_INDEX) ? (double)G / 2.0 : (double)n_scr / 2.0;
-        int64_t near_k = 0;
-        const double *xw = x + worst_i * m;
-        for (int64_t s = 0; s < n_scr; s++) {
-            int64_t g = order[n_prod + s];
-            int64_t idx = i0 + s;
-            double *an = anchor + g * m, *sp = spread + g * m;
-            const double *p = x + g * m;
-            active[g] = 1;
-            escape[g] = (flags & SPSA_ESCAPE) ? 1 : 0;
-            if ((double)idx > half) {
-                /* i > n/2: Q·exp((P_worst − P)/i²) about the line */
-                double i2 = (double)idx * (double)idx;
-                for (int64_t k = 0; k < m; k++) {
-                    double v = ((xw[k] - line[k]) - (p[k] - line[k])) / i2;
-                    an[k] = line[k];
-                    sp[k] = exp(v > 50.0 ? 50.0 : v);
-                }
-                draw[g] = DRAW_NORMAL;
-            } else {
-                /* P_p + |P − P_p|·A⁺·L: one offset per path */
-                const double *sg = signs + near_k * m;
-                double sy = 0.0, sz = 0.0;
-                for (int64_t j = 0; j < n; j++) {
-                    sy += fabs(p[2 * j] - p_best[2 * j]) * sg[2 * j];
-                    sz += fabs(p[2 * j + 1] - p_best[2 * j + 1]) * sg[2 * j + 1];
-                }
-                sy = sy / (double)n;
-                sz = sz / (double)n;
-                for (int64_t j = 0; j < n; j++) {
-                    an[2 * j] = p_best[2 * j] + sy;
-                    an[2 * j + 1] = p_best[2 * j + 1] + sz;
-                    sp[2 * j] = 0.0;
-                    sp[2 * j + 1] = 0.0;
-                }
-                near_k++;
-            }
-        }
-    }
-    for (int64_t i = 0; i < n_aw; i++) {
-        int64_t g = aware[i];
-        double *an = anchor + g * m, *sp = spread + g * m;
-        const double *p = x + g * m;
-        active[g] = 1;
-        escape[g] = 0;
-        if (!(f[g] <= f[best_i])) {
-            /* not the best: P_best + β·|P − P_best| */
-            const double *xb = x + best_i * m;
-            for (int64_t k = 0; k < m; k++) {
-                an[k] = xb[k];
-                sp[k] = fabs(p[k] - xb[k]);
-            }
-            draw[g] = DRAW_NORMAL;
-        } else {
-            /* the best: P + K·|P − P_worst|/(f_i − f_w + ε) */
-            const double *xw = x + worst_i * m;
-            double kk = 1.0 / (f[g] - f[worst_i] + SPSA_EPS);
-            for (int64_t k = 0; k < m; k++) {
-                an[k] = p[k];
-                sp[k] = fabs(p[k] - xw[k]) * kk;
-            }
-            draw[g] = DRAW_SYMMETRIC;
-        }
-    }
-    int64_t esc = rebuild_core(x, G, n, active, anchor, NULL, spread, draw, NULL, NULL,
-                               (double[2]){INFINITY, INFINITY}, NULL, NULL, NULL, NULL, escape,
-                               t_max, v_min, v_max, &r, U64(bs2), cand_s, ok_s, &n_chk, &n_exact);
-    for (int64_t g = 0; g < G; g++)
-        if (active[g]) {
-            memcpy(cand + g * m, cand_s + g * m, sizeof(double) * m);
-            fresh[g] = 0;
-        }
-
-    /* --- adaptive oscillation optimisation (eq. 13) -------------------------------------- */
-    for (int64_t g = 0; g < G; g++) changed[g] = !same_path(cand + g * m, x + g * m, m);
-    if (flags & SPSA_OSCILLATE) {
-        for (int64_t g = 0; g < G; g++) {
-            moved[g] = 0;
-            skip[g] = !changed[g] && fixed[g]; /* a known fixed point of eq. 13 */
-        }
-        mar_core(cand, G, n, goal_u, window, &r, skip, moved, new_, &n_chk, &n_exact);
-        for (int64_t g = 0; g < G; g++) {
-            if (!changed[g] && !skip[g]) fixed[g] = moved[g] == 0;
-            if (moved[g] > 0) {
-                fresh[g] = 0;
-                changed[g] = !same_path(cand + g * m, x + g * m, m);
-            }
-        }
-    }
-
-    /* --- greedy selection ------------------------------------------------------------------ */
-    int64_t failed = 0;
-    for (int64_t g = 0; g < G; g++) {
-        failed += !ok_p[g] + !ok_s[g];
-        if (!changed[g]) continue;
-        double fc;
-        if (fresh[g]) {
-            fc = f_prod[g]; /* a producer's candidate evaluated above and not moved since */
-        } else {
-            fc = energy_cached(cand + g * m, &e, cp, f[g]);
-            evals++;
-        }
-        if (fc < f[g]) {
-            memcpy(x + g * m, cand + g * m, sizeof(double) * m);
-            f[g] = fc;
-            if (flags & SPSA_OSCILLATE) fixed[g] = 0;
-        }
+    step_parallel(&st);
+    int64_t n_chk = 0, n_exact = 0, evals = 0, esc = 0;
+    for (int t = 0; t < nth; t++) {
+        n_chk += st.loc[t].n_chk;
+        n_exact += st.loc[t].n_exact;
+        evals += st.loc[t].evals;
+        esc += st.loc[t].esc;
+        if (t > 0) free(st.loc[t].e.work);
     }
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
+    int64_t *counts = I64(bcnt);
     counts[0] += evals;
     counts[1] += esc;
-    counts[2] += failed;
+    counts[2] += st.failed;
     PyEval_RestoreThread(ts);
     ret = Py_NewRef(Py_None);
 done:

@@ -84,6 +84,7 @@ def spsa_step(
     energy: tuple[Any, ...], n_prod: int, iterations: int, t_max: int, v_min: int, v_max: int,
     window: int, flags: int, warn: float, warning_value: float, pdraw: _A, signs: _A,
     aware: _A, seeds1: _A, seeds2: _A, counts: _A, cache: tuple[_A, _A, _A] | None,
+    threads: int,
 ) -> None: ...  # fmt: skip
 def node_clearance(
     px: float, py: float, pz: float, world: tuple[Any, ...], cap: float

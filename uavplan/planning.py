@@ -297,15 +297,19 @@ def plan_route(
     world: World | None = None,
     problem: PathProblem | None = None,
     should_stop: Callable[[], bool] | None = None,
+    threads: int | None = None,
 ) -> RouteResult:
     """Plan ``scenario`` with its planner configuration (apply CLI overrides first with
     :meth:`Scenario.with_planner`): one leg per pair of consecutive route points (start, via
     points, goal), in one world and one random stream. ``world``/``problem`` may be passed to
     reuse them (``problem`` only for a single leg); ``should_stop`` is polled every
-    iteration (a Ctrl-C flag): the run then ends as ``RouteStatus.INTERRUPTED``."""
+    iteration (a Ctrl-C flag): the run then ends as ``RouteStatus.INTERRUPTED``.
+    ``threads``: threads the planner may use (None: its default; the route is the same on
+    any number)."""
     cfg = scenario.planner
     world = world or build_world(scenario)
     planner = make_planner(cfg.algorithm, cfg)
+    planner.threads = threads
     entry = planner_entry(cfg.algorithm)
     smoothing = cfg.fitness_smoothing(cfg.algorithm)
     post = cfg.post

@@ -501,7 +501,9 @@ def run_job(job: BenchJob) -> RunRecord:
         return _run_reference(job, scn, world)
     if job.max_evaluations is not None:
         problem = problem.with_budget(job.max_evaluations)
-    res = plan_route(scn, world=world, problem=problem)
+    # one thread per run: baselines have no threaded kernel, the bench runs jobs side by side
+    # (--workers), and its exact-test counts stay reproducible
+    res = plan_route(scn, world=world, problem=problem, threads=1)
     pr = res.planner
     return RunRecord(
         index=job.index,

@@ -20,6 +20,7 @@ functions here allocate their outputs and hand the arrays over.
 from __future__ import annotations
 
 import math
+import os
 from typing import NamedTuple
 
 import numpy as np
@@ -421,6 +422,7 @@ def spsa_step(
     seeds: tuple[np.ndarray, np.ndarray],
     counts: np.ndarray,
     cache: EnergyCache | None = None,
+    threads: int = 1,
 ) -> None:
     """One SPSA / SSA iteration in place on ``x`` (G, n, 2), ``f`` (G,) and ``osc_fixed``
     (G,) (see :meth:`uavplan.planners.sparrow.SparrowPlanner.step`, which draws the random
@@ -429,11 +431,37 @@ def spsa_step(
     (n, 2): the start-end line at the inner columns; ``energy``:
     :attr:`PathProblem.energy_args`. ``counts`` (3,) int64 gets += (fitness evaluations,
     escapes, failed updates): a fitness recalled from ``cache`` (:func:`new_energy_cache`)
-    counts as an evaluation, so evaluation budgets mean the same with and without it."""
+    counts as an evaluation, so evaluation budgets mean the same with and without it.
+
+    ``threads``: the step's per-individual work (rebuilds, oscillation, fitness) is shared
+    among this many threads (see :func:`step_threads`); every result is the same on any
+    number, except the count of exact segment tests in ``reach.counts`` (threads share the
+    reachability memo, and a lost race repeats a test)."""
     _c.spsa_step(
         x, f, osc_fixed, line, _f64(goal_u), reach, energy, int(n_prod), int(iterations),
         int(t_max), int(v_range[0]), int(v_range[1]), int(window), int(flags), float(warn),
         float(warning_value), _f64(pdraw), _f64(signs), np.ascontiguousarray(aware, np.int64),
         np.ascontiguousarray(seeds[0], np.uint64), np.ascontiguousarray(seeds[1], np.uint64),
-        counts, cache,
+        counts, cache, int(threads),
     )  # fmt: skip
+
+
+#: the most threads :func:`step_threads` picks on its own (the step's phases are short: more
+#: threads were not measured)
+STEP_THREADS_AUTO_MAX = 2
+#: the most threads the kernel runs
+STEP_THREADS_MAX = 8
+
+
+def step_threads() -> int:
+    """Threads for the fused SPSA step: ``UAVPLAN_THREADS`` when it is set to a whole number
+    (1 turns threading off; at most :data:`STEP_THREADS_MAX`), else the CPUs this process may
+    run on, at most :data:`STEP_THREADS_AUTO_MAX` (one CPU, e.g. under ``taskset -c 0``: 1)."""
+    text = os.environ.get("UAVPLAN_THREADS", "").strip()
+    if text.isdigit() and int(text) >= 1:
+        return min(int(text), STEP_THREADS_MAX)
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, STEP_THREADS_AUTO_MAX))

@@ -440,6 +440,10 @@ class SwarmPlanner:
 
     def __init__(self, search: SearchParams) -> None:
         self.search = search
+        #: threads a planner with a threaded kernel may use (SPSA / SSA's fused step); None:
+        #: the kernel's default (:func:`uavplan.planners._kernels.step_threads`). Results do
+        #: not depend on it.
+        self.threads: int | None = None
 
     # hooks -------------------------------------------------------------------------------
     def setup(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:

@@ -109,7 +109,7 @@ class SparrowPlanner(SwarmPlanner):
             pop.x, pop.f, fixed, self._line(problem), problem.goal_u, problem.reach,
             problem.energy_args, n_prod, pop.iterations, search.t_max, (prm.v_min, prm.v_max),
             prm.oscillation_window, flags, warn, prm.warning_value, pdraw, signs, aware,
-            (seeds1, seeds2), counts, cache,
+            (seeds1, seeds2), counts, cache, self.threads or K.step_threads(),
         )  # fmt: skip
         problem.counters[0] += counts[0]
         pop.count("escapes", int(counts[1]))
