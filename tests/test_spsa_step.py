@@ -184,3 +184,47 @@ def test_step_threads_follows_the_environment(monkeypatch: pytest.MonkeyPatch) -
     for junk in ("", "0", "-2", "two"):
         monkeypatch.setenv("UAVPLAN_THREADS", junk)
         assert 1 <= K.step_threads() <= K.STEP_THREADS_AUTO_MAX
+
+
+def _threaded_run(threads: int) -> np.ndarray:
+    search = SearchParams(population=16, iterations=25, seed=6, fitness_smoothing=2)
+    planner = SparrowPlanner(search)
+    planner.threads = threads
+    problem = _problem(False).with_fitness_smoothing(2).with_fresh_memo()
+    return planner.solve(problem, np.random.default_rng(6), None, Termination(25)).population
+
+
+def _child(queue) -> None:  # type: ignore[no-untyped-def]
+    queue.put(_threaded_run(2))
+
+
+def test_the_step_threads_survive_fork() -> None:
+    """The step's helper threads are a process-wide pool; a child forked after the parent used
+    them has none, starts its own and plans the same run (no hang: the bench forks workers)."""
+    import multiprocessing
+
+    expected = _threaded_run(2)
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_child, args=(queue,))
+    child.start()
+    got = queue.get(timeout=60)
+    child.join(timeout=60)
+    assert child.exitcode == 0
+    assert np.array_equal(got, expected)
+
+
+def test_two_python_threads_plan_at_once() -> None:
+    """Two planning threads at once: one step holds the helper pool, the other runs on its
+    caller's thread alone; both give the single-threaded run."""
+    import threading
+
+    expected = _threaded_run(1)
+    results: list[np.ndarray] = []
+    workers = [threading.Thread(target=lambda: results.append(_threaded_run(2))) for _ in "ab"]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join(timeout=60)
+    assert not any(w.is_alive() for w in workers)
+    assert len(results) == 2 and all(np.array_equal(r, expected) for r in results)

@@ -24,6 +24,7 @@
 #if defined(__GNUC__) && !defined(_WIN32)
 #include <pthread.h>
 #include <sched.h>
+#include <time.h>
 #define HAVE_THREADS 1
 #define LOAD_RELAXED(p) __atomic_load_n((p), __ATOMIC_RELAXED)
 #define STORE_RELAXED(p, v) __atomic_store_n((p), (v), __ATOMIC_RELAXED)
@@ -2628,7 +2629,7 @@ typedef struct Step {
     unsigned char *active, *use_first, *escape, *ok_p, *ok_s, *fresh, *changed, *skip, *aware_of;
     int64_t best_i, worst_i, failed;
     int64_t next[2]; /* the parallel phases' next individual (or producer rank) to take */
-    int nth, go;
+    int nth;
     Barrier bar;
     StepLocal loc[STEP_MAX_THREADS];
 } Step;
@@ -2897,35 +2898,135 @@ static void step_run(StepLocal *L) {
 }
 
 #if HAVE_THREADS
-static void *step_thread(void *arg) {
-    StepLocal *L = (StepLocal *)arg;
-    /* wait until the caller knows how many threads started */
-    while (!__atomic_load_n(&L->s->go, __ATOMIC_ACQUIRE)) sched_yield();
-    if (L->tid < L->s->nth) step_run(L);
+/* The step's helper threads live in a process-wide pool, started on first use and parked
+ * between steps: starting a thread costs 50-70 microseconds here, a tenth of a step. A
+ * helper waits for the next step spinning for about half a millisecond (the Python code
+ * between two steps takes less), then sleeps on a condition variable. One step uses the
+ * pool at a time: a step that finds it busy (another Python thread is planning) runs on its
+ * caller's thread alone, with the same results. After fork() the child has no helpers: the
+ * pool starts again. */
+#define POOL_SPIN_NS 500000
+
+typedef struct {
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    int started;      /* helpers running (tids 1 .. started) */
+    int sleeping;     /* helpers waiting on cv */
+    int busy;         /* a step holds the pool */
+    uint64_t gen;     /* bumped for each step */
+    Step *job;        /* the current step */
+    int finished;     /* helpers done with the current step */
+    int atfork;       /* the fork handler is registered */
+} Pool;
+
+static Pool pool = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER, 0, 0, 0, 0, NULL, 0, 0};
+/* the generation each helper was started at: it waits for the one after (a helper that read
+ * pool.gen itself might read it after the step that started it had bumped it, and wait for
+ * a step that never comes) */
+static uint64_t pool_start_gen[STEP_MAX_THREADS];
+
+static void pool_atfork_child(void) {
+    pthread_mutex_init(&pool.mu, NULL);
+    pthread_cond_init(&pool.cv, NULL);
+    pool.started = 0;
+    pool.sleeping = 0;
+    pool.busy = 0;
+    pool.job = NULL;
+    pool.finished = 0;
+}
+
+static uint64_t now_ns(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000ull + (uint64_t)t.tv_nsec;
+}
+
+static void *pool_helper(void *arg) {
+    int tid = (int)(intptr_t)arg;
+    uint64_t seen = pool_start_gen[tid];
+    for (;;) {
+        uint64_t g = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE);
+        if (g == seen) {
+            uint64_t t0 = now_ns();
+            unsigned spins = 0;
+            while ((g = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE)) == seen) {
+                if (++spins % 64 == 0) {
+                    sched_yield();
+                    if (now_ns() - t0 > POOL_SPIN_NS) break;
+                }
+            }
+        }
+        if (g == seen) {
+            pthread_mutex_lock(&pool.mu);
+            pool.sleeping++;
+            while ((g = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE)) == seen)
+                pthread_cond_wait(&pool.cv, &pool.mu);
+            pool.sleeping--;
+            pthread_mutex_unlock(&pool.mu);
+        }
+        seen = g;
+        Step *s = __atomic_load_n(&pool.job, __ATOMIC_ACQUIRE);
+        if (s != NULL && tid < s->nth) step_run(&s->loc[tid]);
+        __atomic_add_fetch(&pool.finished, 1, __ATOMIC_ACQ_REL);
+    }
     return NULL;
+}
+
+/* Holds the pool for one step with at least want − 1 helpers running; the helpers available
+ * (0 when the pool is busy or no thread could be started). */
+static int pool_acquire(int want) {
+    int expected = 0;
+    if (!__atomic_compare_exchange_n(&pool.busy, &expected, 1, 0, __ATOMIC_ACQUIRE,
+                                     __ATOMIC_RELAXED))
+        return 0;
+    if (!pool.atfork) {
+        pthread_atfork(NULL, NULL, pool_atfork_child);
+        pool.atfork = 1;
+    }
+    while (pool.started < want - 1 && pool.started < STEP_MAX_THREADS - 1) {
+        pthread_t th;
+        pthread_attr_t attr;
+        pthread_attr_init(&attr);
+        pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+        pool_start_gen[pool.started + 1] = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE);
+        int rc = pthread_create(&th, &attr, pool_helper, (void *)(intptr_t)(pool.started + 1));
+        pthread_attr_destroy(&attr);
+        if (rc != 0) break;
+        pool.started++;
+    }
+    return pool.started;
 }
 #endif
 
-/* Runs the step on s->nth threads (the caller's and nth − 1 new ones; fewer if the system
- * refuses a thread: the results are the same). */
+/* Runs the step on s->nth threads: the caller's and nth − 1 of the pool's helpers (fewer if
+ * the pool is busy or the system refuses a thread: the results are the same). Helpers beyond
+ * nth − 1 wake, find nothing to do and count themselves finished. */
 static void step_parallel(Step *s) {
 #if HAVE_THREADS
-    pthread_t th[STEP_MAX_THREADS];
-    int started = 1;
-    for (int t = 1; t < s->nth; t++) {
-        if (pthread_create(&th[t], NULL, step_thread, &s->loc[t]) != 0) break;
-        started++;
+    if (s->nth > 1) {
+        int helpers = pool_acquire(s->nth);
+        if (helpers > 0) {
+            if (s->nth > helpers + 1) s->nth = helpers + 1;
+            s->bar.n = s->nth;
+            __atomic_store_n(&pool.finished, 0, __ATOMIC_RELAXED);
+            __atomic_store_n(&pool.job, s, __ATOMIC_RELEASE);
+            __atomic_add_fetch(&pool.gen, 1, __ATOMIC_ACQ_REL);
+            pthread_mutex_lock(&pool.mu);
+            if (pool.sleeping > 0) pthread_cond_broadcast(&pool.cv);
+            pthread_mutex_unlock(&pool.mu);
+            step_run(&s->loc[0]);
+            unsigned spins = 0;
+            while (__atomic_load_n(&pool.finished, __ATOMIC_ACQUIRE) < helpers)
+                if (++spins % 64 == 0) sched_yield();
+            __atomic_store_n(&pool.job, NULL, __ATOMIC_RELEASE);
+            __atomic_store_n(&pool.busy, 0, __ATOMIC_RELEASE);
+            return;
+        }
     }
-    s->nth = started;
-    s->bar.n = started;
-    __atomic_store_n(&s->go, 1, __ATOMIC_RELEASE);
-    step_run(&s->loc[0]);
-    for (int t = 1; t < started; t++) pthread_join(th[t], NULL);
-#else
+#endif
     s->nth = 1;
     s->bar.n = 1;
     step_run(&s->loc[0]);
-#endif
 }
 
 /* spsa_step(x, f, osc_fixed, line, goal_u, reach, energy, n_prod, iterations, t_max, v_min,
