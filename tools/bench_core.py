@@ -10,6 +10,7 @@ two back to back.
 
     python tools/bench_core.py                                   # paper-env1..3, both modes
     python tools/bench_core.py missions/midtown-manhattan.yaml --repeat 5 --modes fixed
+    UAVPLAN_THREADS=1 python tools/bench_core.py                 # SPSA's step on one thread
 """
 
 from __future__ import annotations
@@ -76,7 +77,12 @@ def main() -> int:
             print(f"{path.stem:<22} {mode:<8} {r['min']:7.3f} {r['median']:9.3f} "
                   f"{r['iterations']:6.0f} {r['evaluations']:7.0f} {r['fitness']:11.4f}",
                   flush=True)  # fmt: skip
-    print(f"seconds of SwarmPlanner.solve, {args.repeat} runs each (seeded: same result each)")
+    from uavplan.planners._kernels import step_threads
+
+    print(
+        f"seconds of SwarmPlanner.solve, {args.repeat} runs each (seeded: same result each); "
+        f"SPSA step threads: {step_threads()}"
+    )
     return 0
 
 

@@ -22,6 +22,7 @@ reference (``--no-reference`` skips the A*). Medians over ``--repeat`` runs.
     python tools/bench_plan.py missions/paper-env1.yaml --repeat 5
     python tools/bench_plan.py --iterations 1000 missions/paper-env*.yaml   # fixed M
     taskset -c 0 python tools/bench_plan.py missions/paper-env*.yaml      # one core (issue 13)
+    UAVPLAN_THREADS=1 python tools/bench_plan.py missions/paper-env*.yaml # SPSA on one thread
 """
 
 from __future__ import annotations
@@ -176,6 +177,9 @@ def main() -> int:
         "'process' = the whole `uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / "
         "(A* + line of sight)"
     )
+    from uavplan.planners._kernels import step_threads
+
+    print(f"SPSA step threads: {step_threads()} (UAVPLAN_THREADS, or the CPUs available, <= 2)")
     return 0
 
 

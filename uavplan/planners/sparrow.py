@@ -57,6 +57,7 @@ class SparrowPlanner(SwarmPlanner):
             pop.state["osc_fixed"] = moved == 0
         pop.count("escapes", 0)
         pop.count("failed_updates", 0)
+        pop.state["threads"] = self.threads or K.step_threads()  # read once per search
 
     def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         """One iteration (Algorithm 3), fused in the compiled kernel
@@ -109,7 +110,7 @@ class SparrowPlanner(SwarmPlanner):
             pop.x, pop.f, fixed, self._line(problem), problem.goal_u, problem.reach,
             problem.energy_args, n_prod, pop.iterations, search.t_max, (prm.v_min, prm.v_max),
             prm.oscillation_window, flags, warn, prm.warning_value, pdraw, signs, aware,
-            (seeds1, seeds2), counts, cache, self.threads or K.step_threads(),
+            (seeds1, seeds2), counts, cache, pop.state.get("threads", 1),
         )  # fmt: skip
         problem.counters[0] += counts[0]
         pop.count("escapes", int(counts[1]))
