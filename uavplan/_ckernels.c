@@ -2569,11 +2569,29 @@ static int same_path(const double *a, const double *b, int64_t m) {
  * share of the slots: slot mod nth = t). */
 #define STEP_MAX_THREADS 8
 
+#if HAVE_THREADS
+static uint64_t now_ns(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000ull + (uint64_t)t.tv_nsec;
+}
+#endif
+
+/* A waiting thread spins this long before it sleeps: most waits at a barrier are a few
+ * microseconds (the phases are tens to hundreds), but a thread whose CPU was taken away (a
+ * loaded machine, a virtual machine's neighbours) can keep the others waiting far longer,
+ * and a spinning CPU is then only wasted. */
+#define BARRIER_SPIN_NS 50000
+
 typedef struct {
-    int n, count, sense;
+    int n, count, sense, sleepers;
+#if HAVE_THREADS
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+#endif
 } Barrier;
 
-/* A sense-reversing spin barrier (the phases are tens of microseconds: too short to sleep) */
+/* A sense-reversing barrier: spin, then sleep (see BARRIER_SPIN_NS) */
 static void barrier_wait(Barrier *b, int *local) {
 #if HAVE_THREADS
     if (b->n <= 1) return;
@@ -2581,10 +2599,25 @@ static void barrier_wait(Barrier *b, int *local) {
     if (__atomic_add_fetch(&b->count, 1, __ATOMIC_ACQ_REL) == b->n) {
         __atomic_store_n(&b->count, 0, __ATOMIC_RELAXED);
         __atomic_store_n(&b->sense, *local, __ATOMIC_RELEASE);
+        /* a sleeper counted itself and checked the sense under the lock: it sees the new
+         * sense, or it is waiting and this wakes it */
+        pthread_mutex_lock(&b->mu);
+        if (b->sleepers > 0) pthread_cond_broadcast(&b->cv);
+        pthread_mutex_unlock(&b->mu);
     } else {
+        uint64_t t0 = now_ns();
         unsigned spins = 0;
-        while (__atomic_load_n(&b->sense, __ATOMIC_ACQUIRE) != *local)
-            if (++spins % 256 == 0) sched_yield();
+        while (__atomic_load_n(&b->sense, __ATOMIC_ACQUIRE) != *local) {
+            if (++spins % 64 == 0 && now_ns() - t0 > BARRIER_SPIN_NS) {
+                pthread_mutex_lock(&b->mu);
+                b->sleepers++;
+                while (__atomic_load_n(&b->sense, __ATOMIC_ACQUIRE) != *local)
+                    pthread_cond_wait(&b->cv, &b->mu);
+                b->sleepers--;
+                pthread_mutex_unlock(&b->mu);
+                break;
+            }
+        }
     }
 #else
     (void)b;
@@ -2900,12 +2933,12 @@ static void step_run(StepLocal *L) {
 #if HAVE_THREADS
 /* The step's helper threads live in a process-wide pool, started on first use and parked
  * between steps: starting a thread costs 50-70 microseconds here, a tenth of a step. A
- * helper waits for the next step spinning for about half a millisecond (the Python code
- * between two steps takes less), then sleeps on a condition variable. One step uses the
+ * helper waits for the next step spinning for 0.2 ms (the Python code between two steps
+ * takes about 0.1 ms), then sleeps on a condition variable. One step uses the
  * pool at a time: a step that finds it busy (another Python thread is planning) runs on its
  * caller's thread alone, with the same results. After fork() the child has no helpers: the
  * pool starts again. */
-#define POOL_SPIN_NS 500000
+#define POOL_SPIN_NS 200000
 
 typedef struct {
     pthread_mutex_t mu;
@@ -2933,12 +2966,6 @@ static void pool_atfork_child(void) {
     pool.busy = 0;
     pool.job = NULL;
     pool.finished = 0;
-}
-
-static uint64_t now_ns(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (uint64_t)t.tv_sec * 1000000000ull + (uint64_t)t.tv_nsec;
 }
 
 static void *pool_helper(void *arg) {
@@ -3008,6 +3035,8 @@ static void step_parallel(Step *s) {
         if (helpers > 0) {
             if (s->nth > helpers + 1) s->nth = helpers + 1;
             s->bar.n = s->nth;
+            pthread_mutex_init(&s->bar.mu, NULL);
+            pthread_cond_init(&s->bar.cv, NULL);
             __atomic_store_n(&pool.finished, 0, __ATOMIC_RELAXED);
             __atomic_store_n(&pool.job, s, __ATOMIC_RELEASE);
             __atomic_add_fetch(&pool.gen, 1, __ATOMIC_ACQ_REL);
@@ -3020,6 +3049,8 @@ static void step_parallel(Step *s) {
                 if (++spins % 64 == 0) sched_yield();
             __atomic_store_n(&pool.job, NULL, __ATOMIC_RELEASE);
             __atomic_store_n(&pool.busy, 0, __ATOMIC_RELEASE);
+            pthread_cond_destroy(&s->bar.cv);
+            pthread_mutex_destroy(&s->bar.mu);
             return;
         }
     }
