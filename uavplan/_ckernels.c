@@ -1697,8 +1697,8 @@ done:
 
 /* rebuild(base, active, anchor, offset, spread, draw, spread2, draw2, clamp, first, use_first,
  * explicit, n_explicit, escape, t_max, v_min, v_max, reach, seeds, out, ok) -> escapes */
-/* (rebuild_core and mar_core visit the individuals g0, g0 + gstep, ...: the fused step's
- * threads share a population this way; everyone else passes 0, 1) */
+/* (rebuild_core and mar_core work on the individuals g0 .. g1 − 1: the fused step's threads
+ * take one at a time; everyone else passes 0, n_pop) */
 /* The generic proposal-and-repair step (see rebuild in uavplan/planners/_kernels.py) on raw
  * arrays. ``offset`` and ``spread2`` may be NULL (all zeros), ``draw2`` NULL (no second
  * draw), ``first`` / ``use_first`` NULL (no first attempts), ``explicit_`` NULL when
@@ -1712,15 +1712,15 @@ static int64_t rebuild_core(const double *base, int64_t n_pop, int64_t n_inner,
                             const unsigned char *escape, int64_t t_max, int64_t v_min,
                             int64_t v_max, const Reach *rp, const uint64_t *seeds, double *out,
                             unsigned char *ok, int64_t *n_chk_out, int64_t *n_exact_out,
-                            int64_t g0, int64_t gstep) {
+                            int64_t g0, int64_t g1) {
     const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0, esc_total = 0;
     int64_t m = n_inner * 2;
-    for (int64_t g = g0; g < n_pop; g += gstep) {
+    for (int64_t g = g0; g < g1; g++) {
         ok[g] = 1;
         if (!active[g]) memcpy(out + g * m, base + g * m, sizeof(double) * m);
     }
-    for (int64_t g = g0; g < n_pop; g += gstep) {
+    for (int64_t g = g0; g < g1; g++) {
         if (!active[g]) continue;
         uint64_t st = seeds[g];
         int64_t kind1 = draw[g];
@@ -1881,7 +1881,7 @@ static PyObject *py_rebuild(PyObject *self, PyObject *args) {
     int64_t esc_total = rebuild_core(base, n_pop, n_inner, active, anchor, offset, spread, draw,
                                      spread2, draw2, clamp, first, use_first, explicit_,
                                      n_explicit, escape, t_max, v_min, v_max, &r, seeds, out, ok,
-                                     &n_chk, &n_exact, 0, 1);
+                                     &n_chk, &n_exact, 0, n_pop);
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
     ret = PyLong_FromLongLong(esc_total);
@@ -1900,11 +1900,11 @@ done:
 static void mar_core(double *nodes, int64_t n_pop, int64_t n_inner, const double *goal_u,
                      int64_t window, const Reach *rp, const unsigned char *skip, int64_t *moved,
                      double *new_, int64_t *n_chk_out, int64_t *n_exact_out, int64_t g0,
-                     int64_t gstep) {
+                     int64_t g1) {
     const Reach r = *rp;
     int64_t n_chk = 0, n_exact = 0;
     double dy = r.dy, dz = r.dz;
-    for (int64_t g = g0; g < n_pop; g += gstep) {
+    for (int64_t g = g0; g < g1; g++) {
         if (skip[g]) continue;
         double *ng = nodes + g * n_inner * 2;
         double py = 0.0;
@@ -2005,7 +2005,7 @@ static PyObject *py_moving_average_repair(PyObject *self, PyObject *args) {
     }
     int64_t n_chk = 0, n_exact = 0;
     mar_core(nodes, n_pop, n_inner, goal_u, window, &r, skip, moved, new_, &n_chk, &n_exact, 0,
-             1);
+             n_pop);
     r.counts[0] += n_chk;
     r.counts[1] += n_exact;
     ret = Py_NewRef(Py_None);
@@ -2559,7 +2559,7 @@ static int same_path(const double *a, const double *b, int64_t m) {
 }
 
 /* The fused step on up to STEP_MAX_THREADS threads. Every phase that works per individual
- * (the two rebuilds, the oscillation, the fitness) is shared out g = tid, tid + nth, ...;
+ * (the two rebuilds, the oscillation, the fitness) hands the individuals out one at a time;
  * ranking, the producers' best and the selection run on thread 0 between barriers. An
  * individual's work reads only its own random stream and the shared inputs of its phase, so
  * every result is the same, bit for bit, on any number of threads. What threads share: the
@@ -2575,7 +2575,6 @@ static uint64_t now_ns(void) {
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (uint64_t)t.tv_sec * 1000000000ull + (uint64_t)t.tv_nsec;
 }
-#endif
 
 /* A waiting thread spins this long before it sleeps: most waits at a barrier are a few
  * microseconds (the phases are tens to hundreds), but a thread whose CPU was taken away (a
@@ -2583,45 +2582,66 @@ static uint64_t now_ns(void) {
  * and a spinning CPU is then only wasted. */
 #define BARRIER_SPIN_NS 50000
 
+/* A counter threads wait on to change (a barrier's or the pool's generation), with what a
+ * waiter that stopped spinning sleeps on. */
 typedef struct {
-    int n, count, sense, sleepers;
-#if HAVE_THREADS
+    uint64_t gen;
+    int sleepers; /* under mu */
     pthread_mutex_t mu;
     pthread_cond_t cv;
+} Signal;
+
+/* Waits until sig->gen differs from ``seen`` (spinning for spin_ns, then sleeping); the new
+ * value. */
+static uint64_t signal_wait(Signal *sig, uint64_t seen, uint64_t spin_ns) {
+    uint64_t g, t0 = now_ns();
+    unsigned spins = 0;
+    while ((g = __atomic_load_n(&sig->gen, __ATOMIC_ACQUIRE)) == seen) {
+        if (++spins % 64 != 0) continue;
+        sched_yield();
+        if (now_ns() - t0 <= spin_ns) continue;
+        pthread_mutex_lock(&sig->mu);
+        sig->sleepers++;
+        while ((g = __atomic_load_n(&sig->gen, __ATOMIC_ACQUIRE)) == seen)
+            pthread_cond_wait(&sig->cv, &sig->mu);
+        sig->sleepers--;
+        pthread_mutex_unlock(&sig->mu);
+        break;
+    }
+    return g;
+}
+
+/* Bumps sig->gen and wakes its sleepers (a sleeper counted itself and read gen under the
+ * lock: it sees the new value, or it is waiting and this wakes it). */
+static void signal_bump(Signal *sig) {
+    __atomic_add_fetch(&sig->gen, 1, __ATOMIC_ACQ_REL);
+    pthread_mutex_lock(&sig->mu);
+    if (sig->sleepers > 0) pthread_cond_broadcast(&sig->cv);
+    pthread_mutex_unlock(&sig->mu);
+}
+#endif
+
+typedef struct {
+    int n, count;
+#if HAVE_THREADS
+    Signal done; /* bumped each time the last of the n arrives */
 #endif
 } Barrier;
 
-/* A sense-reversing barrier: spin, then sleep (see BARRIER_SPIN_NS) */
-static void barrier_wait(Barrier *b, int *local) {
+/* A generation barrier: the last of n threads to arrive bumps the generation the others
+ * wait on */
+static void barrier_wait(Barrier *b) {
 #if HAVE_THREADS
     if (b->n <= 1) return;
-    *local = !*local;
+    uint64_t seen = __atomic_load_n(&b->done.gen, __ATOMIC_ACQUIRE); /* before arriving */
     if (__atomic_add_fetch(&b->count, 1, __ATOMIC_ACQ_REL) == b->n) {
         __atomic_store_n(&b->count, 0, __ATOMIC_RELAXED);
-        __atomic_store_n(&b->sense, *local, __ATOMIC_RELEASE);
-        /* a sleeper counted itself and checked the sense under the lock: it sees the new
-         * sense, or it is waiting and this wakes it */
-        pthread_mutex_lock(&b->mu);
-        if (b->sleepers > 0) pthread_cond_broadcast(&b->cv);
-        pthread_mutex_unlock(&b->mu);
+        signal_bump(&b->done);
     } else {
-        uint64_t t0 = now_ns();
-        unsigned spins = 0;
-        while (__atomic_load_n(&b->sense, __ATOMIC_ACQUIRE) != *local) {
-            if (++spins % 64 == 0 && now_ns() - t0 > BARRIER_SPIN_NS) {
-                pthread_mutex_lock(&b->mu);
-                b->sleepers++;
-                while (__atomic_load_n(&b->sense, __ATOMIC_ACQUIRE) != *local)
-                    pthread_cond_wait(&b->cv, &b->mu);
-                b->sleepers--;
-                pthread_mutex_unlock(&b->mu);
-                break;
-            }
-        }
+        signal_wait(&b->done, seen, BARRIER_SPIN_NS);
     }
 #else
     (void)b;
-    (void)local;
 #endif
 }
 
@@ -2739,15 +2759,12 @@ static void step_rank_and_propose(Step *s) {
             }
         }
     }
-    /* what the first rebuild leaves for everyone else: their own row, no failure */
-    for (int64_t g = 0; g < G; g++) {
-        s->ok_p[g] = 1;
-        if (!s->active[g]) memcpy(s->cand + g * m, x + g * m, sizeof(double) * m);
-    }
+    /* everyone else cannot fail the first rebuild; their rows of cand are all written in
+     * step_rest (every individual that is not a producer is a scrounger) */
+    for (int64_t g = 0; g < G; g++) s->ok_p[g] = 1;
 }
 
-/* every thread: producers' rebuild and fitness, one producer at a time (the others' rows of
- * cand are copied by step_rest's rebuild, which covers every individual) */
+/* every thread: producers' rebuild and fitness, one producer at a time */
 static void step_producers(Step *s, StepLocal *L) {
     int64_t m = s->m, i;
     while ((i = take_next(&s->next[0])) < s->n_prod) {
@@ -2755,7 +2772,7 @@ static void step_producers(Step *s, StepLocal *L) {
         rebuild_core(s->x, s->G, s->n, s->active, s->anchor, NULL, s->spread, s->draw, NULL,
                      NULL, (double[2]){INFINITY, INFINITY}, s->first, s->use_first, NULL, NULL,
                      s->escape, s->t_max, s->v_min, s->v_max, s->r, s->seeds1, s->cand, s->ok_p,
-                     &L->n_chk, &L->n_exact, g, s->G);
+                     &L->n_chk, &L->n_exact, g, g + 1);
         s->fresh[g] = 1;
         if (same_path(s->cand + g * m, s->x + g * m, m)) {
             s->f_prod[g] = s->f[g];
@@ -2873,7 +2890,7 @@ static void step_rest(Step *s, StepLocal *L) {
         L->esc += rebuild_core(s->x, G, s->n, s->active, s->anchor, NULL, s->spread, s->draw,
                                NULL, NULL, (double[2]){INFINITY, INFINITY}, NULL, NULL, NULL,
                                NULL, s->escape, s->t_max, s->v_min, s->v_max, s->r, s->seeds2,
-                               s->cand_s, s->ok_s, &L->n_chk, &L->n_exact, g, G);
+                               s->cand_s, s->ok_s, &L->n_chk, &L->n_exact, g, g + 1);
         if (s->active[g]) {
             memcpy(s->cand + g * m, s->cand_s + g * m, sizeof(double) * m);
             s->fresh[g] = 0;
@@ -2883,7 +2900,7 @@ static void step_rest(Step *s, StepLocal *L) {
             s->moved[g] = 0;
             s->skip[g] = !s->changed[g] && s->fixed[g]; /* a known fixed point of eq. 13 */
             mar_core(s->cand, G, s->n, s->goal_u, s->window, s->r, s->skip, s->moved, L->new_,
-                     &L->n_chk, &L->n_exact, g, G);
+                     &L->n_chk, &L->n_exact, g, g + 1);
             if (!s->changed[g] && !s->skip[g]) s->fixed[g] = s->moved[g] == 0;
             if (s->moved[g] > 0) {
                 s->fresh[g] = 0;
@@ -2918,15 +2935,14 @@ static void step_select(Step *s) {
 
 static void step_run(StepLocal *L) {
     Step *s = L->s;
-    int sense = 0;
     if (L->tid == 0) step_rank_and_propose(s);
-    barrier_wait(&s->bar, &sense);
+    barrier_wait(&s->bar);
     step_producers(s, L);
-    barrier_wait(&s->bar, &sense);
+    barrier_wait(&s->bar);
     if (L->tid == 0) step_roles(s);
-    barrier_wait(&s->bar, &sense);
+    barrier_wait(&s->bar);
     step_rest(s, L);
-    barrier_wait(&s->bar, &sense);
+    barrier_wait(&s->bar);
     if (L->tid == 0) step_select(s);
 }
 
@@ -2941,28 +2957,25 @@ static void step_run(StepLocal *L) {
 #define POOL_SPIN_NS 200000
 
 typedef struct {
-    pthread_mutex_t mu;
-    pthread_cond_t cv;
-    int started;      /* helpers running (tids 1 .. started) */
-    int sleeping;     /* helpers waiting on cv */
-    int busy;         /* a step holds the pool */
-    uint64_t gen;     /* bumped for each step */
-    Step *job;        /* the current step */
-    int finished;     /* helpers done with the current step */
-    int atfork;       /* the fork handler is registered */
+    Signal step;  /* its generation is bumped for each step */
+    int started;  /* helpers running (tids 1 .. started) */
+    int busy;     /* a step holds the pool */
+    Step *job;    /* the current step */
+    int finished; /* helpers done with the current step */
+    int atfork;   /* the fork handler is registered */
 } Pool;
 
-static Pool pool = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER, 0, 0, 0, 0, NULL, 0, 0};
+static Pool pool = {{0, 0, PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER}, 0, 0, NULL, 0, 0};
 /* the generation each helper was started at: it waits for the one after (a helper that read
  * pool.gen itself might read it after the step that started it had bumped it, and wait for
  * a step that never comes) */
 static uint64_t pool_start_gen[STEP_MAX_THREADS];
 
 static void pool_atfork_child(void) {
-    pthread_mutex_init(&pool.mu, NULL);
-    pthread_cond_init(&pool.cv, NULL);
+    pthread_mutex_init(&pool.step.mu, NULL);
+    pthread_cond_init(&pool.step.cv, NULL);
+    pool.step.sleepers = 0;
     pool.started = 0;
-    pool.sleeping = 0;
     pool.busy = 0;
     pool.job = NULL;
     pool.finished = 0;
@@ -2972,26 +2985,7 @@ static void *pool_helper(void *arg) {
     int tid = (int)(intptr_t)arg;
     uint64_t seen = pool_start_gen[tid];
     for (;;) {
-        uint64_t g = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE);
-        if (g == seen) {
-            uint64_t t0 = now_ns();
-            unsigned spins = 0;
-            while ((g = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE)) == seen) {
-                if (++spins % 64 == 0) {
-                    sched_yield();
-                    if (now_ns() - t0 > POOL_SPIN_NS) break;
-                }
-            }
-        }
-        if (g == seen) {
-            pthread_mutex_lock(&pool.mu);
-            pool.sleeping++;
-            while ((g = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE)) == seen)
-                pthread_cond_wait(&pool.cv, &pool.mu);
-            pool.sleeping--;
-            pthread_mutex_unlock(&pool.mu);
-        }
-        seen = g;
+        seen = signal_wait(&pool.step, seen, POOL_SPIN_NS);
         Step *s = __atomic_load_n(&pool.job, __ATOMIC_ACQUIRE);
         if (s != NULL && tid < s->nth) step_run(&s->loc[tid]);
         __atomic_add_fetch(&pool.finished, 1, __ATOMIC_ACQ_REL);
@@ -3015,7 +3009,7 @@ static int pool_acquire(int want) {
         pthread_attr_t attr;
         pthread_attr_init(&attr);
         pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
-        pool_start_gen[pool.started + 1] = __atomic_load_n(&pool.gen, __ATOMIC_ACQUIRE);
+        pool_start_gen[pool.started + 1] = __atomic_load_n(&pool.step.gen, __ATOMIC_ACQUIRE);
         int rc = pthread_create(&th, &attr, pool_helper, (void *)(intptr_t)(pool.started + 1));
         pthread_attr_destroy(&attr);
         if (rc != 0) break;
@@ -3035,22 +3029,19 @@ static void step_parallel(Step *s) {
         if (helpers > 0) {
             if (s->nth > helpers + 1) s->nth = helpers + 1;
             s->bar.n = s->nth;
-            pthread_mutex_init(&s->bar.mu, NULL);
-            pthread_cond_init(&s->bar.cv, NULL);
+            pthread_mutex_init(&s->bar.done.mu, NULL);
+            pthread_cond_init(&s->bar.done.cv, NULL);
             __atomic_store_n(&pool.finished, 0, __ATOMIC_RELAXED);
             __atomic_store_n(&pool.job, s, __ATOMIC_RELEASE);
-            __atomic_add_fetch(&pool.gen, 1, __ATOMIC_ACQ_REL);
-            pthread_mutex_lock(&pool.mu);
-            if (pool.sleeping > 0) pthread_cond_broadcast(&pool.cv);
-            pthread_mutex_unlock(&pool.mu);
+            signal_bump(&pool.step);
             step_run(&s->loc[0]);
             unsigned spins = 0;
             while (__atomic_load_n(&pool.finished, __ATOMIC_ACQUIRE) < helpers)
                 if (++spins % 64 == 0) sched_yield();
             __atomic_store_n(&pool.job, NULL, __ATOMIC_RELEASE);
             __atomic_store_n(&pool.busy, 0, __ATOMIC_RELEASE);
-            pthread_cond_destroy(&s->bar.cv);
-            pthread_mutex_destroy(&s->bar.mu);
+            pthread_cond_destroy(&s->bar.done.cv);
+            pthread_mutex_destroy(&s->bar.done.mu);
             return;
         }
     }
@@ -3166,32 +3157,12 @@ static PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         PyErr_NoMemory();
         goto done;
     }
-    Step st;
-    memset(&st, 0, sizeof(st));
-    st.x = F64(bx);
-    st.f = F64(bf);
-    st.fixed = BOOL(bfix);
-    st.line = F64(bline);
-    st.goal_u = F64(bgoal);
-    st.pdraw = F64(bpd);
-    st.signs = F64(bsg);
-    st.aware = I64(baw);
-    st.seeds1 = U64(bs1);
-    st.seeds2 = U64(bs2);
-    st.G = G;
-    st.n = n;
-    st.m = m;
-    st.n_prod = n_prod;
-    st.n_aw = n_aw;
-    st.iters = iters;
-    st.t_max = t_max;
-    st.v_min = v_min;
-    st.v_max = v_max;
-    st.window = window;
-    st.flags = flags;
-    st.warn = warn;
-    st.st_value = st_value;
-    st.r = &r;
+    Step st = {.x = F64(bx), .f = F64(bf), .fixed = BOOL(bfix), .line = F64(bline),
+               .goal_u = F64(bgoal), .pdraw = F64(bpd), .signs = F64(bsg), .aware = I64(baw),
+               .seeds1 = U64(bs1), .seeds2 = U64(bs2), .G = G, .n = n, .m = m,
+               .n_prod = n_prod, .n_aw = n_aw, .iters = iters, .t_max = t_max,
+               .v_min = v_min, .v_max = v_max, .window = window, .flags = flags, .warn = warn,
+               .st_value = st_value, .r = &r}; /* the rest zero */
     st.cand = mem;
     st.cand_s = st.cand + G * m;
     st.anchor = st.cand_s + G * m;
