@@ -169,6 +169,19 @@ def test_generated_lists_take_the_fast_path() -> None:
     assert fast["obstacles"][3] == {"type": "box", "center": [3, 3.5], "size": [1, 2], "height": 3}
 
 
+def test_a_short_document_does_not_compile_the_fast_patterns() -> None:
+    """Fewer "- " than a fast list needs: declined before the patterns are compiled; the
+    shortest qualifying list still takes the fast path."""
+    items = [f"- [{k}, 1]" for k in range(S._FAST_MIN_ITEMS)]
+    S._fast_patterns.cache_clear()
+    short = "via:\n" + "\n".join(items[:-1]) + "\n"
+    assert S._load_fast(short, "x.yaml") is None
+    assert S._fast_patterns.cache_info().currsize == 0
+    text = "via:\n" + "\n".join(items) + "\n"
+    fast = S._load_fast(text, "x.yaml")
+    assert fast is not None and same(fast, full(text))
+
+
 @pytest.mark.parametrize(
     "bad",
     [

@@ -149,6 +149,28 @@ def test_import_has_no_side_effects_and_defers_pyproj() -> None:
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
+def test_written_out_pipeline_is_the_operation_proj_picks() -> None:
+    """The frame's transformer is built from GEODETIC_TO_ECEF (no database lookup); it must be
+    the operation PROJ itself picks for EPSG:4979 → EPSG:4978, with the same numbers."""
+    from pyproj import Transformer
+
+    from uavplan.geo import ECEF_CRS, GEODETIC_CRS, GEODETIC_TO_ECEF
+
+    ours = Transformer.from_pipeline(GEODETIC_TO_ECEF)
+    proj = Transformer.from_crs(GEODETIC_CRS, ECEF_CRS, always_xy=True)
+    assert ours.definition == proj.definition
+    rng = np.random.default_rng(7)
+    lon, lat = rng.uniform(-180.0, 180.0, 500), rng.uniform(-90.0, 90.0, 500)
+    h = rng.uniform(-500.0, 20_000.0, 500)
+    for a, b in zip(ours.transform(lon, lat, h), proj.transform(lon, lat, h), strict=True):
+        assert np.array_equal(a, b)
+    xyz = proj.transform(lon, lat, h)
+    back_ours = ours.transform(*xyz, direction="INVERSE")
+    back_proj = proj.transform(*xyz, direction="INVERSE")
+    for a, b in zip(back_ours, back_proj, strict=True):
+        assert np.array_equal(a, b)
+
+
 def test_conversions_are_vectorised_over_many_points() -> None:
     """100,000 points in one call each way (speed is measured by tools, not asserted)."""
     frame = EnuFrame.at(GeoPoint(47.397742, 8.545594, 488.0))

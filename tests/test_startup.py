@@ -138,3 +138,58 @@ def test_background_import_loads_the_module_and_fails_silently() -> None:
     )
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
     assert out.stderr == ""
+
+
+GC_PROBE = """
+import gc, json, sys
+import click
+from uavplan.cli import main
+
+@main.command("probe-gc")
+def probe_gc() -> None:
+    click.echo(json.dumps([gc.isenabled(), gc.get_freeze_count()]))
+
+sys.argv = ["uavplan", *sys.argv[1:]]
+{start}
+"""
+
+
+def test_the_entry_point_pauses_the_collector_only_for_start_up() -> None:
+    """``uavplan`` / ``python -m uavplan`` start with the cyclic collector paused; a command
+    runs with it on again and start-up's objects frozen out of its collections."""
+    code = GC_PROBE.format(start="from uavplan.__main__ import run\nrun()")
+    out = subprocess.run(
+        [sys.executable, "-c", code, "probe-gc"], capture_output=True, text=True, timeout=60
+    )
+    assert out.returncode == 0, out.stderr
+    enabled, frozen = json.loads(out.stdout)
+    assert enabled and frozen > 1000, (enabled, frozen)
+    # --help runs no command: the collector stays paused until exit (nothing to resume)
+    code = GC_PROBE.format(
+        start="from uavplan.__main__ import run\ntry:\n    run()\nexcept SystemExit:\n    pass\n"
+        "print(json.dumps([gc.isenabled(), gc.get_freeze_count()]))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == [False, 0]
+
+
+def test_calling_the_cli_directly_leaves_the_collector_alone() -> None:
+    """Tests and other programs call :data:`uavplan.cli.main` directly: their collector is
+    their business."""
+    import gc
+
+    from uavplan.cli import main
+
+    before = (gc.isenabled(), gc.get_freeze_count())
+    result = CliRunner().invoke(main, ["validate", str(ROOT / "missions" / "paper-env1.yaml")])
+    assert result.exit_code == 0, result.output
+    assert (gc.isenabled(), gc.get_freeze_count()) == before
+
+
+def test_the_console_script_is_the_entry_point() -> None:
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["scripts"]["uavplan"] == "uavplan.__main__:run"

@@ -16,6 +16,7 @@ and a scenario whose path grid or search is larger than the documented limits
 from __future__ import annotations
 
 import contextlib
+import functools
 import gc
 import itertools
 import json
@@ -24,7 +25,7 @@ import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import yaml  # type: ignore[import-untyped]
 
@@ -467,11 +468,27 @@ _SEQ1 = rf"\[ *{_NUM}(?: *, *{_NUM})* *\]"
 _SEQ2 = rf"\[ *{_SEQ1}(?: *, *{_SEQ1})* *\]"
 _PAIR = rf"{_WORD}: +(?:{_NUM}|{_WORD}|{_SEQ1}|{_SEQ2})"
 _MAP = rf"\{{ *{_PAIR}(?: *, *{_PAIR})* *\}}"
-_ITEM_LINE = re.compile(rf"( *)- +({_MAP}|{_SEQ1}|{_SEQ2})(?: +#[^\n]*)? *")
-_KEY_LINE = re.compile(rf"({_WORD}): *(?: #[^\n]*)?")
-_SKIP_LINE = re.compile(r" *(?:#[^\n]*)?")
-#: splits a fast list at its words (kept at the odd places): joining with '"' quotes them
-_JSON_WORD_SPLIT = re.compile(r"([a-z_][a-z0-9_]*)")
+
+
+class _FastPatterns(NamedTuple):
+    item_line: re.Pattern[str]
+    key_line: re.Pattern[str]
+    skip_line: re.Pattern[str]
+    #: splits a fast list at its words (kept at the odd places): joining with '"' quotes them
+    json_word_split: re.Pattern[str]
+
+
+@functools.cache
+def _fast_patterns() -> _FastPatterns:
+    """Compiled on first use: a few milliseconds that a small scenario never needs."""
+    return _FastPatterns(
+        re.compile(rf"( *)- +({_MAP}|{_SEQ1}|{_SEQ2})(?: +#[^\n]*)? *"),
+        re.compile(rf"({_WORD}): *(?: #[^\n]*)?"),
+        re.compile(r" *(?:#[^\n]*)?"),
+        re.compile(r"([a-z_][a-z0-9_]*)"),
+    )
+
+
 #: lists shorter than this stay with the full loader (nothing to gain)
 _FAST_MIN_ITEMS = 16
 
@@ -491,25 +508,26 @@ def _fast_blocks(lines: list[str]) -> list[tuple[int, int, str, list[str]]]:
     """(key line, end line, key, flow items) of every top-level ``key:`` whose value is a
     block list of fast items (blank and comment lines allowed between them) ending at the
     end of the file or at a line starting in column 0 with something else."""
+    pat = _fast_patterns()
     blocks = []
     n = len(lines)
     i = 0
     while i < n:
         line = lines[i]
-        key = _KEY_LINE.fullmatch(line) if line[:1].islower() or line[:1] == "_" else None
+        key = pat.key_line.fullmatch(line) if line[:1].islower() or line[:1] == "_" else None
         if key is None:
             i += 1
             continue
         j, indent, items = i + 1, None, []
         while j < n:
-            item = _ITEM_LINE.fullmatch(lines[j])
+            item = pat.item_line.fullmatch(lines[j])
             if item is not None:
                 if indent is None:
                     indent = item.group(1)
                 elif item.group(1) != indent:
                     break
                 items.append(item.group(2))
-            elif _SKIP_LINE.fullmatch(lines[j]) is None:
+            elif pat.skip_line.fullmatch(lines[j]) is None:
                 break
             j += 1
         ends = j == n or lines[j][:1] not in ("", " ", "\t", "-", "#")
@@ -524,6 +542,8 @@ def _load_fast(text: str, file: str) -> dict[str, Any] | None:
     qualify or anything is in doubt (the caller then uses the full loader)."""
     if len(text) > MAX_YAML_NODES or any(c in text for c in "\r\x85\u2028\u2029"):
         return None  # the node-count bound below needs the length; other line breaks
+    if text.count("- ") < _FAST_MIN_ITEMS:
+        return None  # every fast item line has one: too few to make a fast list
     lines = text.split("\n")
     blocks = _fast_blocks(lines)
     if not blocks:
@@ -538,7 +558,7 @@ def _load_fast(text: str, file: str) -> dict[str, Any] | None:
             # nodes in the list: collections + (elements and pairs) + keys
             collections = flow.count("[") + flow.count("{")
             fast_nodes += collections + flow.count(",") + 1 + flow.count(":")
-            js = "[" + '"'.join(_JSON_WORD_SPLIT.split(flow)) + "]"
+            js = "[" + '"'.join(_fast_patterns().json_word_split.split(flow)) + "]"
             values[first] = (key, json.loads(js, object_pairs_hook=_json_pairs))
         loader = _Loader("\n".join(lines))
         try:

@@ -76,6 +76,12 @@ class _LazyGroup(click.Group):
             importlib.import_module(f"uavplan.cli.{COMMANDS[cmd_name][0]}")
         return self.commands.get(cmd_name)
 
+    def invoke(self, ctx: click.Context) -> Any:
+        from uavplan.cli.common import startup_done
+
+        startup_done()
+        return super().invoke(ctx)
+
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         # the listing from the table: no command module is imported to print it
         names = self.list_commands(ctx)
