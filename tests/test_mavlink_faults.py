@@ -46,7 +46,9 @@ from uavplan.mavlink.mock_vehicle import (
 from uavplan.mavlink.protocol import (
     MissionClient,
     MissionTransferError,
+    Operation,
     ProtocolTimeouts,
+    TransferOutcome,
     TransferStatus,
     item_to_wire,
 )
@@ -193,6 +195,51 @@ def test_reordered_packets() -> None:
         with connected_client(vehicle, DEFAULT) as client:
             upload_plan(client, plan)
         assert vehicle.stats().reordered > 10
+        assert_vehicle_holds(vehicle, plan, Autopilot.PX4)
+
+
+def _stale_refusal(mission_type: MissionType) -> TransferOutcome:
+    """What the read-back's machine reports when two stale "no transfer" ACKs (the vehicle's
+    answers to late duplicates of our own items) beat the vehicle's COUNT."""
+    return TransferOutcome(
+        Operation.DOWNLOAD,
+        mission_type,
+        TransferStatus.BUSY,
+        step="MISSION_REQUEST_LIST",
+        detail="vehicle refused the download with MAV_MISSION_ERROR (another transfer running?)",
+        vehicle_result=MissionResult.ERROR,
+    )
+
+
+@pytest.mark.parametrize("second", ["answers", "busy"])
+def test_a_refused_read_back_is_asked_once_more(
+    second: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A read-back refused right after our upload is asked again before the upload is called
+    taken over: stale refusals on a duplicating, reordering link must not fail a good upload
+    (seen once in the suite, test_reordered_packets); a vehicle still busy fails as before."""
+    plan = synthetic_mission(12, seed=23)
+    with running_mock() as vehicle:
+        with connected_client(vehicle, DEFAULT) as client:
+            real = client.download
+            calls: list[MissionType] = []
+
+            def download(mission_type: MissionType, **kwargs: object) -> TransferOutcome:
+                calls.append(mission_type)
+                if len(calls) == 1 or second == "busy":
+                    return _stale_refusal(mission_type)
+                return real(mission_type, **kwargs)  # type: ignore[arg-type]
+
+            monkeypatch.setattr(client, "download", download)
+            if second == "answers":
+                report = upload_plan(client, plan)
+                # (then the plan types it has not, to see what the vehicle keeps)
+                assert calls[:2] == [MissionType.MISSION, MissionType.MISSION], calls
+                assert report.verified and report.outcomes[2].ok, report.outcomes
+            else:
+                with pytest.raises(MissionTransferError, match="another upload took over"):
+                    upload_plan(client, plan)
+                assert calls == [MissionType.MISSION, MissionType.MISSION], calls
         assert_vehicle_holds(vehicle, plan, Autopilot.PX4)
 
 

@@ -306,6 +306,20 @@ def upload_plan(
         outcome = replace(outcome, operation=Operation.VERIFY)
         outcomes.append(outcome)
         if outcome.status is TransferStatus.BUSY:
+            # Two refusals of the read-back's first request can both be stale: the vehicle's
+            # "no transfer" answers to late duplicates of our own upload's items, on a link
+            # that duplicates and reorders. Asked once more, a vehicle that took our plan
+            # answers; one busy with another upload refuses (or stays silent) again.
+            again = replace(
+                client.download(
+                    mission_type, progress=None if progress is None else _phase(progress, label)
+                ),
+                operation=Operation.VERIFY,
+            )
+            outcomes.append(again)
+            if again.ok:
+                outcome = again
+        if outcome.status is TransferStatus.BUSY:
             # the vehicle took our plan whole, then started receiving someone else's
             raise MissionTransferError(
                 replace(
