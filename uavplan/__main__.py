@@ -6,8 +6,9 @@ and once more at exit. So :func:`run` pauses the collector before the first impo
 command starts, what start-up built is frozen out of later collections and the collector runs
 again (:func:`uavplan.cli.common.startup_done`); at exit everything is frozen, since the
 process is ending and its memory goes back to the system anyway. Together about 3 % of the
-instructions of a whole ``uavplan plan`` on a paper environment (callgrind). Calling
-:data:`uavplan.cli.main` directly (tests, other programs) leaves the collector alone.
+instructions of a whole ``uavplan plan`` on a paper environment, 12 % of ``uavplan --help``
+(callgrind). Calling :data:`uavplan.cli.main` directly (tests, other programs) leaves the
+collector alone.
 """
 
 from __future__ import annotations
