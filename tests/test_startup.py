@@ -167,12 +167,14 @@ def test_the_entry_point_pauses_the_collector_only_for_start_up() -> None:
     # --help runs no command: the collector stays paused until exit (nothing to resume)
     code = GC_PROBE.format(
         start="from uavplan.__main__ import run\ntry:\n    run()\nexcept SystemExit:\n    pass\n"
-        "print(json.dumps([gc.isenabled(), gc.get_freeze_count()]))"
+        "print(json.dumps([gc.isenabled(), gc.get_freeze_count(),"
+        " sorted(m for m in sys.modules if m.startswith('uavplan.cli.'))]))"
     )
     out = subprocess.run(
         [sys.executable, "-c", code, "--help"], capture_output=True, text=True, timeout=60
     )
-    assert json.loads(out.stdout.strip().splitlines()[-1]) == [False, 0]
+    # ... and the entry point itself loads no command module for it
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == [False, 0, []]
 
 
 def test_calling_the_cli_directly_leaves_the_collector_alone() -> None:

@@ -4,7 +4,7 @@ Start-up builds some hundred thousand objects that live as long as the process (
 classes, functions); the cyclic collector would walk them over and over while they are made,
 and once more at exit. So :func:`run` pauses the collector before the first import; when the
 command starts, what start-up built is frozen out of later collections and the collector runs
-again (:func:`uavplan.cli.common.startup_done`); at exit everything is frozen, since the
+again (:func:`uavplan.cli.startup_done`); at exit everything is frozen, since the
 process is ending and its memory goes back to the system anyway. Together about 3 % of the
 instructions of a whole ``uavplan plan`` on a paper environment, 12 % of ``uavplan --help``
 (callgrind). Calling :data:`uavplan.cli.main` directly (tests, other programs) leaves the
@@ -21,10 +21,10 @@ def run() -> None:
     """Run the ``uavplan`` command line on ``sys.argv``."""
     gc.disable()
     atexit.register(gc.freeze)
-    from uavplan.cli import common, main
+    from uavplan import cli
 
-    common.resume_collector_at_start()
-    main()
+    cli.resume_collector_at_start()
+    cli.main()
 
 
 if __name__ == "__main__":

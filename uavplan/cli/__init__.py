@@ -11,6 +11,7 @@ imports none of them (tests/test_startup.py checks the table against the command
 
 from __future__ import annotations
 
+import gc
 import importlib
 import os
 from typing import Any
@@ -65,6 +66,27 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+#: set when the entry point paused the cyclic collector for start-up (uavplan.__main__)
+_collector_paused = False
+
+
+def resume_collector_at_start() -> None:
+    """Called by the entry point that paused the collector: :func:`startup_done` resumes it."""
+    global _collector_paused
+    _collector_paused = True
+
+
+def startup_done() -> None:
+    """A command starts (before its module is imported): if the entry point paused the cyclic
+    collector for start-up, freeze what start-up built out of later collections and turn the
+    collector back on."""
+    global _collector_paused
+    if _collector_paused:
+        _collector_paused = False
+        gc.freeze()
+        gc.enable()
+
+
 class _LazyGroup(click.Group):
     """A group whose commands are imported on first use (see :data:`COMMANDS`)."""
 
@@ -77,8 +99,6 @@ class _LazyGroup(click.Group):
         return self.commands.get(cmd_name)
 
     def invoke(self, ctx: click.Context) -> Any:
-        from uavplan.cli.common import startup_done
-
         startup_done()
         return super().invoke(ctx)
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import gc
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -56,27 +55,6 @@ def handle_errors(fn: F) -> F:
 def show_progress(quiet: bool) -> bool:
     """Progress goes to stderr only when it is a terminal and the user did not ask quiet."""
     return not quiet and sys.stderr.isatty()
-
-
-#: set when the entry point paused the cyclic collector for start-up (uavplan.__main__)
-_collector_paused = False
-
-
-def resume_collector_at_start() -> None:
-    """Called by the entry point that paused the collector: :func:`startup_done` resumes it."""
-    global _collector_paused
-    _collector_paused = True
-
-
-def startup_done() -> None:
-    """A command starts (before its module is imported): if the entry point paused the cyclic
-    collector for start-up, freeze what start-up built out of later collections and turn the
-    collector back on."""
-    global _collector_paused
-    if _collector_paused:
-        _collector_paused = False
-        gc.freeze()
-        gc.enable()
 
 
 def check_output_paths(*paths: str | None) -> None:
