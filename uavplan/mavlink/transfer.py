@@ -298,25 +298,22 @@ def upload_plan(
         else:
             outcome.raise_for_status()
 
-    for mission_type in need_check:
-        label = f"verify {type_label(mission_type)}"
+    def read_back(mission_type: MissionType, label: str) -> TransferOutcome:
         outcome = client.download(
             mission_type, progress=None if progress is None else _phase(progress, label)
         )
-        outcome = replace(outcome, operation=Operation.VERIFY)
-        outcomes.append(outcome)
+        outcomes.append(replace(outcome, operation=Operation.VERIFY))
+        return outcomes[-1]
+
+    for mission_type in need_check:
+        label = f"verify {type_label(mission_type)}"
+        outcome = read_back(mission_type, label)
         if outcome.status is TransferStatus.BUSY:
             # Two refusals of the read-back's first request can both be stale: the vehicle's
             # "no transfer" answers to late duplicates of our own upload's items, on a link
             # that duplicates and reorders. Asked once more, a vehicle that took our plan
             # answers; one busy with another upload refuses (or stays silent) again.
-            again = replace(
-                client.download(
-                    mission_type, progress=None if progress is None else _phase(progress, label)
-                ),
-                operation=Operation.VERIFY,
-            )
-            outcomes.append(again)
+            again = read_back(mission_type, label)
             if again.ok:
                 outcome = again
         if outcome.status is TransferStatus.BUSY:
