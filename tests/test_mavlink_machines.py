@@ -300,6 +300,67 @@ def test_a_late_duplicate_request_that_ends_the_download_restarts_it() -> None:
     assert len(finished.items) == 3
 
 
+def _interval_of_next_re_request(s: Script) -> float:
+    """Let the pending request go unanswered: how long the machine waits after re-sending it."""
+    s.expire()
+    return s.machine.deadline - s.now
+
+
+def test_an_item_that_comes_again_late_leaves_re_requests_fast() -> None:
+    """A late second copy of an item is no reason to slow down: a vehicle that takes
+    duplicate requests in its stride (ArduPilot) would only pay for it on every lost packet.
+    Only a vehicle that ends the download raises the interval (next test)."""
+    wire = _wire(_items(3))
+    s = _download()
+    s.give(_count(3))
+    s.give(_item_from_vehicle(wire, 0))  # 1 ms round trips: the estimate is small
+    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
+    s.give(_item_from_vehicle(wire, 1))  # the answer to the re-request
+    s.give(_item_from_vehicle(wire, 1), dt_s=0.040)  # ... and the late answer to the first
+    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
+    s.give(_item_from_vehicle(wire, 2))
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.SUCCESS
+
+
+def _ended_by_the_vehicle(s: Script) -> None:
+    s.give(ack(MissionResult.ERROR))
+    s.give(ack(MissionResult.ERROR))
+    assert s.sent[-1] == MissionRequestList(*TARGET, int(MISSION))
+
+
+def test_each_end_of_the_download_by_the_vehicle_makes_re_requests_wait_longer() -> None:
+    """PX4 ends a download when a late copy of a request we sent twice reaches it after it
+    moved on. The copy was at most as late as the time from our first request of that item
+    to our first request of the item the vehicle no longer answered: after starting over,
+    re-requests wait a quarter longer than that (at most four times as long as before), and
+    each further end doubles the wait, never beyond item_s."""
+    wire = _wire(_items(3))
+    s = _download()
+    s.give(_count(3))
+    s.give(_item_from_vehicle(wire, 0))
+    asked_1 = s.now
+    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
+    s.give(_item_from_vehicle(wire, 1), dt_s=0.015)  # request 2 goes out 25 ms after 1's
+    late_s = s.now - asked_1
+    _ended_by_the_vehicle(s)  # our first request for item 1 arrived late
+    s.give(_count(3))
+    s.give(_item_from_vehicle(wire, 0))
+    first = _interval_of_next_re_request(s)
+    assert first == pytest.approx(1.25 * late_s)
+    _ended_by_the_vehicle(s)  # again, with nothing asked twice since the restart
+    s.give(_count(3))
+    assert _interval_of_next_re_request(s) == pytest.approx(2.0 * first)
+    for _ in range(3):
+        _ended_by_the_vehicle(s)
+        s.give(_count(3))
+    assert _interval_of_next_re_request(s) == pytest.approx(T.item_s)
+    for seq in range(3):
+        s.give(_item_from_vehicle(wire, seq))
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.SUCCESS
+
+
 def test_a_vehicle_that_keeps_ending_the_download_is_rejected_after_the_retry_budget() -> None:
     s = _download()
     wire = _wire(_items(2))

@@ -650,6 +650,13 @@ class DownloadMachine(Machine):
     download (PX4 does so on a late duplicate of our own request), and the download starts
     over from REQUEST_LIST, at most ``retries`` times, then REJECTED. An item whose fields
     cannot be represented (:class:`~.messages.MalformedMessage`) is a PROTOCOL_ERROR.
+
+    Item re-requests wait at least :attr:`late_floor_s`, raised each time the vehicle ends
+    the download (see :meth:`_learn_from_end`). The round-trip estimate alone cannot see a
+    link that delays a few packets far beyond its usual round trip (Karn: an item that came
+    after a re-request is no sample), and every re-request sent before such a late answer
+    is a duplicate, which PX4 refuses once it has moved on. A vehicle that takes duplicates
+    in its stride (ArduPilot) never ends a download for them, so its re-requests stay fast.
     """
 
     def __init__(
@@ -678,6 +685,11 @@ class DownloadMachine(Machine):
         self.restarts = 0
         #: the ACK ending the download, once sent (the driver keeps it to repeat)
         self.final_ack: MissionAck | None = None
+        #: floor of the item re-request interval learnt from late packets (see above)
+        self.late_floor_s = 0.0
+        #: per seq of this attempt: when we first and last requested it
+        self.first_asked: dict[int, float] = {}
+        self.last_asked: dict[int, float] = {}
 
     def _start(self, now: float) -> None:
         self.state = "WAIT_COUNT"
@@ -700,16 +712,38 @@ class DownloadMachine(Machine):
         t = self.timeouts
         # gentle back-off after three misses in a row: doubling would make the expected
         # wait per item grow without bound once loss nears 50 % per try
-        interval = self.rtt.timeout(t.item_s, t.min_retry_s) * (
-            RETRY_BACKOFF ** max(0, self.consecutive - 3)
-        )
-        return min(interval, t.item_s)
+        interval = max(self.rtt.timeout(t.item_s, t.min_retry_s), self.late_floor_s)
+        return min(interval * RETRY_BACKOFF ** max(0, self.consecutive - 3), t.item_s)
+
+    def _learn_from_end(self, now: float) -> None:
+        """The vehicle ended the download, most likely on a late copy of a request we sent
+        twice (PX4 refuses any seq but its next one and the one it just sent): re-requests
+        that early were premature. From now on they wait twice as long as they did, or a
+        quarter longer than that copy can have been late if that is longer (but at most four
+        times as long as they did): the time from our first request for the last item we
+        asked for twice to our first request for the item the vehicle no longer answered (we
+        may notice the end only after that item's retry budget). Never longer than
+        ``item_s``, QGroundControl's fixed interval."""
+        t = self.timeouts
+        floor = 2.0 * max(self.rtt.timeout(t.item_s, t.min_retry_s), self.late_floor_s)
+        asked = self.first_asked
+        twice = [k for k, at in self.last_asked.items() if k < self.seq and at > asked[k]]
+        if twice:
+            ended = min(now, self.first_asked.get(self.seq, now))
+            floor = max(floor, min(2.0 * floor, 1.25 * (ended - asked[max(twice)])))
+        self.late_floor_s = min(t.item_s, floor)
+
+    def _asked(self, now: float, first: bool) -> None:
+        if first:
+            self.first_asked[self.seq] = now
+        self.last_asked[self.seq] = now
 
     def _ask_item(self, seq: int, now: float) -> None:
         self.state = "WAIT_ITEM"
         self.seq = seq
         self.suspect = None
         self._send(self._request())
+        self._asked(now, first=True)
         self.first_sent = self.last_sent = now
         self.sends = 1
         self.consecutive = 0
@@ -727,6 +761,12 @@ class DownloadMachine(Machine):
                 seq=self.seq,
             )
             return
+        self._start_over(now)
+
+    def _start_over(self, now: float) -> None:
+        self._learn_from_end(now)
+        self.first_asked.clear()
+        self.last_asked.clear()
         self.restarts += 1
         self.items = []
         self.state = "WAIT_COUNT"
@@ -762,12 +802,7 @@ class DownloadMachine(Machine):
                 # PX4 ends a download silently for us when its error ACK is lost (a late
                 # duplicate of our own request reached it out of order): start over. On a
                 # dead link the REQUEST_LIST budget then ends it.
-                self.restarts += 1
-                self.items = []
-                self.state = "WAIT_COUNT"
-                self.suspect = None
-                self.schedule = ControlSchedule(self.timeouts, self.rtt, now)
-                self._send_list(now)
+                self._start_over(now)
                 return
             self._finish(
                 TransferStatus.TIMEOUT,
@@ -779,6 +814,7 @@ class DownloadMachine(Machine):
             )
             return
         self._send(self._request(), resend=True)
+        self._asked(now, first=False)
         self.sends += 1
         self.consecutive += 1
         self.last_sent = now
@@ -856,6 +892,7 @@ class DownloadMachine(Machine):
                 self.suspect = result
                 self.counters.ignored += 1
                 self._send(self._request(), resend=True)
+                self._asked(now, first=False)
                 self.sends += 1
                 self.last_sent = now
                 self.deadline = now + self._item_interval()
