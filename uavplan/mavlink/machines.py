@@ -685,11 +685,12 @@ class DownloadMachine(Machine):
         self.restarts = 0
         #: the ACK ending the download, once sent (the driver keeps it to repeat)
         self.final_ack: MissionAck | None = None
-        #: floor of the item re-request interval learnt from late packets (see above)
+        #: floor of the item re-request interval, raised each time the vehicle ends the
+        #: download (see above)
         self.late_floor_s = 0.0
-        #: per seq of this attempt: when we first and last requested it
+        #: this attempt: when we first requested each seq, and the seqs requested again
         self.first_asked: dict[int, float] = {}
-        self.last_asked: dict[int, float] = {}
+        self.asked_again: set[int] = set()
 
     def _start(self, now: float) -> None:
         self.state = "WAIT_COUNT"
@@ -726,24 +727,19 @@ class DownloadMachine(Machine):
         ``item_s``, QGroundControl's fixed interval."""
         t = self.timeouts
         floor = 2.0 * max(self.rtt.timeout(t.item_s, t.min_retry_s), self.late_floor_s)
-        asked = self.first_asked
-        twice = [k for k, at in self.last_asked.items() if k < self.seq and at > asked[k]]
+        twice = [k for k in self.asked_again if k < self.seq]
         if twice:
             ended = min(now, self.first_asked.get(self.seq, now))
-            floor = max(floor, min(2.0 * floor, 1.25 * (ended - asked[max(twice)])))
+            late_s = ended - self.first_asked[max(twice)]
+            floor = max(floor, min(2.0 * floor, 1.25 * late_s))
         self.late_floor_s = min(t.item_s, floor)
-
-    def _asked(self, now: float, first: bool) -> None:
-        if first:
-            self.first_asked[self.seq] = now
-        self.last_asked[self.seq] = now
 
     def _ask_item(self, seq: int, now: float) -> None:
         self.state = "WAIT_ITEM"
         self.seq = seq
         self.suspect = None
         self._send(self._request())
-        self._asked(now, first=True)
+        self.first_asked[seq] = now
         self.first_sent = self.last_sent = now
         self.sends = 1
         self.consecutive = 0
@@ -766,7 +762,7 @@ class DownloadMachine(Machine):
     def _start_over(self, now: float) -> None:
         self._learn_from_end(now)
         self.first_asked.clear()
-        self.last_asked.clear()
+        self.asked_again.clear()
         self.restarts += 1
         self.items = []
         self.state = "WAIT_COUNT"
@@ -814,7 +810,7 @@ class DownloadMachine(Machine):
             )
             return
         self._send(self._request(), resend=True)
-        self._asked(now, first=False)
+        self.asked_again.add(self.seq)
         self.sends += 1
         self.consecutive += 1
         self.last_sent = now
@@ -892,7 +888,7 @@ class DownloadMachine(Machine):
                 self.suspect = result
                 self.counters.ignored += 1
                 self._send(self._request(), resend=True)
-                self._asked(now, first=False)
+                self.asked_again.add(self.seq)
                 self.sends += 1
                 self.last_sent = now
                 self.deadline = now + self._item_interval()
