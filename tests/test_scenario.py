@@ -605,6 +605,18 @@ def test_deeply_nested_lists_are_refused(tmp_path: Path) -> None:
     assert "nested more than 64 levels deep" in err.reason
 
 
+@pytest.mark.parametrize("depth", [65, 999, 1000, 5000])
+def test_nesting_is_refused_in_our_words_at_any_depth(tmp_path: Path, depth: int) -> None:
+    """Flow and block nesting past our limit get our message whether or not the YAML parser
+    has a limit of its own (libyaml's, 1,000 in PyYAML 6.0.4, is reported in its words)."""
+    flow = "[" * depth + "]" * depth
+    err = rejected(write(tmp_path, "f.yaml", BASE.replace("[0, 0, 30]", flow)))
+    assert "nested more than 64 levels deep" in err.reason
+    block = "".join(" " * i + "-\n" for i in range(depth))
+    err = rejected(write(tmp_path, "b.yaml", BASE + "extra:\n" + block))
+    assert "nested more than 64 levels deep" in err.reason
+
+
 def test_billion_laughs_alias_is_refused_quickly(tmp_path: Path) -> None:
     lines = ['a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
     names = "abcdefghi"

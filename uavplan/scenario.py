@@ -428,6 +428,10 @@ def _load_full(text: str, file: str, what: str) -> Any:
             file=file,
         ) from None
     except yaml.YAMLError as err:
+        if _nesting_exceeds(text, MAX_YAML_DEPTH):  # the parser's own limit, in its words
+            raise ScenarioError(
+                f"invalid YAML: nested more than {MAX_YAML_DEPTH} levels deep", file=file
+            ) from None
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(err, "problem", None) or str(err).splitlines()[0]
@@ -595,6 +599,26 @@ def _load_fast(text: str, file: str) -> dict[str, Any] | None:
         return doc
     except Exception:  # any doubt: the full loader decides and reports
         return None
+
+
+def _nesting_exceeds(text: str, limit: int) -> bool:
+    """Whether the document opens more than `limit` nested collections. Asked only once the
+    parser has refused the text: libyaml has a nesting limit of its own (1,000 in PyYAML
+    6.0.4's wheels), reported in its own words, which are not ours to repeat or to match.
+    PyYAML's pure-Python parser has no such limit and streams its events, so it stops here as
+    soon as the limit is passed."""
+    depth = 0
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            if isinstance(event, yaml.CollectionStartEvent):
+                depth += 1
+                if depth > limit:
+                    return True
+            elif isinstance(event, yaml.CollectionEndEvent):
+                depth -= 1
+    except yaml.YAMLError:
+        pass
+    return False
 
 
 def _check_size(doc: Any, file: str) -> int:
