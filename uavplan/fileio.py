@@ -34,7 +34,7 @@ class OutputFileError(InputError, OSError):
     def __init__(self, reason: str, *, file: str, error_number: int | None = None) -> None:
         InputError.__init__(self, reason, file=file)
         self.message = f"{file}: {reason}"
-        self.errno = error_number
+        self.errno = error_number  # type: ignore[assignment]  # typeshed before 2024: int
         self.strerror = reason
         self.filename = file
 

@@ -20,6 +20,7 @@ importing this module costs nothing and needs no display.
 
 from __future__ import annotations
 
+import inspect
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -359,7 +360,10 @@ def _draw_3d(
         )
         solids.set_zorder(1)
         solids.set_clip_on(False)  # the zoomed box may reach past the axes' frame
-        ax.add_collection3d(solids, autolim=False)
+        if "autolim" in inspect.signature(ax.add_collection3d).parameters:
+            ax.add_collection3d(solids, autolim=False)  # matplotlib >= 3.9
+        else:  # 3.8 has no autolim and leaves the 3-D limits alone anyway
+            ax.add_collection3d(solids)
 
     if scene.terrain is not None:
         gx, gy, gz = scene.terrain

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import os
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -222,7 +222,8 @@ def init_population(
     """
     nodes = np.zeros((n_pop, n_inner, 2))
     ok = np.zeros(n_pop, dtype=np.bool_)
-    bitgen = rng.bit_generator
+    # numpy's stubs before 2.0 do not declare BitGenerator.capsule (it is there since 1.17)
+    bitgen: Any = rng.bit_generator
     with bitgen.lock:
         deadlocks = _c.init_population(
             int(n_pop), int(n_inner), _f64(start_u), _f64(goal_u), float(half_window),
@@ -262,7 +263,8 @@ def sign_draws(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
     ``2.0 * rng.integers(0, 2, size=shape) - 1.0`` (tests/test_spsa_step.py holds the two
     together), without numpy's per-element overhead."""
     out = np.empty(shape)
-    bitgen = rng.bit_generator
+    # numpy's stubs before 2.0 do not declare BitGenerator.capsule (it is there since 1.17)
+    bitgen: Any = rng.bit_generator
     with bitgen.lock:
         _c.sign_draws(bitgen.capsule, out)
     return out
