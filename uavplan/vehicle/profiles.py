@@ -25,12 +25,17 @@ INCH_M = 0.0254
 
 @dataclass(frozen=True)
 class Citation:
-    """Where a profile's figure comes from: the field, the value used, the page, what it says."""
+    """Where a profile's figure comes from: the field, the value used, the page, what it says.
+
+    ``checked`` is False for a figure read from the manufacturer's page that could not be
+    re-checked against a stored copy of it when the profile was written (docs/energy.md †).
+    """
 
     field: str
     value: str
     url: str
     says: str
+    checked: bool = True
 
 
 _MAVIC2 = "https://www.dji.com/mavic-2/info#specs"
@@ -94,6 +99,7 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 "4 × 8.7 in (0.221 m)",
                 _MAVIC2,
                 "quadcopter with 8743F low-noise propellers (8.7-inch diameter, 4.3-inch pitch)",
+                checked=False,
             ),
             Citation(
                 "battery_wh",
@@ -114,6 +120,7 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 _MAVIC2,
                 "'Max Hovering Time (no wind): 29 minutes'; max flight time 31 minutes at a "
                 "consistent 25 kph",
+                checked=False,
             ),
         ),
         "x500": (
@@ -122,9 +129,9 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 "1.59 = 1.09 + 0.5",
                 _X500_AMC,
                 "ArduPilot Methodic Configurator's X500 V2 template: frame 'TOW min Kg: 1.09' "
-                "(the ARF kit with Pixhawk 6C, GNSS, power module and radio; Holybro gives the "
-                "frame alone as 610 g) and battery 'Gens Ace 4S1P 5000mAh ... Normal battery "
-                "0.5 kg'",
+                "and battery 'Gens Ace 4S1P 5000mAh ... Normal battery 0.5 kg'. We read 1.09 kg "
+                "as the kit without its battery (Holybro's 610 g frame, motors, ESCs, props, "
+                "Pixhawk 6C, GNSS, power module, radio); the template does not say",
             ),
             Citation(
                 "rotor_count, rotor_diameter_m",
@@ -145,6 +152,7 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 "12",
                 _PX4_PARAMS,
                 "PX4 MPC_XY_VEL_MAX, the maximum horizontal velocity, default 12 m/s",
+                checked=False,
             ),
             Citation(
                 "hover time",
@@ -160,24 +168,28 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 "9.5",
                 _M600,
                 "'Weight (with six TB47S batteries): 9.5 kg'; max takeoff weight 15.5 kg",
+                checked=False,
             ),
             Citation(
                 "rotor_count, rotor_diameter_m",
                 "6 × 21 in (0.533 m)",
                 _M600,
                 "hexacopter; 'Propeller Model: 2170R' (21-inch diameter, 7.0-inch pitch)",
+                checked=False,
             ),
             Citation(
                 "battery_wh",
                 "599.4 = 6 × 99.9",
                 _M600,
                 "six TB47S Intelligent Flight Batteries: 4500 mAh, 22.2 V, 6S LiPo, 99.9 Wh each",
+                checked=False,
             ),
             Citation(
                 "max_airspeed_m_s",
                 "18",
                 _M600,
                 "'Max Speed: 65 km/h (no payload, no wind)'",
+                checked=False,
             ),
             Citation(
                 "hover time",
@@ -185,6 +197,7 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 _M600,
                 "'Hovering Time (with six TB47S batteries): No payload: 32 min, 6 kg payload: "
                 "16 min'",
+                checked=False,
             ),
         ),
     }
