@@ -4,6 +4,7 @@ fast-math, so results do not depend on the compiler's or the CPU's choices. POSI
 for the SPSA step's helper threads (-pthread: glibc before 2.34 keeps them in libpthread)."""
 
 import os
+from glob import glob
 
 from setuptools import Extension, setup
 
@@ -13,7 +14,8 @@ setup(
     ext_modules=[
         Extension(
             "uavplan._ckernels",
-            sources=["uavplan/_ckernels.c"],
+            sources=sorted(glob("uavplan/_csrc/*.c")),
+            depends=["uavplan/_csrc/kernels.h"],
             extra_compile_args=["-std=c99", "-O2", "-ffp-contract=off", "-fno-fast-math", *THREADS],
             extra_link_args=THREADS,
         )

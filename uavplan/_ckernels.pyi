@@ -1,4 +1,4 @@
-# Type stub of the C extension built from uavplan/_ckernels.c (see that file for the contract).
+# Type stub of the C extension built from uavplan/_csrc/*.c (kernels.h there: the contract).
 # Array arguments are C-contiguous numpy arrays (float64 / int64 / bool / uint64); outputs are
 # allocated by the caller and filled in place.
 from typing import Any
