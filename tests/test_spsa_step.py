@@ -111,11 +111,12 @@ def test_recalled_fitness_is_the_computed_fitness(slots: int) -> None:
 
 
 def test_energy_cache_size() -> None:
-    filled, values, paths = K.new_energy_cache(99)
-    assert filled.shape == values.shape == (1024,) and paths.shape == (1024, 198)
-    big = K.new_energy_cache(2499)[2]  # a 50 km route: 2 MiB of stored paths at most
+    cache = K.new_energy_cache(99)
+    assert cache.filled.shape == cache.values.shape == (1024,)
+    assert cache.paths.shape == (1024, 198)
+    big = K.new_energy_cache(2499).paths  # a 50 km route: 2 MiB of stored paths at most
     assert big.shape[0] & (big.shape[0] - 1) == 0 and big.nbytes <= K.ENERGY_CACHE_BYTES
-    assert K.new_energy_cache(5, 0)[0].size == 0
+    assert K.new_energy_cache(5, 0).filled.size == 0
     with pytest.raises(ValueError):
         K.new_energy_cache(5, 3)
 

@@ -333,8 +333,9 @@ double energy_one(const double *nodes, const Energy *e) {
 static PyObject *population_map(PyObject *args, double (*fn)(const double *, const Energy *)) {
     PyObject *on, *oen, *oo;
     Energy e;
-    Buf bn = {0}, bo = {0}, ben[3];
-    memset(ben, 0, sizeof(ben));
+    EnergyBufs eb;
+    Buf bn = {0}, bo = {0};
+    memset(&eb, 0, sizeof(eb));
     memset(&e, 0, sizeof(e));
     if (!PyArg_ParseTuple(args, "OOO", &on, &oen, &oo)) return NULL;
     PyObject *ret = NULL;
@@ -345,14 +346,13 @@ static PyObject *population_map(PyObject *args, double (*fn)(const double *, con
     if (need(dim(&bn, 2) == 2 && dim(&bo, 0) == g_count,
              "population_energy: inconsistent shapes") < 0)
         goto done;
-    if (energy_get(oen, &e, ben, inner) < 0) goto done;
+    if (energy_get(oen, &e, &eb, inner) < 0) goto done;
     const double *nodes = F64(bn);
     double *out = F64(bo);
     for (int64_t g = 0; g < g_count; g++) out[g] = fn(nodes + g * inner * 2, &e);
     ret = Py_NewRef(Py_None);
 done:
-    free(e.work);
-    for (int i = 0; i < 3; i++) rel(&ben[i]);
+    energy_release(&e, &eb);
     rel(&bn);
     rel(&bo);
     return ret;

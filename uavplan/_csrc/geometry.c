@@ -218,22 +218,23 @@ static int get_pieces(PyObject *poly_xy, PyObject *poly_n, PyObject *poly_h, PyO
     PyObject *objs[4] = {poly_xy, poly_n, poly_h, circ};
     memset(wb, 0, sizeof(*wb));
     for (int i = 0; i < 4; i++) {
-        if (get_buf(objs[i], &wb->b[i], types[i], ndims[i], 0, names[i]) < 0) {
+        if (get_buf(objs[i], &wb->v[i].buf, types[i], ndims[i], 0, names[i]) < 0) {
             world_release(wb);
             return -1;
         }
     }
     World *w = &wb->w;
-    w->poly_xy = F64(wb->b[0]);
-    w->npoly = dim(&wb->b[0], 0);
-    w->vmax = dim(&wb->b[0], 1);
-    w->poly_n = I64(wb->b[1]);
-    w->poly_h = F64(wb->b[2]);
-    w->circ = F64(wb->b[3]);
-    w->ncirc = dim(&wb->b[3], 0);
+    w->poly_xy = F64(wb->v[0].buf);
+    w->npoly = dim(&wb->v[0].buf, 0);
+    w->vmax = dim(&wb->v[0].buf, 1);
+    w->poly_n = I64(wb->v[1].buf);
+    w->poly_h = F64(wb->v[2].buf);
+    w->circ = F64(wb->v[3].buf);
+    w->ncirc = dim(&wb->v[3].buf, 0);
     w->npieces = w->npoly + w->ncirc;
-    if (need(dim(&wb->b[0], 2) == 2 && dim(&wb->b[1], 0) == w->npoly &&
-                 dim(&wb->b[2], 0) == w->npoly && (w->ncirc == 0 || dim(&wb->b[3], 1) == 4),
+    if (need(dim(&wb->v[0].buf, 2) == 2 && dim(&wb->v[1].buf, 0) == w->npoly &&
+                 dim(&wb->v[2].buf, 0) == w->npoly &&
+                 (w->ncirc == 0 || dim(&wb->v[3].buf, 1) == 4),
              "inconsistent piece arrays") < 0) {
         world_release(wb);
         return -1;

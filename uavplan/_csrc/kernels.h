@@ -116,6 +116,30 @@ void rel(Buf *b);
 /* 0 when ``cond`` holds, else -1 with a ValueError of ``msg`` */
 int need(int cond, const char *msg);
 
+/* The named structures (args.c): every argument with more than a few fields arrives as a
+ * Python object whose fields are read by attribute name, by the tables of args.c only. A
+ * field is an array (its kind T_F64 ...) or one of these: */
+enum { K_REAL = 16, K_INT, K_FLAG, K_OBJECT };
+
+typedef struct {
+    const char *name; /* the attribute */
+    int kind;         /* T_* (an array) or K_* */
+    int ndim;         /* an array's dimensions */
+    int writable;     /* the kernels write the array */
+} Field;
+
+/* One field read: an array acquired, a number converted, or an object (a new reference) */
+typedef struct {
+    Buf buf;
+    double real;
+    long long integer; /* K_INT, K_FLAG */
+    PyObject *obj;
+} Value;
+
+void values_release(Value *v, int n);
+int args_init(void);
+PyObject *args_fields(void);
+
 /* ------------------------------------------------------------------------------------------
  * The world (uavplan._geom.KernelWorld; read by args.c)
  */
@@ -142,7 +166,7 @@ typedef struct {
 
 typedef struct {
     World w;
-    Buf b[WORLD_BUFS];
+    Value v[WORLD_BUFS];
 } WorldBufs;
 
 void world_release(WorldBufs *wb);
@@ -294,9 +318,11 @@ static inline int reachable(int64_t j, double y0, double z0, double y1, double z
     return code;
 }
 
+#define REACH_NFIELDS 10
+
 typedef struct {
     WorldBufs wb;
-    Buf cols, memo, table, off, steps, start, goal, counts;
+    Value v[REACH_NFIELDS];
 } ReachBufs;
 
 int reach_get(PyObject *o, Reach *r, ReachBufs *rb);
@@ -388,14 +414,48 @@ typedef struct {
     double *samp; /* 7 × samples: x, y, z of every sample, then each step's ex, ey, ez, length */
 } Energy;
 
+#define ENERGY_NFIELDS 13
+
+typedef struct {
+    Value v[ENERGY_NFIELDS];
+} EnergyBufs;
+
 int energy_init(Energy *e);
-int energy_get(PyObject *o, Energy *e, Buf *bufs, int64_t inner);
+int energy_get(PyObject *o, Energy *e, EnergyBufs *eb, int64_t inner);
+void energy_release(Energy *e, EnergyBufs *eb);
 void energy_knots(const double *nodes, const Energy *e);
 int bound_valid(const Energy *e);
 double bound_from_knots(const Energy *e);
 double energy_from_knots(const Energy *e);
 double energy_one(const double *nodes, const Energy *e);
 double energy_bound(const double *nodes, const Energy *e);
+
+/* ------------------------------------------------------------------------------------------
+ * The fused SPSA step's arguments besides the population (uavplan.planners._kernels'
+ * StepSetup and StepDraws; read by args.c)
+ */
+
+#define SETUP_NFIELDS 14
+#define DRAWS_NFIELDS 6
+#define CACHE_NFIELDS 3
+
+typedef struct {
+    Reach r;
+    ReachBufs rb;
+    Energy e;
+    EnergyBufs eb;
+    const Buf *line, *goal_u;                  /* (n, 2), (>= 2,) */
+    long long n_prod, iterations, t_max, v_min, v_max, window, flags, threads;
+    double warning_value;
+    int has_cache;
+    const Buf *filled, *values, *paths;        /* the fitness cache, when has_cache */
+    double warn;                               /* the draws */
+    const Buf *pdraw, *signs, *aware, *seeds1, *seeds2;
+    Value setup[SETUP_NFIELDS], draws[DRAWS_NFIELDS], cache[CACHE_NFIELDS];
+} StepArgs;
+
+int step_args_get(PyObject *setup, PyObject *draws, int64_t inner, StepArgs *a);
+void step_args_release(StepArgs *a);
 
 /* ------------------------------------------------------------------------------------------
  * The functions of the module's method table (module.c)

@@ -44,7 +44,48 @@ static struct PyModuleDef moddef = {
     NULL, NULL,
 };
 
+/* The constants uavplan reads from here (it never writes them down again): the SPSA step's
+ * switches, the proposals' draw kinds, the memo's size and probes, the step's thread limit
+ * and whether this build has threads at all, the geometry's tolerances, and the fields of
+ * every named structure (args.c). */
+static int add_constants(PyObject *m) {
+    static const struct {
+        const char *name;
+        long value;
+    } ints[] = {
+        {"SPSA_START_END", SPSA_START_END}, {"SPSA_LITERAL", SPSA_LITERAL},
+        {"SPSA_POP_INDEX", SPSA_POP_INDEX}, {"SPSA_ESCAPE", SPSA_ESCAPE},
+        {"SPSA_OSCILLATE", SPSA_OSCILLATE}, {"DRAW_NONE", DRAW_NONE},
+        {"DRAW_UNIFORM", DRAW_UNIFORM},     {"DRAW_SYMMETRIC", DRAW_SYMMETRIC},
+        {"DRAW_NORMAL", DRAW_NORMAL},       {"MEMO_BITS", MEMO_BITS},
+        {"MEMO_PROBES", MEMO_PROBES},       {"STEP_MAX_THREADS", STEP_MAX_THREADS},
+        {"HAVE_THREADS", HAVE_THREADS},
+    };
+    static const struct {
+        const char *name;
+        double value;
+    } reals[] = {{"SPSA_EPS", SPSA_EPS}, {"GOLD", GOLD}, {"DIST_TOL_M", DIST_TOL_M}, {"FAR", FAR}};
+    for (size_t i = 0; i < sizeof(ints) / sizeof(ints[0]); i++)
+        if (PyModule_AddIntConstant(m, ints[i].name, ints[i].value) < 0) return -1;
+    for (size_t i = 0; i < sizeof(reals) / sizeof(reals[0]); i++) {
+        PyObject *v = PyFloat_FromDouble(reals[i].value);
+        if (v == NULL || PyModule_AddObject(m, reals[i].name, v) < 0) {
+            Py_XDECREF(v);
+            return -1;
+        }
+    }
+    PyObject *fields = args_fields();
+    if (fields == NULL || PyModule_AddObject(m, "FIELDS", fields) < 0) {
+        Py_XDECREF(fields);
+        return -1;
+    }
+    return 0;
+}
+
 PyMODINIT_FUNC PyInit__ckernels(void) {
     ziggurat_init();
-    return PyModule_Create(&moddef);
+    if (args_init() < 0) return NULL;
+    PyObject *m = PyModule_Create(&moddef);
+    if (m != NULL && add_constants(m) < 0) Py_CLEAR(m);
+    return m;
 }

@@ -562,67 +562,53 @@ static void step_parallel(Step *s) {
     step_run(&s->loc[0]);
 }
 
-/* spsa_step(x, f, osc_fixed, line, goal_u, reach, energy, n_prod, iterations, t_max, v_min,
- *           v_max, window, flags, warn, warning_value, pdraw, signs, aware, seeds1, seeds2,
- *           counts, cache, threads)
+/* spsa_step(x, f, osc_fixed, counts, setup, draws)
  *
  * One iteration of SparrowPlanner.step, in place on x (G, n, 2), f (G,) and osc_fixed (G,):
  * producers (eq. 11 or eq. 3), their rebuild under the reachability rule and fitness, then
  * scroungers (eq. 4 with eq. 12's escape) and danger-aware sparrows (eq. 5), their rebuild,
- * the oscillation optimisation (eq. 13) and greedy selection. The random numbers numpy's
- * Generator draws for the step arrive drawn (``warn``: R2; ``pdraw`` (n_prod,): α = 1 − U
+ * the oscillation optimisation (eq. 13) and greedy selection. ``setup`` (a StepSetup) is what
+ * every step of a search shares: the reachability rule, the energy, the start-end line, the
+ * parameters, the fitness cache and the threads. ``draws`` (a StepDraws) are the random
+ * numbers numpy's Generator draws for the step (``warn``: R2; ``pdraw`` (n_prod,): α = 1 − U
  * when R2 < ST else Q ~ N(0, 1); ``signs`` (near, n, 2): eq. 4's ±1; ``aware``: the
  * danger-aware sparrows; ``seeds1`` / ``seeds2`` (G,): the two rebuilds' streams), so the
- * step is the same function of the Generator as the numpy formulation in the tests
- * (tests/spsa_reference.py). ``counts`` (3,) int64 gets += (evaluations, escapes, failed
- * updates). */
+ * step is the same function of the Generator as the numpy formulation
+ * (tests/spsa_reference.py). ``counts`` (3,) int64 gets += (evaluations, escapes,
+ * failed updates). */
 PyObject *py_spsa_step(PyObject *self, PyObject *args) {
-    PyObject *ox, *of, *ofix, *oline, *ogoal, *ro, *oen, *opd, *osg, *oaw, *os1, *os2, *ocnt;
-    PyObject *ocache;
-    long long n_prod, iters, t_max, v_min, v_max, window, flags, threads;
-    double warn, st_value;
-    Buf bx = {0}, bf = {0}, bfix = {0}, bline = {0}, bgoal = {0}, bpd = {0}, bsg = {0},
-        baw = {0}, bs1 = {0}, bs2 = {0}, bcnt = {0}, ben[3], bc[3];
-    Energy e;
+    PyObject *ox, *of, *ofix, *ocnt, *osetup, *odraws;
+    Buf bx = {0}, bf = {0}, bfix = {0}, bcnt = {0};
+    StepArgs a;
     ECache cache = {0}, *cp = NULL;
-    Reach r;
-    ReachBufs rb;
     double *mem = NULL;
-    memset(ben, 0, sizeof(ben));
-    memset(bc, 0, sizeof(bc));
-    memset(&e, 0, sizeof(e));
-    if (!PyArg_ParseTuple(args, "OOOOOOOLLLLLLLddOOOOOOOL", &ox, &of, &ofix, &oline, &ogoal,
-                          &ro, &oen, &n_prod, &iters, &t_max, &v_min, &v_max, &window, &flags,
-                          &warn, &st_value, &opd, &osg, &oaw, &os1, &os2, &ocnt, &ocache,
-                          &threads))
+    int have_args = 0;
+    if (!PyArg_ParseTuple(args, "OOOOOO", &ox, &of, &ofix, &ocnt, &osetup, &odraws))
         return NULL;
-    if (reach_get(ro, &r, &rb) < 0) return NULL;
     PyObject *ret = NULL;
     if (get_buf(ox, &bx, T_F64, 3, 1, "x") < 0 || get_buf(of, &bf, T_F64, 1, 1, "f") < 0 ||
         get_buf(ofix, &bfix, T_BOOL, 1, 1, "osc_fixed") < 0 ||
-        get_buf(oline, &bline, T_F64, 2, 0, "line") < 0 ||
-        get_buf(ogoal, &bgoal, T_F64, 1, 0, "goal_u") < 0 ||
-        get_buf(opd, &bpd, T_F64, 1, 0, "pdraw") < 0 ||
-        get_buf(osg, &bsg, T_F64, 3, 0, "signs") < 0 ||
-        get_buf(oaw, &baw, T_I64, 1, 0, "aware") < 0 ||
-        get_buf(os1, &bs1, T_U64, 1, 0, "seeds1") < 0 ||
-        get_buf(os2, &bs2, T_U64, 1, 0, "seeds2") < 0 ||
         get_buf(ocnt, &bcnt, T_I64, 1, 1, "counts") < 0)
         goto done;
     int64_t G = dim(&bx, 0), n = dim(&bx, 1);
     int64_t m = 2 * n;
+    if (step_args_get(osetup, odraws, n, &a) < 0) goto done;
+    have_args = 1;
+    const Reach *r = &a.r;
+    long long n_prod = a.n_prod, flags = a.flags;
     int64_t n_scr = G - n_prod;
-    int64_t n_aw = dim(&baw, 0);
-    if (need(dim(&bx, 2) == 2 && n >= 1 && n <= r.ncols - 2 && dim(&bf, 0) == G &&
-                 dim(&bfix, 0) == G && dim(&bline, 0) == n && dim(&bline, 1) == 2 &&
-                 dim(&bgoal, 0) >= 2 && 1 <= n_prod && n_prod < G && dim(&bpd, 0) == n_prod &&
-                 dim(&bs1, 0) == G && dim(&bs2, 0) == G && dim(&bcnt, 0) == 3 && n_aw <= G &&
-                 iters >= 1 && t_max >= 1 && window >= 3 && 1 <= v_min && v_min <= v_max &&
-                 (dim(&bsg, 0) == 0 || (dim(&bsg, 1) == n && dim(&bsg, 2) == 2)),
+    int64_t n_aw = dim(a.aware, 0);
+    if (need(dim(&bx, 2) == 2 && n >= 1 && n <= r->ncols - 2 && dim(&bf, 0) == G &&
+                 dim(&bfix, 0) == G && dim(a.line, 0) == n && dim(a.line, 1) == 2 &&
+                 dim(a.goal_u, 0) >= 2 && 1 <= n_prod && n_prod < G &&
+                 dim(a.pdraw, 0) == n_prod && dim(a.seeds1, 0) == G && dim(a.seeds2, 0) == G &&
+                 dim(&bcnt, 0) == 3 && n_aw <= G && a.iterations >= 1 && a.t_max >= 1 &&
+                 a.window >= 3 && 1 <= a.v_min && a.v_min <= a.v_max &&
+                 (dim(a.signs, 0) == 0 || (dim(a.signs, 1) == n && dim(a.signs, 2) == 2)),
              "spsa_step: inconsistent arguments") < 0)
         goto done;
     {
-        const int64_t *aw = I64(baw);
+        const int64_t *aw = I64(*a.aware);
         for (int64_t i = 0; i < n_aw; i++)
             if (need(0 <= aw[i] && aw[i] < G, "spsa_step: aware index out of range") < 0)
                 goto done;
@@ -633,32 +619,26 @@ PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         double half = (flags & SPSA_POP_INDEX) ? (double)G / 2.0 : (double)n_scr / 2.0;
         int64_t near = 0;
         for (int64_t s = 0; s < n_scr; s++) near += (double)(i0 + s) <= half;
-        if (need(near == dim(&bsg, 0), "spsa_step: signs: one row per near scrounger") < 0)
+        if (need(near == dim(a.signs, 0), "spsa_step: signs: one row per near scrounger") < 0)
             goto done;
     }
-    if (energy_get(oen, &e, ben, n) < 0) goto done;
-    if (ocache != Py_None) {
-        PyObject *of_, *ov_, *op_;
-        if (!PyArg_ParseTuple(ocache, "OOO", &of_, &ov_, &op_)) goto done;
-        if (get_buf(of_, &bc[0], T_BOOL, 1, 1, "cache.filled") < 0 ||
-            get_buf(ov_, &bc[1], T_F64, 1, 1, "cache.values") < 0 ||
-            get_buf(op_, &bc[2], T_I32, 2, 1, "cache.paths") < 0)
-            goto done;
-        cache.slots = dim(&bc[0], 0);
+    if (a.has_cache) {
+        cache.slots = dim(a.filled, 0);
         cache.m = m;
-        if (need(dim(&bc[1], 0) == cache.slots && dim(&bc[2], 0) == cache.slots &&
-                     dim(&bc[2], 1) == m && (cache.slots & (cache.slots - 1)) == 0,
+        if (need(dim(a.values, 0) == cache.slots && dim(a.paths, 0) == cache.slots &&
+                     dim(a.paths, 1) == m && (cache.slots & (cache.slots - 1)) == 0,
                  "spsa_step: cache: (slots,) flags and values, (slots, 2n) paths, slots a power "
                  "of two") < 0)
             goto done;
-        cache.filled = BOOL(bc[0]);
-        cache.vals = F64(bc[1]);
-        cache.paths = (int32_t *)bc[2].view.buf;
+        cache.filled = BOOL(*a.filled);
+        cache.vals = F64(*a.values);
+        cache.paths = (int32_t *)a.paths->view.buf;
         cp = &cache;
     }
     /* scratch: cand, cand_s, anchor, spread, first (G·m each), p_best (m), new_ (m per
      * thread), f_prod, fc (G each); int64 order, moved, draw, scr_idx, near_row (G each); 9
      * byte flags (G each) */
+    long long threads = a.threads;
     int nth = threads < 1 ? 1 : threads > STEP_MAX_THREADS ? STEP_MAX_THREADS : (int)threads;
     if (nth > G) nth = (int)G;
     if (!HAVE_THREADS) nth = 1;
@@ -668,12 +648,13 @@ PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         PyErr_NoMemory();
         goto done;
     }
-    Step st = {.x = F64(bx), .f = F64(bf), .fixed = BOOL(bfix), .line = F64(bline),
-               .goal_u = F64(bgoal), .pdraw = F64(bpd), .signs = F64(bsg), .aware = I64(baw),
-               .seeds1 = U64(bs1), .seeds2 = U64(bs2), .G = G, .n = n, .m = m,
-               .n_prod = n_prod, .n_aw = n_aw, .iters = iters, .t_max = t_max,
-               .v_min = v_min, .v_max = v_max, .window = window, .flags = flags, .warn = warn,
-               .st_value = st_value, .r = &r}; /* the rest zero */
+    Step st = {.x = F64(bx), .f = F64(bf), .fixed = BOOL(bfix), .line = F64(*a.line),
+               .goal_u = F64(*a.goal_u), .pdraw = F64(*a.pdraw), .signs = F64(*a.signs),
+               .aware = I64(*a.aware), .seeds1 = U64(*a.seeds1), .seeds2 = U64(*a.seeds2),
+               .G = G, .n = n, .m = m, .n_prod = n_prod, .n_aw = n_aw, .iters = a.iterations,
+               .t_max = a.t_max, .v_min = a.v_min, .v_max = a.v_max, .window = a.window,
+               .flags = flags, .warn = a.warn, .st_value = a.warning_value,
+               .r = r}; /* the rest zero */
     st.cand = mem;
     st.cand_s = st.cand + G * m;
     st.anchor = st.cand_s + G * m;
@@ -703,7 +684,7 @@ PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         L->s = &st;
         L->tid = t;
         L->new_ = news + (int64_t)t * m;
-        L->e = e;
+        L->e = a.e;
         if (t > 0) {
             L->e.work = NULL;
             if (energy_init(&L->e) < 0) {
@@ -731,8 +712,8 @@ PyObject *py_spsa_step(PyObject *self, PyObject *args) {
         esc += st.loc[t].esc;
         if (t > 0) free(st.loc[t].e.work);
     }
-    r.counts[0] += n_chk;
-    r.counts[1] += n_exact;
+    r->counts[0] += n_chk;
+    r->counts[1] += n_exact;
     int64_t *counts = I64(bcnt);
     counts[0] += evals;
     counts[1] += esc;
@@ -741,21 +722,11 @@ PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     ret = Py_NewRef(Py_None);
 done:
     free(mem);
-    free(e.work);
-    for (int i = 0; i < 3; i++) rel(&ben[i]);
-    for (int i = 0; i < 3; i++) rel(&bc[i]);
+    if (have_args) step_args_release(&a);
     rel(&bx);
     rel(&bf);
     rel(&bfix);
-    rel(&bline);
-    rel(&bgoal);
-    rel(&bpd);
-    rel(&bsg);
-    rel(&baw);
-    rel(&bs1);
-    rel(&bs2);
     rel(&bcnt);
-    reach_release(&rb);
     return ret;
 }
 
