@@ -1,4 +1,5 @@
-"""The compiled SPSA / SSA iteration against its numpy formulation (tests/spsa_reference.py).
+"""The compiled SPSA / SSA iteration against its numpy formulation
+(uavplan/planners/sparrow_numpy.py, the planner ``spsa_numpy``).
 
 The product's step (:meth:`SparrowPlanner.step`) draws its random numbers from the Generator
 and runs the whole iteration in the C kernel; the reference computes every update rule with
@@ -10,17 +11,21 @@ curved (guide-path) frame.
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
-from spsa_reference import ReferenceSparrow
+from click.testing import CliRunner
 
+from uavplan.cli import main
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
 from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, Termination
 from uavplan.planners.sparrow import SparrowPlanner
+from uavplan.planners.sparrow_numpy import NumpySparrowPlanner as ReferenceSparrow
 from uavplan.world import World
 
 GRID = GridSpec(20.0, 20.0, 10.0)
@@ -229,3 +234,27 @@ def test_two_python_threads_plan_at_once() -> None:
         w.join(timeout=60)
     assert not any(w.is_alive() for w in workers)
     assert len(results) == 2 and all(np.array_equal(r, expected) for r in results)
+
+
+def test_the_numpy_planner_plans_the_compiled_planners_route(tmp_path: Path) -> None:
+    """``--algorithm spsa_numpy`` takes SPSA's numpy formulation through the whole pipeline
+    (search, post-processing, mission): the mission is the compiled planner's, item for item,
+    with the same energy; only the count of fitness evaluations may be lower for the compiled
+    step (it recalls fitness values instead of recomputing them)."""
+    missions = Path(__file__).resolve().parent.parent / "missions"
+    runs = {}
+    for algorithm in ("spsa", "spsa_numpy"):
+        route, report = tmp_path / f"{algorithm}.plan", tmp_path / f"{algorithm}.json"
+        args = ["plan", str(missions / "paper-env1.yaml"), "-o", str(route), "--algorithm",
+                algorithm, "--iterations", "30", "--population", "12", "--seed", "4",
+                "--report", str(report), "-q"]  # fmt: skip
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+        items = json.loads(route.read_text())["mission"]["items"]
+        runs[algorithm] = (items, json.loads(report.read_text()))
+    (items, fast), (items_numpy, slow) = runs["spsa"], runs["spsa_numpy"]
+    assert slow["algorithm"] == "spsa_numpy" and len(items) > 2
+    assert items == items_numpy
+    for key in ("energy", "energy_terms", "length_m", "iterations", "termination", "convergence"):
+        assert fast[key] == slow[key], key
+    assert fast["evaluations"] <= slow["evaluations"]

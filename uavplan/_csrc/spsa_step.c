@@ -574,7 +574,7 @@ static void step_parallel(Step *s) {
  * when R2 < ST else Q ~ N(0, 1); ``signs`` (near, n, 2): eq. 4's ±1; ``aware``: the
  * danger-aware sparrows; ``seeds1`` / ``seeds2`` (G,): the two rebuilds' streams), so the
  * step is the same function of the Generator as the numpy formulation
- * (tests/spsa_reference.py). ``counts`` (3,) int64 gets += (evaluations, escapes,
+ * (uavplan/planners/sparrow_numpy.py). ``counts`` (3,) int64 gets += (evaluations, escapes,
  * failed updates). */
 PyObject *py_spsa_step(PyObject *self, PyObject *args) {
     PyObject *ox, *of, *ofix, *ocnt, *osetup, *odraws;

@@ -62,7 +62,8 @@ class SparrowPlanner(SwarmPlanner):
     def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         """One iteration (Algorithm 3), fused in the compiled kernel
         (:func:`uavplan.planners._kernels.spsa_step`); this method draws its random numbers
-        from ``rng``, in the order the numpy formulation in tests/spsa_reference.py draws
+        from ``rng``, in the order the numpy formulation
+        (:class:`~uavplan.planners.sparrow_numpy.NumpySparrowPlanner`, ``spsa_numpy``) draws
         them (the tests hold the two to the same results).
 
         Ranks: the ``PD·G`` fittest are producers, the rest scroungers. δ = P − P_ST, P_ST
