@@ -181,15 +181,27 @@ def test_the_step_gives_the_same_run_on_any_number_of_threads(variant: str) -> N
 
 
 def test_step_threads_follows_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(K, "HAVE_THREADS", True)
     monkeypatch.setenv("UAVPLAN_THREADS", "1")
     assert K.step_threads() == 1
     monkeypatch.setenv("UAVPLAN_THREADS", "3")
     assert K.step_threads() == 3
+    assert K.step_threads_note() == "SPSA step threads: 3"
     monkeypatch.setenv("UAVPLAN_THREADS", "500")
     assert K.step_threads() == K.STEP_THREADS_MAX
     for junk in ("", "0", "-2", "two"):
         monkeypatch.setenv("UAVPLAN_THREADS", junk)
         assert 1 <= K.step_threads() <= K.STEP_THREADS_AUTO_MAX
+
+
+def test_a_build_without_threads_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A build without helper threads (MSVC, MinGW: ``_ckernels.HAVE_THREADS`` is 0) runs
+    the step on one thread whatever is asked, and the reports say why."""
+    monkeypatch.setattr(K, "HAVE_THREADS", False)
+    for asked in ("4", ""):
+        monkeypatch.setenv("UAVPLAN_THREADS", asked)
+        assert K.step_threads() == 1
+        assert "no helper threads" in K.step_threads_note()
 
 
 def _threaded_run(threads: int) -> np.ndarray:

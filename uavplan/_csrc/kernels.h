@@ -39,9 +39,10 @@
 #include <string.h>
 
 /* Threads for the fused SPSA step (spsa_step's ``threads``): POSIX threads and gcc's / clang's
- * __atomic builtins; elsewhere the step runs on the calling thread only, and says so: the
- * module's HAVE_THREADS is 0 (uavplan reports it) and the build prints a message. */
-#if defined(__GNUC__) && !defined(_WIN32)
+ * __atomic builtins; elsewhere (or built with -DUAVPLAN_NO_THREADS, to try that build) the
+ * step runs on the calling thread only, and says so: the module's HAVE_THREADS is 0 (uavplan
+ * reports it) and the build prints a message. */
+#if defined(__GNUC__) && !defined(_WIN32) && !defined(UAVPLAN_NO_THREADS)
 #include <pthread.h>
 #include <sched.h>
 #include <time.h>
@@ -52,6 +53,13 @@
 #define HAVE_THREADS 0
 #define LOAD_RELAXED(p) (*(p))
 #define STORE_RELAXED(p, v) (*(p) = (v))
+#endif
+
+/* No contraction into fused multiply-adds (setup.py passes -ffp-contract=off to GCC and Clang,
+ * /fp:precise to MSVC); MSVC before Visual Studio 2022 17.0 contracts under /fp:precise
+ * unless told not to. */
+#if defined(_MSC_VER) && !defined(__clang__)
+#pragma fp_contract(off)
 #endif
 
 /* Every name below is private to the extension module (only PyInit__ckernels is exported). */

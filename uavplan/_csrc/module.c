@@ -3,6 +3,10 @@
  * writing them down a second time. */
 #include "kernels.h"
 
+#if !HAVE_THREADS
+#pragma message("uavplan: this build has no helper threads: the SPSA step runs on one thread")
+#endif
+
 static PyMethodDef methods[] = {
     {"point_polygon_dist2d", py_point_polygon_dist2d, METH_VARARGS, NULL},
     {"point_piece_dist", py_point_piece_dist, METH_VARARGS, NULL},

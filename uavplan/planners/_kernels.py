@@ -527,3 +527,11 @@ def step_threads() -> int:
     except (AttributeError, OSError):  # not on Linux
         cpus = os.cpu_count() or 1
     return max(1, min(cpus, STEP_THREADS_AUTO_MAX))
+
+
+def step_threads_note() -> str:
+    """One line for a report: the threads the fused SPSA step runs on by default
+    (:func:`step_threads`), and why it is one on a build without helper threads."""
+    if not HAVE_THREADS:
+        return "SPSA step threads: 1 (this build of uavplan's kernels has no helper threads)"
+    return f"SPSA step threads: {step_threads()}"
