@@ -23,7 +23,7 @@ from uavplan.cli import main
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
 from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Termination
+from uavplan.planners.base import PathProblem, Population, Termination
 from uavplan.planners.sparrow import SparrowPlanner
 from uavplan.planners.sparrow_numpy import NumpySparrowPlanner as ReferenceSparrow
 from uavplan.world import World
@@ -270,3 +270,34 @@ def test_the_numpy_planner_plans_the_compiled_planners_route(tmp_path: Path) -> 
     for key in ("energy", "energy_terms", "length_m", "iterations", "termination", "convergence"):
         assert fast[key] == slow[key], key
     assert fast["evaluations"] <= slow["evaluations"]
+
+
+def test_the_step_checks_what_it_is_given() -> None:
+    """The step reads its setup and draws by field name and checks every array: a wrong dtype,
+    shape or a missing field is an error naming it, never a crash or a silent copy."""
+    problem = _problem(False)
+    planner = SparrowPlanner(SearchParams(population=8, iterations=2, seed=1))
+    rng = np.random.default_rng(1)
+    x, _ok, _dead = problem.initial_population(8, planner.search, rng)
+    pop = Population(x, problem.fitness(x), 0, 2)
+    planner.setup(problem, pop, rng)
+    planner.step(problem, pop, rng)
+    setup: K.StepSetup = pop.state["step_setup"]
+    n_prod, n_near, _n_danger, _flags = pop.state["sizes"]
+    seeds = K.stream_seeds(rng, 8)
+    signs = np.ones((n_near, x.shape[1], 2))
+    good = K.StepDraws(0.3, np.full(n_prod, 0.5), signs, np.arange(1), seeds, seeds)
+    counts = np.zeros(3, np.int64)
+    fixed = pop.state["osc_fixed"]
+    K.spsa_step(pop.x, pop.f, fixed, counts, setup, good)
+    assert counts[0] > 0
+    with pytest.raises(TypeError, match=r"draws\.pdraw"):
+        bad = good._replace(pdraw=good.pdraw.astype(np.float32))
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, bad)
+    with pytest.raises(ValueError, match=r"draws\.pdraw"):
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, good._replace(pdraw=good.pdraw[:, None]))
+    with pytest.raises(TypeError, match=r"draws\.aware"):
+        bad = good._replace(aware=np.arange(1, dtype=np.int32))
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, bad)
+    with pytest.raises(TypeError, match="warn"):
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, setup)  # type: ignore[arg-type]

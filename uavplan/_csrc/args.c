@@ -85,13 +85,23 @@ typedef struct {
     PyObject **names;
 } Structure;
 
+/* A field of structure ``s``: its attribute ``n`` (and "s.n" for messages) */
+#define F(s, n, kind, ndim, writable) {#n, #s "." #n, kind, ndim, writable}
+
 /* uavplan._geom.KernelWorld. A kernel reads the first 5 (pieces), 7 (and the bounds) or all
  * 11 (and the cell grid). */
 static const Field WORLD_FIELDS[WORLD_BUFS] = {
-    {"poly_xy", T_F64, 3, 0},    {"poly_n", T_I64, 1, 0},     {"poly_h", T_F64, 1, 0},
-    {"circ", T_F64, 2, 0},       {"box", T_F64, 2, 0},        {"hp", T_F64, 2, 0},
-    {"zlim", T_F64, 1, 0},       {"gmeta", T_F64, 1, 0},      {"cell_start", T_I64, 1, 0},
-    {"cell_items", T_I64, 1, 0}, {"piece_cells", T_I64, 2, 0},
+    F(world, poly_xy, T_F64, 3, 0),
+    F(world, poly_n, T_I64, 1, 0),
+    F(world, poly_h, T_F64, 1, 0),
+    F(world, circ, T_F64, 2, 0),
+    F(world, box, T_F64, 2, 0),
+    F(world, hp, T_F64, 2, 0),
+    F(world, zlim, T_F64, 1, 0),
+    F(world, gmeta, T_F64, 1, 0),
+    F(world, cell_start, T_I64, 1, 0),
+    F(world, cell_items, T_I64, 1, 0),
+    F(world, piece_cells, T_I64, 2, 0),
 };
 
 /* uavplan.planners._kernels.Reach */
@@ -99,11 +109,16 @@ enum { R_WORLD, R_COLS, R_MEMO, R_TABLE, R_TABLE_OFF, R_STEPS, R_START, R_GOAL, 
        R_COUNTS, R_N };
 typedef char reach_fields_check[R_N == REACH_NFIELDS ? 1 : -1];
 static const Field REACH_FIELDS[R_N] = {
-    [R_WORLD] = {"world", K_OBJECT, 0, 0},     [R_COLS] = {"cols", T_F64, 2, 0},
-    [R_MEMO] = {"memo", T_I64, 1, 1},          [R_TABLE] = {"table", T_F64, 3, 0},
-    [R_TABLE_OFF] = {"table_off", T_I64, 1, 0}, [R_STEPS] = {"steps", T_F64, 1, 0},
-    [R_START] = {"start_m", T_F64, 1, 0},      [R_GOAL] = {"goal_m", T_F64, 1, 0},
-    [R_MARGIN] = {"margin", K_REAL, 0, 0},     [R_COUNTS] = {"counts", T_I64, 1, 1},
+    [R_WORLD] = F(reach, world, K_OBJECT, 0, 0),
+    [R_COLS] = F(reach, cols, T_F64, 2, 0),
+    [R_MEMO] = F(reach, memo, T_I64, 1, 1),
+    [R_TABLE] = F(reach, table, T_F64, 3, 0),
+    [R_TABLE_OFF] = F(reach, table_off, T_I64, 1, 0),
+    [R_STEPS] = F(reach, steps, T_F64, 1, 0),
+    [R_START] = F(reach, start_m, T_F64, 1, 0),
+    [R_GOAL] = F(reach, goal_m, T_F64, 1, 0),
+    [R_MARGIN] = F(reach, margin, K_REAL, 0, 0),
+    [R_COUNTS] = F(reach, counts, T_I64, 1, 1),
 };
 
 /* uavplan.path.energy.EnergyArgs */
@@ -111,22 +126,28 @@ enum { E_START, E_GOAL, E_COLS, E_DX, E_DY, E_DZ, E_N_SUB, E_K0, E_K1, E_MU0, E_
        E_STRAIGHT, E_N };
 typedef char energy_fields_check[E_N == ENERGY_NFIELDS ? 1 : -1];
 static const Field ENERGY_FIELDS[E_N] = {
-    [E_START] = {"start_yz", T_F64, 1, 0}, [E_GOAL] = {"goal_yz", T_F64, 1, 0},
-    [E_COLS] = {"cols", T_F64, 2, 0},      [E_DX] = {"dx", K_REAL, 0, 0},
-    [E_DY] = {"dy", K_REAL, 0, 0},         [E_DZ] = {"dz", K_REAL, 0, 0},
-    [E_N_SUB] = {"n_sub", K_INT, 0, 0},    [E_K0] = {"k0", K_REAL, 0, 0},
-    [E_K1] = {"k1", K_REAL, 0, 0},         [E_MU0] = {"mu0", K_REAL, 0, 0},
-    [E_K2] = {"k2", K_REAL, 0, 0},         [E_SMOOTH] = {"smooth", K_INT, 0, 0},
-    [E_STRAIGHT] = {"straight", K_FLAG, 0, 0},
+    [E_START] = F(energy, start_yz, T_F64, 1, 0),
+    [E_GOAL] = F(energy, goal_yz, T_F64, 1, 0),
+    [E_COLS] = F(energy, cols, T_F64, 2, 0),
+    [E_DX] = F(energy, dx, K_REAL, 0, 0),
+    [E_DY] = F(energy, dy, K_REAL, 0, 0),
+    [E_DZ] = F(energy, dz, K_REAL, 0, 0),
+    [E_N_SUB] = F(energy, n_sub, K_INT, 0, 0),
+    [E_K0] = F(energy, k0, K_REAL, 0, 0),
+    [E_K1] = F(energy, k1, K_REAL, 0, 0),
+    [E_MU0] = F(energy, mu0, K_REAL, 0, 0),
+    [E_K2] = F(energy, k2, K_REAL, 0, 0),
+    [E_SMOOTH] = F(energy, smooth, K_INT, 0, 0),
+    [E_STRAIGHT] = F(energy, straight, K_FLAG, 0, 0),
 };
 
 /* uavplan.planners._kernels.EnergyCache */
 enum { C_FILLED, C_VALUES, C_PATHS, C_N };
 typedef char cache_fields_check[C_N == CACHE_NFIELDS ? 1 : -1];
 static const Field CACHE_FIELDS[C_N] = {
-    [C_FILLED] = {"filled", T_BOOL, 1, 1},
-    [C_VALUES] = {"values", T_F64, 1, 1},
-    [C_PATHS] = {"paths", T_I32, 2, 1},
+    [C_FILLED] = F(cache, filled, T_BOOL, 1, 1),
+    [C_VALUES] = F(cache, values, T_F64, 1, 1),
+    [C_PATHS] = F(cache, paths, T_I32, 2, 1),
 };
 
 /* uavplan.planners._kernels.StepSetup: what every step of one search shares */
@@ -134,29 +155,32 @@ enum { S_REACH, S_ENERGY, S_LINE, S_GOAL_U, S_N_PROD, S_ITERATIONS, S_T_MAX, S_V
        S_WINDOW, S_FLAGS, S_WARNING_VALUE, S_CACHE, S_THREADS, S_N };
 typedef char setup_fields_check[S_N == SETUP_NFIELDS ? 1 : -1];
 static const Field SETUP_FIELDS[S_N] = {
-    [S_REACH] = {"reach", K_OBJECT, 0, 0},
-    [S_ENERGY] = {"energy", K_OBJECT, 0, 0},
-    [S_LINE] = {"line", T_F64, 2, 0},
-    [S_GOAL_U] = {"goal_u", T_F64, 1, 0},
-    [S_N_PROD] = {"n_prod", K_INT, 0, 0},
-    [S_ITERATIONS] = {"iterations", K_INT, 0, 0},
-    [S_T_MAX] = {"t_max", K_INT, 0, 0},
-    [S_V_MIN] = {"v_min", K_INT, 0, 0},
-    [S_V_MAX] = {"v_max", K_INT, 0, 0},
-    [S_WINDOW] = {"window", K_INT, 0, 0},
-    [S_FLAGS] = {"flags", K_INT, 0, 0},
-    [S_WARNING_VALUE] = {"warning_value", K_REAL, 0, 0},
-    [S_CACHE] = {"cache", K_OBJECT, 0, 0},
-    [S_THREADS] = {"threads", K_INT, 0, 0},
+    [S_REACH] = F(setup, reach, K_OBJECT, 0, 0),
+    [S_ENERGY] = F(setup, energy, K_OBJECT, 0, 0),
+    [S_LINE] = F(setup, line, T_F64, 2, 0),
+    [S_GOAL_U] = F(setup, goal_u, T_F64, 1, 0),
+    [S_N_PROD] = F(setup, n_prod, K_INT, 0, 0),
+    [S_ITERATIONS] = F(setup, iterations, K_INT, 0, 0),
+    [S_T_MAX] = F(setup, t_max, K_INT, 0, 0),
+    [S_V_MIN] = F(setup, v_min, K_INT, 0, 0),
+    [S_V_MAX] = F(setup, v_max, K_INT, 0, 0),
+    [S_WINDOW] = F(setup, window, K_INT, 0, 0),
+    [S_FLAGS] = F(setup, flags, K_INT, 0, 0),
+    [S_WARNING_VALUE] = F(setup, warning_value, K_REAL, 0, 0),
+    [S_CACHE] = F(setup, cache, K_OBJECT, 0, 0),
+    [S_THREADS] = F(setup, threads, K_INT, 0, 0),
 };
 
 /* uavplan.planners._kernels.StepDraws: the random numbers of one step */
 enum { D_WARN, D_PDRAW, D_SIGNS, D_AWARE, D_SEEDS1, D_SEEDS2, D_N };
 typedef char draws_fields_check[D_N == DRAWS_NFIELDS ? 1 : -1];
 static const Field DRAWS_FIELDS[D_N] = {
-    [D_WARN] = {"warn", K_REAL, 0, 0},     [D_PDRAW] = {"pdraw", T_F64, 1, 0},
-    [D_SIGNS] = {"signs", T_F64, 3, 0},    [D_AWARE] = {"aware", T_I64, 1, 0},
-    [D_SEEDS1] = {"seeds1", T_U64, 1, 0},  [D_SEEDS2] = {"seeds2", T_U64, 1, 0},
+    [D_WARN] = F(draws, warn, K_REAL, 0, 0),
+    [D_PDRAW] = F(draws, pdraw, T_F64, 1, 0),
+    [D_SIGNS] = F(draws, signs, T_F64, 3, 0),
+    [D_AWARE] = F(draws, aware, T_I64, 1, 0),
+    [D_SEEDS1] = F(draws, seeds1, T_U64, 1, 0),
+    [D_SEEDS2] = F(draws, seeds2, T_U64, 1, 0),
 };
 
 static PyObject *world_names[WORLD_BUFS], *reach_names[R_N], *energy_names[E_N],
@@ -188,7 +212,6 @@ void values_release(Value *v, int n) {
  * arrays acquired, numbers converted, objects as new references. On an error nothing is
  * held. */
 static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
-    char what[64];
     memset(v, 0, sizeof(Value) * (size_t)n);
     for (int i = 0; i < n; i++) {
         const Field *f = &s->fields[i];
@@ -216,9 +239,7 @@ static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
             v[i].integer = PyObject_IsTrue(a);
             bad = v[i].integer < 0;
             break;
-        default:
-            snprintf(what, sizeof(what), "%s.%s", s->what, f->name);
-            bad = get_buf(a, &v[i].buf, f->kind, f->ndim, f->writable, what) < 0;
+        default: bad = get_buf(a, &v[i].buf, f->kind, f->ndim, f->writable, f->qual) < 0;
         }
         Py_XDECREF(a);
         if (bad) {

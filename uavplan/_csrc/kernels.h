@@ -131,6 +131,7 @@ enum { K_REAL = 16, K_INT, K_FLAG, K_OBJECT };
 
 typedef struct {
     const char *name; /* the attribute */
+    const char *qual; /* "structure.attribute", for messages */
     int kind;         /* T_* (an array) or K_* */
     int ndim;         /* an array's dimensions */
     int writable;     /* the kernels write the array */

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -460,13 +460,14 @@ class StepSetup:
         kernel_fields(self, "setup")
 
 
-@dataclass(frozen=True, slots=True, eq=False)
-class StepDraws:
+class StepDraws(NamedTuple):
     """The random numbers of one fused SPSA step, drawn from the search's Generator (see
     :meth:`uavplan.planners.sparrow.SparrowPlanner.step`): ``warn`` R2; ``pdraw`` (n_prod,)
-    α = 1 − U when R2 < ST, else Q ~ N(0, 1); ``signs`` (near, n, 2) eq. 4's ±1;
-    ``aware`` the danger-aware sparrows; ``seeds1``, ``seeds2`` (G,) the two rebuilds'
-    random streams (:func:`stream_seeds`)."""
+    float64, α = 1 − U when R2 < ST, else Q ~ N(0, 1); ``signs`` (near, n, 2) float64,
+    eq. 4's ±1; ``aware`` int64, the danger-aware sparrows; ``seeds1``, ``seeds2`` (G,)
+    uint64, the two rebuilds' random streams (:func:`stream_seeds`). Built for every step,
+    so a plain record: the kernel reads its fields by name and checks every array's dtype
+    and shape itself (TypeError / ValueError)."""
 
     warn: float
     pdraw: np.ndarray
@@ -474,9 +475,6 @@ class StepDraws:
     aware: np.ndarray
     seeds1: np.ndarray
     seeds2: np.ndarray
-
-    def __post_init__(self) -> None:
-        kernel_fields(self, "draws")
 
 
 def spsa_step(

@@ -101,7 +101,7 @@ class SparrowPlanner(SwarmPlanner):
             pdraw = rng.standard_normal(n_prod)  # Q
         seeds1 = K.stream_seeds(rng, n_pop)
         signs = K.sign_draws(rng, (n_near, n_inner, 2))  # 2·rng.integers(0, 2) − 1
-        aware = rng.permutation(n_pop)[:n_danger]
+        aware = rng.permutation(n_pop)[:n_danger].astype(np.int64, copy=False)
         seeds2 = K.stream_seeds(rng, n_pop)
         draws = K.StepDraws(warn, pdraw, signs, aware, seeds1, seeds2)
         fixed = pop.state.get("osc_fixed")
