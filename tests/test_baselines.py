@@ -85,7 +85,8 @@ def _initial_best(problem: PathProblem, seed: int) -> float:
 
 
 def test_every_paper_algorithm_is_registered() -> None:
-    assert set(available()) == {"spsa", "ssa", *BASELINES}
+    # and SPSA's numpy formulation (the compiled step's reference), so this suite runs it too
+    assert set(available()) == {"spsa", "ssa", *BASELINES, "spsa_numpy"}
 
 
 # --- contract suite over every planner ------------------------------------------------------

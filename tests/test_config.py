@@ -292,7 +292,10 @@ def test_table_lists_the_paper_algorithms() -> None:
     assert list(PLANNERS)[:6] == ["spsa", "ssa", "pso", "gwo", "de", "cso"]
     assert config.paper_algorithms() == ("spsa", "ssa", "pso", "gwo", "de", "cso")
     assert PLANNERS["spsa"].postprocess and PLANNERS["spsa"].fitness_smoothing == 2
-    assert not any(e.postprocess for n, e in PLANNERS.items() if n != "spsa")
+    # SPSA's numpy formulation is SPSA: the same search, the same post-processing
+    assert not any(e.postprocess for n, e in PLANNERS.items() if n not in ("spsa", "spsa_numpy"))
+    numpy_spsa = PLANNERS["spsa_numpy"]
+    assert numpy_spsa.postprocess and numpy_spsa.fitness_smoothing == 2 and not numpy_spsa.paper
 
 
 @pytest.mark.parametrize("name", ["grid", "options", "Bad", "with-dash", ""])

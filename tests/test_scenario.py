@@ -351,7 +351,7 @@ BAD = [
      "obstacles", "must be a list"),
     ("obstacle-is-null", BASE + "  - null\n", "obstacles[1]", "must be a mapping"),
     ("unknown-algorithm", BASE + "planner: {algorithm: astar}\n", "planner.algorithm",
-     "unknown algorithm 'astar' (available: spsa, ssa, pso, gwo, de, cso)"),
+     "unknown algorithm 'astar' (available: spsa, ssa, pso, gwo, de, cso, spsa_numpy)"),
     ("float-population", BASE + "planner: {population: 30.5}\n", "planner.population",
      "must be an integer"),
     ("unknown-planner-key", BASE + "planner: {swarm: 3}\n", "planner.swarm", "unknown key"),

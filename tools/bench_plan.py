@@ -177,9 +177,9 @@ def main() -> int:
         "'process' = the whole `uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / "
         "(A* + line of sight)"
     )
-    from uavplan.planners._kernels import step_threads
+    from uavplan.planners._kernels import step_threads_note
 
-    print(f"SPSA step threads: {step_threads()} (UAVPLAN_THREADS, or the CPUs available, <= 2)")
+    print(f"{step_threads_note()} (UAVPLAN_THREADS, or the CPUs available, <= 2)")
     return 0
 
 

@@ -631,6 +631,14 @@ for _entry in (
         "chicken swarm optimisation (Meng et al. 2014)",
         paper=True,
     ),
+    PlannerEntry(
+        "spsa_numpy",
+        "uavplan.planners.sparrow_numpy:NumpySparrowPlanner",
+        SpsaParams,
+        "SPSA's iteration in numpy: slow but readable, the compiled step's reference (same route)",
+        fitness_smoothing=2,
+        postprocess=True,
+    ),
 ):
     register(_entry)
 

@@ -225,19 +225,21 @@ class World:
 
     # -- queries -----------------------------------------------------------------------
     @cached_property
-    def kernel_args(self) -> tuple:
-        """The world tuple ``W`` the kernels of :mod:`uavplan._geom` take (checked once)."""
-        return _geom.world_arrays(
-            (
-                self.poly_xy,
-                self.poly_n,
-                self.poly_h,
-                self.circ,
-                self.box,
-                self.hp,
-                self.zlim,
-                *self.cells,
-            )
+    def kernel_args(self) -> _geom.KernelWorld:
+        """The world as the kernels of :mod:`uavplan._geom` read it, by name (checked once)."""
+        gmeta, cell_start, cell_items, piece_cells = self.cells
+        return _geom.KernelWorld(
+            poly_xy=self.poly_xy,
+            poly_n=self.poly_n,
+            poly_h=self.poly_h,
+            circ=self.circ,
+            box=self.box,
+            hp=self.hp,
+            zlim=self.zlim,
+            gmeta=gmeta,
+            cell_start=cell_start,
+            cell_items=cell_items,
+            piece_cells=piece_cells,
         )
 
     def segments_free(

@@ -11,10 +11,11 @@ individual and axis, so a whole population costs O(G·D).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
-from uavplan._geom import _c
+from uavplan._geom import _c, kernel_fields
 from uavplan.config import EnergyWeights
 
 #: spline samples per column interval used by the search fitness
@@ -23,6 +24,31 @@ N_SUB = 3
 
 def _f64(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class EnergyArgs:
+    """The fitness's fixed arguments for one path problem, by name, as the kernels read them
+    (:attr:`PathProblem.energy_args <uavplan.planners.base.PathProblem.energy_args>` builds
+    them; :func:`energy_of` and the fused SPSA step read them). See
+    :func:`population_energy` for their meaning."""
+
+    start_yz: np.ndarray
+    goal_yz: np.ndarray
+    cols: np.ndarray
+    dx: float
+    dy: float
+    dz: float
+    n_sub: int
+    k0: float
+    k1: float
+    mu0: float
+    k2: float
+    smooth: int
+    straight: bool
+
+    def __post_init__(self) -> None:
+        kernel_fields(self, "energy")
 
 
 def polyline_energy(
@@ -91,21 +117,21 @@ def population_energy(
     paper; along a curved guide every knot is placed in the plane (origin + y·normal) and
     x, y and z are splines of the column index.
     """
-    energy = (
-        _f64(start_yz), _f64(goal_yz), _f64(cols), float(dx), float(dy), float(dz), int(n_sub),
-        float(k0), float(k1), float(mu0), float(k2), int(smooth), bool(straight),
+    energy = EnergyArgs(
+        start_yz, goal_yz, cols, float(dx), float(dy), float(dz), int(n_sub), float(k0),
+        float(k1), float(mu0), float(k2), int(smooth), bool(straight),
     )  # fmt: skip
     return energy_of(nodes, energy)
 
 
-def energy_of(nodes: np.ndarray, energy: tuple) -> np.ndarray:
-    """:func:`population_energy` with its fixed arguments packed once, as the tuple
-    ``(start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth, straight)`` that
-    ``PathProblem.energy_args`` builds and the fused SPSA step reads too."""
+def energy_of(nodes: np.ndarray, energy: EnergyArgs) -> np.ndarray:
+    """:func:`population_energy` with its fixed arguments packed once (an
+    :class:`EnergyArgs`, as ``PathProblem.energy_args`` builds it and the fused SPSA step
+    reads it too)."""
     return _per_individual(_c.population_energy, nodes, energy)
 
 
-def energy_bounds(nodes: np.ndarray, energy: tuple) -> np.ndarray:
+def energy_bounds(nodes: np.ndarray, energy: EnergyArgs) -> np.ndarray:
     """A lower bound (G,) of :func:`energy_of` that costs a fraction of it: k0 times the
     length of the knots' polyline plus k2 times its climb (the spline's samples include the
     knots, so its polyline is no shorter and climbs no less, and the turn term is >= 0).
@@ -115,7 +141,9 @@ def energy_bounds(nodes: np.ndarray, energy: tuple) -> np.ndarray:
     return _per_individual(_c.energy_bounds, nodes, energy)
 
 
-def _per_individual(kernel: Callable[..., None], nodes: np.ndarray, energy: tuple) -> np.ndarray:
+def _per_individual(
+    kernel: Callable[..., None], nodes: np.ndarray, energy: EnergyArgs
+) -> np.ndarray:
     """``kernel(nodes, energy, out)`` for nodes (G, n, 2): one value per individual."""
     nodes = _f64(nodes)
     out = np.empty(nodes.shape[0])

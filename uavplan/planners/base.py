@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EnergyWeights, GridSpec, SearchParams
-from uavplan.path.energy import N_SUB, energy_of
+from uavplan.path.energy import N_SUB, EnergyArgs, energy_of
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
 from uavplan.planners.proposal import Proposal
@@ -138,16 +138,16 @@ class PathProblem:
         its arrays are the problem's own, the memo and the counters shared)."""
         dx, dy, dz = self.steps
         return K.Reach(
-            self.world.kernel_args,
-            self.frame.cols,
-            self.memo,
-            self.table[0],
-            self.table[1],
-            np.array([dx, dy, dz]),
-            self.start_m,
-            self.goal_m,
-            float(self.margin_m),
-            self.counters[1:],
+            world=self.world.kernel_args,
+            cols=self.frame.cols,
+            memo=self.memo,
+            table=self.table[0],
+            table_off=self.table[1],
+            steps=np.array([dx, dy, dz]),
+            start_m=self.start_m,
+            goal_m=self.goal_m,
+            margin=float(self.margin_m),
+            counts=self.counters[1:],
         )
 
     @property
@@ -170,19 +170,26 @@ class PathProblem:
         return (self.frame.dx_m, g.dy_m, g.dz_m)
 
     @cached_property
-    def energy_args(self) -> tuple:
+    def energy_args(self) -> EnergyArgs:
         """The fitness's fixed arguments as the kernels read them (see
         :func:`~uavplan.path.energy.energy_of`)."""
         w = self.energy
         dx, dy, dz = self.steps
-        return (
-            np.ascontiguousarray(self.start_m[1:]),
-            np.ascontiguousarray(self.goal_m[1:]),
-            np.ascontiguousarray(self.frame.cols, dtype=np.float64),
-            float(dx), float(dy), float(dz), N_SUB,
-            float(w.k0), float(w.k1), float(w.mu0), float(w.k2),
-            int(self.fitness_smoothing), bool(self.frame.straight),
-        )  # fmt: skip
+        return EnergyArgs(
+            start_yz=self.start_m[1:],
+            goal_yz=self.goal_m[1:],
+            cols=self.frame.cols,
+            dx=float(dx),
+            dy=float(dy),
+            dz=float(dz),
+            n_sub=N_SUB,
+            k0=float(w.k0),
+            k1=float(w.k1),
+            mu0=float(w.mu0),
+            k2=float(w.k2),
+            smooth=int(self.fitness_smoothing),
+            straight=bool(self.frame.straight),
+        )
 
     def fitness(self, nodes: np.ndarray) -> np.ndarray:
         """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
