@@ -40,6 +40,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "config.py",
         "geometry2d.py",
         "fileio.py",
+        "limits.py",
     ),
     "world": ("world.py", "_geom.py"),
     "path": ("path/*.py",),
