@@ -650,3 +650,28 @@ def test_fuzz_binary_formats(
     )
     validated = run("validate", str(scenario))
     assert_clean(validated, scenario)
+
+
+def test_obstacles_thousands_of_km_apart_plan_in_bounded_memory(tmp_path: Path) -> None:
+    """The world's lookup grid over pieces 2,000 km apart needed 48 GB (MemoryError, exit 1);
+    it now stays bounded and the route is the same as without the far obstacles."""
+    base = (
+        "name: far\norigin: {lat: 47.397742, lon: 8.545594, alt: 488}\n"
+        "bounds: {x: [0, 500], y: [-200, 200], z: [0, 100]}\n"
+        "start: [0, 0, 30]\ngoal: [500, 0, 30]\nobstacles:\n"
+        "  - {type: cylinder, center: [250, 0], radius: 30, height: 50}\n"
+    )
+    far = base + (
+        "  - {type: cylinder, center: [-999000, -999000], radius: 5, height: 10}\n"
+        "  - {type: cylinder, center: [999000, 999000], radius: 5, height: 10}\n"
+    )
+    reports = []
+    for name, text in (("near", base), ("far", far)):
+        scenario = tmp_path / f"{name}.yaml"
+        scenario.write_text(text)
+        report = tmp_path / f"{name}.json"
+        result = run("plan", str(scenario), "-o", str(tmp_path / f"{name}.plan"),
+                     "--report", str(report))  # fmt: skip
+        assert_clean(result, scenario, (0,))
+        reports.append(json.loads(report.read_text()))
+    assert reports[0]["energy"] == reports[1]["energy"]
