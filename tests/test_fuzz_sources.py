@@ -52,6 +52,8 @@ FUZZ = settings(
 )
 
 LAT0, LON0 = 60.17, 24.94  # a block of Helsinki
+#: the whole test's limit grows with the examples; one example's hang is hypothesis's deadline
+pytestmark = pytest.mark.timeout(max(120, 3 * EXAMPLES))
 
 
 def run(*args: str) -> Result:
