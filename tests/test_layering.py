@@ -41,6 +41,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "geometry2d.py",
         "fileio.py",
         "vehicle/*.py",
+        "limits.py",
     ),
     "world": ("world.py", "_geom.py"),
     "path": ("path/*.py",),

@@ -211,6 +211,10 @@ def segments_clearance(
     return dist, which
 
 
+#: at most about this many cells in a world's lookup grid (8 bytes each, plus the items)
+MAX_GRID_CELLS = 4_000_000
+
+
 def build_cells(
     box: np.ndarray, pad: float, cell: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -226,6 +230,10 @@ def build_cells(
     y0 = float(box[:, 2].min()) - pad
     x1 = float(box[:, 1].max()) + pad
     y1 = float(box[:, 3].max()) + pad
+    # pieces scattered over a wide area (obstacles far outside the flight volume, a fence
+    # polygon thousands of km long) would need billions of cells: coarser cells instead,
+    # which only makes a query test more pieces
+    cell = max(cell, math.sqrt((x1 - x0) * (y1 - y0) / MAX_GRID_CELLS))
     nx = math.floor((x1 - x0) / cell) + 1
     ny = math.floor((y1 - y0) / cell) + 1
     piece_cells = np.empty((npieces, 4), np.int64)

@@ -597,4 +597,5 @@ def scene_for(scenario: Scenario) -> Scene:
         start_enu=(sx, sy, sz),
         goal_enu=(gx, gy, gz),
         terrain=terrain,
+        via_enu=tuple((float(x), float(y), float(z)) for x, y, z in scenario.via_m),
     )

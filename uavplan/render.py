@@ -59,6 +59,7 @@ _COLORS = {
     "flown": "#ff7f0e",
     "start": "#2ca02c",
     "goal": "#d62728",
+    "via": "#17becf",
     "margin": "#444444",
     "fence_exclusion": "#d62728",
     "fence_inclusion": "#2ca02c",
@@ -86,6 +87,8 @@ class Scene:
     goal_enu: tuple[float, float, float]
     #: the ground over the bounds, ``(x (nx,), y (ny,), z (ny, nx))``, or None (flat, z = 0)
     terrain: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
+    #: the route's via points ``(x, y, z)`` in order (the scenario's ``via``)
+    via_enu: tuple[tuple[float, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -185,6 +188,24 @@ def render_scene(
     Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi, ``OSError``
     if the file cannot be written.
     """
+    fig = draw_scene(
+        scene, layers, width_px=width_px, height_px=height_px, dpi=dpi, title=title,
+        subtitle=subtitle,
+    )  # fmt: skip
+    fig.savefig(os.fspath(output), dpi=dpi, format="png")
+
+
+def draw_scene(
+    scene: Scene,
+    layers: RouteLayers | None = None,
+    *,
+    width_px: int = DEFAULT_WIDTH_PX,
+    height_px: int = DEFAULT_HEIGHT_PX,
+    dpi: int = DEFAULT_DPI,
+    title: str | None = None,
+    subtitle: str | None = None,
+) -> Any:
+    """The matplotlib Figure :func:`render_scene` saves (see there)."""
     if width_px < 200 or height_px < 150:
         raise ValueError(f"picture size must be at least 200x150 px, got {width_px}x{height_px}")
     if dpi <= 0:
@@ -206,7 +227,10 @@ def render_scene(
     side_by_side = width_px / height_px >= 1.5
     columns = 5 if side_by_side else 3
     rows = -(-len(_legend_handles(scene, layers, scale)) // columns)
-    footer = ((22 + 20 * rows) * px) / height_px
+    # under the top view: its tick labels (8 pt) and x label (9 pt) with their pads, then
+    # the legend's rows
+    labels_px = ((8.0 + 9.0) * scale + 12.0) * dpi / 72.0
+    footer = ((22 + 20 * rows) * px + labels_px) / height_px
     if side_by_side:
         grid = fig.add_gridspec(
             1,
@@ -227,7 +251,7 @@ def render_scene(
             height_ratios=(1.4, 1.0),
             left=0.08,
             right=0.95,
-            bottom=footer + 0.03,
+            bottom=footer,
             top=1.0 - header,
             hspace=0.15,
         )
@@ -272,7 +296,7 @@ def render_scene(
             va="top",
             fontsize=10 * scale,
         )
-    fig.savefig(os.fspath(output), dpi=dpi, format="png")
+    return fig
 
 
 _TERRAIN_CMAP = "gist_earth"
@@ -523,6 +547,29 @@ def _draw_paths(ax: Any, layers: RouteLayers, scale: float, *, three_d: bool) ->
 
 def _start_goal(ax: Any, scene: Scene, scale: float, *, three_d: bool) -> None:
     size = 90 * scale
+    for number, point in enumerate(scene.via_enu, start=1):
+        coords = point if three_d else point[:2]
+        kwargs_via: dict[str, Any] = {"depthshade": False} if three_d else {}
+        ax.scatter(
+            *[[c] for c in coords],
+            marker="D",
+            s=size * 0.55,
+            color=_COLORS["via"],
+            edgecolors="black",
+            linewidths=0.6,
+            zorder=9,
+            clip_on=not three_d,
+            **kwargs_via,
+        )
+        if not three_d:  # numbered in the top view: the order the route takes them
+            ax.annotate(
+                str(number),
+                point[:2],
+                xytext=(5 * scale, 5 * scale),
+                textcoords="offset points",
+                fontsize=8 * scale,
+                zorder=10,
+            )
     for point, marker, key in ((scene.start_enu, "^", "start"), (scene.goal_enu, "*", "goal")):
         coords = point if three_d else point[:2]
         kwargs: dict[str, Any] = {"depthshade": False} if three_d else {}
@@ -616,6 +663,19 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
             label="start",
         )
     )
+    if scene.via_enu:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker="D",
+                color=_COLORS["via"],
+                mec="black",
+                markersize=6,
+                label="via point (in order)",
+            )
+        )
     handles.append(
         Line2D(
             [],

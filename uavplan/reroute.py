@@ -51,6 +51,7 @@ from numpy.typing import NDArray
 from uavplan.errors import InputError, NoPathError
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.geometry2d import orient_ccw, polygon_problem
+from uavplan.limits import MAX_FENCE_POLYGON_VERTICES, MAX_FENCE_ZONES, MAX_HORIZONTAL_M
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.items import (
     MavCmd,
@@ -63,7 +64,7 @@ from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, RouteStatus, build_world, plan_route
 from uavplan.route import EndAction, keeps_margin
-from uavplan.scenario import MissionConfig, PlannerConfig, Scenario
+from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, check_limits
 from uavplan.world import World
 
 #: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
@@ -313,9 +314,24 @@ def build_airspace(
     exclusion_circles: list[tuple[tuple[float, float], float, str]] = []
     inclusion_shapes: list[Any] = []
     n_poly = n_circ = 0
+    zones = len(fence.polygons) + len(fence.circles)
+    if zones > MAX_FENCE_ZONES:
+        raise InputError(
+            f"the geofence has {zones:,} polygons and circles; rerouting takes at most "
+            f"{MAX_FENCE_ZONES:,}",
+            file=file,
+        )
     for i, poly in enumerate(fence.polygons):
-        ring = _ring_xy(frame, poly.vertices)
         kind = "inclusion" if poly.inclusion else "exclusion"
+        if len(poly.vertices) > MAX_FENCE_POLYGON_VERTICES:
+            # the polygon checks and the convex pieces grow with the square of the vertices
+            raise InputError(
+                f"{kind} polygon {i + 1} of the geofence has {len(poly.vertices):,} vertices; "
+                f"rerouting takes at most {MAX_FENCE_POLYGON_VERTICES:,} per polygon "
+                "(simplify it, e.g. in QGroundControl's polygon editor)",
+                file=file,
+            )
+        ring = _ring_xy(frame, poly.vertices)
         problem = polygon_problem(ring)
         if problem is not None:
             raise InputError(f"{kind} polygon {i + 1} of the geofence: {problem}", file=file)
@@ -384,6 +400,18 @@ def build_airspace(
             obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
             names.append("the area outside the inclusion fence")
     return Airspace(bounds, tuple(obstacles), tuple(names), inclusion)
+
+
+def _check_volume(bounds: Bounds, file: str | None) -> None:
+    """The flight volume the plan spans (its fence, its items) within the horizontal limit of
+    any scenario."""
+    far = max(abs(v) for v in (*bounds.x_m, *bounds.y_m))
+    if far > MAX_HORIZONTAL_M:
+        raise InputError(
+            f"the plan and its geofence reach {far / 1000:,.0f} km from home, beyond the "
+            f"{MAX_HORIZONTAL_M / 1000:,.0f} km a flight volume may span",
+            file=file,
+        )
 
 
 def _simple_pieces(geometry: Any) -> list[Any]:
@@ -532,6 +560,8 @@ def reroute_plan(
         template = replace(template, planner=base.planner)
     if planner is not None:
         template = replace(template, planner=planner)
+    _check_volume(airspace.bounds, file)
+    check_limits(template)  # the size limits every scenario obeys (a fence 5,000 km wide)
     world = build_world(template)
     hxy = frame.to_enu_xy([home.lat_deg], [home.lon_deg])[0]
     home_xy = (float(hxy[0]), float(hxy[1]))

@@ -50,6 +50,13 @@ from uavplan.config import (
 )
 from uavplan.errors import ScenarioError
 from uavplan.geo import GeoPoint
+from uavplan.limits import (
+    MAX_ALTITUDE_M,
+    MAX_HORIZONTAL_M,
+    MAX_OBSTACLES,
+    MAX_POLYGON_VERTICES,
+    MAX_SIZE_M,
+)
 from uavplan.obstacles import (
     Bounds,
     BoxObstacle,
@@ -81,17 +88,10 @@ MAX_FILE_BYTES = 32 * 1024 * 1024
 MAX_YAML_NODES = 5_000_000
 #: deepest nesting of lists and mappings
 MAX_YAML_DEPTH = 64
-#: every x and y (bounds, points, obstacle centres and vertices) within ± this, metres
-MAX_HORIZONTAL_M = 1_000_000.0
-#: the flight ceiling (bounds.z max), obstacle heights and sizes at most this, metres
-MAX_ALTITUDE_M = 20_000.0
-MAX_SIZE_M = 2 * MAX_HORIZONTAL_M
-#: at most this many obstacles (map and scenario together)
-MAX_OBSTACLES = 200_000
+# (the limits on coordinates, heights, obstacle counts and polygon sizes live in
+# uavplan.limits: source files and .plan fences obey them too)
 #: via points in one scenario
 MAX_VIA_POINTS = 1_000
-#: at most this many vertices per prism polygon
-MAX_POLYGON_VERTICES = 1_000
 #: safety margin at most this, metres
 MAX_SAFETY_MARGIN_M = 10_000.0
 #: a name at most this many characters; a map path at most PATH_MAX / NAME_MAX

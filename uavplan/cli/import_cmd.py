@@ -11,6 +11,7 @@ import click
 from uavplan.cli import main
 from uavplan.cli.common import handle_errors
 from uavplan.errors import InputError
+from uavplan.limits import MAX_ALTITUDE_M, MAX_HORIZONTAL_M
 
 _EPILOG = """\b
 Examples:
@@ -24,6 +25,12 @@ The map keeps origin, bounds and every obstacle as plain YAML (prisms and cylind
 editing; a scenario names it with `map:`. To keep the source file as the truth instead, name
 it in the scenario with `obstacle_files: [{file: town.osm.pbf}]`.
 """
+
+
+def _finite(value: float, option: str) -> float:
+    if not math.isfinite(value):  # click's FloatRange lets NaN through
+        raise click.BadParameter(f"{value!r} is not a number", param_hint=option)
+    return value
 
 
 def _floats(text: str, option: str, counts: tuple[int, ...]) -> list[float]:
@@ -53,7 +60,8 @@ def _floats(text: str, option: str, counts: tuple[int, ...]) -> list[float]:
 )
 @click.option(
     "--ceiling",
-    type=click.FloatRange(min=0, min_open=True),
+    type=click.FloatRange(min=0, min_open=True, max=MAX_ALTITUDE_M),
+    callback=lambda _ctx, _param, value: _finite(value, "--ceiling"),
     default=120.0,
     show_default=True,
     help="Top of the map's bounds (bounds.z), metres above the ground.",
@@ -97,6 +105,7 @@ def import_command(
         raise InputError("the map is YAML: name the output *.yaml", file=output)
     option_of = {"layer": "--layer", "height_attribute": "--height-attribute"}
     option_of |= {"default_height": "--default-height", "min_height": "--min-height"}
+    result = None
     try:
         spec = ObstacleFileSpec(Path(source), layer, height_attribute, default_height, min_height)
         features, result = read_features(spec)
@@ -115,12 +124,22 @@ def import_command(
             b = _floats(bounds, "--bounds", (4,))
             if not (b[0] < b[1] and b[2] < b[3]):
                 raise InputError(f"--bounds: needs XMIN < XMAX and YMIN < YMAX, got {bounds!r}")
+            if max(abs(v) for v in b) > MAX_HORIZONTAL_M:
+                raise InputError(
+                    f"--bounds: every value within ±{MAX_HORIZONTAL_M:,.0f} m of the origin, "
+                    f"got {bounds!r}"
+                )
             box = Bounds((b[0], b[1]), (b[2], b[3]), (0.0, ceiling))
         features_to_obstacles(features, frame, box, result)
     except SourceError as err:
+        if result is not None and (result.skipped or result.kept):
+            for line in result.summary_lines():  # what was read, and why it was skipped
+                click.echo(line, err=True)
         where = option_of.get(err.key or "", "")
         raise InputError(f"{where + ': ' if where else ''}{err.reason}", file=source) from None
     if not result.obstacles:
+        for line in result.summary_lines():
+            click.echo(line, err=True)
         raise InputError("no obstacles left to write (see the counts above)", file=source)
     if box is None:
         box = _fitted_bounds(result.obstacles, ceiling)

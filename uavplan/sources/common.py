@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from uavplan.errors import InputError
+from uavplan.limits import MAX_ALTITUDE_M, MAX_HORIZONTAL_M, MAX_OBSTACLES, MAX_POLYGON_VERTICES
 from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 
 if TYPE_CHECKING:
@@ -94,14 +95,19 @@ class ObstacleFileSpec:
     min_height_m: float | None = None  # a base for every feature of the file (metres)
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.default_height_m) and self.default_height_m > 0):
+        default = self.default_height_m
+        if not (math.isfinite(default) and 0 < default <= MAX_ALTITUDE_M):
             raise SourceError(
-                f"must be a number > 0, got {self.default_height_m!r}", key="default_height"
+                f"must be a number > 0 and <= {MAX_ALTITUDE_M:g}, got {self.default_height_m!r}",
+                key="default_height",
             )
         if self.min_height_m is not None and not (
-            math.isfinite(self.min_height_m) and self.min_height_m >= 0
+            math.isfinite(self.min_height_m) and 0 <= self.min_height_m <= MAX_ALTITUDE_M
         ):
-            raise SourceError(f"must be a number >= 0, got {self.min_height_m!r}", key="min_height")
+            raise SourceError(
+                f"must be a number >= 0 and <= {MAX_ALTITUDE_M:g}, got {self.min_height_m!r}",
+                key="min_height",
+            )
 
     @property
     def is_osm(self) -> bool:
@@ -283,7 +289,39 @@ def read_features(
         from uavplan.sources.vector import read_vector_features
 
         features = read_vector_features(spec, result.skipped, result.notes)
-    return features, result
+    return _with_valid_coordinates(features, result), result
+
+
+def _with_valid_coordinates(features: list[Feature], result: ImportResult) -> list[Feature]:
+    """The features whose every coordinate is a finite longitude/latitude; the others are
+    counted as skipped. If none is valid the file is refused: when its numbers are finite but
+    not degrees (metres of a projected CRS the file does not declare), the message says so."""
+    import numpy as np
+    import shapely
+
+    if not features:
+        return features
+    coords, owner = shapely.get_coordinates([f.geometry for f in features], return_index=True)
+    finite = np.isfinite(coords).all(axis=1)
+    with np.errstate(invalid="ignore"):
+        degrees = finite & (np.abs(coords[:, 0]) <= 180.0) & (np.abs(coords[:, 1]) <= 90.0)
+    bad = np.zeros(len(features), dtype=bool)
+    np.logical_or.at(bad, owner, ~degrees)
+    if not bad.any():
+        return features
+    if bad.all():
+        projected = finite & ~degrees
+        if projected.any():
+            x, y = coords[int(np.argmax(projected))]
+            raise SourceError(
+                f"coordinates such as ({x:.10g}, {y:.10g}) are not longitude/latitude "
+                "degrees: the file's coordinate reference system is missing or wrong (GeoJSON "
+                "holds longitude/latitude unless it names another CRS)",
+                key="file",
+            )
+        raise SourceError("no feature has usable coordinates (non-finite numbers)", key="file")
+    result.skipped["coordinates not finite, or not longitude/latitude degrees"] += int(bad.sum())
+    return [f for f, b in zip(features, bad.tolist(), strict=True) if not b]
 
 
 def features_extent_lonlat(features: Sequence[Feature]) -> tuple[float, float, float, float]:
@@ -419,6 +457,12 @@ def features_to_obstacles(
     for feat, geom in zip(features, enu_geoms, strict=True):
         if feat.height_source == "default" and feat.base_m > 0:
             feat.height_m += feat.base_m  # a default-height part standing on a lifted base
+        if feat.height_m > MAX_ALTITUDE_M:  # a data error (height=9999999, levels=1e308)
+            feat.height_m = MAX_ALTITUDE_M
+            result.notes[f"height above {MAX_ALTITUDE_M:g} m: held at {MAX_ALTITUDE_M:g} m"] += 1
+        # to the millimetre, as a map file stores heights and outlines (so a map written by
+        # `import` and the same file read through obstacle_files hold the same obstacles)
+        feat.height_m = round(feat.height_m, 3)
         if feat.height_m <= feat.base_m:
             result.skipped["top not above its base (min_height >= height)"] += 1
             continue
@@ -463,10 +507,56 @@ def features_to_obstacles(
                 if ring is None:  # thinner than a millimetre somewhere: fill conservatively
                     ring = _mm_ring(piece.convex_hull)
                     result.notes["outline pinched to < 1 mm: its convex hull used"] += 1
+                if ring is not None and len(ring) > MAX_POLYGON_VERTICES:
+                    ring = _mm_ring(_fewer_vertices(piece))
+                    result.notes[
+                        f"outline of more than {MAX_POLYGON_VERTICES} vertices: a covering "
+                        "outline with fewer used"
+                    ] += 1
                 if ring is not None:
                     obstacles.append(PrismObstacle(ring, feat.height_m))
         _count_kept(result, feat)
+    if clip_box is None:  # clipped obstacles lie within the (checked) bounds
+        _check_extent(obstacles)
     result.obstacles = result.obstacles + tuple(obstacles)
+    if len(result.obstacles) > MAX_OBSTACLES:
+        raise SourceError(
+            f"more than {MAX_OBSTACLES:,} obstacles ({len(result.obstacles):,}): narrow the bounds",
+            key="file",
+        )
+
+
+def _fewer_vertices(poly: Any) -> Any:
+    """A polygon covering ``poly`` with at most :data:`MAX_POLYGON_VERTICES` vertices: the
+    conservative simplification at growing tolerances, else the minimum rotated rectangle."""
+    import shapely
+
+    tolerance = SIMPLIFY_TOLERANCE_M
+    for _ in range(12):
+        tolerance *= 2.0
+        grown = poly.buffer(tolerance, join_style="mitre", mitre_limit=2.0)
+        pieces = _polygons(grown.simplify(tolerance, preserve_topology=True))
+        if len(pieces) == 1 and not pieces[0].interiors and pieces[0].covers(poly):
+            if len(pieces[0].exterior.coords) - 1 <= MAX_POLYGON_VERTICES:
+                return pieces[0]
+    return shapely.minimum_rotated_rectangle(poly)
+
+
+def _check_extent(obstacles: Sequence[Obstacle]) -> None:
+    """Refuse obstacles beyond the horizontal limit of every map (data spread over a continent
+    read without bounds)."""
+    far = 0.0
+    for ob in obstacles:
+        if isinstance(ob, CylinderObstacle):
+            far = max(far, max(abs(ob.center_m[0]), abs(ob.center_m[1])) + ob.radius_m)
+        else:
+            far = max(far, max(max(abs(x), abs(y)) for x, y in ob.footprint()))
+    if far > MAX_HORIZONTAL_M:
+        raise SourceError(
+            f"the data reaches {far / 1000:,.0f} km from the origin, beyond the "
+            f"{MAX_HORIZONTAL_M / 1000:,.0f} km a map may span: give bounds around the area",
+            key="file",
+        )
 
 
 def _mm_ring(poly: Any) -> tuple[tuple[float, float], ...] | None:

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uavplan.errors import InputError
+from uavplan.limits import MAX_DEM_POSTS, MAX_GROUND_AMSL_M, MIN_GROUND_AMSL_M
 
 if TYPE_CHECKING:
     from pyproj import Transformer
@@ -104,7 +105,7 @@ class Terrain:
         ENU area is read, and a DEM that does not cover it is a :class:`TerrainError`."""
         import rasterio
         from rasterio.errors import RasterioError, WindowError
-        from rasterio.windows import Window, from_bounds
+        from rasterio.windows import Window
 
         path = Path(path)
         if not path.is_file():
@@ -116,24 +117,24 @@ class Terrain:
                         "the DEM declares no coordinate reference system", file=str(path)
                     )
                 crs_wkt = src.crs.to_wkt()
+                _check_transform(src.transform, str(path))
                 full = Window(0, 0, src.width, src.height)
                 window = full
                 if area_xy_m is not None:
                     box = _area_in_crs(frame, crs_wkt, area_xy_m)
-                    window = (
-                        from_bounds(*box, transform=src.transform)
-                        .round_offsets(op="floor")
-                        .round_lengths(op="ceil")
-                    )
-                    window = Window(
-                        window.col_off - 2, window.row_off - 2, window.width + 4, window.height + 4
-                    )
+                    window = _pixel_window(src.transform, box)
                     try:
                         window = window.intersection(full)
                     except WindowError:  # no overlap at all
                         raise TerrainError(
                             "the DEM does not cover the area (no overlap)", file=str(path)
                         ) from None
+                if window.width * window.height > MAX_DEM_POSTS:
+                    raise TerrainError(
+                        f"the DEM holds {int(window.width * window.height):,} posts over the "
+                        f"area, more than {MAX_DEM_POSTS:,}: resample it coarser",
+                        file=str(path),
+                    )
                 data = src.read(1, window=window, masked=True).astype(np.float64)
                 posts = np.ma.filled(data, np.nan)
                 unit = (src.units[0] or "").strip().lower() if src.units else ""
@@ -142,6 +143,7 @@ class Terrain:
             raise TerrainError(f"cannot read the DEM: {err}", file=str(path)) from None
         if unit in _FEET_UNITS:
             posts = posts * 0.3048
+        _check_posts(posts, str(path))
         terrain = cls(frame, posts, transform, crs_wkt, str(path))
         if area_xy_m is not None:
             terrain.check_covers(area_xy_m)
@@ -399,6 +401,57 @@ class Terrain:
         if not np.all(np.isfinite(top_flat[keep])) or not np.all(np.isfinite(low_flat[keep])):
             raise TerrainError("the DEM has nodata posts inside the area", file=self.source)
         return corners[keep], top_flat[keep], low_flat[keep]
+
+
+def _check_transform(transform: Any, file: str) -> None:
+    """A geotransform that maps pixels to an area: a zero pixel size (or rows parallel to
+    columns) has no inverse. Rotated, north-up and south-up rasters are all fine."""
+    det = transform.a * transform.e - transform.b * transform.d
+    if not (math.isfinite(det) and det != 0.0):
+        raise TerrainError(
+            "the DEM's pixel size is zero (its geotransform maps every pixel to one line)",
+            file=file,
+        )
+
+
+def _pixel_window(transform: Any, box: tuple[float, float, float, float]) -> Any:
+    """The window of whole pixels around a box (west, south, east, north) in the DEM's CRS,
+    with two pixels to spare on each side, for a raster laid out in any direction (rasterio's
+    ``from_bounds`` refuses a south-up raster)."""
+    from rasterio.windows import Window
+
+    west, south, east, north = box
+    corners_x = np.array([west, east, east, west])
+    corners_y = np.array([south, south, north, north])
+    cols, rows = _apply(~transform, corners_x, corners_y)
+    col_off, row_off = float(np.min(cols)), float(np.min(rows))
+    # offsets rounded down and lengths up, as from_bounds(...).round_offsets("floor")
+    # .round_lengths("ceil") gives them for a north-up raster
+    width = math.ceil(float(np.max(cols)) - col_off)
+    height = math.ceil(float(np.max(rows)) - row_off)
+    return Window(math.floor(col_off) - 2, math.floor(row_off) - 2, width + 4, height + 4)
+
+
+def _check_posts(posts: NDArray[np.float64], file: str) -> None:
+    """At least 2 x 2 posts, and every height a plausible ground height (else the file holds
+    an undeclared nodata value such as the float32 maximum, or is in other units)."""
+    if posts.shape[0] < 2 or posts.shape[1] < 2:
+        raise TerrainError(
+            f"the DEM has {posts.shape[0]} x {posts.shape[1]} posts over the area; it needs at "
+            "least 2 x 2 to interpolate between them",
+            file=file,
+        )
+    known = posts[~np.isnan(posts)]  # NaN: nodata; ±inf is a height out of range
+    wild = known[(known < MIN_GROUND_AMSL_M) | (known > MAX_GROUND_AMSL_M)]
+    if len(wild):
+        raise TerrainError(
+            f"the DEM holds heights outside {MIN_GROUND_AMSL_M:g}..{MAX_GROUND_AMSL_M:g} m "
+            f"AMSL ({len(wild):,} posts, e.g. {float(wild[0]):.6g}): a nodata value the file "
+            "does not declare, or heights in other units",
+            file=file,
+        )
+    if not len(known):
+        raise TerrainError("the DEM has no data over the area (every post is nodata)", file=file)
 
 
 def _bilinear_grid(
