@@ -737,21 +737,21 @@ def test_plain_numpy_clearances_match_the_world(tmp_path: Path) -> None:
     """The validation's exact distances (no compiled kernels) agree with the world's."""
     import numpy as np
 
-    from uavplan.scenario import _column_clearance, _point_clearance
+    from uavplan.scenario.clearance import column_clearance, point_clearance
 
     scn = load_scenario(write(tmp_path, "full.yaml", FULL))
     world = build_world(scn)
     rng = np.random.default_rng(3)
     for _ in range(200):
         p = (rng.uniform(-100, 2100), rng.uniform(-700, 700), rng.uniform(1, 260))
-        dist, index = _point_clearance(scn.obstacles, p)
+        dist, index = point_clearance(scn.obstacles, p)
         ref, ref_index = world.nearest_obstacle(p)
         if ref > 0:
             assert dist == pytest.approx(ref, abs=1e-6)
             assert index == ref_index
         else:
             assert dist == 0.0
-        column, _ = _column_clearance(scn.obstacles, p[:2])
+        column, _ = column_clearance(scn.obstacles, p[:2])
         ground = np.array([[p[0], p[1], 0.0]])
         top = np.array([p])
         ref_col, _ = world.segments_clearance(ground, top)
