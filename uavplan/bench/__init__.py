@@ -510,7 +510,7 @@ def run_job(job: BenchJob) -> RunRecord:
         scenario=scn.name,
         algorithm=job.variant.label,
         seed=job.seed,
-        status=res.status.value,
+        status=res.status,
         route_energy=float(res.energy),
         search_fitness=float(pr.best_fitness),
         collision_free=bool(res.collision_free),
@@ -586,7 +586,8 @@ def run_jobs(
     ``distributed.Client``; the jobs then run on that cluster and ``workers`` is ignored.
     Otherwise ``workers`` > 1 runs them on that many local processes, 1 runs them here.
     ``progress(done, total, record)`` is called as each job finishes. ``should_stop`` is
-    polled between jobs (a Ctrl-C flag): the run then raises KeyboardInterrupt.
+    polled between jobs (a Ctrl-C flag): the run then stops and returns the records finished
+    so far (the caller, who owns the flag, knows why there are fewer).
     """
     stop = should_stop or (lambda: False)
     jobs = list(jobs)
@@ -615,8 +616,10 @@ def run_jobs(
         else:
             for job in phase:
                 if stop():
-                    raise KeyboardInterrupt
+                    break
                 finished(run_job(job))
+        if stop():
+            break
     return sorted(done, key=lambda r: r.index)
 
 
@@ -649,11 +652,10 @@ def _run_processes(
                 for fut in ready:
                     finished(fut.result())
                 if stop():
-                    raise KeyboardInterrupt
-        except BaseException:
+                    break
+        finally:
             for fut in futures:
                 fut.cancel()
-            raise
 
 
 def _run_dask(jobs: list[BenchJob], dask: Any, finished: Callable[[RunRecord], None]) -> None:
