@@ -58,8 +58,9 @@ import_in_background()  # as `uavplan plan` does: pyproj loads during the search
 path, out, iterations, reference = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4] == "1"
 scn = load_scenario(path)
 if iterations:
-    from uavplan.cli.plan_cmd import overridden
-    scn = overridden(scn, None, None, iterations, None)
+    from uavplan.app.feedback import PlannerOptions
+
+    scn = PlannerOptions(iterations=iterations).apply(scn)
 t2 = time.perf_counter()
 warm_up()
 t3 = time.perf_counter()

@@ -1,4 +1,8 @@
-"""Helpers shared by the CLI commands: error → exit code mapping, progress on stderr."""
+"""What the CLI commands share: error → exit code mapping, the Ctrl-C flag, progress on
+stderr and the :class:`~uavplan.app.feedback.Feedback` a use case talks through.
+
+Commands import this module and :mod:`uavplan.cli.options`; neither imports a command module,
+and no command module imports another (tests/test_layering.py)."""
 
 from __future__ import annotations
 
@@ -7,10 +11,11 @@ import functools
 import sys
 import time
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import Any, NoReturn, TypeVar
 
 import click
 
+from uavplan.app.feedback import Feedback
 from uavplan.errors import EXIT_INTERNAL, EXIT_INTERRUPTED, UavplanError
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -50,6 +55,33 @@ def handle_errors(fn: F) -> F:
             sys.exit(EXIT_INTERNAL)
 
     return wrapper  # type: ignore[return-value]
+
+
+def exit_interrupted() -> NoReturn:
+    """A use case stopped on Ctrl-C: say so and exit 130 (nothing else was written)."""
+    click.echo("interrupted", err=True)
+    sys.exit(EXIT_INTERRUPTED)
+
+
+def _say(line: str) -> None:
+    click.echo(line, err=True)
+
+
+def _nothing(_line: str) -> None:
+    pass
+
+
+def feedback(
+    quiet: bool, *, should_stop: Callable[[], bool] | None = None, progress: bool = True
+) -> Feedback:
+    """The use case's feedback on stderr: notes unless ``quiet``, warnings always, a
+    progress bar on a terminal (not ``quiet``), and the Ctrl-C flag ``should_stop``."""
+    return Feedback(
+        say=_nothing if quiet else _say,
+        warn=_say,
+        progress=Progress(show_progress(quiet)) if progress else None,
+        should_stop=should_stop,
+    )
 
 
 def show_progress(quiet: bool) -> bool:
@@ -132,6 +164,11 @@ class Progress:
 
     def __call__(self, iteration: int, total: int, best: float) -> None:
         self.show(iteration, total, f"E={best:.1f}")
+
+    def start(self, label: str) -> None:
+        """Start a new bar labelled ``label`` (the current one, if any, ends)."""
+        self.close()
+        self.label = label
 
     def close(self) -> None:
         if self.bar is not None:
