@@ -80,6 +80,7 @@ def validate(file: str, scenario_path: str | None = None) -> ScenarioCheck | Mis
 def mission_flight(plan: MissionPlan, scenario: Scenario, *, file: str | None = None) -> Flight:
     """The flight of ``plan`` where ``scenario`` is planned (its site's frame; over a DEM on
     the ground: home on the ground there, each item's altitude in its frame)."""
+    # numpy, pyproj and the world's kernels: not for `validate` of a scenario (test_startup)
     from uavplan.flight import flight_of_mission
     from uavplan.planning import enu_frame
 
@@ -94,6 +95,7 @@ def mission_flight(plan: MissionPlan, scenario: Scenario, *, file: str | None = 
 def check_flight_in(scenario: Scenario, flight: Flight) -> FlightCheck:
     """``flight`` (in the scenario's site frame) checked against ``scenario``'s world: its
     clearance, what is nearest, and whether it stays in the flight volume."""
+    # numpy and the world's kernels: not for `validate` of a scenario (test_startup)
     from uavplan.flight import check_flight
     from uavplan.planning import build_world
 
@@ -102,7 +104,7 @@ def check_flight_in(scenario: Scenario, flight: Flight) -> FlightCheck:
 
 def read_mission_flight(file: str, scenario: Scenario) -> tuple[MissionPlan, Flight]:
     """The mission file ``file`` and its flight where ``scenario`` is planned."""
-    from uavplan.mission.io import load_mission
+    from uavplan.mission.io import load_mission  # the mission readers: only with a mission
 
     plan = load_mission(file)
     return plan, mission_flight(plan, scenario, file=file)

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING
 from uavplan.app.feedback import Feedback, PlannerOptions, require_route
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError
-from uavplan.fileio import atomic_write_text
+from uavplan.fileio import atomic_write_text, check_writable
+from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, save_mission
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
@@ -106,10 +107,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     """Plan the scenario file ``request.source`` and write the mission (and the report, the
     picture). Notes go to ``feedback.say``; no route raises NoPathError."""
     _check_outputs(request)
-    # the mission writer's geodetic library loads on another core while the search runs
-    from uavplan.geo import import_in_background
-
-    import_in_background()
+    import_in_background()  # the mission writer's pyproj loads on another core during the search
     scn = request.options.apply(load_scenario(request.source))
     if request.autopilot:
         autopilot = Autopilot.from_name(request.autopilot)
@@ -172,8 +170,6 @@ def _announce(scn: Scenario) -> str:
 
 def _check_outputs(request: PlanRequest) -> None:
     """Everything about the outputs that can fail, checked before any planning."""
-    from uavplan.fileio import check_writable
-
     out_format = format_for(request.output)  # fail on an unknown extension before planning
     if request.plot and Path(request.plot).suffix.lower() != ".png":
         raise InputError("--plot writes a PNG picture; name the file *.png", file=request.plot)

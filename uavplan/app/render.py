@@ -62,13 +62,21 @@ def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
             f"{len(scn.obstacles)} obstacles, safety margin {scn.safety_margin_m:g} m, "
             f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"
         )
-        render_scene(scene_for(scn), request.output, subtitle=subtitle, **_picture(request))
+        _draw(scn, request, None, subtitle)
         return _outcome(request, "scenario only")
     return _render_planned(request.options.apply(scn), request, feedback)
 
 
-def _picture(request: RenderRequest) -> dict[str, int]:
-    return {"width_px": request.width_px, "height_px": request.height_px, "dpi": request.dpi}
+def _draw(scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str) -> None:
+    render_scene(
+        scene_for(scn),
+        request.output,
+        layers,
+        subtitle=subtitle,
+        width_px=request.width_px,
+        height_px=request.height_px,
+        dpi=request.dpi,
+    )
 
 
 def _outcome(
@@ -108,7 +116,7 @@ def _render_mission(scn: Scenario, request: RenderRequest) -> RenderOutcome:
             subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
                 "  (closer than the margin!)" if close else ""
             )
-    render_scene(scene_for(scn), request.output, layers, subtitle=subtitle, **_picture(request))
+    _draw(scn, request, layers, subtitle)
     return _outcome(request, subtitle, min_clearance_m=clearance)
 
 
@@ -121,14 +129,8 @@ def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -
     finally:
         if bar is not None:
             bar.close()
-    picture = _picture(request)
     if not result.ok and not result.interrupted:
-        render_scene(
-            scene_for(scn),
-            request.output,
-            subtitle=f"no collision-free path: {result.message}",
-            **picture,
-        )
+        _draw(scn, request, None, f"no collision-free path: {result.message}")
         raise NoPathError(
             f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
             f"in {request.output})"
@@ -138,8 +140,7 @@ def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -
         subtitle = route_subtitle(
             result.route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
         )
-        layers = RouteLayers.from_route(result.route)
-        render_scene(scene_for(scn), request.output, layers, subtitle=subtitle, **picture)
+        _draw(scn, request, RouteLayers.from_route(result.route), subtitle)
     if result.interrupted:
         return _outcome(request, subtitle, interrupted=True)
     require_route(scn, result)  # closer than the margin: exit 3

@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import os
+import signal
 import sys
+import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from typing import Any, NoReturn, TypeVar
 
@@ -17,6 +21,7 @@ import click
 
 from uavplan.app.feedback import Feedback
 from uavplan.errors import EXIT_INTERNAL, EXIT_INTERRUPTED, UavplanError
+from uavplan.fileio import check_writable
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -30,9 +35,6 @@ def handle_errors(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        import os
-        import warnings
-
         try:
             with warnings.catch_warnings():
                 if not os.environ.get("UAVPLAN_DEBUG"):
@@ -93,8 +95,6 @@ def check_output_paths(*paths: str | None) -> None:
     """Fail before any long work when an output file cannot be written (its folder is
     missing or not writable, the path is a folder, ...): one message naming the user's path,
     exit 2. See :func:`uavplan.fileio.check_writable`."""
-    from uavplan.fileio import check_writable
-
     for path in paths:
         if path:
             check_writable(path)
@@ -106,9 +106,6 @@ def interruptible() -> Iterator[Callable[[], bool]]:
     (where the interrupt would only surface after the kernel returns, mid-update); the
     planner polls the flag every iteration and stops, and the command exits 130. Yields the
     poll function. A second Ctrl-C raises KeyboardInterrupt at once."""
-    import signal
-    import threading
-
     hit = threading.Event()
     if threading.current_thread() is not threading.main_thread():
         yield hit.is_set

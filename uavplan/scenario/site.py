@@ -14,14 +14,11 @@ values and the DEM; a site is derived from them whenever it is needed
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from uavplan.geo import GeoPoint
+from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground, Surface, build_ground, datum_below
 from uavplan.obstacles import Bounds, Obstacle, PrismObstacle
-
-if TYPE_CHECKING:
-    from uavplan.geo import EnuFrame
 
 Point3 = tuple[float, float, float]
 
@@ -54,8 +51,6 @@ class Site:
 
     def frame(self) -> EnuFrame:
         """The site's local ENU frame (at its origin; over terrain at the datum)."""
-        from uavplan.geo import EnuFrame
-
         return EnuFrame.at(self.origin)
 
     def ground_z(self, points_xy: Any) -> Any:
@@ -93,8 +88,6 @@ def terrain_site(
     """The site over ``terrain`` (heights above the ground beneath each point moved onto
     it, see the module doc). Raises the DEM's error where it does not cover a point."""
     import numpy as np
-
-    from uavplan.geo import EnuFrame
 
     datum = datum_below(terrain)
     site_origin = GeoPoint(origin.lat_deg, origin.lon_deg, datum)

@@ -31,6 +31,7 @@ from uavplan.config import (
     planner_entry,
     resolved_planner,
 )
+from uavplan.errors import InputError
 from uavplan.geo import GeoPoint
 from uavplan.obstacles import Bounds, Obstacle, PrismObstacle
 from uavplan.scenario.checker import Checker
@@ -358,8 +359,6 @@ def _check_above_terrain(chk: Checker, scn: Scenario) -> None:
     """The site over the DEM can be built (the DEM covers the bounds and the points), and
     every route point keeps the margin from the terrain's solids (the DEM cells up to their
     highest post) and from the ceiling above the ground: a clear error naming the point."""
-    from uavplan.errors import InputError
-
     try:
         site = scn.site
     except InputError as err:  # the DEM's own error (TerrainError)
