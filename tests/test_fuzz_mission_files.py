@@ -52,8 +52,8 @@ from click.testing import CliRunner, Result
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import uavplan.cli.link_cmd as link_cmd
 import uavplan.app.check as app_check
+import uavplan.cli.link_cmd as link_cmd
 from uavplan.cli import main
 from uavplan.errors import LinkError, MissionFileError
 from uavplan.geo import EnuFrame, GeoPoint

@@ -14,11 +14,11 @@ import pytest
 
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.outcome import SearchEnd
 from uavplan.path import post
 from uavplan.path.energy import energy_terms
 from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
 from uavplan.planners import _kernels as K
-from uavplan.outcome import SearchEnd
 from uavplan.planners.base import PathProblem
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner, oscillate

@@ -10,8 +10,8 @@ import numpy as np
 from click.testing import CliRunner
 
 from uavplan import bench
-from uavplan.cli import main
 from uavplan.app.feedback import PlannerOptions
+from uavplan.cli import main
 from uavplan.config import DEFAULT_RESTART_STALL_ITERATIONS, DEFAULT_STALL_ITERATIONS, SearchParams
 from uavplan.planners.base import SwarmPlanner, Termination
 from uavplan.planning import build_problem, make_planner, plan_route

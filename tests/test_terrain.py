@@ -25,8 +25,8 @@ from uavplan.geo import EnuFrame  # noqa: E402
 from uavplan.mission.builder import build_mission, mission_polyline_enu  # noqa: E402
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot, MavFrame  # noqa: E402
-from uavplan.planning import build_world  # noqa: E402
 from uavplan.obstacles import Bounds  # noqa: E402
+from uavplan.planning import build_world  # noqa: E402
 from uavplan.route import densify  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
 from uavplan.world import GROUND  # noqa: E402

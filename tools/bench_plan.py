@@ -71,7 +71,7 @@ res = planning.plan_route(scn, world=world, problem=problem)
 t5 = time.perf_counter()
 search = sum(leg.planner.runtime_s + leg.guide_s for leg in res.legs) or res.planner.runtime_s
 row = {"import": t1 - t0, "load": t2 - t1, "kernels": t3 - t2, "build": t4 - t3,
-       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status.value,
+       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status,
        "energy": res.energy, "iterations": int(sum(l.planner.iterations for l in res.legs)),
        "obstacles": len(scn.obstacles), "length_m": res.length_m, "notes": list(res.notes),
        "message": res.message}

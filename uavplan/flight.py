@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.geo import EnuFrame
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.items import MavCmd, MissionPlan
 from uavplan.route import keeps_margin
@@ -83,14 +84,14 @@ def _same_place(a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
 
 def flight_of_mission(
     plan: MissionPlan,
-    frame: object,
+    frame: EnuFrame,
     ground_z: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
 ) -> Flight:
-    """The flight the autopilot flies through ``plan`` in ``frame`` (an
-    :class:`~uavplan.geo.EnuFrame`), over the ground ``ground_z`` (ENU ``(n, 2)`` → z; None:
-    flat at z = 0): from home on the ground, to the return to launch or the landing. Raises
-    ``ValueError`` when an item's altitude cannot be placed."""
-    points = mission_polyline_enu(plan, frame, ground_z)  # type: ignore[arg-type]
+    """The flight the autopilot flies through ``plan`` in ``frame``, over the ground
+    ``ground_z`` (ENU ``(n, 2)`` → z; None: flat at z = 0): from home on the ground, to the
+    return to launch or the landing. Raises ``ValueError`` when an item's altitude cannot be
+    placed."""
+    points = mission_polyline_enu(plan, frame, ground_z)
     return Flight.from_polyline(points, from_ground=plan.home is not None, to_ground=_lands(plan))
 
 

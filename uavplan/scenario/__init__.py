@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from uavplan.config import ALTITUDE_MODES, PlannerConfig
 from uavplan.scenario.load import load_map
-from uavplan.scenario.settings import MissionConfig, ObstacleOrigins, VehicleConfig
+from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleConfig
 from uavplan.scenario.site import Site
 from uavplan.scenario.values import (
     Scenario,
@@ -35,7 +35,7 @@ from uavplan.scenario.values import (
 __all__ = [
     "ALTITUDE_MODES",
     "MissionConfig",
-    "ObstacleOrigins",
+    "ObstacleSources",
     "PlannerConfig",
     "Scenario",
     "Site",

@@ -42,7 +42,7 @@ from uavplan.scenario.fields import (
     vehicle as read_vehicle,
 )
 from uavplan.scenario.limits import MAX_OBSTACLES, MAX_SAFETY_MARGIN_M, MAX_VIA_POINTS
-from uavplan.scenario.settings import MissionConfig, ObstacleOrigins, VehicleConfig
+from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleConfig
 from uavplan.scenario.yamlfile import read_yaml
 
 if TYPE_CHECKING:
@@ -194,5 +194,5 @@ def read_scenario_file(path: str | Path) -> dict[str, Any]:
         mission=mission,
         source=str(path),
         terrain=terrain,
-        origins=ObstacleOrigins(len(map_obstacles), raw.get("map"), len(inline)),
+        obstacle_sources=ObstacleSources(len(map_obstacles), raw.get("map"), len(inline)),
     )

@@ -46,7 +46,7 @@ class MissionConfig:
 
 
 @dataclass(frozen=True)
-class ObstacleOrigins:
+class ObstacleSources:
     """Where a scenario's obstacles came from, to name one in a message: the first ``n_map``
     from the map ``map_ref``, then ``n_inline`` from ``obstacles:``, the rest from
     ``obstacle_files`` (``n_inline`` None: all after the map's are ``obstacles[i]``)."""

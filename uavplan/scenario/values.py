@@ -49,7 +49,7 @@ from uavplan.scenario.limits import (
     ORIGIN_ALT_RANGE_M,
 )
 from uavplan.scenario.load import read_scenario_file
-from uavplan.scenario.settings import MissionConfig, ObstacleOrigins, VehicleConfig
+from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleConfig
 from uavplan.scenario.site import Site, flat_site, terrain_site
 
 if TYPE_CHECKING:
@@ -80,7 +80,7 @@ class Scenario:
     #: the DEM named by ``terrain`` (its reader's value), or None over flat ground
     terrain: Surface | None = None
     #: where the obstacles came from (for messages)
-    origins: ObstacleOrigins = field(default_factory=ObstacleOrigins)
+    obstacle_sources: ObstacleSources = field(default_factory=ObstacleSources)
 
     def __post_init__(self) -> None:
         _check(self)
@@ -112,7 +112,7 @@ class Scenario:
     def obstacle_name(self, index: int) -> str:
         """How messages name obstacle ``index`` (``obstacles[2]``, ``obstacle #4 of map
         m.yaml``, ...)."""
-        return self.origins.name(index)
+        return self.obstacle_sources.name(index)
 
     def with_planner(self, **changes: Any) -> Scenario:
         """A copy whose planner config has ``changes`` (CLI overrides): any
