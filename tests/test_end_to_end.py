@@ -53,7 +53,7 @@ def independent_clearance(scenario, points: np.ndarray) -> np.ndarray:
     """Distance from each point (n, 3) to the nearest obstacle solid (ground to height)."""
     px, py, pz = points[:, 0], points[:, 1], points[:, 2]
     best = np.full(len(points), np.inf)
-    for obs in scenario.obstacles:
+    for obs in scenario.site.obstacles:  # standing on the ground over terrain
         if isinstance(obs, CylinderObstacle):
             dh = np.maximum(np.hypot(px - obs.center_m[0], py - obs.center_m[1]) - obs.radius_m, 0)
         else:
@@ -78,7 +78,7 @@ def independent_ground(scenario, frame: EnuFrame):
     cols = np.arange(z.shape[1]) + 0.5
     rows = np.arange(z.shape[0]) + 0.5
     interp = RegularGridInterpolator((rows, cols), z, method="linear")
-    datum = scenario.origin.alt_m
+    datum = scenario.site.origin.alt_m
 
     def ground_z(xy: np.ndarray) -> np.ndarray:
         xy = np.atleast_2d(xy)
@@ -111,13 +111,14 @@ def test_bundled_mission_flies_clear_of_every_obstacle(mission: Path, tmp_path: 
     plan = load_mission(out)
     assert plan.autopilot == scenario.mission.autopilot
     assert plan.items[0].command == MavCmd.NAV_TAKEOFF
-    frame = EnuFrame.at(scenario.origin)
-    ground_z = None if scenario.ground is None else independent_ground(scenario, frame)
+    site = scenario.site  # where the planner flies it (over a DEM: z above the datum)
+    frame = EnuFrame.at(site.origin)
+    ground_z = None if site.ground is None else independent_ground(scenario, frame)
     flown = mission_polyline_enu(plan, frame, ground_z)
     # the flown path starts on the ground at the start and reaches the goal
-    home_z = 0.0 if ground_z is None else float(ground_z(np.array([scenario.start_m[:2]]))[0])
-    assert np.allclose(flown[0], [*scenario.start_m[:2], home_z], atol=0.02)
-    assert np.min(np.linalg.norm(flown - np.array(scenario.goal_m), axis=1)) < 0.05
+    home_z = 0.0 if ground_z is None else float(ground_z(np.array([site.start_m[:2]]))[0])
+    assert np.allclose(flown[0], [*site.start_m[:2], home_z], atol=0.02)
+    assert np.min(np.linalg.norm(flown - np.array(site.goal_m), axis=1)) < 0.05
     clearance = independent_clearance(scenario, densify(flown, SAMPLE_M))
     assert clearance.min() >= scenario.safety_margin_m - SAMPLE_M / 2 - 0.02
     if ground_z is not None:

@@ -7,6 +7,7 @@ known surface is evaluated analytically at the file's lat/lon through a pyproj U
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from uavplan.geo import EnuFrame  # noqa: E402
 from uavplan.mission.builder import build_mission, mission_polyline_enu  # noqa: E402
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot, MavFrame  # noqa: E402
+from uavplan.obstacles import Bounds  # noqa: E402
 from uavplan.planning import build_world  # noqa: E402
 from uavplan.route import densify  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
@@ -122,20 +124,40 @@ def hill_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
 
 def test_heights_are_above_the_ground_beneath(slope_dem: Path, tmp_path: Path) -> None:
     scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
-    assert scn.ground is not None
-    datum = scn.origin.alt_m
-    frame = EnuFrame.at(scn.origin)
-    for point, above in ((scn.start_m, 30.0), (scn.goal_m, 30.0)):
+    # the scenario keeps the file's values: heights above the ground, the file's origin
+    assert scn.start_m == (-600.0, -500.0, 30.0) and scn.obstacles[0].height_m == 40.0
+    assert scn.origin.alt_m == 0.0 and scn.bounds.z_m == (0.0, 150.0)
+    # where the planner flies it: on the ground, z above a datum below the lowest ground
+    site = scn.site
+    assert site.ground is not None
+    datum = site.origin.alt_m
+    frame = EnuFrame.at(site.origin)
+    for point, above in ((site.start_m, 30.0), (site.goal_m, 30.0)):
         lat, lon, _ = frame.to_geodetic(np.array([[point[0], point[1], 0.0]]))
         assert point[2] + datum == pytest.approx(ground_amsl(lat, lon)[0] + above, abs=0.01)
     # the box stands on the ground at its centre: its top is 40 m above that ground
     lat, lon, _ = frame.to_geodetic(np.array([[0.0, 0.0, 0.0]]))
-    assert scn.obstacles[0].height_m + datum == pytest.approx(
+    assert site.obstacles[0].height_m + datum == pytest.approx(
         ground_amsl(lat, lon)[0] + 40, abs=0.01
     )
     # bounds: from below the lowest ground to the highest ground + the ceiling
-    assert scn.bounds.z_m[0] == 0.0
-    assert scn.ground.ceiling_agl_m == 150.0
+    assert site.bounds.z_m[0] == 0.0
+    assert site.ground.ceiling_agl_m == 150.0
+
+
+def test_a_copy_with_another_margin_gets_its_own_ground(slope_dem: Path, tmp_path: Path) -> None:
+    """The ground's solids are built for the margin when the site is made: a scenario copied
+    with another margin (or floor) cannot keep the old solids."""
+    scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
+    wider = replace(scn, safety_margin_m=20.0)
+    g12, g20 = scn.site.ground, wider.site.ground
+    assert g12 is not None and g20 is not None and g12 is not g20
+    assert np.allclose(g20.ceilings_m - g12.ceilings_m, 8.0)  # ceiling solids: margin above
+    raised = replace(scn, bounds=Bounds(scn.bounds.x_m, scn.bounds.y_m, (14.0, 150.0)))
+    g14 = raised.site.ground
+    assert g14 is not None
+    assert np.allclose(g14.tops_m - g12.tops_m, 14.0 - 12.0)  # the floor, above the margin
+    assert build_world(wider).margin_m == 20.0
 
 
 def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
@@ -154,9 +176,9 @@ def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
         )
     )
     world = build_world(scn)
-    assert scn.ground is not None
+    assert scn.site.ground is not None
     xy = rng.uniform(-480, 480, (400, 2))
-    surface = scn.ground.z_at(xy)
+    surface = scn.site.ground.z_at(xy)
     dist, owner = world.points_clearance(np.column_stack([xy, surface]))
     assert np.all(dist == 0.0) and np.all(owner == GROUND)
     # and the solids are not a blanket far above the ground: within the DEM's local relief
@@ -202,8 +224,8 @@ def test_mission_over_a_hill_keeps_the_margin(
     # independent check: the straight legs the vehicle flies, from the file's items, against
     # the DEM's surface computed by scipy (not the product's DEM code), every metre
     scn = load_scenario(path)
-    frame = EnuFrame.at(scn.origin)
-    datum = scn.origin.alt_m
+    frame = EnuFrame.at(scn.site.origin)
+    datum = scn.site.origin.alt_m
 
     def known_ground_z(xy: np.ndarray) -> np.ndarray:
         lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
@@ -224,10 +246,10 @@ def test_mission_over_a_hill_keeps_the_margin(
 def test_altitude_modes_describe_the_same_flight(slope_dem: Path, tmp_path: Path) -> None:
     """The three altitude frames of one route read back to the same ENU polyline (< 1 cm)."""
     scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
-    assert scn.ground is not None
-    frame = EnuFrame.at(scn.origin)
+    assert scn.site.ground is not None
+    frame = EnuFrame.at(scn.site.origin)
     waypoints = np.array([[-600, -500, 0.0], [0, 300, 0.0], [600, 500, 0.0]])
-    under = scn.ground.z_at(waypoints)
+    under = scn.site.ground.z_at(waypoints)
     waypoints[:, 2] = under + np.array([30.0, 80.0, 45.0])
     lines = []
     for altitude in ("relative", "amsl", "terrain"):
@@ -240,7 +262,7 @@ def test_altitude_modes_describe_the_same_flight(slope_dem: Path, tmp_path: Path
             ground_z_m=under,
             altitude=altitude,
         )
-        lines.append(mission_polyline_enu(plan, frame, scn.ground.z_at))
+        lines.append(mission_polyline_enu(plan, frame, scn.site.ground.z_at))
     for line in lines[1:]:
         assert line.shape == lines[0].shape
         assert np.max(np.abs(line - lines[0])) < 0.01
@@ -281,8 +303,8 @@ def test_route_stays_under_the_ceiling_above_the_ground(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["plan", str(path), "-o", str(out), "-q"])
     assert result.exit_code == 0, result.output
     scn = load_scenario(path)
-    frame = EnuFrame.at(scn.origin)
-    datum = scn.origin.alt_m
+    frame = EnuFrame.at(scn.site.origin)
+    datum = scn.site.origin.alt_m
     interp = RegularGridInterpolator((n[::-1, 0], e[0]), valley(e, n)[::-1], method="linear")
 
     def ground_z(xy: np.ndarray) -> np.ndarray:

@@ -58,8 +58,9 @@ import_in_background()  # as `uavplan plan` does: pyproj loads during the search
 path, out, iterations, reference = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4] == "1"
 scn = load_scenario(path)
 if iterations:
-    from uavplan.cli.plan_cmd import overridden
-    scn = overridden(scn, None, None, iterations, None)
+    from uavplan.app.feedback import PlannerOptions
+
+    scn = PlannerOptions(iterations=iterations).apply(scn)
 t2 = time.perf_counter()
 warm_up()
 t3 = time.perf_counter()
@@ -70,7 +71,7 @@ res = planning.plan_route(scn, world=world, problem=problem)
 t5 = time.perf_counter()
 search = sum(leg.planner.runtime_s + leg.guide_s for leg in res.legs) or res.planner.runtime_s
 row = {"import": t1 - t0, "load": t2 - t1, "kernels": t3 - t2, "build": t4 - t3,
-       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status.value,
+       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status,
        "energy": res.energy, "iterations": int(sum(l.planner.iterations for l in res.legs)),
        "obstacles": len(scn.obstacles), "length_m": res.length_m, "notes": list(res.notes),
        "message": res.message}

@@ -90,7 +90,7 @@ def measure(name: str, scn: Scenario, load_s: float, seeds: int) -> dict:
     return {
         "scenario": name,
         "obstacles": len(scn.obstacles),
-        "ground": 0 if scn.ground is None else len(scn.ground.tops_m),
+        "ground": 0 if scn.site.ground is None else len(scn.site.ground.tops_m),
         "load_s": load_s,
         "world_s": world_s,
         "core_s": statistics.median(core),

@@ -30,7 +30,7 @@ import math
 import reprlib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 from uavplan.errors import InputError
 
@@ -762,6 +762,13 @@ def iter_fields(cls: type) -> Iterator[tuple[str, str, Any, str]]:
 
 # ---------------------------------------------------------------------------------------------
 # Mission flavour (a scenario's mission.autopilot; the mission layer re-exports it)
+
+#: how a mission ends: return to launch, land at the goal, or nothing (hover at the goal)
+EndAction = Literal["rtl", "land", "none"]
+END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none")
+#: mission.altitude: waypoint altitudes relative to home (MAV_FRAME_GLOBAL_RELATIVE_ALT), AMSL
+#: (MAV_FRAME_GLOBAL) or above the ground beneath (MAV_FRAME_GLOBAL_TERRAIN_ALT)
+ALTITUDE_MODES: tuple[str, ...] = ("relative", "amsl", "terrain")
 
 
 class Autopilot(enum.Enum):

@@ -45,19 +45,14 @@ def import_in_background(module: str = "pyproj") -> threading.Thread | None:
 
     if module in sys.modules:
         return None
-    # An import is Python code that holds the GIL; by default a thread that wants it back
-    # (the search, between two calls of its compiled step) waits up to 5 ms for each handover.
-    # While the import runs, hand over every 0.1 ms instead.
-    interval = sys.getswitchinterval()
-    sys.setswitchinterval(min(interval, 1e-4))
+    # An import is Python code that holds the GIL: the entry point (uavplan.__main__) lowers
+    # the thread switch interval so the search gets it back sooner; nothing is changed here.
 
     def run() -> None:
         try:
             __import__(module)
         except Exception:  # reported by the import that needs it
             pass
-        finally:
-            sys.setswitchinterval(interval)
 
     thread = threading.Thread(target=run, name=f"import {module}", daemon=True)
     thread.start()

@@ -10,7 +10,6 @@ file I/O and knows nothing of MAVLink.
 
 from __future__ import annotations
 
-import enum
 import itertools
 import math
 import time
@@ -20,9 +19,11 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from uavplan.config import PostParams, planner_entry
+from uavplan.config import EndAction, PostParams, planner_entry
+from uavplan.flight import Flight, flight_clearance
 from uavplan.geo import EnuFrame
-from uavplan.obstacles import Ground
+from uavplan.ground import Ground
+from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
 from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import (
@@ -35,8 +36,8 @@ from uavplan.path.post import (
 )
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.registry import make_planner
-from uavplan.route import EndAction, PlannedRoute, densify, flown_polyline
-from uavplan.scenario import Scenario, resolved_config
+from uavplan.route import PlannedRoute, densify, flown_polyline
+from uavplan.scenario import Scenario, Site, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
 
@@ -48,21 +49,15 @@ if TYPE_CHECKING:
     from uavplan.render import Scene
 
 
-class RouteStatus(enum.Enum):
-    OK = "ok"
-    NO_PATH = "no_path"
-    INTERRUPTED = "interrupted"
-
-
 @dataclass
 class RouteResult:
     """A planning run: the planner's record and, when it found one, the planned route.
 
     ``energy`` is E (eq. 1) of the final smoothed path; ``runtime_s`` covers the planner and
-    the post-processing, no start-up or I/O.
+    the post-processing, no start-up or I/O. ``failure`` says which leg failed and why (None:
+    the route was planned).
     """
 
-    status: RouteStatus
     algorithm: str
     seed: int
     planner: PlannerResult
@@ -71,7 +66,7 @@ class RouteResult:
     energy: float = math.inf
     energy_terms: tuple[float, float, float] = (math.inf, math.inf, math.inf)
     runtime_s: float = 0.0
-    message: str = ""
+    failure: LegFailure | None = None
     #: what the user should know about how the route was found (guide frame, fallback)
     notes: tuple[str, ...] = ()
     #: seconds of ``runtime_s`` spent in the global (guide) search; 0 when it did not run
@@ -81,7 +76,22 @@ class RouteResult:
 
     @property
     def ok(self) -> bool:
-        return self.status is RouteStatus.OK
+        return self.failure is None
+
+    @property
+    def interrupted(self) -> bool:
+        """Did a Ctrl-C (``should_stop``) end the planning?"""
+        return self.failure is not None and self.failure.reason is RouteFailure.INTERRUPTED
+
+    @property
+    def status(self) -> str:
+        """The report's ``status``: ``ok``, ``no_path`` or ``interrupted``."""
+        return "ok" if self.failure is None else self.failure.reason.status
+
+    @property
+    def message(self) -> str:
+        """Why there is no route (the failed leg's message), or ``""``."""
+        return "" if self.failure is None else self.failure.message
 
     @property
     def collision_free(self) -> bool:
@@ -116,7 +126,7 @@ class RouteResult:
             "scenario": scenario.name,
             "algorithm": self.algorithm,
             "seed": self.seed,
-            "status": self.status.value,
+            "status": self.status,
             "energy": self.energy,
             "energy_terms": {"path": path, "turning": turning, "climb": climb},
             "search_fitness": pr.best_fitness,
@@ -149,14 +159,17 @@ class RouteResult:
 # Adapters: a Scenario's pieces for the layers
 
 
-def build_world(scenario: Scenario) -> World:
-    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`."""
-    b = scenario.bounds
+def build_world(scenario: Scenario | Site) -> World:
+    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`, where
+    the planner flies it (:attr:`Scenario.site`: over a DEM, the ground's solids built for
+    this margin are pieces of the world too)."""
+    site = scenario.site if isinstance(scenario, Scenario) else scenario
+    b = site.bounds
     return World.build(
-        scenario.obstacles,
+        site.obstacles,
         bounds_xyz=(b.x_m, b.y_m, b.z_m),
-        margin_m=scenario.safety_margin_m,
-        ground=scenario.ground,
+        margin_m=site.safety_margin_m,
+        ground=site.ground,
     )
 
 
@@ -164,18 +177,21 @@ def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem
     """The path-frame problem of ``scenario`` (reusable across runs and algorithms; each run
     sets its own fitness smoothing)."""
     cfg = scenario.planner
+    site = scenario.site
     return PathProblem.build(
         world or build_world(scenario),
-        scenario.start_m,
-        scenario.goal_m,
+        site.start_m,
+        site.goal_m,
         cfg.grid,
         cfg.energy,
     )
 
 
-def enu_frame(scenario: Scenario) -> EnuFrame:
-    """The scenario's local ENU frame (one per scenario; its transformer is cached)."""
-    return _frames.setdefault(scenario.origin, EnuFrame.at(scenario.origin))
+def enu_frame(scenario: Scenario | Site) -> EnuFrame:
+    """The local ENU frame the scenario is planned in (at its site's origin: over terrain at
+    the datum); one per origin, its transformer cached."""
+    origin = (scenario.site if isinstance(scenario, Scenario) else scenario).origin
+    return _frames.setdefault(origin, EnuFrame.at(origin))
 
 
 _frames: dict[Any, EnuFrame] = {}
@@ -194,8 +210,8 @@ def reference_route(
     from uavplan.planners.astar import astar
 
     world = world or build_world(scenario)
-    start = scenario.start_m if start_m is None else start_m
-    goal = scenario.goal_m if goal_m is None else goal_m
+    start = scenario.site.start_m if start_m is None else start_m
+    goal = scenario.site.goal_m if goal_m is None else goal_m
     frame = PathFrame.build(start, goal, scenario.planner.grid)
     world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
     return astar(world_pf, frame, scenario.planner.energy)
@@ -278,16 +294,20 @@ class Leg:
         }
 
 
-class _LegFailed(Exception):
-    def __init__(self, status: RouteStatus, planner: PlannerResult, message: str, guide_s: float):
-        super().__init__(message)
-        self.status, self.planner, self.message, self.guide_s = status, planner, message, guide_s
+@dataclass(frozen=True, eq=False)
+class _Unplanned:
+    """A leg with no route: why (``reason``, ``message``), and what the search did."""
+
+    reason: RouteFailure
+    message: str
+    planner: PlannerResult
+    guide_s: float
 
 
 def route_points(scenario: Scenario) -> list[tuple[float, float, float]]:
-    """Start, the via points in order, goal: the points the route passes through exactly."""
-    via = getattr(scenario, "via_m", ()) or ()
-    return [scenario.start_m, *(tuple(v) for v in via), scenario.goal_m]
+    """Start, the via points in order, goal: the points the route passes through exactly
+    (where the planner flies them: :attr:`Scenario.site`)."""
+    return scenario.site.route_points()
 
 
 def plan_route(
@@ -303,7 +323,8 @@ def plan_route(
     :meth:`Scenario.with_planner`): one leg per pair of consecutive route points (start, via
     points, goal), in one world and one random stream. ``world``/``problem`` may be passed to
     reuse them (``problem`` only for a single leg); ``should_stop`` is polled every
-    iteration (a Ctrl-C flag): the run then ends as ``RouteStatus.INTERRUPTED``.
+    iteration (a Ctrl-C flag): the run then ends with ``RouteFailure.INTERRUPTED`` (a value:
+    nothing is raised).
     ``threads``: threads the planner may use (None: its default; the route is the same on
     any number)."""
     cfg = scenario.planner
@@ -345,28 +366,35 @@ def plan_route(
             def leg_progress(it: int, _n: int, best: float, done: int = done, total: int = total):
                 progress(done + it, total, best)
 
-        try:
-            legs.append(
-                _plan_leg(scenario, world, leg_problem, planner, post, rng, termination,
-                          leg_progress)
-            )  # fmt: skip
-        except _LegFailed as failed:
-            where = f"leg {i + 1} of {n_legs}: " if n_legs > 1 else ""
+        leg = _plan_leg(scenario, world, leg_problem, planner, post, rng, termination,
+                        leg_progress)  # fmt: skip
+        if isinstance(leg, _Unplanned):
             return RouteResult(
-                failed.status, cfg.algorithm, cfg.search.seed, failed.planner, post,
-                runtime_s=time.perf_counter() - t0, message=where + failed.message,
-                guide_s=failed.guide_s,
+                cfg.algorithm, cfg.search.seed, leg.planner, post,
+                runtime_s=time.perf_counter() - t0, guide_s=leg.guide_s,
+                failure=LegFailure(i, n_legs, leg.reason, leg.message),
             )  # fmt: skip
+        legs.append(leg)
     runtime = time.perf_counter() - t0
 
     waypoints_enu = np.vstack([legs[0].waypoints_enu, *(leg.waypoints_enu[1:] for leg in legs[1:])])
     path_enu = np.vstack([legs[0].path_enu, *(leg.path_enu[1:] for leg in legs[1:])])
     takeoff = scenario.vehicle.takeoff_altitude_m
     end = cast(EndAction, scenario.mission.end)
-    ground = scenario.ground
+    site = scenario.site
+    ground = site.ground
     under = None if ground is None else ground.z_at(waypoints_enu)
     ends = (0.0, 0.0) if under is None else (float(under[0]), float(under[-1]))
-    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end, ground_z_m=ends)
+    flown = flown_polyline(
+        waypoints_enu,
+        takeoff_altitude_m=takeoff,
+        end=end,
+        ground_z_m=ends,
+        takeoff=scenario.mission.takeoff,
+    )
+    flight = Flight.from_polyline(
+        flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
+    )
     notes = [n for leg in legs for n in leg.notes]
     if ground is not None:
         notes += _terrain_notes(ground, waypoints_enu)
@@ -377,7 +405,7 @@ def plan_route(
         vertices_enu=np.vstack([legs[0].vertices_enu, *(g.vertices_enu[1:] for g in legs[1:])]),
         raw_path_enu=np.vstack([legs[0].raw_path_enu, *(g.raw_path_enu[1:] for g in legs[1:])]),
         flown_enu=flown,
-        min_clearance_m=flown_clearance(world, flown, waypoints_enu),
+        min_clearance_m=_min_clearance(world, flight),
         safety_margin_m=scenario.safety_margin_m,
         inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
         takeoff_altitude_m=takeoff,
@@ -387,7 +415,6 @@ def plan_route(
     )
     terms = tuple(float(sum(leg.energy_terms[k] for leg in legs)) for k in range(3))
     return RouteResult(
-        RouteStatus.OK,
         cfg.algorithm,
         cfg.search.seed,
         legs[0].planner,
@@ -402,17 +429,11 @@ def plan_route(
     )
 
 
-def flown_clearance(world: World, flown: np.ndarray, waypoints: np.ndarray) -> float:
-    """Clearance of the flown polyline: from everything between the first and the last
-    waypoint; the take-off climb and the landing descent, which start or end on the ground,
-    from the obstacles only (over flat ground that is all the world holds)."""
-    if not world.has_ground:
-        return world.polyline_clearance(flown)
-    first = int(np.argmin(np.linalg.norm(flown - waypoints[0], axis=1)))
-    last = len(flown) - 1 - int(np.argmin(np.linalg.norm(flown[::-1] - waypoints[-1], axis=1)))
-    legs = world.polyline_clearance(flown[first : last + 1])
-    climbs = world.without_ground().polyline_clearance(flown)
-    return min(legs, climbs)
+def _min_clearance(world: World, flight: Flight) -> float:
+    """Clearance of the flown line (:func:`uavplan.flight.flight_clearance`: the take-off
+    climb and the landing descent from the obstacles only)."""
+    dist, _, _ = flight_clearance(world, flight)
+    return float(dist.min()) if dist.size else math.inf
 
 
 #: the flown legs are sampled this finely (m) for the check against the DEM's own surface
@@ -447,9 +468,10 @@ def _plan_leg(
     rng: np.random.Generator,
     termination: Termination,
     progress: ProgressFn | None,
-) -> Leg:
+) -> Leg | _Unplanned:
     """Search one leg (straight frame first, a guide frame when that cannot hold a path,
-    the grid route when the swarm still fails) and post-process it into waypoints."""
+    the grid route when the swarm still fails) and post-process it into waypoints; or why
+    there is none."""
     cfg = scenario.planner
     res = planner.solve(problem, rng, progress, termination)
     notes: list[str] = []
@@ -461,8 +483,8 @@ def _plan_leg(
 
         guide = find_guide(problem)
         guide_s = guide.runtime_s
-        if not guide.found:
-            raise _LegFailed(RouteStatus.NO_PATH, res, guide.message, guide_s)
+        if guide.failure is not None:
+            return _Unplanned(guide.failure, guide.message, res, guide_s)
         assert guide.route_pf is not None
         guided = guided_problem(problem, guide)
         res = planner.solve(guided, rng, progress, termination)
@@ -478,8 +500,8 @@ def _plan_leg(
                 f"{cfg.algorithm} found no path even along the guide; flying the grid search's "
                 "route (shortened, smoothed and clearance-checked)"
             )
-    if res.termination == "interrupted":
-        raise _LegFailed(RouteStatus.INTERRUPTED, res, "interrupted", guide_s)
+    if res.termination is SearchEnd.INTERRUPTED:
+        return _Unplanned(RouteFailure.INTERRUPTED, "interrupted", res, guide_s)
     wpf = problem.world
     if route_pf is None:
         nodes_pf = problem.node_points(res.best_nodes)
@@ -530,10 +552,11 @@ def fence_for(
     bounds (at most ``max_items`` fence items, default PX4's 63), and how it was built."""
     from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
 
+    site = scenario.site
     built = geofence_for_route(
         route,
-        scenario.obstacles,
-        scenario.bounds,
+        site.obstacles,
+        site.bounds,
         max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
     )
     return replace(mission, fence=built.fence), built
@@ -548,13 +571,14 @@ def export_extras(
     and margin, and with a just-planned ``route`` its smoothed path and flown line."""
     from uavplan.mission.export import ExportExtras
 
+    site = scenario.site
     if route is not None:
         return ExportExtras.for_route(
-            route, scenario.obstacles, name=scenario.name, properties=properties
+            route, site.obstacles, name=scenario.name, properties=properties
         )
     return ExportExtras(
-        frame=enu_frame(scenario),
-        obstacles=scenario.obstacles,
+        frame=enu_frame(site),
+        obstacles=site.obstacles,
         name=scenario.name,
         safety_margin_m=scenario.safety_margin_m,
         properties=dict(properties or {}),
@@ -581,21 +605,22 @@ def scene_for(scenario: Scenario) -> Scene:
     """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
     from uavplan.render import Scene
 
-    sx, sy, sz = (float(v) for v in scenario.start_m)
-    gx, gy, gz = (float(v) for v in scenario.goal_m)
+    site = scenario.site
+    sx, sy, sz = (float(v) for v in site.start_m)
+    gx, gy, gz = (float(v) for v in site.goal_m)
     terrain = None
-    if scenario.ground is not None:
-        (x0, x1), (y0, y1) = scenario.bounds.x_m, scenario.bounds.y_m
+    if site.ground is not None:
+        (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
         xs, ys = np.linspace(x0, x1, 80), np.linspace(y0, y1, 80)
         grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-        terrain = (xs, ys, scenario.ground.z_at(grid).reshape(len(ys), len(xs)))
+        terrain = (xs, ys, site.ground.z_at(grid).reshape(len(ys), len(xs)))
     return Scene(
         name=scenario.name,
-        bounds=scenario.bounds,
-        obstacles=scenario.obstacles,
+        bounds=site.bounds,
+        obstacles=site.obstacles,
         safety_margin_m=scenario.safety_margin_m,
         start_enu=(sx, sy, sz),
         goal_enu=(gx, gy, gz),
         terrain=terrain,
-        via_enu=tuple((float(x), float(y), float(z)) for x, y, z in scenario.via_m),
+        via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
     )

@@ -123,12 +123,16 @@ class RouteLayers:
     fence: tuple[FenceOutline, ...] = field(default_factory=tuple)
 
     @classmethod
-    def from_mission(cls, plan: MissionPlan, frame: EnuFrame) -> RouteLayers:
-        """The route a mission flies (and its geofence), in ``frame``.
+    def from_mission(
+        cls, plan: MissionPlan, frame: EnuFrame, flown_enu: NDArray[np.float64] | None = None
+    ) -> RouteLayers:
+        """The route a mission flies (and its geofence), in ``frame``: ``flown_enu`` when
+        the caller has it (over terrain it comes with the ground), else the items read over
+        flat ground (:func:`~uavplan.mission.builder.mission_polyline_enu`).
 
         Raises ``ValueError`` if an item's altitude cannot be placed (AMSL without a home).
         """
-        flown = mission_polyline_enu(plan, frame)
+        flown = mission_polyline_enu(plan, frame) if flown_enu is None else flown_enu
         waypoints = flown[1:] if plan.home is not None else flown
         return cls(flown_enu=flown, waypoints_enu=waypoints, fence=_fence_outlines(plan, frame))
 

@@ -31,16 +31,20 @@ How the plan is read (docs/reroute.md tells the user the same):
 * DO_JUMP is refused: a loop's legs cannot be rerouted without guessing.
 
 Errors the user can cause raise :class:`~uavplan.errors.InputError` (exit 2); a leg that no
-route can fly raises :class:`~uavplan.errors.NoPathError` (exit 3) with the planner's
-message. This module is wiring: it knows the mission model, the scenario values and the
-planning adapters, and nothing of the CLI.
+route can fly raises :class:`~uavplan.errors.NoPathError` (exit 3) naming the two positions
+of the failed leg (the planner's :class:`~uavplan.outcome.LegFailure` says which) and why. A
+Ctrl-C is a value: the result says it was interrupted. Every stretch of legs is planned as a
+checked :class:`~uavplan.scenario.Scenario` that begins in the air (no take-off climb of its
+own) and ends without a landing: the plan's own take-off, landing and straight segments are
+checked here. The flown line of the result is checked by :func:`uavplan.flight.check_flight`,
+as ``validate`` checks a mission. This module is wiring: it knows the mission model, the
+scenario values and the planning adapters, and nothing of the CLI.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -49,10 +53,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.errors import InputError, NoPathError
+from uavplan.flight import check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.geometry2d import orient_ccw, polygon_problem
 from uavplan.limits import MAX_FENCE_POLYGON_VERTICES, MAX_FENCE_ZONES, MAX_HORIZONTAL_M
-from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.items import (
     MavCmd,
     MavFrame,
@@ -62,9 +66,9 @@ from uavplan.mission.items import (
 )
 from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.planners.base import ProgressFn
-from uavplan.planning import RouteResult, RouteStatus, build_world, plan_route
+from uavplan.planning import RouteResult, plan_route
 from uavplan.route import EndAction, keeps_margin
-from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, check_limits
+from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, VehicleConfig
 from uavplan.world import World
 
 #: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
@@ -126,16 +130,25 @@ class UserRoute:
 
 @dataclass
 class RerouteResult:
-    """The rerouted plan and how it was made."""
+    """The rerouted plan and how it was made (``interrupted``: a Ctrl-C ended the planning;
+    ``plan`` is then the user's, unchanged)."""
 
     plan: MissionPlan
-    scenario: Scenario  # the flight volume, obstacles and settings the legs were planned in
-    routes: tuple[RouteResult, ...]  # one planning run per chain of legs
+    name: str
+    safety_margin_m: float
+    end: EndAction
+    #: one planning run per stretch of consecutive legs, with the scenario it planned
+    runs: tuple[tuple[Scenario, RouteResult], ...]
     inserted: int  # planned NAV_WAYPOINTs added
     min_clearance_m: float  # of the whole flown line (take-off to landing)
     flown_enu: NDArray[np.float64]  # that line, ENU metres (home on the ground first)
     notes: tuple[str, ...] = ()
     obstacle_names: tuple[str, ...] = field(default_factory=tuple)
+    interrupted: bool = False
+
+    @property
+    def routes(self) -> tuple[RouteResult, ...]:
+        return tuple(r for _, r in self.runs)
 
     @property
     def energy(self) -> float:
@@ -156,7 +169,7 @@ class RerouteResult:
         """A JSON-able summary: totals, the legs of every planning run, the notes."""
         return {
             "input": "qgc-plan",
-            "scenario": self.scenario.name,
+            "scenario": self.name,
             "items_in": len(self.plan.items) - self.inserted,
             "items_out": len(self.plan.items),
             "inserted_waypoints": self.inserted,
@@ -164,11 +177,11 @@ class RerouteResult:
             "length_m": self.length_m,
             "runtime_s": self.runtime_s,
             "min_clearance_m": self.min_clearance_m,
-            "safety_margin_m": self.scenario.safety_margin_m,
-            "collision_free": keeps_margin(self.min_clearance_m, self.scenario.safety_margin_m),
-            "end": self.scenario.mission.end,
+            "safety_margin_m": self.safety_margin_m,
+            "collision_free": keeps_margin(self.min_clearance_m, self.safety_margin_m),
+            "end": self.end,
             "notes": list(self.notes),
-            "runs": [r.report(self.scenario) for r in self.routes],
+            "runs": [r.report(scn) for scn, r in self.runs],
         }
 
 
@@ -529,40 +542,27 @@ def reroute_plan(
     planner settings). ``file`` labels messages.
 
     Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
-    :class:`NoPathError` (exit 3) when a leg has no route; ``KeyboardInterrupt`` when
-    ``should_stop`` ended the search.
+    :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
+    search the result says ``interrupted`` (and holds the plan unchanged).
     """
     if plan.home is None:
         raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
+    if base is not None and base.terrain is not None:
+        raise InputError(
+            "rerouting a plan over a scenario with terrain (a DEM) is not supported yet: the "
+            "plan's heights are read over flat ground",
+            file=base.source,
+            key="terrain",
+        )
     home = plan.home
     origin = base.origin if base is not None else GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)
     frame = EnuFrame.at(origin)
     route = read_user_route(plan, frame, file=file)
     margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
     airspace = build_airspace(plan, route, frame, margin_m=margin_m, base=base, file=file)
-
-    points = [p.point_m for p in route.positions]
-    mission_cfg = base.mission if base is not None else MissionConfig()
-    mission_cfg = replace(mission_cfg, autopilot=plan.autopilot, end=route.end)
-    template = Scenario(
-        name=name,
-        origin=origin,
-        bounds=airspace.bounds,
-        start_m=points[0],
-        goal_m=points[-1],
-        obstacles=airspace.obstacles,
-        safety_margin_m=margin_m,
-        mission=mission_cfg,
-        source=file,
-    )
-    if base is not None:
-        template = replace(template, vehicle=replace(base.vehicle, takeoff_altitude_m=None))
-        template = replace(template, planner=base.planner)
-    if planner is not None:
-        template = replace(template, planner=planner)
     _check_volume(airspace.bounds, file)
-    check_limits(template)  # the size limits every scenario obeys (a fence 5,000 km wide)
-    world = build_world(template)
+    b = airspace.bounds
+    world = World.build(airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m)
     hxy = frame.to_enu_xy([home.lat_deg], [home.lon_deg])[0]
     home_xy = (float(hxy[0]), float(hxy[1]))
     if not airspace.bounds.contains((*home_xy, max(0.0, airspace.bounds.z_m[0]))):
@@ -576,44 +576,53 @@ def reroute_plan(
 
     # one planning run (one world, one seed stream) per chain of consecutive legs that need
     # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
+    points = [p.point_m for p in route.positions]
     chains: list[list[int]] = [[0]]
     straight = 0
     for k in range(1, len(points)):
-        a, b = points[k - 1], points[k]
-        if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
-            world, a, b, margin_m
+        a, b_ = points[k - 1], points[k]
+        if math.hypot(b_[0] - a[0], b_[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
+            world, a, b_, margin_m
         ):
             straight += 1
             chains.append([k])
         else:
             chains[-1].append(k)
+    settings = _stretch_settings(plan, base, planner)
     insert_before: dict[int, NDArray[np.float64]] = {}  # item index → planned waypoints
-    runs: list[RouteResult] = []
+    runs: list[tuple[Scenario, RouteResult]] = []
     notes = list(route.notes)
     for chain in chains:
         if len(chain) < 2:
             continue
-        scn = replace(
-            template,
+        # a stretch of the user's flight: it begins in the air and ends without a landing
+        scn = Scenario(
+            name=name,
+            origin=origin,
+            bounds=airspace.bounds,
             start_m=points[chain[0]],
             goal_m=points[chain[-1]],
             via_m=tuple(points[k] for k in chain[1:-1]),
+            obstacles=airspace.obstacles,
+            safety_margin_m=margin_m,
+            source=file,
+            **settings,
         )
         result = plan_route(scn, progress=progress, world=world, should_stop=should_stop)
-        if result.status is RouteStatus.INTERRUPTED:
-            raise KeyboardInterrupt
-        if not result.ok:
-            # plan_route prefixes "leg i of n: " when the chain has several legs
-            found = re.match(r"leg (\d+) of \d+: ", result.message)
-            failed = int(found.group(1)) - 1 if found else 0
-            reason = result.message[found.end() :] if found else result.message
+        if result.interrupted:
+            return RerouteResult(
+                plan, name, margin_m, route.end, tuple(runs), 0, math.nan,
+                np.empty((0, 3)), interrupted=True,
+            )  # fmt: skip
+        if result.failure is not None:
+            failed = result.failure.leg
             a_what = route.positions[chain[failed]].what
             b_what = route.positions[chain[failed + 1]].what
             raise NoPathError(
                 f"{name}: no collision-free route from {a_what} (start) to {b_what} (goal): "
-                f"{reason}"
+                f"{result.failure.detail}"
             )
-        runs.append(result)
+        runs.append((scn, result))
         notes.extend(result.notes)
         for leg, k in zip(result.legs, chain[1:], strict=True):
             insert_before[route.positions[k].item_index] = leg.waypoints_enu[1:-1]
@@ -633,19 +642,40 @@ def reroute_plan(
             "and stay straight"
         )
 
-    flown = mission_polyline_enu(out, frame)
-    clearance = _check_flown(flown, world, airspace, margin_m, name)
+    flight = flight_of_mission(out, frame)
+    check = check_flight(world, flight, name_of=lambda i: airspace.names[i], margin_m=margin_m)
+    problem = check.problem()
+    if problem is not None:
+        raise NoPathError(f"{name}: the rerouted flight: {problem}")
     notes.extend(_rtl_note(route, home_xy, world, airspace, margin_m))
     return RerouteResult(
         plan=out,
-        scenario=template,
-        routes=tuple(runs),
+        name=name,
+        safety_margin_m=margin_m,
+        end=route.end,
+        runs=tuple(runs),
         inserted=inserted,
-        min_clearance_m=clearance,
-        flown_enu=flown,
+        min_clearance_m=check.min_clearance_m,
+        flown_enu=flight.points_enu,
         notes=tuple(notes),
         obstacle_names=airspace.names,
     )
+
+
+def _stretch_settings(
+    plan: MissionPlan, base: Scenario | None, planner: PlannerConfig | None
+) -> dict[str, Any]:
+    """The vehicle, planner and mission settings every stretch is planned with: ``base``'s
+    (its take-off altitude unused), ``planner`` over them, the plan's autopilot; a stretch
+    begins in the air and ends without a landing."""
+    mission = base.mission if base is not None else MissionConfig()
+    mission = replace(mission, autopilot=plan.autopilot, end="none", takeoff=False)
+    vehicle = VehicleConfig() if base is None else replace(base.vehicle, takeoff_altitude_m=None)
+    cfg = planner if planner is not None else (base.planner if base is not None else None)
+    out: dict[str, Any] = {"mission": mission, "vehicle": vehicle}
+    if cfg is not None:
+        out["planner"] = cfg
+    return out
 
 
 def _clear_as_drawn(
@@ -679,31 +709,6 @@ def _waypoints(frame: EnuFrame, points_enu: NDArray[np.float64]) -> list[Mission
         )
         for i in range(len(points_enu))
     ]
-
-
-def _check_flown(
-    poly: NDArray[np.float64],
-    world: World,
-    airspace: Airspace,
-    margin_m: float,
-    name: str,
-) -> float:
-    """The clearance of the whole flown line ``poly`` of the output (as the project reads a
-    mission file), which must keep the margin inside the volume: else no route (exit 3)."""
-    lifted = poly.copy()  # the ground below the take-off and the landing are not "outside"
-    lifted[:, 2] = np.maximum(lifted[:, 2], world.zlim[0])
-    inside = world.points_inside_bounds(lifted, tol_m=0.05)
-    if not inside.all():
-        k = int(np.flatnonzero(~inside)[0])
-        raise NoPathError(f"{name}: point {k} of the rerouted flight leaves the flight volume")
-    dist, which = world.segments_clearance(poly[:-1], poly[1:])
-    worst = int(np.argmin(dist))
-    if not keeps_margin(float(dist[worst]), margin_m):
-        raise NoPathError(
-            f"{name}: the rerouted flight comes within {float(dist[worst]):.2f} m of "
-            f"{airspace.names[int(which[worst])]} (safety margin {margin_m:g} m)"
-        )
-    return float(dist.min())
 
 
 def _rtl_note(

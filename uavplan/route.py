@@ -14,15 +14,23 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.config import END_ACTIONS, EndAction
 from uavplan.geo import EnuFrame
 
-EndAction = Literal["rtl", "land", "none"]
-END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none")
+__all__ = [
+    "ALTITUDE_TOLERANCE_M",
+    "END_ACTIONS",
+    "EndAction",
+    "PlannedRoute",
+    "densify",
+    "drop_repeats",
+    "flown_polyline",
+    "keeps_margin",
+]
 
 #: an altitude difference below this is "the same altitude" (ArduPilot stores centimetres)
 ALTITUDE_TOLERANCE_M = 0.01
@@ -34,6 +42,7 @@ def flown_polyline(
     takeoff_altitude_m: float | None = None,
     end: EndAction = "rtl",
     ground_z_m: tuple[float, float] = (0.0, 0.0),
+    takeoff: bool = True,
 ) -> NDArray[np.float64]:
     """The polyline the vehicle flies for these waypoints, ``(n, 3)`` ENU metres.
 
@@ -43,13 +52,15 @@ def flown_polyline(
     flies to the start's height if that differs, then straight from waypoint to waypoint;
     with ``end="land"`` it descends vertically at the goal to the ground there
     (``ground_z_m[1]``). The RTL leg home is the autopilot's and not part of the line.
+    Without ``takeoff`` the line begins in the air at the start (a stretch of a longer
+    flight).
     """
     w = np.asarray(waypoints_enu, dtype=np.float64)
     sx, sy, sz = (float(v) for v in w[0])
     home_z, landing_z = float(ground_z_m[0]), float(ground_z_m[1])
     takeoff_z = sz if takeoff_altitude_m is None else home_z + float(takeoff_altitude_m)
-    rows = [np.array([[sx, sy, home_z], [sx, sy, takeoff_z]])]
-    rows.append(w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M else w[1:])
+    rows = [np.array([[sx, sy, home_z], [sx, sy, takeoff_z]])] if takeoff else []
+    rows.append(w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M or not takeoff else w[1:])
     if end == "land":
         gx, gy, _ = (float(v) for v in w[-1])
         rows.append(np.array([[gx, gy, landing_z]]))

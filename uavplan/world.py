@@ -20,7 +20,8 @@ import numpy as np
 
 from uavplan import _geom
 from uavplan.geometry2d import convex_pieces
-from uavplan.obstacles import BoxObstacle, CylinderObstacle, Ground, Obstacle, PrismObstacle
+from uavplan.ground import Ground
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
 GROUND = -2  # owner of the pieces that hold the terrain (see World.build's ``ground``)
@@ -290,6 +291,26 @@ class World:
         p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
         dist, piece = _geom.segments_clearance(p0, p1, self.kernel_args)
         return dist, self._owners(piece)
+
+    def segments_nearest(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact minimum distance (n,) from each segment to the nearest piece, and that piece
+        (−1: none; :meth:`owner_of` gives its obstacle)."""
+        p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
+        p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
+        return _geom.segments_clearance(p0, p1, self.kernel_args)
+
+    def owner_of(self, piece: np.ndarray) -> np.ndarray:
+        """The obstacle index of each piece index (−1 stays −1; terrain pieces: GROUND)."""
+        return self._owners(np.asarray(piece))
+
+    def piece_centre(self, piece: int) -> tuple[float, float]:
+        """The centre (x, y) of piece ``piece``'s bounding box (for messages)."""
+        x0, x1, y0, y1 = self.box[piece, :4]
+        return float((x0 + x1) / 2.0), float((y0 + y1) / 2.0)
+
+    def is_ceiling(self, piece: int) -> bool:
+        """Is piece ``piece`` a ceiling piece (solid from its height up)?"""
+        return bool(piece < self.poly_n.shape[0] and self.poly_h[piece] < 0.0)
 
     def _owners(self, piece: np.ndarray) -> np.ndarray:
         """Obstacle index of each piece index (−1 stays −1: no obstacle at all; the terrain's

@@ -1,7 +1,11 @@
 """The ``uavplan`` command line: a thin click layer over the library.
 
-Each command lives in its own module under :mod:`uavplan.cli` and registers itself on
-:data:`main`; this module only assembles them. Nothing in the library imports the CLI.
+Each command lives in a module under :mod:`uavplan.cli` and registers itself on :data:`main`;
+this module only assembles them. A command parses its options, calls one use case of
+:mod:`uavplan.app` and prints the outcome. Command modules import this package,
+:mod:`uavplan.cli.common` and :mod:`uavplan.cli.options`, never each other; nothing in the
+library imports the CLI. Importing this package changes nothing in the process: start-up
+tweaks are the entry point's (:mod:`uavplan.__main__`).
 
 Start-up is part of the product (``uavplan --help`` in well under a tenth of a second): the
 command modules are imported only when their command runs. :data:`COMMANDS` names each
@@ -13,14 +17,7 @@ from __future__ import annotations
 
 import gc
 import importlib
-import os
 from typing import Any
-
-# numpy's OpenBLAS starts a thread pool at import whose threads spin after every call; the
-# planner's only BLAS calls are 2 × 2 solves, so the pool is pure cost: 0.1–0.15 s of CPU per
-# run, all of it stolen from the planner when the process has one core. A user's own
-# setting stands.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import click
 
@@ -37,7 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "clear": ("link_cmd", "Clear the vehicle's mission, geofence, rally points, or all three."),
     "convert": (
-        "render_cmd",
+        "convert_cmd",
         "Convert mission file IN to OUT; the formats come from the extensions.",
     ),
     "download": (
@@ -62,7 +59,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "link_cmd",
         "Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).",
     ),
-    "validate": ("plan_cmd", "Check a scenario file, or a mission file against a scenario."),
+    "validate": ("check_cmd", "Check a scenario file, or a mission file against a scenario."),
 }
 
 

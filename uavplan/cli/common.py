@@ -1,17 +1,27 @@
-"""Helpers shared by the CLI commands: error → exit code mapping, progress on stderr."""
+"""What the CLI commands share: error → exit code mapping, the Ctrl-C flag, progress on
+stderr and the :class:`~uavplan.app.feedback.Feedback` a use case talks through.
+
+Commands import this module and :mod:`uavplan.cli.options`; neither imports a command module,
+and no command module imports another (tests/test_layering.py)."""
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import os
+import signal
 import sys
+import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import Any, NoReturn, TypeVar
 
 import click
 
+from uavplan.app.feedback import Feedback
 from uavplan.errors import EXIT_INTERNAL, EXIT_INTERRUPTED, UavplanError
+from uavplan.fileio import check_writable
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -25,9 +35,6 @@ def handle_errors(fn: F) -> F:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        import os
-        import warnings
-
         try:
             with warnings.catch_warnings():
                 if not os.environ.get("UAVPLAN_DEBUG"):
@@ -52,6 +59,33 @@ def handle_errors(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
+def exit_interrupted() -> NoReturn:
+    """A use case stopped on Ctrl-C: say so and exit 130 (nothing else was written)."""
+    click.echo("interrupted", err=True)
+    sys.exit(EXIT_INTERRUPTED)
+
+
+def _say(line: str) -> None:
+    click.echo(line, err=True)
+
+
+def _nothing(_line: str) -> None:
+    pass
+
+
+def feedback(
+    quiet: bool, *, should_stop: Callable[[], bool] | None = None, progress: bool = True
+) -> Feedback:
+    """The use case's feedback on stderr: notes unless ``quiet``, warnings always, a
+    progress bar on a terminal (not ``quiet``), and the Ctrl-C flag ``should_stop``."""
+    return Feedback(
+        say=_nothing if quiet else _say,
+        warn=_say,
+        progress=Progress(show_progress(quiet)) if progress else None,
+        should_stop=should_stop,
+    )
+
+
 def show_progress(quiet: bool) -> bool:
     """Progress goes to stderr only when it is a terminal and the user did not ask quiet."""
     return not quiet and sys.stderr.isatty()
@@ -61,8 +95,6 @@ def check_output_paths(*paths: str | None) -> None:
     """Fail before any long work when an output file cannot be written (its folder is
     missing or not writable, the path is a folder, ...): one message naming the user's path,
     exit 2. See :func:`uavplan.fileio.check_writable`."""
-    from uavplan.fileio import check_writable
-
     for path in paths:
         if path:
             check_writable(path)
@@ -74,9 +106,6 @@ def interruptible() -> Iterator[Callable[[], bool]]:
     (where the interrupt would only surface after the kernel returns, mid-update); the
     planner polls the flag every iteration and stops, and the command exits 130. Yields the
     poll function. A second Ctrl-C raises KeyboardInterrupt at once."""
-    import signal
-    import threading
-
     hit = threading.Event()
     if threading.current_thread() is not threading.main_thread():
         yield hit.is_set
@@ -132,6 +161,11 @@ class Progress:
 
     def __call__(self, iteration: int, total: int, best: float) -> None:
         self.show(iteration, total, f"E={best:.1f}")
+
+    def start(self, label: str) -> None:
+        """Start a new bar labelled ``label`` (the current one, if any, ends)."""
+        self.close()
+        self.label = label
 
     def close(self) -> None:
         if self.bar is not None:

@@ -10,7 +10,6 @@ come from their update rules alone (the paper's protocol, section 6).
 
 from __future__ import annotations
 
-import enum
 import math
 import time
 from collections.abc import Callable
@@ -21,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EnergyWeights, GridSpec, SearchParams
+from uavplan.outcome import SearchEnd
 from uavplan.path.energy import N_SUB, EnergyArgs, energy_of
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
@@ -31,11 +31,6 @@ from uavplan.world import World
 INIT_MAX_ATTEMPTS = 25
 
 ProgressFn = Callable[[int, int, float], None]  # (iteration, iterations, best fitness)
-
-
-class PlanStatus(enum.Enum):
-    SOLVED = "solved"
-    NO_PATH = "no_path"  # no individual could be initialised (every start deadlocked)
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,9 +330,9 @@ class Termination:
     ``stall_iterations``: stop a search early once the run's best fitness has not improved
     for that many iterations (None: never); ``restart_stall_iterations``: the same for every
     restart after the first (SPSA's restarts; None: ``stall_iterations``); ``should_stop``:
-    polled once per iteration, e.g. a Ctrl-C flag (the run then ends as "interrupted" and
-    returns what it has); ``max_evaluations``: stop once this many fitness evaluations were
-    made (a budget every algorithm can share).
+    polled once per iteration, e.g. a Ctrl-C flag (the run then ends as
+    ``SearchEnd.INTERRUPTED`` and returns what it has); ``max_evaluations``: stop once this
+    many fitness evaluations were made (a budget every algorithm can share).
     """
 
     def __init__(
@@ -364,27 +359,19 @@ class Termination:
         return self.stall_iterations
 
 
-#: why a run ended (``PlannerResult.termination``)
-TERMINATED_ITERATIONS = "iterations"  # the iteration budget was spent
-TERMINATED_STALLED = "stalled"  # no improvement for stall_iterations
-TERMINATED_INTERRUPTED = "interrupted"  # should_stop() said so
-TERMINATED_BUDGET = "budget"  # the evaluation budget was spent
-TERMINATED_NO_PATH = "no_path"  # nothing could be initialised
-
-
 @dataclass
 class PlannerResult:
     """What a planner returns: one record (STYLE: x, fun, nit, success, message).
 
     ``iterations`` counts the iterations actually run; ``termination`` says why the run
-    ended; ``evaluations`` counts fitness evaluations (individuals) and ``reach_checks`` /
+    ended (:class:`~uavplan.outcome.SearchEnd`; ``NO_PATH``: nothing could be initialised);
+    ``evaluations`` counts fitness evaluations (individuals) and ``reach_checks`` /
     ``exact_checks`` the reachability tests of the run (its budget); ``stats`` holds the
     planner's own counters (escapes, failed updates, ...), numbers only.
     """
 
     algorithm: str
     seed: int
-    status: PlanStatus
     best_nodes: np.ndarray | None  # (D − 1, 2) grid units
     best_fitness: float
     convergence: np.ndarray  # best fitness after each iteration run
@@ -395,14 +382,14 @@ class PlannerResult:
     message: str = ""
     population: np.ndarray | None = None  # final positions (G, D − 1, 2)
     population_fitness: np.ndarray | None = None
-    termination: str = TERMINATED_ITERATIONS
+    termination: SearchEnd = SearchEnd.ITERATIONS
     evaluations: int = 0
     reach_checks: int = 0
     exact_checks: int = 0
 
     @property
     def solved(self) -> bool:
-        return self.status is PlanStatus.SOLVED
+        return self.termination.solved
 
 
 @dataclass
@@ -495,14 +482,13 @@ class SwarmPlanner:
         best_f = float("inf")
         deadlocks = 0
         stats: dict[str, float] = {}
-        reason = TERMINATED_ITERATIONS
+        reason = SearchEnd.ITERATIONS
 
-        def record(status: PlanStatus, message: str = "") -> PlannerResult:
+        def record(end: SearchEnd, message: str = "") -> PlannerResult:
             used = problem.counters - start_counts
             return PlannerResult(
                 self.name,
                 search.seed,
-                status,
                 best_x,
                 best_f,
                 np.array(convergence),
@@ -513,7 +499,7 @@ class SwarmPlanner:
                 message,
                 population=np.concatenate(finals_x) if finals_x else None,
                 population_fitness=np.concatenate(finals_f) if finals_f else None,
-                termination=reason if status is PlanStatus.SOLVED else TERMINATED_NO_PATH,
+                termination=end,
                 evaluations=int(used[0]),
                 reach_checks=int(used[1]),
                 exact_checks=int(used[2]),
@@ -525,7 +511,7 @@ class SwarmPlanner:
             if not ok.any():
                 if best_x is None:
                     return record(
-                        PlanStatus.NO_PATH,
+                        SearchEnd.NO_PATH,
                         "every initial path deadlocked: no reachable node sequence "
                         "from start to goal along the start→goal direction",
                     )
@@ -553,22 +539,22 @@ class SwarmPlanner:
                 if progress is not None:
                     progress(len(convergence), budget, best_f)
                 if term.should_stop is not None and term.should_stop():
-                    reason = TERMINATED_INTERRUPTED
+                    reason = SearchEnd.INTERRUPTED
                     break
                 if stall_limit is not None and stalled >= stall_limit:
-                    reason = TERMINATED_STALLED
+                    reason = SearchEnd.STALLED
                     break
                 if round_evals is None:
                     continue
                 used = problem.counters[0] - start_counts[0]
                 if used >= round_evals[r]:
                     if r == rounds - 1 or used >= max_evals:  # type: ignore[operator]
-                        reason = TERMINATED_BUDGET
+                        reason = SearchEnd.BUDGET
                     break
             finals_x.append(pop.x.copy())
             finals_f.append(pop.f.copy())
             for k, v in pop.counters.items():
                 stats[k] = stats.get(k, 0.0) + float(v)
-            if reason in (TERMINATED_INTERRUPTED, TERMINATED_BUDGET):
+            if reason in (SearchEnd.INTERRUPTED, SearchEnd.BUDGET):
                 break
-        return record(PlanStatus.SOLVED)
+        return record(reason)

@@ -19,13 +19,13 @@ so routes with no topological problem pay nothing for it.
 
 from __future__ import annotations
 
-import enum
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M
+from uavplan.outcome import RouteFailure
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, _grid_extent, astar
 from uavplan.planners.base import PathProblem
@@ -36,20 +36,14 @@ GUIDE_SCALES = (2.0, 1.0, 0.5)
 MAX_GUIDE_NODES = 6_000_000
 
 
-class GuideStatus(enum.Enum):
-    FOUND = "found"
-    START_ENCLOSED = "start_enclosed"
-    GOAL_ENCLOSED = "goal_enclosed"
-    NO_GAP = "no_gap"
-
-
 @dataclass(frozen=True, eq=False)
 class Guide:
     """Outcome of the global search. ``route_pf`` (n, 3): the line-of-sight route in the
     path frame (start to goal, keeps the margin), ``guide_xy`` its horizontal polyline;
-    ``steps_m`` the grid spacing that decided; ``message`` says why when nothing was found."""
+    ``steps_m`` the grid spacing that decided; when nothing was found, ``failure`` says why
+    and ``message`` says it to the user."""
 
-    status: GuideStatus
+    failure: RouteFailure | None
     route_pf: np.ndarray | None
     steps_m: tuple[float, float, float]
     runtime_s: float
@@ -57,7 +51,7 @@ class Guide:
 
     @property
     def found(self) -> bool:
-        return self.status is GuideStatus.FOUND
+        return self.failure is None
 
     @property
     def guide_xy(self) -> np.ndarray:
@@ -94,7 +88,7 @@ def find_guide(problem: PathProblem) -> Guide:
         if last.found:
             assert last.path_pf is not None
             route = last.path_pf[simplify(last.path_pf, world)]
-            return Guide(GuideStatus.FOUND, route, steps, time.perf_counter() - t0)
+            return Guide(None, route, steps, time.perf_counter() - t0)
     assert last is not None
     return _why_not(problem, last, steps, time.perf_counter() - t0)
 
@@ -103,28 +97,29 @@ def _why_not(problem: PathProblem, route: GridRoute, steps: tuple[float, float, 
              runtime_s: float) -> Guide:  # fmt: skip
     margin = problem.world.margin_m - MARGIN_PAD_M  # the user's margin (planning pads it)
     res = f"{steps[0]:g} × {steps[1]:g} × {steps[2]:g} m"
+    failure: RouteFailure
     if route.status is GridStatus.INVALID_START:
-        status, why = GuideStatus.START_ENCLOSED, "the start is enclosed: no free straight line"
+        failure, why = RouteFailure.START_ENCLOSED, "the start is enclosed: no free straight line"
         why += f" leads from it to the free space ({margin:g} m margin kept)"
     elif route.status is GridStatus.INVALID_GOAL:
-        status, why = GuideStatus.GOAL_ENCLOSED, "the goal is enclosed: no free straight line"
+        failure, why = RouteFailure.GOAL_ENCLOSED, "the goal is enclosed: no free straight line"
         why += f" leads from the free space to it ({margin:g} m margin kept)"
     else:
         # both ends touch free space that does not connect: the side whose free space is the
         # smaller is the enclosed one (a full search from each side counts it)
         back = astar(problem.world, problem.frame, problem.energy, steps, reverse=True)
         if back.expanded < 0.5 * route.expanded:
-            status, who = GuideStatus.GOAL_ENCLOSED, "the goal is enclosed"
+            failure, who = RouteFailure.GOAL_ENCLOSED, "the goal is enclosed"
         elif route.expanded < 0.5 * back.expanded:
-            status, who = GuideStatus.START_ENCLOSED, "the start is enclosed"
+            failure, who = RouteFailure.START_ENCLOSED, "the start is enclosed"
         else:
-            status, who = GuideStatus.NO_GAP, "start and goal are separated"
+            failure, who = RouteFailure.SEPARATED, "start and goal are separated"
         why = (
             f"{who}: no gap wide enough for the {margin:g} m safety margin connects start and "
             "goal inside the flight bounds"
         )
     message = f"{why} (grid search over the whole flight volume at {res})"
-    return Guide(status, None, steps, runtime_s, message)
+    return Guide(failure, None, steps, runtime_s, message)
 
 
 def guided_problem(problem: PathProblem, guide: Guide) -> PathProblem:

@@ -34,7 +34,7 @@ the real ground under the stated Lipschitz assumption (2).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -148,6 +148,10 @@ class Terrain:
         if area_xy_m is not None:
             terrain.check_covers(area_xy_m)
         return terrain
+
+    def in_frame(self, frame: EnuFrame) -> Terrain:
+        """The same DEM queried at ENU points of ``frame``."""
+        return replace(self, frame=frame)
 
     # -- coordinates -------------------------------------------------------------------------
     @cached_property
@@ -332,8 +336,28 @@ class Terrain:
         Returns ``(xy (n, 4, 2) counter-clockwise, top_amsl_m (n,), low_amsl_m (n,))`` for the
         solids touching the rectangle, ``low`` being the lowest corner (the surface's minimum
         over the outline, by the same argument). Raises :class:`TerrainError` if the DEM does
-        not cover it.
+        not cover it. The solids of one rectangle are computed once per DEM (a scenario's
+        world is built again for every change of its margin or planner settings).
         """
+        key = (tuple(x_m), tuple(y_m), cell_m, max_prisms, grow_m)
+        hit = self._prisms_memo.get(key)
+        if hit is None:
+            hit = self._quad_prisms(x_m, y_m, cell_m, max_prisms, grow_m)
+            self._prisms_memo[key] = hit
+        return hit[0].copy(), hit[1].copy(), hit[2].copy()
+
+    @cached_property
+    def _prisms_memo(self) -> dict[Any, tuple[Any, Any, Any]]:
+        return {}
+
+    def _quad_prisms(
+        self,
+        x_m: tuple[float, float],
+        y_m: tuple[float, float],
+        cell_m: float | None,
+        max_prisms: int,
+        grow_m: float,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         self.check_covers((x_m, y_m))
         xy = self._posts_enu
         z = self.posts_amsl_m

@@ -25,7 +25,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from uavplan.sources.common import (
+from uavplan.sources.base import (
     LEVEL_HEIGHT_M,
     Feature,
     ObstacleFileSpec,

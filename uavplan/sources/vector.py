@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from uavplan.sources.common import Feature, ObstacleFileSpec, SourceError, parse_height_m
+from uavplan.sources.base import Feature, ObstacleFileSpec, SourceError, parse_height_m
 
 
 def _layers(path: str) -> list[str]:

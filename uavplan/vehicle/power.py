@@ -43,16 +43,48 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+import uavplan.vehicle.constants as C
 from uavplan.errors import InputError
-from uavplan.vehicle import constants as C
 
-if TYPE_CHECKING:
-    from uavplan.vehicle.profile import VehicleProfile
+
+class Airframe(Protocol):
+    """What the power model reads of a vehicle (a
+    :class:`~uavplan.vehicle.profile.VehicleProfile`; a protocol here, so the profile, which
+    checks itself with :func:`calibration`, and this module do not import each other)."""
+
+    @property
+    def mass_kg(self) -> float: ...
+    @property
+    def rotor_count(self) -> int: ...
+    @property
+    def rotor_diameter_m(self) -> float: ...
+    @property
+    def max_airspeed_m_s(self) -> float: ...
+    @property
+    def avionics_power_w(self) -> float: ...
+    @property
+    def figure_of_merit(self) -> float: ...
+    @property
+    def induced_power_factor(self) -> float: ...
+    @property
+    def motor_esc_efficiency(self) -> float: ...
+    @property
+    def thrust_coefficient(self) -> float: ...
+    @property
+    def drag_area_m2(self) -> float | None: ...
+    @property
+    def hover_power_w(self) -> float | None: ...
+    @property
+    def cruise_power_w(self) -> float | None: ...
+    @property
+    def cruise_speed_m_s(self) -> float | None: ...
+    @property
+    def usable_wh(self) -> float: ...
 
 
 def air_density_kg_m3(altitude_amsl_m: ArrayLike = 0.0) -> NDArray[np.float64]:
@@ -100,7 +132,7 @@ class RotorState:
     shaft_scale: float  # 1, or the calibration to a measured hover power
 
 
-def disc_area_m2(profile: VehicleProfile) -> float:
+def disc_area_m2(profile: Airframe) -> float:
     """Total disc area of the rotors (m²): n·π·(D/2)²."""
     return profile.rotor_count * math.pi * (profile.rotor_diameter_m / 2.0) ** 2
 
@@ -112,13 +144,13 @@ def _density(air_density_kg_m3: ArrayLike) -> NDArray[np.float64]:
     return rho
 
 
-def _default_drag_area(profile: VehicleProfile) -> float:
+def _default_drag_area(profile: Airframe) -> float:
     if profile.drag_area_m2 is not None:
         return float(profile.drag_area_m2)
     return C.DRAG_AREA_PER_DISC_AREA * disc_area_m2(profile)
 
 
-def _physical_state(profile: VehicleProfile, rho: NDArray[np.float64]) -> RotorState:
+def _physical_state(profile: Airframe, rho: NDArray[np.float64]) -> RotorState:
     weight = profile.mass_kg * C.GRAVITY_M_S2
     area = disc_area_m2(profile)
     v_h = np.sqrt(weight / (2.0 * rho * area))
@@ -128,7 +160,7 @@ def _physical_state(profile: VehicleProfile, rho: NDArray[np.float64]) -> RotorS
     return RotorState(weight, area, v_h, ideal, p0, tip, _default_drag_area(profile), 1.0)
 
 
-def rotor_state(profile: VehicleProfile, air_density_kg_m3: ArrayLike) -> RotorState:
+def rotor_state(profile: Airframe, air_density_kg_m3: ArrayLike) -> RotorState:
     """The derived hover quantities at ``air_density_kg_m3``, measured figures applied."""
     state = _physical_state(profile, _density(air_density_kg_m3))
     if profile.hover_power_w is None:
@@ -137,7 +169,7 @@ def rotor_state(profile: VehicleProfile, air_density_kg_m3: ArrayLike) -> RotorS
     return dataclasses.replace(state, drag_area_m2=drag, shaft_scale=scale)
 
 
-def calibration(profile: VehicleProfile) -> tuple[float, float]:
+def calibration(profile: Airframe) -> tuple[float, float]:
     """(shaft-power scale, drag area m²) that make the model reproduce the profile's measured
     ``hover_power_w`` and ``cruise_power_w`` at sea level. Raises :class:`InputError` when the
     measured figures cannot both hold (a hover power below the avionics power, a cruise power
@@ -201,7 +233,7 @@ def _vertical_factor(x: NDArray[np.float64], kappa: float) -> NDArray[np.float64
 
 
 def _shaft_terms(
-    profile: VehicleProfile,
+    profile: Airframe,
     airspeed: NDArray[np.float64],
     vertical: NDArray[np.float64],
     rho: NDArray[np.float64],
@@ -228,7 +260,7 @@ def _shaft_terms(
 
 
 def power_terms(
-    profile: VehicleProfile,
+    profile: Airframe,
     airspeed_m_s: ArrayLike = 0.0,
     vertical_speed_m_s: ArrayLike = 0.0,
     *,
@@ -254,7 +286,7 @@ def power_terms(
 
 
 def electrical_power_w(
-    profile: VehicleProfile,
+    profile: Airframe,
     airspeed_m_s: ArrayLike = 0.0,
     vertical_speed_m_s: ArrayLike = 0.0,
     *,
@@ -267,21 +299,21 @@ def electrical_power_w(
 
 
 def hover_power_w(
-    profile: VehicleProfile, *, air_density_kg_m3: float = C.ISA_SEA_LEVEL_DENSITY_KG_M3
+    profile: Airframe, *, air_density_kg_m3: float = C.ISA_SEA_LEVEL_DENSITY_KG_M3
 ) -> float:
     """Electrical power (W) in a still-air hover."""
     return float(electrical_power_w(profile, 0.0, 0.0, air_density_kg_m3=air_density_kg_m3))
 
 
 def hover_time_s(
-    profile: VehicleProfile, *, air_density_kg_m3: float = C.ISA_SEA_LEVEL_DENSITY_KG_M3
+    profile: Airframe, *, air_density_kg_m3: float = C.ISA_SEA_LEVEL_DENSITY_KG_M3
 ) -> float:
     """How long the usable energy lasts in a still-air hover (s)."""
     return profile.usable_wh * 3600.0 / hover_power_w(profile, air_density_kg_m3=air_density_kg_m3)
 
 
 def minimum_power_speed_m_s(
-    profile: VehicleProfile,
+    profile: Airframe,
     *,
     air_density_kg_m3: float = C.ISA_SEA_LEVEL_DENSITY_KG_M3,
     step_m_s: float = 0.05,

@@ -15,8 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
+import uavplan.vehicle.constants as C
 from uavplan.errors import InputError
-from uavplan.vehicle import constants as C
 from uavplan.vehicle.power import calibration
 
 

@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+import uavplan.vehicle.constants as C
 from uavplan.errors import InputError
-from uavplan.vehicle import constants as C
 
 
 def _num(value: Any, key: str) -> float:

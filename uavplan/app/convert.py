@@ -1,0 +1,63 @@
+"""``convert``: a mission file into another mission format or a map export."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from uavplan.errors import InputError
+from uavplan.mission.io import format_for, load_mission, save_mission
+from uavplan.mission.items import Autopilot, GeoFence, MissionPlan
+
+
+@dataclass(frozen=True)
+class ConvertRequest:
+    """Mission file ``source`` (.plan, .waypoints) → ``output`` (.plan, .waypoints,
+    .geojson, .kml); ``scenario`` adds its obstacles to a map export; ``autopilot`` reads
+    the source as that autopilot's mission."""
+
+    source: str
+    output: str
+    scenario: str | None = None
+    autopilot: str | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class ConvertOutcome:
+    plan: MissionPlan
+    output: str
+    format_name: str
+    source: str
+    notes: tuple[str, ...] = ()
+
+    def summary(self) -> str:
+        return (
+            f"{Path(self.output).name}: {len(self.plan.items)} mission items from "
+            f"{Path(self.source).name} ({self.format_name})"
+        )
+
+
+def convert(request: ConvertRequest) -> ConvertOutcome:
+    """Read, convert and write; what a format cannot hold is left out with a note."""
+    out_format = format_for(request.output)  # an unknown extension fails before reading
+    autopilot = Autopilot.from_name(request.autopilot) if request.autopilot else None
+    plan = load_mission(request.source, autopilot)
+    notes = []
+    suffix = Path(request.output).suffix.lower()
+    if out_format.dumps_extras is None and out_format.loads is not None:
+        if suffix != ".plan" and (not plan.fence.is_empty or plan.rally):
+            notes.append(
+                f"{Path(request.output).suffix} holds no geofence or rally points; left out"
+            )
+            plan = replace(plan, fence=GeoFence(), rally=())
+    extras = None
+    if request.scenario is not None:
+        if out_format.dumps_extras is None:
+            raise InputError("--scenario only adds obstacles to a .geojson or .kml")
+        # the scenario's obstacles, in its site's frame: numpy and pyproj load for them
+        from uavplan.planning import export_extras
+        from uavplan.scenario import load_scenario
+
+        extras = export_extras(load_scenario(request.scenario))
+    save_mission(plan, request.output, extras=extras)
+    return ConvertOutcome(plan, request.output, out_format.name, request.source, tuple(notes))

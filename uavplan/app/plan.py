@@ -1,0 +1,205 @@
+"""``plan``: plan a scenario into a mission file, or reroute a QGroundControl plan.
+
+:func:`recognise` is the one place that decides what an input is; :func:`plan` dispatches
+on it to :func:`plan_scenario` or :func:`uavplan.app.reroute.reroute_file`.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from uavplan.app.feedback import Feedback, PlannerOptions, require_route
+from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
+from uavplan.errors import InputError
+from uavplan.fileio import atomic_write_text, check_writable
+from uavplan.geo import import_in_background
+from uavplan.mission.io import format_for, save_mission
+from uavplan.mission.items import Autopilot, MissionPlan
+from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
+from uavplan.scenario import Scenario, load_scenario
+
+if TYPE_CHECKING:
+    from uavplan.mission.fence import FenceBuild
+    from uavplan.route import PlannedRoute
+
+
+class InputKind(enum.Enum):
+    """What ``plan`` was given."""
+
+    SCENARIO = "scenario"  # a scenario file (YAML): plan it
+    QGC_PLAN = "qgc-plan"  # a QGroundControl .plan: reroute it around its exclusion zones
+
+
+def recognise(path: str) -> InputKind:
+    """What the input ``path`` is, from its name: a ``.plan`` is a QGroundControl plan,
+    anything else is read as a scenario (whose reader says so if it is not one)."""
+    return InputKind.QGC_PLAN if path.lower().endswith(".plan") else InputKind.SCENARIO
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """``uavplan plan SOURCE -o OUTPUT ...``: ``scenario`` only with a .plan source (its
+    obstacles and settings join the rerouting)."""
+
+    source: str
+    output: str
+    options: PlannerOptions = field(default_factory=PlannerOptions)
+    autopilot: str | None = None
+    report: str | None = None
+    plot: str | None = None
+    fence: bool = False
+    scenario: str | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PlanOutcome:
+    """A planned scenario: the route, the mission written to ``output`` (None when the
+    search was interrupted: nothing but the report was written)."""
+
+    scenario: Scenario
+    result: RouteResult
+    output: str
+    mission: MissionPlan | None = None
+
+    @property
+    def interrupted(self) -> bool:
+        return self.result.interrupted
+
+    def summary(self) -> str:
+        route, result = self.result.route, self.result
+        assert route is not None and self.mission is not None
+        e_path, e_turn, e_climb = result.energy_terms
+        return (
+            f"{Path(self.output).name}: {len(self.mission.items)} items, "
+            f"{route.waypoints_enu.shape[0]} waypoints, {route.length_m:.0f} m, energy "
+            f"{result.energy:.1f} (path {e_path:.1f}, turning {e_turn:.2f}, climb "
+            f"{e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
+            f"{result.runtime_s:.2f} s"
+        )
+
+
+def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome:
+    """Plan ``request.source`` as what it is (:func:`recognise`)."""
+    if recognise(request.source) is InputKind.QGC_PLAN:
+        return reroute_file(
+            RerouteRequest(
+                request.source,
+                request.output,
+                scenario=request.scenario,
+                options=request.options,
+                report=request.report,
+                autopilot=request.autopilot,
+                plot=request.plot,
+                fence=request.fence,
+            ),
+            feedback,
+        )
+    if request.scenario is not None:
+        raise InputError("--scenario goes with a .plan input (the SCENARIO argument is one)")
+    return plan_scenario(request, feedback)
+
+
+def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
+    """Plan the scenario file ``request.source`` and write the mission (and the report, the
+    picture). Notes go to ``feedback.say``; no route raises NoPathError."""
+    _check_outputs(request)
+    import_in_background()  # the mission writer's pyproj loads on another core during the search
+    scn = request.options.apply(load_scenario(request.source))
+    if request.autopilot:
+        autopilot = Autopilot.from_name(request.autopilot)
+        scn = replace(scn, mission=replace(scn.mission, autopilot=autopilot))
+    if scn.mission.altitude == "terrain" and scn.mission.autopilot is Autopilot.PX4:
+        feedback.warn(
+            "warning: mission.altitude terrain writes MAV_FRAME_GLOBAL_TERRAIN_ALT items, "
+            "which PX4 missions do not fly (ArduPilot does); use relative or amsl for PX4"
+        )
+    feedback.say(_announce(scn))
+    result = _search(scn, feedback)
+    if request.report:
+        atomic_write_text(request.report, json.dumps(result.report(scn), indent=2) + "\n")
+    if result.interrupted:
+        return PlanOutcome(scn, result, request.output)
+    route = require_route(scn, result)
+    for note in result.notes:
+        feedback.say(f"note: {note}")
+    mission, built = _write_mission(scn, result, route, request, feedback)
+    if request.plot:
+        # matplotlib (and the fence's outlines) load only for a picture
+        from uavplan.planning import scene_for
+        from uavplan.render import RouteLayers, render_scene, route_subtitle
+
+        subtitle = route_subtitle(
+            route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+        )
+        layers = RouteLayers.from_route(route, built)
+        render_scene(scene_for(scn), request.plot, layers, subtitle=subtitle)
+    return PlanOutcome(scn, result, request.output, mission)
+
+
+def _search(scn: Scenario, feedback: Feedback) -> RouteResult:
+    """Plan ``scn`` with the feedback's progress bar and Ctrl-C flag."""
+    bar = feedback.progress
+    if bar is not None:
+        bar.start(f"{scn.planner.algorithm} {scn.name}")
+    try:
+        return plan_route(scn, progress=bar, should_stop=feedback.should_stop)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _announce(scn: Scenario) -> str:
+    search = scn.planner.search
+    budget = f"{search.iterations} iterations"
+    if search.stall_iterations is not None:
+        again = search.restart_stall_iterations
+        budget = (
+            f"at most {search.iterations} iterations, stopping after "
+            f"{search.stall_iterations} without improvement"
+            + ("" if again is None else f" ({again} in a restart)")
+        )
+    return (
+        f"planning {scn.name} with {scn.planner.algorithm} (population {search.population}, "
+        f"{budget}, seed {search.seed}); Ctrl-C stops"
+    )
+
+
+def _check_outputs(request: PlanRequest) -> None:
+    """Everything about the outputs that can fail, checked before any planning."""
+    out_format = format_for(request.output)  # fail on an unknown extension before planning
+    if request.plot and Path(request.plot).suffix.lower() != ".png":
+        raise InputError("--plot writes a PNG picture; name the file *.png", file=request.plot)
+    if (
+        request.fence
+        and out_format.dumps_extras is None
+        and Path(request.output).suffix.lower() != ".plan"
+    ):
+        raise InputError(
+            "a geofence needs a .plan (or .geojson / .kml) output", file=request.output
+        )
+    for path in (request.output, request.report, request.plot):
+        if path:
+            check_writable(path)
+
+
+def _write_mission(
+    scn: Scenario,
+    result: RouteResult,
+    route: PlannedRoute,
+    request: PlanRequest,
+    feedback: Feedback,
+) -> tuple[MissionPlan, FenceBuild | None]:
+    """Build the mission, add the geofence if asked and write the output (its format from
+    the extension): (the mission, the fence build or None)."""
+    mission, built = mission_for(scn, route), None
+    if request.fence:
+        mission, built = fence_for(scn, route, mission)
+        for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
+            feedback.say(line)
+    summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
+    save_mission(mission, request.output, extras=lambda: export_extras(scn, route, summary))
+    return mission, built
