@@ -449,8 +449,10 @@ class _ScurveTrack(_Motion):
                     and this.remaining <= nxt.profile.accel_end
                     and self._blend_ok(this, nxt)
                 ):
+                    # the next leg starts now and moves from the next step on, in step with
+                    # this one's remaining time: the blend is symmetric about its midpoint,
+                    # which _blend_ok kept within the radius
                     self.next_started = True
-                    nxt.advance(dt)
             else:
                 nxt.advance(dt)
                 if nxt.t >= this.remaining:
@@ -510,7 +512,7 @@ class _SmoothingTrack(_Motion):
         if d_next <= 0.001 or d_next < self.acceptance_m:
             return 0.0
         exit_speed = min(
-            self.speed_xy, max_speed_from_distance(lim.jerk_m_s3, lim.accel_xy_m_s2, d_next, 0.0)
+            cruise, max_speed_from_distance(lim.jerk_m_s3, lim.accel_xy_m_s2, d_next, 0.0)
         )
         a = (target[0] - self.pos[0], target[1] - self.pos[1])
         b = (target[0] - nxt[0], target[1] - nxt[1])
@@ -518,7 +520,7 @@ class _SmoothingTrack(_Motion):
         cos_alpha = (a[0] * b[0] + a[1] * b[1]) / (na * nb) if na > 1e-9 and nb > 1e-9 else 0.0
         alpha = min(math.acos(max(-1.0, min(1.0, cos_alpha))), math.pi - 1e-6)
         turn = max_speed_in_waypoint(alpha, lim.accel_corner_m_s2, self.acceptance_m)
-        return min(turn, exit_speed, self.speed_xy)
+        return min(turn, exit_speed, cruise)
 
     def _l1_point(self) -> tuple[float, float]:
         """Where PX4 aims while turning onto the leg prev → target (PositionSmoothing)."""
@@ -542,25 +544,39 @@ class _SmoothingTrack(_Motion):
         vx, vy, vz = self.vel
         tx, ty, tz = self.target
         xy_dist = math.hypot(tx - x, ty - y)
-        xy_speed = min(
-            self.speed_xy,
-            max_speed_from_distance(
-                lim.jerk_m_s3, lim.accel_xy_m_s2, xy_dist, self._speed_at_target()
-            ),
-        )
         speed_now = math.hypot(vx, vy)
         cos_align = (
             ((tx - x) * vx + (ty - y) * vy) / (xy_dist * speed_now)
             if xy_dist > 1e-9 and speed_now > 1e-9
             else 1.0
         )
-        if speed_now > 0.2 and cos_align < 0.98 and xy_dist > self.acceptance_m:
+        turning = speed_now > 0.2 and cos_align < 0.98 and xy_dist > self.acceptance_m
+        cx, cy = self._l1_point() if turning else (tx, ty)
+        dz = tz - z
+        d = unit((cx - x, cy - y, dz))
+        h = math.hypot(d[0], d[1])
+        # the commanded speed is through the air: along this direction the wind makes it
+        cruise = (
+            ground_speed_limit(self.speed_xy, (d[0] / h, d[1] / h), self.wind)
+            if h > 1e-9
+            else self.speed_xy
+        )
+        xy_speed = min(
+            cruise,
+            max_speed_from_distance(
+                lim.jerk_m_s3, lim.accel_xy_m_s2, xy_dist, self._speed_at_target(cruise)
+            ),
+        )
+        if turning:
             xy_speed = min(self.max_speed_previous, xy_speed)
-            cx, cy = self._l1_point()
         else:
             self.max_speed_previous = xy_speed
-            cx, cy = tx, ty
-        dz = tz - z
+        self.stuck = (
+            h > 1e-9
+            and xy_dist > self.acceptance_m
+            and cruise <= 1e-9
+            and abs(dz) < lim.altitude_acceptance_m
+        )
         if dz > 0:
             climb = (
                 lim.speed_up_m_s
@@ -571,17 +587,6 @@ class _SmoothingTrack(_Motion):
         else:
             z_limit, z_acc = lim.speed_down_m_s, lim.accel_down_m_s2
         z_speed = min(z_limit, max_speed_from_distance(lim.jerk_m_s3, z_acc, abs(dz), 0.0))
-        d = unit((cx - x, cy - y, dz))
-        h = math.hypot(d[0], d[1])
-        if h > 1e-9:
-            xy_speed = min(
-                xy_speed, ground_speed_limit(self.speed_xy, (d[0] / h, d[1] / h), self.wind)
-            )
-            self.stuck = (
-                xy_dist > self.acceptance_m
-                and xy_speed <= 1e-9
-                and abs(dz) < lim.altitude_acceptance_m
-            )
         total = math.hypot(xy_speed, z_speed)
         cmd = scale(d, total)
         cmd = _clamp_xy(cmd, xy_speed)
