@@ -503,7 +503,7 @@ class _SmoothingTrack(_Motion):
     def set_speed(self, speed_xy: float) -> None:
         self.speed_xy = speed_xy
 
-    def _speed_at_target(self) -> float:
+    def _speed_at_target(self, cruise: float) -> float:
         """The speed the corner at the target allows (computeXYSpeedFromWaypoints)."""
         lim, target, nxt = self.limits, self.target, self.next
         if nxt is None:
