@@ -288,7 +288,7 @@ class SimVehicle:
         if self.link_lost:
             return []
         out.extend(self.server.timers(now))
-        out.extend(self._due_streams())
+        out.extend(self._due_streams(self.sim_time_s))
         wire = self._injector.outbound(out)
         if link_idle:
             wire.extend(self._injector.flush())
@@ -316,6 +316,8 @@ class SimVehicle:
                 PowerState(self.armed, not flight.landed, math.hypot(vx, vy), vz), flight.dt_s
             )
             out.extend(self._on_flight_events(events))
+            # telemetry is sampled when it falls due, not when the link next looks
+            out.extend(self._due_streams(flight.t_s))
             if self._disarm_at_s is not None and flight.t_s >= self._disarm_at_s:
                 self._disarm_at_s = None
                 self._disarm()
@@ -831,9 +833,8 @@ class SimVehicle:
                     stream.next_due_s = self.sim_time_s
         return []
 
-    def _due_streams(self) -> list[Message]:
+    def _due_streams(self, now: float) -> list[Message]:
         out: list[Message] = []
-        now = self.sim_time_s
         for message_id, stream in self._streams.items():
             if stream.interval_s is None or stream.next_due_s > now + 1e-9:
                 continue
