@@ -179,6 +179,20 @@ def test_ardupilot_refuses_auto_from_the_ground_without_a_take_off_in_its_words(
     assert driver.vehicle.mode.name == "GUIDED"
 
 
+def test_ardupilot_armed_in_auto_on_the_ground_waits_for_mission_start() -> None:
+    # no pilot raises the throttle, so ap.auto_armed stays false until MISSION_START
+    driver = with_mission(AP)
+    assert driver.command(MavCommand.DO_SET_MODE, 1, 4)[0].result == MavResult.ACCEPTED  # GUIDED
+    assert driver.command(MavCommand.COMPONENT_ARM_DISARM, 1)[0].result == MavResult.ACCEPTED
+    assert driver.command(MavCommand.DO_SET_MODE, 1, 3)[0].result == MavResult.ACCEPTED  # AUTO
+    driver.run(5.0)
+    assert driver.vehicle.armed and driver.vehicle.flight.landed
+    assert driver.vehicle.flight.position[2] == 0.0
+    assert driver.command(MavCommand.MISSION_START, 0, 0)[0].result == MavResult.ACCEPTED
+    driver.run(3.0)
+    assert not driver.vehicle.flight.landed and driver.vehicle.flight.position[2] > 1.0
+
+
 def test_ardupilot_mission_start_needs_param1_and_param2_zero() -> None:
     driver = with_mission(AP)
     for first, last in ((1, 0), (0, 3)):

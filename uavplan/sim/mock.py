@@ -59,6 +59,8 @@ class VehicleSnapshot:
     sim_time_s: float
     battery_remaining_pct: float
     link_lost: bool
+    #: (armed at, disarmed at or None while armed) in simulated seconds, oldest first
+    armed_periods: tuple[tuple[float, float | None], ...]
 
 
 class MockVehicle:
@@ -129,6 +131,7 @@ class MockVehicle:
                 sim_time_s=v.sim_time_s,
                 battery_remaining_pct=100.0 * v.battery.remaining_fraction,
                 link_lost=v.link_lost,
+                armed_periods=tuple(v.armed_periods),
             )
 
     def wait_for(self, predicate: Callable[[MockVehicle], bool], timeout_s: float) -> bool:

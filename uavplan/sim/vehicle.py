@@ -219,9 +219,14 @@ class SimVehicle:
         self.sim_time_s = 0.0
         self._last_now = now
         self._armed_at_s: float | None = None
+        #: (armed at, disarmed at or None while armed) in simulated seconds, oldest first
+        self.armed_periods: list[tuple[float, float | None]] = []
         self._disarm_at_s: float | None = None
         self._loaded_version = -1
         self._mission_active = False
+        #: ArduPilot Copter's ap.auto_armed: an armed copter on the ground in AUTO waits
+        #: for it (a raised throttle, or MISSION_START) before it takes off
+        self._auto_armed = False
         self._heading_cdeg = 0
         self._geodetic: tuple[tuple[float, float], tuple[float, float]] | None = None
         self._streams: dict[int, _Stream] = {}
@@ -417,8 +422,11 @@ class SimVehicle:
         out: list[Message] = []
 
         def ack(result: MavResult) -> list[Message]:
-            out.insert(0, CommandAck(cmd.command, int(result), partner[0], partner[1]))
-            return out
+            # a refusal's STATUSTEXT goes out while the command runs, before its ACK (as
+            # ArduPilot's check_failed and PX4's mavlink_log_critical send it)
+            texts = [m for m in out if isinstance(m, StatusText)]
+            rest = [m for m in out if not isinstance(m, StatusText)]
+            return [*texts, CommandAck(cmd.command, int(result), partner[0], partner[1]), *rest]
 
         command = cmd.command
         if command == MavCommand.REQUEST_MESSAGE:
@@ -428,17 +436,11 @@ class SimVehicle:
             message = self._requested(wanted)
             if message is None:
                 return ack(MavResult.UNSUPPORTED)
-            ack(MavResult.ACCEPTED)
-            out.append(message)
-            return out
+            return [*ack(MavResult.ACCEPTED), message]
         if command == MavCommand.REQUEST_AUTOPILOT_CAPABILITIES:
-            ack(MavResult.ACCEPTED)
-            out.append(self._autopilot_version())
-            return out
+            return [*ack(MavResult.ACCEPTED), self._autopilot_version()]
         if command == MavCommand.GET_HOME_POSITION:
-            ack(MavResult.ACCEPTED)
-            out.append(self._home_position())
-            return out
+            return [*ack(MavResult.ACCEPTED), self._home_position()]
         if command == MavCommand.SET_MESSAGE_INTERVAL:
             return ack(self._set_interval(cmd.param1, cmd.param2))
         if command == MavCommand.DO_SET_MISSION_CURRENT:
@@ -575,6 +577,7 @@ class SimVehicle:
                 return MavResult.TEMPORARILY_REJECTED
         self.armed = True
         self._armed_at_s = self.flight.t_s
+        self.armed_periods.append((self.flight.t_s, None))
         self._after_arming()
         return MavResult.ACCEPTED
 
@@ -588,6 +591,9 @@ class SimVehicle:
 
     def _disarm(self) -> None:
         self.armed = False
+        self._auto_armed = False  # Copter::update_auto_armed: disarmed clears it
+        if self.armed_periods and self.armed_periods[-1][1] is None:
+            self.armed_periods[-1] = (self.armed_periods[-1][0], self.flight.t_s)
         self._armed_at_s = None
         self._disarm_at_s = None
         self._mission_active = False
@@ -665,6 +671,16 @@ class SimVehicle:
         if not self.armed:
             return
         if kind is ModeKind.MISSION:
+            waiting = (
+                self.autopilot == Autopilot.ARDUPILOT
+                and self.flight.landed
+                and not self._auto_armed
+            )
+            if waiting:
+                # ArduCopter: AUTO on the ground runs the take-off only once ap.auto_armed
+                # (Copter::update_auto_armed sets it when the pilot raises the throttle, and
+                # MISSION_START sets it); with no pilot here, it waits for MISSION_START
+                return
             if previous.kind is not ModeKind.MISSION or not self._mission_active:
                 self._start_mission()
         elif kind is ModeKind.RETURN:
@@ -709,7 +725,7 @@ class SimVehicle:
         else:
             result = self._do_set_mode(msg.base_mode, msg.custom_mode, 0.0, out)
             command = 11
-        return [CommandAck(command, int(result), partner[0], partner[1]), *out]
+        return [*out, CommandAck(command, int(result), partner[0], partner[1])]
 
     def _mission_start(self, first: float, last: float, out: list[Message]) -> MavResult:
         if self.autopilot == Autopilot.ARDUPILOT:
@@ -720,8 +736,10 @@ class SimVehicle:
             result = self._set_mode_ardupilot(
                 mode_named(Autopilot.ARDUPILOT, ModeKind.MISSION), out
             )
-            if result == MavResult.ACCEPTED and self.armed and not self._mission_active:
-                self._start_mission()
+            if result == MavResult.ACCEPTED and self.armed:
+                self._auto_armed = True  # copter.set_auto_armed(true)
+                if not self._mission_active:
+                    self._start_mission()
             return result
         # commander/Commander.cpp VEHICLE_CMD_MISSION_START: no valid mission → DENIED and
         # "Mission start denied! No valid mission"; a first item out of range → DENIED;
@@ -749,6 +767,7 @@ class SimVehicle:
             return MavResult.FAILED
         if not (math.isfinite(altitude) and altitude > 0):
             return MavResult.DENIED
+        self._auto_armed = True  # Copter::start_takeoff sets it
         self.flight.takeoff(altitude)
         return MavResult.ACCEPTED
 
