@@ -23,6 +23,7 @@ from uavplan.mavlink.modes import FlightMode
 from uavplan.mavlink.transport import ConnectionSpec
 from uavplan.mission.items import Autopilot, MissionItem, MissionType
 from uavplan.sim.faults import Faults
+from uavplan.sim.model import FlightEvent
 from uavplan.sim.vehicle import SimVehicle, VehicleConfig
 
 __all__ = ["MockVehicle", "VehicleSnapshot", "VehicleStats"]
@@ -153,6 +154,11 @@ class MockVehicle:
     @property
     def last_rejection(self) -> str | None:
         return self.vehicle.last_rejection
+
+    def flight_events(self) -> tuple[FlightEvent, ...]:
+        """What the flight model reported so far (simulated times), oldest first."""
+        with self._lock:
+            return tuple(self.vehicle.flight_events)
 
     def stats(self) -> VehicleStats:
         with self._lock:

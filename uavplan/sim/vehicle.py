@@ -221,6 +221,8 @@ class SimVehicle:
         self._armed_at_s: float | None = None
         #: (armed at, disarmed at or None while armed) in simulated seconds, oldest first
         self.armed_periods: list[tuple[float, float | None]] = []
+        #: everything the flight model reported (item reached, take-off, landed ...), in order
+        self.flight_events: list[FlightEvent] = []
         self._disarm_at_s: float | None = None
         self._loaded_version = -1
         self._mission_active = False
@@ -316,6 +318,7 @@ class SimVehicle:
         flight = self.flight
         while flight.t_s + flight.dt_s <= self.sim_time_s + 1e-9:
             events = flight.step()
+            self.flight_events.extend(events)
             vx, vy, vz = flight.velocity
             self.battery.drain(
                 PowerState(self.armed, not flight.landed, math.hypot(vx, vy), vz), flight.dt_s
