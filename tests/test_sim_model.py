@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -386,3 +387,17 @@ def test_parameters_refuse_unknown_names_and_values_out_of_range() -> None:
     # what a PARAM_SET does: stored as sent, the flight model clamps to the range
     odd = Parameters(AP).with_values({"WPNAV_SPEED": 5.0}, checked=False)
     assert odd["WPNAV_SPEED"] == 5.0
+
+
+def test_the_docs_list_every_parameter_with_its_default_unit_and_source() -> None:
+    text = (Path(__file__).resolve().parent.parent / "docs" / "flight-model.md").read_text()
+    rows = {
+        line.split("`")[1]: [cell.strip() for cell in line.strip().strip("|").split("|")]
+        for line in text.splitlines()
+        if line.startswith("| `")
+    }
+    for spec in (*ARDUPILOT_PARAMS, *PX4_PARAMS):
+        _, default, unit, _what, source = rows[spec.name]
+        assert float(default) == spec.default, spec.name
+        assert unit == (spec.unit or "-"), spec.name
+        assert f"({spec.source})" in source, spec.name

@@ -45,10 +45,10 @@ _PX4 = "https://github.com/PX4/PX4-Autopilot/blob/main/src/modules/"
 _PX4_AUTO = _PX4 + "mc_pos_control/multicopter_autonomous_params.yaml"
 _PX4_LIMITS = _PX4 + "mc_pos_control/multicopter_position_control_limits_params.yaml"
 _PX4_TKO_LAND = _PX4 + "mc_pos_control/multicopter_takeoff_land_params.yaml"
-_PX4_ACC = "https://docs.px4.io/main/en/advanced_config/parameter_reference.html#MPC_ACC_UP_MAX"
+_PX4_REF = "https://docs.px4.io/main/en/advanced_config/parameter_reference.html#"
 _PX4_NAV = _PX4 + "navigator/navigator_params.yaml"
 _PX4_RTL = _PX4 + "navigator/rtl_params.yaml"
-_PX4_ARM = "https://docs.px4.io/main/en/advanced_config/parameter_reference.html#COM_ARM_MIS_REQ"
+_PX4_ARM = _PX4_REF + "COM_ARM_MIS_REQ"
 
 
 class ParamType(enum.IntEnum):
@@ -262,8 +262,24 @@ PX4_PARAMS: tuple[ParamSpec, ...] = (
         2.0,
         15.0,
     ),
-    ParamSpec("MPC_ACC_UP_MAX", 4.0, "m/s^2", "upward acceleration limit", _PX4_ACC, 2.0, 15.0),
-    ParamSpec("MPC_ACC_DOWN_MAX", 3.0, "m/s^2", "downward acceleration limit", _PX4_ACC, 2.0, 15.0),
+    ParamSpec(
+        "MPC_ACC_UP_MAX",
+        4.0,
+        "m/s^2",
+        "upward acceleration limit",
+        _PX4_REF + "MPC_ACC_UP_MAX",
+        2.0,
+        15.0,
+    ),
+    ParamSpec(
+        "MPC_ACC_DOWN_MAX",
+        3.0,
+        "m/s^2",
+        "downward acceleration limit",
+        _PX4_REF + "MPC_ACC_DOWN_MAX",
+        2.0,
+        15.0,
+    ),
     ParamSpec(
         "MPC_JERK_AUTO",
         4.0,
