@@ -150,6 +150,14 @@ def test_rejected_item_exits_4_naming_the_item_and_result(
         (["download", "--conn", "udpout:127.0.0.1:9", "-o", "{tmp}/x.xyz"], "unknown mission"),
         (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--loss", "1.5"], "1.5"),
         (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--home", "47,8"], "LAT,LON,ALT"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--wind", "3"], "E,N"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "NOPE=1"], "'NOPE'"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "WPNAV_SPEED"], "NAME=VALUE"),
+        (
+            ["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "MPC_XY_CRUISE=99"],
+            "maximum",
+        ),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--speedup", "0"], "--speedup"),
     ],
 )
 def test_bad_input_exits_2(
