@@ -477,13 +477,13 @@ def test_the_fence_round_trips_through_the_mock_vehicle(
 ) -> None:
     from mavlink_helpers import client_conn, running_mock
 
-    from uavplan.mavlink.mock_vehicle import MockConfig
+    from uavplan.sim.vehicle import VehicleConfig
 
     _, plan_path, _ = fenced_plan
     plan = load_mission(plan_path)
     runner = CliRunner()
     back_path = tmp_path / "back.plan"
-    with running_mock(MockConfig(autopilot=autopilot, home=plan.home)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=autopilot, home=plan.home)) as vehicle:
         conn = client_conn(vehicle)
         result = runner.invoke(main, ["upload", str(plan_path), "--conn", conn])
         assert result.exit_code == 0, result.output

@@ -11,6 +11,7 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * world (+ the _geom kernels) → path → planners: know nothing of files, missions or MAVLink;
 * mission (items, builder, files, fence, exports): knows nothing of optimisers or MAVLink;
 * mavlink: the mission vocabulary only; pymavlink lives in one module of it;
+* sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
 * scenario (the YAML reader and the checked scenario values): vocabulary and sources;
 * wiring (planning, flight, reroute, bench, render): everything but the application and CLI;
@@ -55,6 +56,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "planners": ("planners/*.py", "warmup.py"),
     "mission": ("mission/*.py",),
     "mavlink": ("mavlink/*.py",),
+    "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
     "scenario": ("scenario/*.py",),
     "wiring": ("planning.py", "flight.py", "bench/*.py", "render.py", "reroute.py"),
@@ -62,7 +64,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "cli": ("cli/*.py", "__main__.py"),
 }
 
-_BELOW_WIRING = {"vocabulary", "world", "path", "planners", "mission", "mavlink", "sources"}
+_BELOW_WIRING = {"vocabulary", "world", "path", "planners", "mission", "mavlink", "sim", "sources"}
 
 #: layer → the layers its modules may import
 ALLOWED: dict[str, set[str]] = {
@@ -72,6 +74,7 @@ ALLOWED: dict[str, set[str]] = {
     "planners": {"vocabulary", "world", "path", "planners"},
     "mission": {"vocabulary", "mission"},
     "mavlink": {"vocabulary", "mission", "mavlink"},
+    "sim": {"vocabulary", "mission", "mavlink", "sim"},
     "sources": {"vocabulary", "sources"},
     "scenario": {"vocabulary", "sources", "scenario"},
     "wiring": _BELOW_WIRING | {"scenario", "wiring"},

@@ -15,15 +15,11 @@ from mavlink_helpers import client_conn, running_mock, synthetic_mission
 
 from uavplan.cli import main
 from uavplan.mavlink.messages import MissionResult
-from uavplan.mavlink.mock_vehicle import (
-    MISSION_PROTOCOL_MESSAGES,
-    LinkFaults,
-    MissionFaults,
-    MockConfig,
-)
 from uavplan.mavlink.transfer import compare_items, plan_wire_items
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType, items_equal
+from uavplan.sim.faults import MISSION_PROTOCOL_MESSAGES, Faults
+from uavplan.sim.vehicle import VehicleConfig
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -60,7 +56,7 @@ def test_upload_waypoints_to_ardupilot_with_mavsdk_url(tmp_path: Path) -> None:
     plan = synthetic_mission(30, seed=92, autopilot=Autopilot.ARDUPILOT)
     path = tmp_path / "mission.waypoints"
     save_mission(plan, path)
-    with running_mock(MockConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         url = client_conn(vehicle).replace("udpout:", "udpout://")
         result = run("upload", str(path), "--conn", url, "--no-verify", "--target-system", "1")
         assert result.exit_code == 0, result.output
@@ -74,7 +70,7 @@ def test_download_into_a_file(suffix: str, tmp_path: Path) -> None:
         33, seed=93, autopilot=Autopilot.ARDUPILOT, with_fence=True, with_rally=True
     )
     out = tmp_path / f"back{suffix}"
-    with running_mock(MockConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         for mission_type in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
             vehicle.preload(mission_type, plan_wire_items(plan, mission_type, Autopilot.ARDUPILOT))
         result = run("download", "--conn", client_conn(vehicle), "-o", str(out))
@@ -104,7 +100,7 @@ def test_clear_all(plan_file: tuple[Path, MissionPlan]) -> None:
 
 def test_no_heartbeat_exits_4_with_one_clear_line(plan_file: tuple[Path, MissionPlan]) -> None:
     path, _ = plan_file
-    with running_mock(MockConfig(send_heartbeats=False)) as vehicle:
+    with running_mock(VehicleConfig(send_heartbeats=False)) as vehicle:
         result = run(
             "upload", str(path), "--conn", client_conn(vehicle), "--heartbeat-timeout", "0.5"
         )
@@ -117,7 +113,7 @@ def test_total_loss_exits_4_in_bounded_time_naming_the_step(
     plan_file: tuple[Path, MissionPlan],
 ) -> None:
     path, _ = plan_file
-    config = MockConfig(link_faults=LinkFaults(drop_rate=1.0, only=MISSION_PROTOCOL_MESSAGES))
+    config = VehicleConfig(faults=Faults(drop_rate=1.0, only=MISSION_PROTOCOL_MESSAGES))
     with running_mock(config) as vehicle:
         result = run(
             "upload",
@@ -137,8 +133,8 @@ def test_rejected_item_exits_4_naming_the_item_and_result(
     plan_file: tuple[Path, MissionPlan],
 ) -> None:
     path, _ = plan_file
-    faults = MissionFaults(reject_at_seq=5, reject_result=MissionResult.INVALID_PARAM4)
-    with running_mock(MockConfig(mission_faults=faults)) as vehicle:
+    faults = Faults(reject_at_seq=5, reject_result=MissionResult.INVALID_PARAM4)
+    with running_mock(VehicleConfig(faults=faults)) as vehicle:
         result = run("upload", str(path), "--conn", client_conn(vehicle))
     assert result.exit_code == 4
     line = result.stderr.strip()
@@ -154,6 +150,14 @@ def test_rejected_item_exits_4_naming_the_item_and_result(
         (["download", "--conn", "udpout:127.0.0.1:9", "-o", "{tmp}/x.xyz"], "unknown mission"),
         (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--loss", "1.5"], "1.5"),
         (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--home", "47,8"], "LAT,LON,ALT"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--wind", "3"], "E,N"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "NOPE=1"], "'NOPE'"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "WPNAV_SPEED"], "NAME=VALUE"),
+        (
+            ["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "MPC_XY_CRUISE=99"],
+            "maximum",
+        ),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--speedup", "0"], "--speedup"),
     ],
 )
 def test_bad_input_exits_2(

@@ -7,6 +7,7 @@ The MAVLink package is imported inside the commands so ``uavplan --help`` stays 
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 from collections.abc import Callable, Iterator
@@ -294,6 +295,31 @@ def _parse_home(text: str | None) -> Any:
         ) from None
 
 
+def _parse_wind(text: str | None) -> tuple[float, float]:
+    if text is None:
+        return (0.0, 0.0)
+    try:
+        east, north = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"expected E,N in m/s, got {text!r}", key="--wind") from None
+    if not (math.isfinite(east) and math.isfinite(north)):
+        raise InputError(f"the wind must be finite, got {text!r}", key="--wind")
+    return (east, north)
+
+
+def _parse_params(pairs: tuple[str, ...]) -> dict[str, float]:
+    values: dict[str, float] = {}
+    for pair in pairs:
+        name, sep, value = pair.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise InputError(f"expected NAME=VALUE, got {pair!r}", key="--param") from None
+    return values
+
+
 @main.command("mock-vehicle")
 @click.option("--conn", required=True, metavar="CONN", help=_CONN_HELP)
 @click.option(
@@ -301,7 +327,7 @@ def _parse_home(text: str | None) -> Any:
     type=click.Choice(["px4", "ardupilot"]),
     default="px4",
     show_default=True,
-    help="Which firmware's mission-protocol behaviour to imitate.",
+    help="Which firmware to imitate: mission protocol, modes, arming, parameters, flight.",
 )
 @click.option(
     "--loss",
@@ -323,7 +349,30 @@ def _parse_home(text: str | None) -> Any:
     "--home",
     metavar="LAT,LON,ALT",
     default=None,
-    help="ArduPilot: the home position a download returns as seq 0.",
+    help="Where the vehicle stands (AMSL metres); ArduPilot returns it as mission seq 0. "
+    "Default: the home of --mission, else PX4 SITL's default home.",
+)
+@click.option(
+    "--speedup",
+    type=click.FloatRange(min=0.01, max=1000.0),
+    default=1.0,
+    show_default=True,
+    help="Simulated time runs this many times faster than wall time (flight and telemetry; "
+    "the mission protocol keeps real time).",
+)
+@click.option(
+    "--wind",
+    metavar="E,N",
+    default=None,
+    help="Wind blowing toward east and north, m/s: it changes the ground speed.",
+)
+@click.option(
+    "--param",
+    "param_pairs",
+    metavar="NAME=VALUE",
+    multiple=True,
+    help="Start with this autopilot parameter changed (repeatable; WPNAV_SPEED=500, "
+    "MPC_XY_CRUISE=8, ...: docs/flight-model.md lists them).",
 )
 @click.option(
     "--firmware-timing",
@@ -347,30 +396,49 @@ def mock_vehicle_cmd(
     seed: int,
     system_id: int,
     home: str | None,
+    speedup: float,
+    wind: str | None,
+    param_pairs: tuple[str, ...],
     firmware_timing: bool,
     preload: str | None,
 ) -> None:
     """Run a simulated vehicle on CONN until SIGINT / SIGTERM.
 
-    It sends heartbeats, serves mission / geofence / rally upload, download and clear,
-    and holds what it is sent. --loss and --duplicate inject faults deterministically.
+    It speaks MAVLink as PX4 or ArduPilot Copter: heartbeats and telemetry, mission /
+    geofence / rally upload, download and clear, parameters, modes and arming, and it flies
+    the mission it holds once armed and started (docs/flight-model.md). --loss and
+    --duplicate inject packet faults deterministically.
     """
-    from uavplan.mavlink.mock_vehicle import LinkFaults, MockConfig, MockVehicle
     from uavplan.mavlink.transfer import check_plan_fits_wire, plan_wire_items
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import Autopilot, MissionType
+    from uavplan.sim.faults import Faults
+    from uavplan.sim.mock import MockVehicle
+    from uavplan.sim.params import UnknownParameter
+    from uavplan.sim.vehicle import VehicleConfig
 
     flavour = Autopilot.from_name(autopilot)
-    config = MockConfig(
-        autopilot=flavour,
-        system_id=system_id,
-        home=_parse_home(home),
-        firmware_timing=firmware_timing,
-        link_faults=LinkFaults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
-    )
     plan = load_mission(preload) if preload else None
     if plan is not None:
         check_plan_fits_wire(plan, file=preload)
+    stand_at = _parse_home(home)
+    if stand_at is None and plan is not None:
+        stand_at = plan.home
+    try:
+        config = VehicleConfig(
+            autopilot=flavour,
+            system_id=system_id,
+            home=stand_at,
+            firmware_timing=firmware_timing,
+            faults=Faults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
+            params=_parse_params(param_pairs),
+            speedup=speedup,
+            wind_en_m_s=_parse_wind(wind),
+        )
+    except UnknownParameter as err:
+        raise InputError(str(err), key="--param") from None
+    except ValueError as err:
+        raise InputError(str(err), key="--param") from None
     vehicle = MockVehicle(conn, config)
     try:
         if plan is not None:
@@ -389,9 +457,14 @@ def mock_vehicle_cmd(
                 if (loss or duplicate)
                 else ""
             )
+            at = config.standing_at
+            extra = f", speedup {speedup:g}" if speedup != 1.0 else ""
+            if wind:
+                extra += f", wind {config.wind_en_m_s[0]:g},{config.wind_en_m_s[1]:g} m/s"
             click.echo(
-                f"mock {flavour.label} vehicle, system {system_id}, serving on {where}"
-                f"{faults}; Ctrl-C to stop",
+                f"mock {flavour.label} vehicle, system {system_id}, at "
+                f"{at.lat_deg:.7f},{at.lon_deg:.7f},{at.alt_m:.1f}, serving on {where}"
+                f"{faults}{extra}; Ctrl-C to stop",
                 err=True,
             )
             vehicle.run(stop)
