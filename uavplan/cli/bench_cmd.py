@@ -119,12 +119,12 @@ def bench_command(
         ablation=ablation,
         out_dir=out_dir,
     )
-    with interruptible() as stop_requested:
-        outcome = run_bench(request, feedback(quiet, should_stop=stop_requested))
-    if outcome.interrupted:
-        exit_interrupted()
-    click.echo(outcome.tables())
-    if out_dir and not quiet:
-        click.echo(f"wrote {len(outcome.written)} files to {out_dir}", err=True)
-    if not quiet:
-        click.echo(f"{len(outcome.records)} runs in {outcome.wall_s:.1f} s", err=True)
+    with interruptible() as interrupts:
+        outcome = run_bench(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        click.echo(outcome.tables())
+        if out_dir and not quiet:
+            click.echo(f"wrote {len(outcome.written)} files to {out_dir}", err=True)
+        if not quiet:
+            click.echo(f"{len(outcome.records)} runs in {outcome.wall_s:.1f} s", err=True)

@@ -97,9 +97,9 @@ def plan_command(
         fence=fence,
         scenario=scenario_path,
     )
-    with interruptible() as stop_requested:
-        outcome = plan(request, feedback(quiet, should_stop=stop_requested))
-    if outcome.interrupted:
-        exit_interrupted()
-    if not quiet:
-        click.echo(outcome.summary(), err=True)
+    with interruptible() as interrupts:
+        outcome = plan(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        if not quiet:
+            click.echo(outcome.summary(), err=True)

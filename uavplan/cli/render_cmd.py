@@ -96,9 +96,9 @@ def render_command(
         height_px=height,
         dpi=dpi,
     )
-    with interruptible() as stop_requested:
-        outcome = render(request, feedback(quiet, should_stop=stop_requested))
-    if outcome.interrupted:
-        exit_interrupted()
-    if not quiet:
-        click.echo(outcome.line(), err=True)
+    with interruptible() as interrupts:
+        outcome = render(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        if not quiet:
+            click.echo(outcome.line(), err=True)
