@@ -137,7 +137,7 @@ def _check_against_fence(file: str, base: Surroundings | None = None) -> FenceCh
     from uavplan.reroute import fence_world
 
     plan = load_mission(file)
-    if plan.fence.is_empty and base is None:
+    if not (plan.fence.polygons or plan.fence.circles) and base is None:
         raise no_fence(file, "validate")
     world, flight = fence_world(plan, base=base, file=file)
     also = ""

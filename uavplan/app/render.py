@@ -158,7 +158,7 @@ def _render_plan(request: RenderRequest) -> _Drawn:
     from uavplan.mission.io import load_mission  # the mission readers: only with a mission
 
     plan = load_mission(request.scenario)
-    if plan.fence.is_empty:
+    if not (plan.fence.polygons or plan.fence.circles):
         raise no_fence(request.scenario, "render")
     world, flight = fence_world(plan, file=request.scenario)
     layers = RouteLayers.from_mission(plan, world.frame, flight.points_enu)

@@ -8,7 +8,14 @@ import click
 
 from uavplan.app.bench import BenchRequest, run_bench
 from uavplan.cli import main
-from uavplan.cli.common import exit_interrupted, feedback, handle_errors, interruptible
+from uavplan.cli.common import (
+    check_threads_variable,
+    exit_interrupted,
+    feedback,
+    handle_errors,
+    interruptible,
+    warn,
+)
 from uavplan.cli.options import ALGORITHMS
 
 
@@ -119,6 +126,7 @@ def bench_command(
         ablation=ablation,
         out_dir=out_dir,
     )
+    check_threads_variable(warn)
     with interruptible() as interrupts:
         outcome = run_bench(request, feedback(quiet, interrupts))
         if outcome.interrupted:

@@ -21,7 +21,7 @@ import click
 
 from uavplan.app.feedback import Feedback
 from uavplan.cli import caused_by_interrupt, interrupted
-from uavplan.errors import EXIT_INTERNAL, UavplanError
+from uavplan.errors import EXIT_INTERNAL, InputError, UavplanError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -65,7 +65,39 @@ def exit_interrupted() -> NoReturn:
     interrupted()
 
 
+#: the most threads UAVPLAN_THREADS may give the SPSA step (the kernels' limit,
+#: uavplan.planners._kernels.STEP_THREADS_MAX, not imported here: tests/test_user_errors.py
+#: holds the two equal)
+MAX_STEP_THREADS = 8
+
+
+def check_threads_variable(warn: Callable[[str], None]) -> None:
+    """``UAVPLAN_THREADS``, read by the planner, must be a whole number of threads: anything
+    else is exit 2 naming the variable (it used to be ignored without a word); more than the
+    step runs on is a warning."""
+    text = os.environ.get("UAVPLAN_THREADS")
+    if text is None or not text.strip():
+        return
+    value = text.strip()
+    if not (value.isdigit() and int(value) >= 1):
+        raise InputError(
+            f"expected a whole number of threads for the planner, 1 to {MAX_STEP_THREADS} "
+            f"(1: one thread), got {text!r}",
+            key="UAVPLAN_THREADS",
+        )
+    if int(value) > MAX_STEP_THREADS:
+        warn(
+            f"warning: UAVPLAN_THREADS={value}: the planner's step runs on at most "
+            f"{MAX_STEP_THREADS} threads"
+        )
+
+
 def _say(line: str) -> None:
+    click.echo(line, err=True)
+
+
+def warn(line: str) -> None:
+    """A warning on stderr (shown with --quiet too)."""
     click.echo(line, err=True)
 
 
