@@ -74,6 +74,8 @@ from uavplan.world import World
 #: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
 #: and above the highest position; fence obstacles stand this much above the ceiling
 VOLUME_PAD_M = 50.0
+#: how messages name the obstacles that stand for the outside of the inclusion fence
+OUTSIDE_INCLUSION = "the area outside the inclusion fence"
 #: the safety margin when no scenario gives one (the scenario format's default)
 DEFAULT_MARGIN_M = 10.0
 #: consecutive positions closer than this horizontally are joined by a straight segment
@@ -419,7 +421,7 @@ def build_airspace(
         for piece in _simple_pieces(box.difference(inclusion)):
             ring = orient_ccw(np.asarray(piece.exterior.coords)[:-1])
             obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
-            names.append("the area outside the inclusion fence")
+            names.append(OUTSIDE_INCLUSION)
     return Airspace(bounds, tuple(obstacles), tuple(names), inclusion)
 
 

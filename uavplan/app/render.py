@@ -169,8 +169,11 @@ def _render_plan(request: RenderRequest) -> _Drawn:
         f"min clearance from its geofence {check.min_clearance_m:.2f} m (margin "
         f"{world.margin_m:g} m)" + ("" if check.problem() is None else "  (too close!)")
     )
-    airborne = [(float(x), float(y), float(z)) for x, y, z in flight.points_enu[1:]]
-    scene = fence_scene(Path(request.scenario).stem, world.airspace, world.margin_m, airborne)
+    # start and goal: the first and last position flown (every position is a waypoint of
+    # the flown route already; which were the user's the plan does not say)
+    first, last = (tuple(float(v) for v in flight.points_enu[k]) for k in (1, -1))
+    ends = [(first[0], first[1], first[2]), (last[0], last[1], last[2])]
+    scene = fence_scene(Path(request.scenario).stem, world.airspace, world.margin_m, ends)
     return _draw(scene, request, layers, subtitle, min_clearance_m=check.min_clearance_m)
 
 

@@ -16,7 +16,7 @@ from uavplan.app.outputs import OutputSet
 from uavplan.config import PlannerConfig
 from uavplan.errors import InputError
 from uavplan.mission.io import load_mission, mission_text
-from uavplan.reroute import Airspace, RerouteResult, reroute_plan
+from uavplan.reroute import OUTSIDE_INCLUSION, Airspace, RerouteResult, reroute_plan
 from uavplan.scenario import load_surroundings
 
 if TYPE_CHECKING:
@@ -131,16 +131,22 @@ def fence_scene(
     margin_m: float,
     positions_enu: Sequence[tuple[float, float, float]],
 ) -> Scene:
-    """A picture's scene of a plan in its rerouting world: the fence's zones (and the
+    """A picture's scene of a plan in its rerouting world: the exclusion zones (and the
     scenario's obstacles) as solids, the flight volume, the first and last position as start
-    and goal, the positions between as via points."""
+    and goal, the positions between as via points. The outside of an inclusion fence is left
+    out (the fence's outline is drawn; walls around the volume would hide it)."""
     from uavplan.render import Scene  # matplotlib loads only when drawing
 
     first, last = positions_enu[0], positions_enu[-1]
+    solids = [
+        ob
+        for ob, what in zip(airspace.obstacles, airspace.names, strict=True)
+        if what != OUTSIDE_INCLUSION
+    ]
     return Scene(
         name=name,
         bounds=airspace.bounds,
-        obstacles=airspace.obstacles,
+        obstacles=solids,
         safety_margin_m=margin_m,
         start_enu=first,
         goal_enu=last,
