@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = Path(uavplan.__file__).resolve().parent
 HANG_S = 120.0
 #: attempts per delay before giving up on landing the signal after the interpreter's start-up
-ATTEMPTS = 8
+ATTEMPTS = 20
 
 pytestmark = pytest.mark.timeout(600)
 
