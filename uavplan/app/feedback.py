@@ -70,10 +70,6 @@ class Feedback:
         """A block that polls ``should_stop`` (see :class:`Interrupts`)."""
         return nullcontext() if self.interrupts is None else self.interrupts.polled()
 
-    def stopped(self) -> bool:
-        """Did a Ctrl-C ask the use case to stop?"""
-        return self.should_stop is not None and self.should_stop()
-
 
 @dataclass(frozen=True)
 class PlannerOptions:

@@ -176,8 +176,11 @@ class Interrupts:
 @contextlib.contextmanager
 def interruptible() -> Iterator[Interrupts]:
     """Ctrl-C (SIGINT) for the command that runs in the block: :class:`Interrupts`, whose
-    :meth:`~Interrupts.should_stop` is the planners' poll. Off the main thread (where no
-    signal handler can be set) a Ctrl-C is the caller's business; the flag then stays unset."""
+    :meth:`~Interrupts.should_stop` is the planners' poll. A command calls its use case and
+    prints the outcome inside the block, so that once the outputs are in place a Ctrl-C stays
+    ignored until the command returns. After a Ctrl-C, whatever the block ends with is the
+    interrupt (exit 130). Off the main thread (where no signal handler can be set) a Ctrl-C is
+    the caller's business; the flag then stays unset."""
     gate = Interrupts()
     if threading.current_thread() is not threading.main_thread():
         yield gate
