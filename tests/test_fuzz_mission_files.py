@@ -53,7 +53,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import uavplan.app.check as app_check
-import uavplan.cli.link_cmd as link_cmd
+import uavplan.app.link as app_link
 from uavplan.cli import main
 from uavplan.errors import LinkError, MissionFileError
 from uavplan.geo import EnuFrame, GeoPoint
@@ -496,7 +496,7 @@ def fuzz_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, Path]
     def no_connect(*_args: Any, **_kwargs: Any) -> Any:
         raise LinkError(STOPPED, step="connect")
 
-    monkeypatch.setattr(link_cmd, "_connect", no_connect)
+    monkeypatch.setattr(app_link, "_connect", no_connect)
     monkeypatch.setattr(os, "fsync", lambda _fd: None)
     out = tmp_path / "out"
     out.mkdir()

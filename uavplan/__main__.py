@@ -28,14 +28,25 @@ process is ending and its memory goes back to the system anyway. Together about 
 instructions of a whole ``uavplan plan`` on a paper environment, 12 % of ``uavplan --help``
 (callgrind). Calling :data:`uavplan.cli.main` directly (tests, other programs) leaves the
 collector alone.
-"""
 
-from __future__ import annotations
+Ctrl-C is exit 130 with the one line ``interrupted`` from the first statement of :func:`run`
+on, before anything else is imported: a ``KeyboardInterrupt`` while the command line loads
+(click, the command's module, numpy ...) is caught here, one inside a command by the command
+line itself (:mod:`uavplan.cli`, which also covers calling it directly). Once the command has
+ended, a Ctrl-C while the interpreter shuts down ends the process at once with the command's
+exit status (no traceback from an exit handler). A parent that started the process with
+SIGINT ignored keeps it ignored (Python then installs no handler, and neither does this).
+Before :func:`run` the interpreter is starting (its ``site`` module, the editable install's
+import hook): a Ctrl-C there is the interpreter's, a traceback or the signal's default action.
+"""
 
 import atexit
 import gc
 import os
 import sys
+
+# nothing else at the top: these are loaded with the interpreter, and ``signal`` (whose
+# import builds its enums, a millisecond or two) loads inside run(), where a Ctrl-C is caught
 
 #: the thread switch interval while the command line runs (see the module doc), seconds
 SWITCH_INTERVAL_S = 1e-4
@@ -43,17 +54,77 @@ SWITCH_INTERVAL_S = 1e-4
 GC_GEN0_THRESHOLD = 20_000
 
 
+#: the exit status of an interrupted command (uavplan.errors.EXIT_INTERRUPTED, not imported:
+#: nothing is imported before the first Ctrl-C can be answered)
+EXIT_INTERRUPTED = 130
+
+
 def run() -> None:
     """Run the ``uavplan`` command line on ``sys.argv``."""
-    gc.disable()
-    gc.set_threshold(GC_GEN0_THRESHOLD, *gc.get_threshold()[1:])
-    atexit.register(gc.freeze)
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
-    from uavplan import cli
+    try:
+        try:
+            gc.disable()
+            gc.set_threshold(GC_GEN0_THRESHOLD, *gc.get_threshold()[1:])
+            atexit.register(gc.freeze)
+            os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+            sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
+            from uavplan import cli
 
-    cli.resume_collector_at_start()
-    cli.main()
+            cli.resume_collector_at_start()
+            cli.main()
+        except (KeyboardInterrupt, Exception) as exc:
+            if not _interrupt_in(exc):
+                raise
+            print("interrupted", file=sys.stderr, flush=True)
+            raise SystemExit(EXIT_INTERRUPTED) from None
+    except SystemExit as done:
+        code = done.code
+        status = 0 if code is None else code if isinstance(code, int) else 1
+        if status == EXIT_INTERRUPTED:
+            # Interrupted: end now. A Ctrl-C that lands while a compiled module runs Python
+            # source of its own (Cython's module set-up does, through PyRun_String, while it
+            # is imported) marks the interpreter as ending on an unhandled
+            # KeyboardInterrupt, even though it was handled; the interpreter would then end
+            # the process by SIGINT after its shutdown instead of with this status.
+            _flush()
+            os._exit(status)
+        _end_on_ctrl_c(status)
+        raise
+
+
+def _interrupt_in(exc: BaseException) -> bool:
+    """``exc`` is a KeyboardInterrupt, or one caused it (``uavplan.cli.caused_by_interrupt``,
+    which may not be loaded yet)."""
+    link: BaseException | None = exc
+    for _ in range(100):
+        if link is None:
+            return False
+        if isinstance(link, KeyboardInterrupt):
+            return True
+        link = link.__cause__ or link.__context__
+    return False
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:  # a closed stream: nothing left to say
+            pass
+
+
+def _end_on_ctrl_c(status: int) -> None:
+    """The command has ended with ``status``: a Ctrl-C from now on (the interpreter shuts
+    down) ends the process at once with the same status, without a traceback."""
+
+    import signal
+
+    def end(_signum: int, _frame: object) -> None:
+        _flush()
+        os._exit(status)
+
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, end)
 
 
 if __name__ == "__main__":

@@ -166,7 +166,9 @@ class EnuFrame:
         """ENU points ``(n, 3)`` → ``(lat_deg, lon_deg, alt_m)``, each of shape ``(n,)``.
 
         ``alt_m`` is in the origin altitude's reference (AMSL for a scenario origin);
-        longitudes are in [-180, 180].
+        longitudes are in [-180, 180]. The origin itself, ``(0, 0, 0)``, is the frame's
+        origin exactly (through ECEF it comes back a few ulps off: a home at the origin was
+        written as 47.397742000000015).
         """
         import numpy as np
 
@@ -174,11 +176,14 @@ class EnuFrame:
         lon_deg, lat_deg, alt_m = self._transformer.transform(
             ecef[:, 0], ecef[:, 1], ecef[:, 2], direction="INVERSE"
         )
-        return (
-            np.asarray(lat_deg, dtype=np.float64).reshape(-1),
-            np.asarray(lon_deg, dtype=np.float64).reshape(-1),
-            np.asarray(alt_m, dtype=np.float64).reshape(-1),
-        )
+        lat = np.array(lat_deg, dtype=np.float64).reshape(-1)
+        lon = np.array(lon_deg, dtype=np.float64).reshape(-1)
+        alt = np.array(alt_m, dtype=np.float64).reshape(-1)
+        at_origin = ~np.asarray(points_enu, dtype=np.float64).reshape(-1, 3).any(axis=1)
+        if at_origin.any():
+            o = self.origin
+            lat[at_origin], lon[at_origin], alt[at_origin] = o.lat_deg, o.lon_deg, o.alt_m
+        return lat, lon, alt
 
     def to_enu(
         self, lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike

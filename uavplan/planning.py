@@ -37,7 +37,7 @@ from uavplan.path.post import (
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.registry import make_planner
 from uavplan.route import PlannedRoute, densify, flown_polyline
-from uavplan.scenario import Scenario, Site, resolved_config
+from uavplan.scenario import Scenario, Site, Surroundings, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
 
@@ -603,9 +603,12 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
 
 def scene_for(scenario: Scenario) -> Scene:
     """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
+    return _scene(scenario.name, scenario.site, scenario.safety_margin_m)
+
+
+def _scene(name: str, site: Site, margin_m: float) -> Scene:
     from uavplan.render import Scene
 
-    site = scenario.site
     sx, sy, sz = (float(v) for v in site.start_m)
     gx, gy, gz = (float(v) for v in site.goal_m)
     terrain = None
@@ -615,12 +618,26 @@ def scene_for(scenario: Scenario) -> Scene:
         grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
         terrain = (xs, ys, site.ground.z_at(grid).reshape(len(ys), len(xs)))
     return Scene(
-        name=scenario.name,
+        name=name,
         bounds=site.bounds,
         obstacles=site.obstacles,
-        safety_margin_m=scenario.safety_margin_m,
+        safety_margin_m=margin_m,
         start_enu=(sx, sy, sz),
         goal_enu=(gx, gy, gz),
         terrain=terrain,
         via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
     )
+
+
+def scene_around(around: Surroundings) -> Scene:
+    """The picture's scene of a scenario file whose route points are not valid (``render
+    --no-plan``): its obstacles, bounds and terrain, and the points where the file puts them."""
+    from uavplan.scenario.site import flat_site, terrain_site
+
+    assert around.start_m is not None and around.goal_m is not None
+    args = (around.origin, around.bounds, around.start_m, around.goal_m, around.via_m)
+    if around.terrain is None:
+        site = flat_site(*args, around.obstacles, around.safety_margin_m)
+    else:
+        site = terrain_site(*args, around.obstacles, around.safety_margin_m, around.terrain)
+    return _scene(around.name, site, around.safety_margin_m)

@@ -21,6 +21,7 @@ importing this module costs nothing and needs no display.
 from __future__ import annotations
 
 import inspect
+import io
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.fileio import atomic_write_bytes
 from uavplan.geo import EnuFrame
 from uavplan.geometry2d import round_offset_outline
 from uavplan.mission.builder import mission_polyline_enu
@@ -189,14 +191,36 @@ def render_scene(
     """Draw ``scene`` (and ``layers``) into the PNG file ``output``, exactly
     ``width_px`` × ``height_px`` pixels.
 
-    Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi, ``OSError``
-    if the file cannot be written.
+    Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi,
+    :class:`~uavplan.fileio.OutputFileError` (an ``OSError``) if the file cannot be written;
+    the file is written atomically.
     """
+    png = render_png(
+        scene, layers, width_px=width_px, height_px=height_px, dpi=dpi, title=title,
+        subtitle=subtitle,
+    )  # fmt: skip
+    atomic_write_bytes(output, png)
+
+
+def render_png(
+    scene: Scene,
+    layers: RouteLayers | None = None,
+    *,
+    width_px: int = DEFAULT_WIDTH_PX,
+    height_px: int = DEFAULT_HEIGHT_PX,
+    dpi: int = DEFAULT_DPI,
+    title: str | None = None,
+    subtitle: str | None = None,
+) -> bytes:
+    """The PNG file :func:`render_scene` writes, as bytes (a command writes it with its
+    other outputs, :mod:`uavplan.app.outputs`)."""
     fig = draw_scene(
         scene, layers, width_px=width_px, height_px=height_px, dpi=dpi, title=title,
         subtitle=subtitle,
     )  # fmt: skip
-    fig.savefig(os.fspath(output), dpi=dpi, format="png")
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format="png")
+    return buf.getvalue()
 
 
 def draw_scene(
@@ -698,7 +722,7 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
 def route_subtitle(route: PlannedRoute, *, algorithm: str, seed: int, energy: float) -> str:
     """One line describing a planned route (algorithm, seed, length, energy, clearance)."""
     return (
-        f"{algorithm}, seed {seed}: {route.length_m:.0f} m, "
+        f"{algorithm}, seed {seed}: {route.length_m:.0f} m from start to goal, "
         f"energy {energy:.1f}, min clearance {route.min_clearance_m:.2f} m "
         f"(margin {route.safety_margin_m:g} m)"
     )

@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.errors import InputError, NoPathError
-from uavplan.flight import check_flight, flight_of_mission
+from uavplan.flight import Flight, FlightCheck, check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.geometry2d import orient_ccw, polygon_problem
 from uavplan.limits import MAX_FENCE_POLYGON_VERTICES, MAX_FENCE_ZONES, MAX_HORIZONTAL_M
@@ -68,12 +68,14 @@ from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, plan_route
 from uavplan.route import EndAction, keeps_margin
-from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, VehicleConfig
+from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, Surroundings, VehicleConfig
 from uavplan.world import World
 
 #: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
 #: and above the highest position; fence obstacles stand this much above the ceiling
 VOLUME_PAD_M = 50.0
+#: how messages name the obstacles that stand for the outside of the inclusion fence
+OUTSIDE_INCLUSION = "the area outside the inclusion fence"
 #: the safety margin when no scenario gives one (the scenario format's default)
 DEFAULT_MARGIN_M = 10.0
 #: consecutive positions closer than this horizontally are joined by a straight segment
@@ -145,6 +147,11 @@ class RerouteResult:
     notes: tuple[str, ...] = ()
     obstacle_names: tuple[str, ...] = field(default_factory=tuple)
     interrupted: bool = False
+    #: where it was planned (None when interrupted): the airspace and its ENU frame
+    airspace: Airspace | None = None
+    frame: EnuFrame | None = None
+    #: the user's positions in flight order (ENU metres)
+    positions_enu: tuple[tuple[float, float, float], ...] = ()
 
     @property
     def routes(self) -> tuple[RouteResult, ...]:
@@ -312,14 +319,15 @@ def _ring_xy(frame: EnuFrame, vertices: Sequence[tuple[float, float]]) -> NDArra
 
 def build_airspace(
     plan: MissionPlan,
-    route: UserRoute,
+    points_m: NDArray[np.float64],
     frame: EnuFrame,
     *,
     margin_m: float,
-    base: Scenario | None = None,
+    base: Scenario | Surroundings | None = None,
     file: str | None = None,
 ) -> Airspace:
-    """The flight volume and obstacles for ``plan`` (see the module doc)."""
+    """The flight volume and obstacles for ``plan`` whose route flies through ``points_m``
+    ``(n, 3)`` (see the module doc)."""
     import shapely
 
     fence = plan.fence
@@ -368,7 +376,7 @@ def build_airspace(
             )
     inclusion = shapely.union_all(inclusion_shapes) if inclusion_shapes else None
 
-    pts = np.array([p.point_m for p in route.positions])
+    pts = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
     top_m = float(pts[:, 2].max())
     if base is not None:
         z_hi = max(base.bounds.z_m[1], 0.0)
@@ -399,7 +407,9 @@ def build_airspace(
     if base is not None:
         obstacles.extend(base.obstacles)
         source = base.source or base.name
-        names.extend(f"obstacles[{i}] of scenario {source}" for i in range(len(base.obstacles)))
+        names.extend(
+            f"{base.obstacle_name(i)} of scenario {source}" for i in range(len(base.obstacles))
+        )
     for ring, name in exclusion_rings:
         obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
         names.append(name)
@@ -411,7 +421,7 @@ def build_airspace(
         for piece in _simple_pieces(box.difference(inclusion)):
             ring = orient_ccw(np.asarray(piece.exterior.coords)[:-1])
             obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
-            names.append("the area outside the inclusion fence")
+            names.append(OUTSIDE_INCLUSION)
     return Airspace(bounds, tuple(obstacles), tuple(names), inclusion)
 
 
@@ -526,25 +536,28 @@ def _check_segments(
 # Rerouting
 
 
-def reroute_plan(
-    plan: MissionPlan,
-    *,
-    base: Scenario | None = None,
-    planner: PlannerConfig | None = None,
-    name: str = "plan",
-    file: str | None = None,
-    progress: ProgressFn | None = None,
-    should_stop: Callable[[], bool] | None = None,
-) -> RerouteResult:
-    """``plan`` with planned NAV_WAYPOINTs inserted between the user's positions so that the
-    flown line keeps the safety margin from the fence's exclusion zones (and from ``base``'s
-    obstacles, whose planner and mission settings are used; ``planner`` overrides the
-    planner settings). ``file`` labels messages.
+@dataclass(frozen=True, eq=False)
+class PlanWorld:
+    """Where a plan is rerouted: its ENU frame (at home, or at the ``--scenario``'s origin),
+    the airspace (the fence's zones and the scenario's obstacles, the flight volume), the
+    world built from it and the safety margin, and home's position in the frame."""
 
-    Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
-    :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
-    search the result says ``interrupted`` (and holds the plan unchanged).
-    """
+    frame: EnuFrame
+    airspace: Airspace
+    world: World
+    margin_m: float
+    home_xy: tuple[float, float]
+
+    def check(self, flight: Flight) -> FlightCheck:
+        """``flight`` (in :attr:`frame`) checked in this world, as the rerouting checks the
+        plan it writes (:func:`uavplan.flight.check_flight`)."""
+        names = self.airspace.names
+        return check_flight(self.world, flight, name_of=lambda i: names[i], margin_m=self.margin_m)
+
+
+def _frame_of(
+    plan: MissionPlan, base: Scenario | Surroundings | None, file: str | None
+) -> EnuFrame:
     if plan.home is None:
         raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
     if base is not None and base.terrain is not None:
@@ -556,15 +569,68 @@ def reroute_plan(
         )
     home = plan.home
     origin = base.origin if base is not None else GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)
-    frame = EnuFrame.at(origin)
-    route = read_user_route(plan, frame, file=file)
+    return EnuFrame.at(origin)
+
+
+def _plan_world(
+    plan: MissionPlan,
+    points_m: NDArray[np.float64],
+    frame: EnuFrame,
+    base: Scenario | Surroundings | None,
+    file: str | None,
+) -> PlanWorld:
+    assert plan.home is not None
     margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
-    airspace = build_airspace(plan, route, frame, margin_m=margin_m, base=base, file=file)
+    airspace = build_airspace(plan, points_m, frame, margin_m=margin_m, base=base, file=file)
     _check_volume(airspace.bounds, file)
     b = airspace.bounds
     world = World.build(airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m)
-    hxy = frame.to_enu_xy([home.lat_deg], [home.lon_deg])[0]
-    home_xy = (float(hxy[0]), float(hxy[1]))
+    hxy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg])[0]
+    return PlanWorld(frame, airspace, world, margin_m, (float(hxy[0]), float(hxy[1])))
+
+
+def fence_world(
+    plan: MissionPlan, *, base: Surroundings | None = None, file: str | None = None
+) -> tuple[PlanWorld, Flight]:
+    """The world the rerouting of ``plan`` plans in (its geofence's zones as obstacles, and
+    ``base``'s), spanning the plan's whole flight, and that flight (as the autopilot flies the
+    items, :func:`uavplan.flight.flight_of_mission`): what ``validate`` and ``render`` check
+    and draw a rerouted plan against when no scenario is given. Raises InputError for a plan
+    without a planned home or without a position to fly."""
+    frame = _frame_of(plan, base, file)
+    try:
+        flight = flight_of_mission(plan, frame)
+    except ValueError as err:
+        raise InputError(str(err), file=file) from None
+    if len(flight.points_enu) < 2:
+        raise InputError("the mission has fewer than two positions to fly", file=file)
+    return _plan_world(plan, flight.points_enu, frame, base, file), flight
+
+
+def reroute_plan(
+    plan: MissionPlan,
+    *,
+    base: Scenario | Surroundings | None = None,
+    planner: PlannerConfig | None = None,
+    name: str = "plan",
+    file: str | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> RerouteResult:
+    """``plan`` with planned NAV_WAYPOINTs inserted between the user's positions so that the
+    flown line keeps the safety margin from the fence's exclusion zones (and from ``base``'s
+    obstacles, whose planner and mission settings are used; ``planner`` overrides the
+    planner settings). ``file`` labels messages (``name`` when there is none).
+
+    Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
+    :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
+    search the result says ``interrupted`` (and holds the plan unchanged).
+    """
+    frame = _frame_of(plan, base, file)
+    origin = frame.origin
+    route = read_user_route(plan, frame, file=file)
+    pw = _plan_world(plan, np.array([p.point_m for p in route.positions]), frame, base, file)
+    airspace, world, margin_m, home_xy = pw.airspace, pw.world, pw.margin_m, pw.home_xy
     if not airspace.bounds.contains((*home_xy, max(0.0, airspace.bounds.z_m[0]))):
         raise InputError(
             f"the planned home at [{home_xy[0]:.1f}, {home_xy[1]:.1f}] m is outside the flight "
@@ -573,6 +639,7 @@ def reroute_plan(
         )
     _check_points(route, airspace, world, margin_m, file)
     _check_segments(_straight_segments(route, home_xy), airspace, world, margin_m, file)
+    who = file or name
 
     # one planning run (one world, one seed stream) per chain of consecutive legs that need
     # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
@@ -619,7 +686,7 @@ def reroute_plan(
             a_what = route.positions[chain[failed]].what
             b_what = route.positions[chain[failed + 1]].what
             raise NoPathError(
-                f"{name}: no collision-free route from {a_what} (start) to {b_what} (goal): "
+                f"{who}: no collision-free route from {a_what} (start) to {b_what} (goal): "
                 f"{result.failure.detail}"
             )
         runs.append((scn, result))
@@ -643,10 +710,10 @@ def reroute_plan(
         )
 
     flight = flight_of_mission(out, frame)
-    check = check_flight(world, flight, name_of=lambda i: airspace.names[i], margin_m=margin_m)
+    check = pw.check(flight)
     problem = check.problem()
     if problem is not None:
-        raise NoPathError(f"{name}: the rerouted flight: {problem}")
+        raise NoPathError(f"{who}: the rerouted flight: {problem}")
     notes.extend(_rtl_note(route, home_xy, world, airspace, margin_m))
     return RerouteResult(
         plan=out,
@@ -659,11 +726,14 @@ def reroute_plan(
         flown_enu=flight.points_enu,
         notes=tuple(notes),
         obstacle_names=airspace.names,
+        airspace=airspace,
+        frame=frame,
+        positions_enu=tuple(p.point_m for p in route.positions),
     )
 
 
 def _stretch_settings(
-    plan: MissionPlan, base: Scenario | None, planner: PlannerConfig | None
+    plan: MissionPlan, base: Scenario | Surroundings | None, planner: PlannerConfig | None
 ) -> dict[str, Any]:
     """The vehicle, planner and mission settings every stretch is planned with: ``base``'s
     (its take-off altitude unused), ``planner`` over them, the plan's autopilot; a stretch

@@ -8,9 +8,10 @@ from dataclasses import dataclass
 
 from uavplan import bench
 from uavplan.app.feedback import Feedback
+from uavplan.app.inputs import load_scenario_file
+from uavplan.app.outputs import OutputSet
 from uavplan.bench.reference import OMPL_MISSING, OMPL_PLANNERS, ompl_available
 from uavplan.errors import InputError
-from uavplan.scenario import load_scenario
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,11 @@ class BenchOutcome:
 
 def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
     """Run every job of ``request`` (progress per finished job; ``feedback.should_stop`` is
-    polled between jobs) and write the outputs."""
+    polled between jobs) and write the outputs into ``out_dir``: checked before the first
+    run, written as one set once every run is done (an interrupt leaves nothing)."""
+    outputs = OutputSet(feedback.interrupts)
+    folder = outputs.folder(request.out_dir) if request.out_dir else None
+    outputs.check()
     budget = None
     if request.budget is not None:
         try:
@@ -68,7 +73,7 @@ def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
             feedback.say(f"note: {OMPL_MISSING}")
     if any(v.algorithm in OMPL_PLANNERS for v in variants) and not ompl_available():
         raise InputError(OMPL_MISSING.removesuffix("; they were skipped"), key="--algorithms")
-    loaded = [load_scenario(path) for path in request.scenarios]
+    loaded = [load_scenario_file(path, "bench") for path in request.scenarios]
     smoothing = request.fitness_smoothing
     try:
         jobs = bench.make_jobs(
@@ -97,13 +102,14 @@ def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
     stop = feedback.should_stop or (lambda: False)
     t0 = time.perf_counter()
     try:
-        records = bench.run_jobs(
-            jobs,
-            workers=request.workers,
-            dask=request.dask,
-            progress=progress,
-            should_stop=stop,
-        )
+        with feedback.polled():
+            records = bench.run_jobs(
+                jobs,
+                workers=request.workers,
+                dask=request.dask,
+                progress=progress,
+                should_stop=stop,
+            )
     except ConnectionError as err:
         raise InputError(str(err), key="--dask") from None
     except RuntimeError as err:
@@ -116,12 +122,15 @@ def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
     wall = time.perf_counter() - t0
     if stop():
         return BenchOutcome(tuple(records), wall, interrupted=True)
-    written: list[str] = []
-    if request.out_dir:
+    written: tuple[str, ...] = ()
+    if folder is not None:
         config = bench.resolved_config(jobs)
         config["runs"] = request.runs
         config["workers"] = None if request.dask else request.workers
         config["dask"] = request.dask
         config["wall_time_s"] = round(wall, 2)
-        written = [str(p) for p in bench.write_outputs(request.out_dir, records, config=config)]
-    return BenchOutcome(tuple(records), wall, tuple(written))
+        with outputs:
+            for name, data in bench.output_files(records, config=config).items():
+                folder.file(name).write_bytes(data)
+            written = outputs.commit()
+    return BenchOutcome(tuple(records), wall, written)

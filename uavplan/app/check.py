@@ -17,8 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from uavplan.errors import InputError, NoPathError
-from uavplan.scenario import Scenario, load_scenario
+from uavplan.app.feedback import plural
+from uavplan.app.inputs import load_scenario_file, mission_kind
+from uavplan.errors import InputError, NoPathError, ScenarioError
+from uavplan.scenario import Scenario, Surroundings, load_scenario, load_surroundings
 
 if TYPE_CHECKING:
     from uavplan.flight import Flight, FlightCheck
@@ -60,17 +62,88 @@ class MissionCheck:
         )
 
 
-def validate(file: str, scenario_path: str | None = None) -> ScenarioCheck | MissionCheck:
+@dataclass(frozen=True, eq=False)
+class FenceCheck:
+    """A QGroundControl plan's flight checked against its own geofence, as its rerouting
+    plans it (the exclusion zones and the outside of the inclusion fence as obstacles)."""
+
+    file: str
+    plan: MissionPlan
+    check: FlightCheck
+    #: what else the world holds, for the summary (" and scenario S's 12 obstacles")
+    also: str = ""
+
+    @property
+    def min_clearance_m(self) -> float:
+        return self.check.min_clearance_m
+
+    def summary(self) -> str:
+        zones = len(self.plan.fence.polygons) + len(self.plan.fence.circles)
+        return (
+            f"{self.file}: ok — {len(self.plan.items)} items, min clearance from its geofence "
+            f"({plural(zones, 'zone')}){self.also} {self.min_clearance_m:.2f} m (margin "
+            f"{self.check.margin_m:g} m)"
+        )
+
+
+def validate(
+    file: str, scenario_path: str | None = None
+) -> ScenarioCheck | MissionCheck | FenceCheck:
     """Check the scenario ``file``, or with ``scenario_path`` the mission ``file`` against
-    that scenario. A scenario's problem raises ScenarioError (exit 2); a mission that leaves
-    the flight volume or comes closer than the margin raises NoPathError (exit 3)."""
+    that scenario; a QGroundControl ``.plan`` without a scenario is checked against its own
+    geofence. A scenario's problem raises ScenarioError (exit 2); a mission that leaves the
+    flight volume or comes closer than the margin raises NoPathError (exit 3)."""
     if scenario_path is None:
-        return ScenarioCheck(file, load_scenario(file))
-    scenario = load_scenario(scenario_path)
+        kind = mission_kind(file)
+        if kind == "plan":
+            return _check_against_fence(file)
+        return ScenarioCheck(file, load_scenario_file(file, "validate"))
+    try:
+        scenario = load_scenario(scenario_path)
+    except ScenarioError as err:
+        if mission_kind(file) == "plan" and err.key in ("start", "goal"):
+            # a map or a scenario without a route (as `plan X.plan --scenario S` takes one):
+            # the plan in its rerouting's world, its fence and the scenario's obstacles
+            return _check_against_fence(file, load_surroundings(scenario_path))
+        raise
     plan, flight = read_mission_flight(file, scenario)
     if len(flight.points_enu) < 2:
         raise InputError("the mission has fewer than two positions to fly", file=file)
     checked = MissionCheck(file, plan, check_flight_in(scenario, flight))
+    problem = checked.check.problem()
+    if problem is not None:
+        raise NoPathError(f"{file}: {problem}")
+    return checked
+
+
+def no_fence(file: str, command: str) -> InputError:
+    """A .plan without a geofence given where a scenario is expected."""
+    how = {
+        "validate": f"check it against a scenario: uavplan validate {file} --scenario S",
+        "render": f"draw it over a scenario: uavplan render S --mission {file} -o picture.png",
+    }[command]
+    return InputError(
+        f"this mission has no geofence to check it against, and it is not a scenario: {how}",
+        file=file,
+    )
+
+
+def _check_against_fence(file: str, base: Surroundings | None = None) -> FenceCheck:
+    """``validate PLAN``: the plan's flight against its own geofence (and ``base``'s
+    obstacles) in the world of its rerouting (:func:`uavplan.reroute.fence_world`; the one
+    check, :func:`uavplan.flight.check_flight`)."""
+    # the mission readers, numpy and the world: only for a mission
+    from uavplan.mission.io import load_mission
+    from uavplan.reroute import fence_world
+
+    plan = load_mission(file)
+    if not (plan.fence.polygons or plan.fence.circles) and base is None:
+        raise no_fence(file, "validate")
+    world, flight = fence_world(plan, base=base, file=file)
+    also = ""
+    if base is not None:
+        also = f" and {base.source}'s {plural(len(base.obstacles), 'obstacle')}"
+    checked = FenceCheck(file, plan, world.check(flight), also)
     problem = checked.check.problem()
     if problem is not None:
         raise NoPathError(f"{file}: {problem}")

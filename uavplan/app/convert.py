@@ -5,8 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from uavplan.app.feedback import Feedback
+from uavplan.app.outputs import OutputSet
 from uavplan.errors import InputError
-from uavplan.mission.io import format_for, load_mission, save_mission
+from uavplan.mission.io import format_for, load_mission, mission_text
 from uavplan.mission.items import Autopilot, GeoFence, MissionPlan
 
 
@@ -37,9 +39,13 @@ class ConvertOutcome:
         )
 
 
-def convert(request: ConvertRequest) -> ConvertOutcome:
-    """Read, convert and write; what a format cannot hold is left out with a note."""
+def convert(request: ConvertRequest, feedback: Feedback | None = None) -> ConvertOutcome:
+    """Read, convert and write; what a format cannot hold is left out with a note. The
+    output is checked before anything is read, and written whole or not at all."""
     out_format = format_for(request.output)  # an unknown extension fails before reading
+    outputs = OutputSet(None if feedback is None else feedback.interrupts)
+    output = outputs.file(request.output)
+    outputs.check()
     autopilot = Autopilot.from_name(request.autopilot) if request.autopilot else None
     plan = load_mission(request.source, autopilot)
     notes = []
@@ -59,5 +65,7 @@ def convert(request: ConvertRequest) -> ConvertOutcome:
         from uavplan.scenario import load_scenario
 
         extras = export_extras(load_scenario(request.scenario))
-    save_mission(plan, request.output, extras=extras)
+    with outputs:
+        output.write_text(mission_text(plan, request.output, extras=extras))
+        outputs.commit()
     return ConvertOutcome(plan, request.output, out_format.name, request.source, tuple(notes))

@@ -4,6 +4,7 @@ use case takes."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Protocol
 
@@ -21,11 +22,31 @@ class ProgressBar(Protocol):
 
     def __call__(self, iteration: int, total: int, best: float) -> None: ...
 
-    def show(self, done: int, total: int, detail: str = "") -> None: ...
+    def show(self, done: int, total: int, detail: str = "", label: str | None = None) -> None: ...
 
     def start(self, label: str) -> None: ...
 
     def close(self) -> None: ...
+
+
+class Interrupts(Protocol):
+    """How Ctrl-C reaches a running use case (the CLI's is ``cli.common.Interrupts``).
+
+    Outside :meth:`polled` blocks a Ctrl-C interrupts at once (the caller's business: a
+    ``KeyboardInterrupt``, which an :class:`~uavplan.app.outputs.OutputSet` answers by
+    removing what it made). Inside one it only sets the flag ``Feedback.should_stop`` reads:
+    the block polls it (a planner's search, whose compiled steps must not be cut in the
+    middle) and returns a value saying it was interrupted."""
+
+    def polled(self) -> AbstractContextManager[None]:
+        """A block that polls ``should_stop`` itself."""
+        ...
+
+    def commit_point(self) -> None:
+        """The outputs are about to be committed: raise ``KeyboardInterrupt`` if a Ctrl-C
+        came and was not acted on; from here on a Ctrl-C is too late to undo the command
+        and is ignored."""
+        ...
 
 
 def _nothing(_line: str) -> None:
@@ -36,12 +57,18 @@ def _nothing(_line: str) -> None:
 class Feedback:
     """``say``: lines about the run (the CLI drops them with ``--quiet``); ``warn``: warnings
     (always shown); ``progress``: a bar for long work, or None; ``should_stop``: polled during
-    long work (a Ctrl-C flag), or None."""
+    long work (a Ctrl-C flag), or None; ``interrupts``: how Ctrl-C reaches the use case
+    (:class:`Interrupts`), or None (then nothing is polled but ``should_stop``)."""
 
     say: Callable[[str], None] = _nothing
     warn: Callable[[str], None] = _nothing
     progress: ProgressBar | None = None
     should_stop: Callable[[], bool] | None = None
+    interrupts: Interrupts | None = None
+
+    def polled(self) -> AbstractContextManager[None]:
+        """A block that polls ``should_stop`` (see :class:`Interrupts`)."""
+        return nullcontext() if self.interrupts is None else self.interrupts.polled()
 
 
 @dataclass(frozen=True)
@@ -94,3 +121,8 @@ def require_route(scenario: Scenario, result: RouteResult) -> PlannedRoute:
             f"obstacle (safety margin {scenario.safety_margin_m:g} m)"
         )
     return result.route
+
+
+def plural(count: int, noun: str, nouns: str | None = None) -> str:
+    """``1 iteration``, ``2 iterations`` (``nouns``: an irregular plural)."""
+    return f"{count} {noun if count == 1 else (nouns or noun + 's')}"

@@ -8,8 +8,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from uavplan.app.feedback import Feedback
+from uavplan.app.outputs import OutputSet
 from uavplan.errors import InputError
-from uavplan.fileio import atomic_write_text
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.limits import MAX_HORIZONTAL_M
 from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle
@@ -63,12 +64,15 @@ _OPTION_OF = {
 }
 
 
-def import_map(request: ImportRequest) -> ImportOutcome:
+def import_map(request: ImportRequest, feedback: Feedback | None = None) -> ImportOutcome:
     """Read the source, convert its features to obstacles in the map's ENU frame and write
-    the map (atomically). The summary lines of the result come before the file is written."""
+    the map (checked before the source is read; written whole or not at all)."""
     source, output = request.source, request.output
     if Path(output).suffix.lower() not in (".yaml", ".yml"):
         raise InputError("the map is YAML: name the output *.yaml", file=output)
+    outputs = OutputSet(None if feedback is None else feedback.interrupts)
+    map_file = outputs.file(output)
+    outputs.check()
     result: ImportResult | None = None
     try:
         spec = ObstacleFileSpec(
@@ -114,10 +118,9 @@ def import_map(request: ImportRequest) -> ImportOutcome:
     if box is None:
         box = _fitted_bounds(result.obstacles, request.ceiling_m)
     text = map_yaml(Path(output).stem, geo, box, result.obstacles, Path(source), spec.is_osm)
-    try:
-        atomic_write_text(output, text)
-    except OSError as err:
-        raise InputError(f"cannot write the map: {err.strerror or err}", file=output) from None
+    with outputs:
+        map_file.write_text(text)
+        outputs.commit()
     return ImportOutcome(output, geo, result)
 
 

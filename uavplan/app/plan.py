@@ -8,19 +8,22 @@ from __future__ import annotations
 
 import enum
 import json
+import math
+import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from uavplan.app.feedback import Feedback, PlannerOptions, require_route
+from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
+from uavplan.app.inputs import load_scenario_file
+from uavplan.app.outputs import Output, OutputSet
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError
-from uavplan.fileio import atomic_write_text, check_writable
 from uavplan.geo import import_in_background
-from uavplan.mission.io import format_for, save_mission
+from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
-from uavplan.scenario import Scenario, load_scenario
+from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
     from uavplan.mission.fence import FenceBuild
@@ -58,33 +61,45 @@ class PlanRequest:
 @dataclass(frozen=True, eq=False)
 class PlanOutcome:
     """A planned scenario: the route, the mission written to ``output`` (None when the
-    search was interrupted: nothing but the report was written)."""
+    search was interrupted: nothing was written). ``elapsed_s``: the whole use case, from
+    reading the scenario to the last output in place."""
 
     scenario: Scenario
     result: RouteResult
     output: str
     mission: MissionPlan | None = None
+    elapsed_s: float = math.nan
 
     @property
     def interrupted(self) -> bool:
         return self.result.interrupted
 
     def summary(self) -> str:
+        """One line: the mission, the route (its length: the planned path from the start to
+        the goal, without the take-off climb and the landing) and the times."""
         route, result = self.result.route, self.result
         assert route is not None and self.mission is not None
         e_path, e_turn, e_climb = result.energy_terms
         return (
             f"{Path(self.output).name}: {len(self.mission.items)} items, "
-            f"{route.waypoints_enu.shape[0]} waypoints, {route.length_m:.0f} m, energy "
-            f"{result.energy:.1f} (path {e_path:.1f}, turning {e_turn:.2f}, climb "
-            f"{e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
-            f"{result.runtime_s:.2f} s"
+            f"{route.waypoints_enu.shape[0]} waypoints, {route.length_m:.0f} m from start to "
+            f"goal, energy {result.energy:.1f} (path {e_path:.1f}, turning {fixed(e_turn, 2)}, "
+            f"climb {e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
+            f"{result.runtime_s:.2f} s ({self.elapsed_s:.2f} s in all, reading and writing "
+            "included)"
         )
+
+
+def fixed(value: float, digits: int) -> str:
+    """``value`` with ``digits`` decimals, never ``-0.00`` (a tiny negative rounds to 0)."""
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
 def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome:
     """Plan ``request.source`` as what it is (:func:`recognise`)."""
-    if recognise(request.source) is InputKind.QGC_PLAN:
+    kind = recognise(request.source)
+    if kind is InputKind.QGC_PLAN:
         return reroute_file(
             RerouteRequest(
                 request.source,
@@ -105,10 +120,12 @@ def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutco
 
 def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     """Plan the scenario file ``request.source`` and write the mission (and the report, the
-    picture). Notes go to ``feedback.say``; no route raises NoPathError."""
-    _check_outputs(request)
+    picture) as one set of outputs: all of them, or (no route, an error, Ctrl-C) none.
+    Notes go to ``feedback.say``; no route raises NoPathError."""
+    t0 = time.perf_counter()
+    outputs, mission_out, report_out, plot_out = _outputs(request, feedback)
     import_in_background()  # the mission writer's pyproj loads on another core during the search
-    scn = request.options.apply(load_scenario(request.source))
+    scn = request.options.apply(load_scenario_file(request.source, "plan"))
     if request.autopilot:
         autopilot = Autopilot.from_name(request.autopilot)
         scn = replace(scn, mission=replace(scn.mission, autopilot=autopilot))
@@ -118,26 +135,36 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             "which PX4 missions do not fly (ArduPilot does); use relative or amsl for PX4"
         )
     feedback.say(_announce(scn))
-    result = _search(scn, feedback)
-    if request.report:
-        atomic_write_text(request.report, json.dumps(result.report(scn), indent=2) + "\n")
-    if result.interrupted:
-        return PlanOutcome(scn, result, request.output)
-    route = require_route(scn, result)
+    with outputs:
+        with feedback.polled():
+            result = _search(scn, feedback)
+        if result.interrupted:
+            return PlanOutcome(scn, result, request.output)
+        route = require_route(scn, result)
+        mission, built = _mission(scn, route, request, feedback)
+        summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
+        mission_out.write_text(
+            mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
+        )
+        if report_out is not None:
+            report_out.write_text(json.dumps(result.report(scn), indent=2) + "\n")
+        if plot_out is not None:
+            # matplotlib (and the fence's outlines) load only for a picture
+            from uavplan.planning import scene_for
+            from uavplan.render import RouteLayers, render_png, route_subtitle
+
+            subtitle = route_subtitle(
+                route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+            )
+            layers = RouteLayers.from_route(route, built)
+            plot_out.write_bytes(render_png(scene_for(scn), layers, subtitle=subtitle))
+        outputs.commit()
     for note in result.notes:
         feedback.say(f"note: {note}")
-    mission, built = _write_mission(scn, result, route, request, feedback)
-    if request.plot:
-        # matplotlib (and the fence's outlines) load only for a picture
-        from uavplan.planning import scene_for
-        from uavplan.render import RouteLayers, render_scene, route_subtitle
-
-        subtitle = route_subtitle(
-            route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
-        )
-        layers = RouteLayers.from_route(route, built)
-        render_scene(scene_for(scn), request.plot, layers, subtitle=subtitle)
-    return PlanOutcome(scn, result, request.output, mission)
+    if built is not None:
+        for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
+            feedback.say(line)
+    return PlanOutcome(scn, result, request.output, mission, time.perf_counter() - t0)
 
 
 def _search(scn: Scenario, feedback: Feedback) -> RouteResult:
@@ -154,11 +181,11 @@ def _search(scn: Scenario, feedback: Feedback) -> RouteResult:
 
 def _announce(scn: Scenario) -> str:
     search = scn.planner.search
-    budget = f"{search.iterations} iterations"
+    budget = plural(search.iterations, "iteration")
     if search.stall_iterations is not None:
         again = search.restart_stall_iterations
         budget = (
-            f"at most {search.iterations} iterations, stopping after "
+            f"at most {plural(search.iterations, 'iteration')}, stopping after "
             f"{search.stall_iterations} without improvement"
             + ("" if again is None else f" ({again} in a restart)")
         )
@@ -168,8 +195,10 @@ def _announce(scn: Scenario) -> str:
     )
 
 
-def _check_outputs(request: PlanRequest) -> None:
-    """Everything about the outputs that can fail, checked before any planning."""
+def _outputs(
+    request: PlanRequest, feedback: Feedback
+) -> tuple[OutputSet, Output, Output | None, Output | None]:
+    """The outputs (mission, report, picture), every one checked before any planning."""
     out_format = format_for(request.output)  # fail on an unknown extension before planning
     if request.plot and Path(request.plot).suffix.lower() != ".png":
         raise InputError("--plot writes a PNG picture; name the file *.png", file=request.plot)
@@ -181,25 +210,19 @@ def _check_outputs(request: PlanRequest) -> None:
         raise InputError(
             "a geofence needs a .plan (or .geojson / .kml) output", file=request.output
         )
-    for path in (request.output, request.report, request.plot):
-        if path:
-            check_writable(path)
+    outputs = OutputSet(feedback.interrupts)
+    mission = outputs.file(request.output)
+    report = outputs.file(request.report) if request.report else None
+    plot = outputs.file(request.plot) if request.plot else None
+    outputs.check()
+    return outputs, mission, report, plot
 
 
-def _write_mission(
-    scn: Scenario,
-    result: RouteResult,
-    route: PlannedRoute,
-    request: PlanRequest,
-    feedback: Feedback,
+def _mission(
+    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
 ) -> tuple[MissionPlan, FenceBuild | None]:
-    """Build the mission, add the geofence if asked and write the output (its format from
-    the extension): (the mission, the fence build or None)."""
-    mission, built = mission_for(scn, route), None
-    if request.fence:
-        mission, built = fence_for(scn, route, mission)
-        for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
-            feedback.say(line)
-    summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
-    save_mission(mission, request.output, extras=lambda: export_extras(scn, route, summary))
-    return mission, built
+    """The mission, with the geofence if asked: (the mission, the fence build or None)."""
+    mission = mission_for(scn, route)
+    if not request.fence:
+        return mission, None
+    return fence_for(scn, route, mission)

@@ -8,14 +8,17 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from uavplan.app.check import check_flight_in, read_mission_flight
-from uavplan.app.feedback import Feedback, PlannerOptions, require_route
-from uavplan.errors import InputError, NoPathError
-from uavplan.fileio import check_writable
-from uavplan.planning import enu_frame, plan_route, scene_for
-from uavplan.render import RouteLayers, render_scene, route_subtitle
+from uavplan.app.check import check_flight_in, no_fence, read_mission_flight
+from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
+from uavplan.app.inputs import load_scenario_file, mission_kind
+from uavplan.app.outputs import OutputSet
+from uavplan.app.reroute import fence_scene
+from uavplan.errors import InputError, NoPathError, ScenarioError
+from uavplan.planning import enu_frame, plan_route, scene_around, scene_for
+from uavplan.render import RouteLayers, Scene, render_png, route_subtitle
+from uavplan.reroute import fence_world
 from uavplan.route import keeps_margin
-from uavplan.scenario import Scenario, load_scenario
+from uavplan.scenario import Scenario, load_surroundings
 
 
 @dataclass(frozen=True)
@@ -50,53 +53,131 @@ class RenderOutcome:
 
 
 def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
-    """Draw what ``request`` asks for into its PNG output."""
+    """Draw what ``request`` asks for into its PNG output (written as the command's one
+    output: complete, or not at all)."""
     if Path(request.output).suffix.lower() != ".png":
         raise InputError("render writes a PNG picture; name the file *.png", file=request.output)
-    check_writable(request.output)
-    scn = load_scenario(request.scenario)
-    if request.mission is not None:
-        return _render_mission(scn, request)
-    if request.no_plan:
-        subtitle = (
-            f"{len(scn.obstacles)} obstacles, safety margin {scn.safety_margin_m:g} m, "
-            f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"
-        )
-        _draw(scn, request, None, subtitle)
-        return _outcome(request, "scenario only")
-    return _render_planned(request.options.apply(scn), request, feedback)
+    outputs = OutputSet(feedback.interrupts)
+    picture = outputs.file(request.output)
+    outputs.check()
+    with outputs:
+        if mission_kind(request.scenario) == "plan" and request.mission is None:
+            outcome = _render_plan(request)
+        elif request.no_plan and request.mission is None:
+            outcome = _render_scenario(request, feedback)
+        else:
+            scn = load_scenario_file(request.scenario, "render")
+            if request.mission is not None:
+                outcome = _render_mission(scn, request)
+            else:
+                outcome = _render_planned(request.options.apply(scn), request, feedback)
+        if outcome.outcome.interrupted:
+            return outcome.outcome
+        picture.write_bytes(outcome.png)
+        outputs.commit()
+    if outcome.failure is not None:
+        raise outcome.failure
+    return outcome.outcome
 
 
-def _draw(scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str) -> None:
-    render_scene(
-        scene_for(scn),
-        request.output,
+@dataclass(frozen=True, eq=False)
+class _Drawn:
+    """A picture made (``png``), what it shows and, for a route that failed, the error to
+    raise once the picture is written."""
+
+    outcome: RenderOutcome
+    png: bytes = b""
+    failure: NoPathError | None = None
+
+
+def _draw(
+    scene: Scene,
+    request: RenderRequest,
+    layers: RouteLayers | None,
+    subtitle: str,
+    *,
+    failure: NoPathError | None = None,
+    min_clearance_m: float | None = None,
+    summary: str | None = None,
+) -> _Drawn:
+    png = render_png(
+        scene,
         layers,
         subtitle=subtitle,
         width_px=request.width_px,
         height_px=request.height_px,
         dpi=request.dpi,
     )
-
-
-def _outcome(
-    request: RenderRequest,
-    summary: str,
-    *,
-    interrupted: bool = False,
-    min_clearance_m: float | None = None,
-) -> RenderOutcome:
-    return RenderOutcome(
+    outcome = RenderOutcome(
         request.output,
         request.width_px,
         request.height_px,
-        summary,
-        interrupted=interrupted,
+        subtitle if summary is None else summary,
         min_clearance_m=min_clearance_m,
     )
+    return _Drawn(outcome, png, failure)
 
 
-def _render_mission(scn: Scenario, request: RenderRequest) -> RenderOutcome:
+def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
+    """``--no-plan``: the scenario alone, also when its route points are not valid (the
+    picture is how a user finds valid ones): then the subtitle and a warning say why."""
+    try:
+        scn = load_scenario_file(request.scenario, "render")
+    except ScenarioError as err:
+        if not _about_the_route(err):
+            raise
+        around = load_surroundings(request.scenario)
+        if around.start_m is None or around.goal_m is None:
+            raise
+        feedback.warn(f"warning: {err}; drawn as it is")
+        subtitle = (
+            f"{plural(len(around.obstacles), 'obstacle')}, safety margin "
+            f"{around.safety_margin_m:g} m, start {list(around.start_m)}, goal "
+            f"{list(around.goal_m)}: NOT PLANNABLE: {err.key}: {err.reason}"
+        )
+        return _draw(scene_around(around), request, None, subtitle, summary="scenario only")
+    subtitle = (
+        f"{plural(len(scn.obstacles), 'obstacle')}, safety margin {scn.safety_margin_m:g} m, "
+        f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"
+    )
+    return _draw(scene_for(scn), request, None, subtitle, summary="scenario only")
+
+
+#: the keys of a scenario's route: a problem there does not keep --no-plan from drawing it
+_ROUTE_KEYS = ("start", "goal", "via", "vehicle.takeoff_altitude")
+
+
+def _about_the_route(err: ScenarioError) -> bool:
+    key = err.key or ""
+    return any(key == k or key.startswith((f"{k}[", f"{k}.")) for k in _ROUTE_KEYS)
+
+
+def _render_plan(request: RenderRequest) -> _Drawn:
+    """A QGroundControl plan without a scenario: drawn in the world its rerouting plans in
+    (its geofence's zones as obstacles), with its clearance from them."""
+    from uavplan.mission.io import load_mission  # the mission readers: only with a mission
+
+    plan = load_mission(request.scenario)
+    if not (plan.fence.polygons or plan.fence.circles):
+        raise no_fence(request.scenario, "render")
+    world, flight = fence_world(plan, file=request.scenario)
+    layers = RouteLayers.from_mission(plan, world.frame, flight.points_enu)
+    check = world.check(flight)
+    name = Path(request.scenario).name
+    subtitle = (
+        f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown from take-off, "
+        f"min clearance from its geofence {check.min_clearance_m:.2f} m (margin "
+        f"{world.margin_m:g} m)" + ("" if check.problem() is None else "  (too close!)")
+    )
+    # start and goal: the first and last position flown (every position is a waypoint of
+    # the flown route already; which were the user's the plan does not say)
+    first, last = (tuple(float(v) for v in flight.points_enu[k]) for k in (1, -1))
+    ends = [(first[0], first[1], first[2]), (last[0], last[1], last[2])]
+    scene = fence_scene(Path(request.scenario).stem, world.airspace, world.margin_m, ends)
+    return _draw(scene, request, layers, subtitle, min_clearance_m=check.min_clearance_m)
+
+
+def _render_mission(scn: Scenario, request: RenderRequest) -> _Drawn:
     assert request.mission is not None
     plan, flight = read_mission_flight(request.mission, scn)
     try:
@@ -108,7 +189,7 @@ def _render_mission(scn: Scenario, request: RenderRequest) -> RenderOutcome:
     if len(flight.points_enu) < 2:
         subtitle = f"{name}: {len(plan.items)} items, nothing to fly"
     else:
-        subtitle = f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown"
+        subtitle = f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown from take-off"
         check = check_flight_in(scn, flight)
         if math.isfinite(check.min_clearance_m):
             clearance = check.min_clearance_m
@@ -116,32 +197,37 @@ def _render_mission(scn: Scenario, request: RenderRequest) -> RenderOutcome:
             subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
                 "  (closer than the margin!)" if close else ""
             )
-    _draw(scn, request, layers, subtitle)
-    return _outcome(request, subtitle, min_clearance_m=clearance)
+    return _draw(scene_for(scn), request, layers, subtitle, min_clearance_m=clearance)
 
 
-def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -> RenderOutcome:
+def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -> _Drawn:
     bar = feedback.progress
     if bar is not None:
         bar.start(f"{scn.planner.algorithm} {scn.name}")
     try:
-        result = plan_route(scn, progress=bar, should_stop=feedback.should_stop)
+        with feedback.polled():
+            result = plan_route(scn, progress=bar, should_stop=feedback.should_stop)
     finally:
         if bar is not None:
             bar.close()
-    if not result.ok and not result.interrupted:
-        _draw(scn, request, None, f"no collision-free path: {result.message}")
-        raise NoPathError(
+    if result.interrupted:
+        size = (request.width_px, request.height_px)
+        return _Drawn(RenderOutcome(request.output, *size, "", interrupted=True))
+    if not result.ok:
+        no_route = NoPathError(
             f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
             f"in {request.output})"
         )
-    subtitle = ""
-    if result.route is not None:  # drawn even when it comes too close: the picture shows where
-        subtitle = route_subtitle(
-            result.route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
-        )
-        _draw(scn, request, RouteLayers.from_route(result.route), subtitle)
-    if result.interrupted:
-        return _outcome(request, subtitle, interrupted=True)
-    require_route(scn, result)  # closer than the margin: exit 3
-    return _outcome(request, subtitle)
+        subtitle = f"no collision-free path: {result.message}"
+        return _draw(scene_for(scn), request, None, subtitle, failure=no_route)
+    assert result.route is not None
+    subtitle = route_subtitle(
+        result.route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+    )
+    failure: NoPathError | None = None
+    try:
+        require_route(scn, result)  # closer than the margin: drawn (it shows where), exit 3
+    except NoPathError as err:
+        failure = err
+    layers = RouteLayers.from_route(result.route)
+    return _draw(scene_for(scn), request, layers, subtitle, failure=failure)

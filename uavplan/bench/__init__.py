@@ -66,6 +66,7 @@ from .report import _jsonable
 from .report import format_table as format_table
 from .report import format_tables as format_tables
 from .report import mean_convergence as mean_convergence
+from .report import output_files as output_files
 from .report import plot_convergence as plot_convergence
 from .report import summarise as summarise
 from .report import write_outputs as write_outputs

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from uavplan.fileio import atomic_write_bytes, atomic_write_text
+from uavplan.fileio import atomic_write_bytes
 
 
 @dataclass
@@ -211,7 +211,13 @@ def format_tables(summaries: Sequence[Summary]) -> str:
 
 
 def plot_convergence(curves: Mapping[str, np.ndarray], title: str, path: str | Path) -> None:
-    """Mean best fitness against iteration, one line per algorithm (paper Figures 10–12)."""
+    """Mean best fitness against iteration, one line per algorithm (paper Figures 10–12),
+    written atomically to the PNG file ``path``."""
+    atomic_write_bytes(path, convergence_png(curves, title))
+
+
+def convergence_png(curves: Mapping[str, np.ndarray], title: str) -> bytes:
+    """The picture :func:`plot_convergence` writes, as PNG bytes."""
     from matplotlib.figure import Figure  # no pyplot: no global backend state, Agg for PNG
 
     fig = Figure(figsize=(7.5, 4.5), dpi=120)
@@ -228,39 +234,31 @@ def plot_convergence(curves: Mapping[str, np.ndarray], title: str, path: str | P
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
-    atomic_write_bytes(path, buf.getvalue())
+    return buf.getvalue()
 
 
 def _safe_name(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
-def write_outputs(
-    out_dir: str | Path,
+def output_files(
     records: Sequence[RunRecord],
     *,
     config: Mapping[str, Any] | None = None,
     plots: bool = True,
-) -> list[Path]:
-    """Write ``runs.csv`` (one row per run), ``summary.csv``, ``bench.json`` (configuration,
-    summary and mean convergence curves), ``summary.md`` (the tables) and one
-    ``convergence-<scenario>.png`` per scenario. Every file is written atomically. Returns
-    the paths written."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+) -> dict[str, bytes]:
+    """The files of a bench's output folder, name → content: ``runs.csv`` (one row per run),
+    ``summary.csv``, ``bench.json`` (configuration, summary and mean convergence curves),
+    ``summary.md`` (the tables) and one ``convergence-<scenario>.png`` per scenario."""
     summaries = summarise(records)
     curves = mean_convergence(records)
-    written: list[Path] = []
-
-    def put(name: str, text: str) -> None:
-        atomic_write_text(out / name, text)
-        written.append(out / name)
-
+    files: dict[str, bytes] = {}
     rows = [r.row() for r in records]
     columns = [c for c in RunRecord.__dataclass_fields__ if c != "convergence"]
-    put("runs.csv", _csv([{**r, "stats": json.dumps(r["stats"])} for r in rows], columns))
+    runs = _csv([{**r, "stats": json.dumps(r["stats"])} for r in rows], columns)
+    files["runs.csv"] = runs.encode()
     srows = [{**dataclasses.asdict(s), "success_rate": s.success_rate} for s in summaries]
-    put("summary.csv", _csv(srows, [*Summary.__dataclass_fields__, "success_rate"]))
+    files["summary.csv"] = _csv(srows, [*Summary.__dataclass_fields__, "success_rate"]).encode()
     doc = {
         "config": dict(config or {}),
         "summary": srows,
@@ -271,13 +269,31 @@ def write_outputs(
     }
     # one line per top-level key: the convergence curves (thousands of numbers) stay compact
     parts = [f"{json.dumps(k)}: {json.dumps(v)}" for k, v in _jsonable(doc).items()]
-    put("bench.json", "{\n" + ",\n".join(parts) + "\n}\n")
-    put("summary.md", format_tables(summaries) + "\n")
+    files["bench.json"] = ("{\n" + ",\n".join(parts) + "\n}\n").encode()
+    files["summary.md"] = (format_tables(summaries) + "\n").encode()
     if plots:
         for scn, by_alg in curves.items():
-            path = out / f"convergence-{_safe_name(scn)}.png"
-            plot_convergence(by_alg, f"{scn}: mean best fitness over runs", path)
-            written.append(path)
+            title = f"{scn}: mean best fitness over runs"
+            files[f"convergence-{_safe_name(scn)}.png"] = convergence_png(by_alg, title)
+    return files
+
+
+def write_outputs(
+    out_dir: str | Path,
+    records: Sequence[RunRecord],
+    *,
+    config: Mapping[str, Any] | None = None,
+    plots: bool = True,
+) -> list[Path]:
+    """Write :func:`output_files` into ``out_dir`` (made if missing), each file atomically.
+    Returns the paths written. (``uavplan bench --out`` writes them as one set:
+    :mod:`uavplan.app.outputs`.)"""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for name, data in output_files(records, config=config, plots=plots).items():
+        atomic_write_bytes(out / name, data)
+        written.append(out / name)
     return written
 
 

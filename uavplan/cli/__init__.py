@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import gc
 import importlib
-from typing import Any
+import sys
+from typing import Any, NoReturn
 
 import click
 
 from uavplan import __version__
+from uavplan.errors import EXIT_INTERRUPTED
 
 #: command name → (the module that defines it, its one-line help as ``--help`` lists it)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -84,6 +86,25 @@ def startup_done() -> None:
         gc.enable()
 
 
+def interrupted() -> NoReturn:
+    """Ctrl-C: the one line ``interrupted`` on stderr and exit 130 (nothing was written)."""
+    click.echo("interrupted", err=True)
+    sys.exit(EXIT_INTERRUPTED)
+
+
+def caused_by_interrupt(exc: BaseException) -> bool:
+    """Is ``exc`` a KeyboardInterrupt, or did one cause it? (Python wraps one that lands in
+    some places: a class attribute's ``__set_name__`` turns it into a RuntimeError.)"""
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        if isinstance(link, KeyboardInterrupt):
+            return True
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
+    return False
+
+
 class _LazyGroup(click.Group):
     """A group whose commands are imported on first use (see :data:`COMMANDS`)."""
 
@@ -95,9 +116,31 @@ class _LazyGroup(click.Group):
             importlib.import_module(f"uavplan.cli.{COMMANDS[cmd_name][0]}")
         return self.commands.get(cmd_name)
 
+    # click answers a KeyboardInterrupt with a blank line, "Aborted!" and exit 1; ours is
+    # one line and exit 130, wherever it lands: parsing, importing the command, running it
+
+    def make_context(
+        self,
+        info_name: str | None,
+        args: list[str],
+        parent: click.Context | None = None,
+        **extra: Any,
+    ) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except (KeyboardInterrupt, Exception) as exc:
+            if caused_by_interrupt(exc):
+                interrupted()
+            raise
+
     def invoke(self, ctx: click.Context) -> Any:
-        startup_done()
-        return super().invoke(ctx)
+        try:
+            startup_done()
+            return super().invoke(ctx)
+        except (KeyboardInterrupt, Exception) as exc:
+            if caused_by_interrupt(exc):
+                interrupted()
+            raise
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         # the listing from the table: no command module is imported to print it

@@ -8,7 +8,14 @@ import click
 
 from uavplan.app.bench import BenchRequest, run_bench
 from uavplan.cli import main
-from uavplan.cli.common import exit_interrupted, feedback, handle_errors, interruptible
+from uavplan.cli.common import (
+    check_threads_variable,
+    exit_interrupted,
+    feedback,
+    handle_errors,
+    interruptible,
+    warn,
+)
 from uavplan.cli.options import ALGORITHMS
 
 
@@ -119,12 +126,13 @@ def bench_command(
         ablation=ablation,
         out_dir=out_dir,
     )
-    with interruptible() as stop_requested:
-        outcome = run_bench(request, feedback(quiet, should_stop=stop_requested))
-    if outcome.interrupted:
-        exit_interrupted()
-    click.echo(outcome.tables())
-    if out_dir and not quiet:
-        click.echo(f"wrote {len(outcome.written)} files to {out_dir}", err=True)
-    if not quiet:
-        click.echo(f"{len(outcome.records)} runs in {outcome.wall_s:.1f} s", err=True)
+    check_threads_variable(warn)
+    with interruptible() as interrupts:
+        outcome = run_bench(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        click.echo(outcome.tables())
+        if out_dir and not quiet:
+            click.echo(f"wrote {len(outcome.written)} files to {out_dir}", err=True)
+        if not quiet:
+            click.echo(f"{len(outcome.records)} runs in {outcome.wall_s:.1f} s", err=True)

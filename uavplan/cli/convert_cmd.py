@@ -6,7 +6,7 @@ import click
 
 from uavplan.app.convert import ConvertRequest, convert
 from uavplan.cli import main
-from uavplan.cli.common import handle_errors
+from uavplan.cli.common import feedback, handle_errors, interruptible
 
 
 @main.command("convert")
@@ -34,8 +34,10 @@ def convert_command(
     IN: .plan or .waypoints. OUT: .plan, .waypoints, .geojson or .kml (the map exports
     draw the flown route, the waypoints, the geofence and, with --scenario, the obstacles).
     """
-    outcome = convert(ConvertRequest(input_path, output, scenario_path, autopilot))
-    for note in outcome.notes:
-        click.echo(f"note: {note}", err=True)
-    if not quiet:
-        click.echo(outcome.summary(), err=True)
+    request = ConvertRequest(input_path, output, scenario_path, autopilot)
+    with interruptible() as interrupts:
+        outcome = convert(request, feedback(quiet, interrupts, progress=False))
+        for note in outcome.notes:
+            click.echo(f"note: {note}", err=True)
+        if not quiet:
+            click.echo(outcome.summary(), err=True)

@@ -8,7 +8,7 @@ import click
 
 from uavplan.app.importing import ImportRequest, import_map
 from uavplan.cli import main
-from uavplan.cli.common import handle_errors
+from uavplan.cli.common import feedback, handle_errors, interruptible
 from uavplan.limits import MAX_ALTITUDE_M
 
 _EPILOG = """\b
@@ -88,7 +88,8 @@ def import_command(
         default_height_m=default_height,
         min_height_m=min_height,
     )
-    outcome = import_map(request)
-    for line in outcome.result.summary_lines():
-        click.echo(line)
-    click.echo(outcome.summary())
+    with interruptible() as interrupts:
+        outcome = import_map(request, feedback(False, interrupts, progress=False))
+        for line in outcome.result.summary_lines():
+            click.echo(line)
+        click.echo(outcome.summary())

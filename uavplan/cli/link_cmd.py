@@ -1,8 +1,9 @@
 """``uavplan upload``, ``download``, ``clear`` and ``mock-vehicle``: missions over MAVLink.
 
-Thin wrappers: parse options, call :mod:`uavplan.mavlink`, print one summary line. Failures
-of the vehicle or the link exit 4 with the step that failed; bad files or options exit 2.
-The MAVLink package is imported inside the commands so ``uavplan --help`` stays fast.
+Thin: parse the options, call one use case of :mod:`uavplan.app.link` (``mock-vehicle``: the
+simulated vehicle of :mod:`uavplan.sim`), print one summary line. Failures of the vehicle or
+the link exit 4 with the step that failed; bad files or options exit 2. The MAVLink package
+is imported by the use cases when they run, so ``uavplan --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -10,19 +11,24 @@ from __future__ import annotations
 import math
 import signal
 import threading
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
 import click
 
+from uavplan.app.link import (
+    CLEAR_TYPES,
+    ClearRequest,
+    DownloadRequest,
+    LinkOptions,
+    UploadRequest,
+    clear,
+    download,
+    upload,
+)
 from uavplan.cli import main
-from uavplan.cli.common import Progress, handle_errors, show_progress
+from uavplan.cli.common import feedback, handle_errors, interruptible
 from uavplan.errors import InputError
-
-if TYPE_CHECKING:
-    from uavplan.mavlink.link import VehicleLink
-    from uavplan.mavlink.protocol import ProtocolTimeouts
 
 _CONN_HELP = (
     "connection: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, "
@@ -87,47 +93,24 @@ def _link_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
-def _timeouts(timeout_s: float, retries: int) -> ProtocolTimeouts:
-    from uavplan.mavlink.protocol import ProtocolTimeouts
-
-    return ProtocolTimeouts.scaled(timeout_s, retries)
-
-
-def _connect(
+def _link(
     conn: str,
+    timeout_s: float,
+    retries: int,
     target_system: int | None,
     heartbeat_timeout_s: float,
-    source: tuple[int, int | None] = (255, None),
-) -> VehicleLink:
-    from uavplan.mavlink.link import VehicleLink
-
-    return VehicleLink.connect(
+    source_system: int,
+    source_component: int | None,
+) -> LinkOptions:
+    return LinkOptions(
         conn,
-        target_system=target_system,
-        heartbeat_timeout_s=heartbeat_timeout_s,
-        system_id=source[0],
-        component_id=source[1],
+        timeout_s,
+        retries,
+        target_system,
+        heartbeat_timeout_s,
+        source_system,
+        source_component,
     )
-
-
-def _describe_vehicle(link: VehicleLink) -> str:
-    vehicle = link.vehicle
-    return (
-        f"system {vehicle.system_id} ({vehicle.autopilot.label}) on {link.connection.description}"
-    )
-
-
-@contextmanager
-def _progress(quiet: bool) -> Iterator[Callable[[str, int, int], None] | None]:
-    """A ``progress(phase, done, total)`` drawing one bar per phase on stderr, or None."""
-    if not show_progress(quiet):
-        yield None
-        return
-    bar = Progress(True)
-    try:
-        yield lambda phase, done, total: bar.show(done, total, label=phase)
-    finally:
-        bar.close()
 
 
 @main.command("upload")
@@ -152,39 +135,15 @@ def upload_cmd(
     Succeeds only when the vehicle accepts every plan type and, unless --no-verify, the
     read-back matches item for item.
     """
-    from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import check_plan_fits_wire, upload_plan
-    from uavplan.mission.io import load_mission
-    from uavplan.mission.items import MissionType
-
-    plan = load_mission(mission)
-    check_plan_fits_wire(plan, file=mission)
-    with (
-        _connect(
-            conn, target_system, heartbeat_timeout_s, (source_system, source_component)
-        ) as link,
-        _progress(quiet) as progress,
-    ):
-        client = MissionClient(link, _timeouts(timeout_s, retries))
-        try:
-            report = upload_plan(client, plan, verify=not no_verify, progress=progress)
-        except InputError as err:
-            if err.file is not None:
-                raise
-            raise InputError(err.reason, file=mission, key=err.key) from None
-        counts = report.item_counts
-        parts = [f"{counts[MissionType.MISSION]} mission items"]
-        if MissionType.FENCE in counts:
-            parts.append(f"{counts[MissionType.FENCE]} fence items")
-        if MissionType.RALLY in counts:
-            parts.append(f"{counts[MissionType.RALLY]} rally points")
-        checked = "verified by read-back" if report.verified else "not verified"
-        for note in report.notes:
+    link = _link(
+        conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
+        source_component,
+    )  # fmt: skip
+    with interruptible() as interrupts:
+        outcome = upload(UploadRequest(mission, link, not no_verify), feedback(quiet, interrupts))
+        for note in outcome.report.notes:
             click.echo(f"note: {note}", err=True)
-        click.echo(
-            f"uploaded {', '.join(parts)} to {_describe_vehicle(link)}; {checked} "
-            f"({report.elapsed_s:.2f} s)"
-        )
+        click.echo(outcome.summary())
 
 
 @main.command("download")
@@ -210,35 +169,15 @@ def download_cmd(
     output: str,
 ) -> None:
     """Read the vehicle's mission (and geofence / rally points for a .plan) into a file."""
-    from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import download_plan
-    from uavplan.mission.io import format_for, save_mission
-
-    wants_plan = output.lower().endswith(".plan")
-    format_for(output)  # an unknown extension is a usage error: fail before connecting
-    with (
-        _connect(
-            conn, target_system, heartbeat_timeout_s, (source_system, source_component)
-        ) as link,
-        _progress(quiet) as progress,
-    ):
-        client = MissionClient(link, _timeouts(timeout_s, retries))
-        result = download_plan(client, fence_and_rally=wants_plan, progress=progress)
-        save_mission(result.plan, output)
-        for note in result.notes:
+    link = _link(
+        conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
+        source_component,
+    )  # fmt: skip
+    with interruptible() as interrupts:
+        outcome = download(DownloadRequest(output, link), feedback(quiet, interrupts))
+        for note in outcome.notes:
             click.echo(f"note: {note}", err=True)
-        plan = result.plan
-        extra = ""
-        if wants_plan:
-            n_fence = len(plan.fence.wire_items())
-            extra = f", {n_fence} fence items, {len(plan.rally)} rally points"
-        click.echo(
-            f"downloaded {len(plan.items)} mission items{extra} from "
-            f"{_describe_vehicle(link)} into {output}"
-        )
-
-
-_TYPE_CHOICES = ("mission", "fence", "rally", "all")
+        click.echo(outcome.summary())
 
 
 @main.command("clear")
@@ -246,7 +185,7 @@ _TYPE_CHOICES = ("mission", "fence", "rally", "all")
 @click.option(
     "--type",
     "plan_type",
-    type=click.Choice(_TYPE_CHOICES),
+    type=click.Choice(list(CLEAR_TYPES)),
     default="mission",
     show_default=True,
     help="Plan type to clear; 'all' clears the three one after another.",
@@ -264,21 +203,13 @@ def clear_cmd(
     plan_type: str,
 ) -> None:
     """Clear the vehicle's mission, geofence, rally points, or all three."""
-    from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import clear_plan
-    from uavplan.mission.items import MissionType
-
-    types = (
-        [MissionType.MISSION, MissionType.FENCE, MissionType.RALLY]
-        if plan_type == "all"
-        else [MissionType[plan_type.upper()]]
-    )
-    with _connect(
-        conn, target_system, heartbeat_timeout_s, (source_system, source_component)
-    ) as link:
-        clear_plan(MissionClient(link, _timeouts(timeout_s, retries)), types)
-        names = ", ".join(t.name.lower() for t in types)
-        click.echo(f"cleared {names} on {_describe_vehicle(link)}")
+    link = _link(
+        conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
+        source_component,
+    )  # fmt: skip
+    with interruptible() as interrupts:
+        outcome = clear(ClearRequest(plan_type, link), feedback(quiet, interrupts))
+        click.echo(outcome.summary())
 
 
 def _parse_home(text: str | None) -> Any:

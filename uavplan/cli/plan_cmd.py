@@ -7,7 +7,14 @@ import click
 from uavplan.app.feedback import PlannerOptions
 from uavplan.app.plan import PlanRequest, plan
 from uavplan.cli import main
-from uavplan.cli.common import exit_interrupted, feedback, handle_errors, interruptible
+from uavplan.cli.common import (
+    check_threads_variable,
+    exit_interrupted,
+    feedback,
+    handle_errors,
+    interruptible,
+    warn,
+)
 from uavplan.cli.options import ALGORITHM
 
 
@@ -97,9 +104,10 @@ def plan_command(
         fence=fence,
         scenario=scenario_path,
     )
-    with interruptible() as stop_requested:
-        outcome = plan(request, feedback(quiet, should_stop=stop_requested))
-    if outcome.interrupted:
-        exit_interrupted()
-    if not quiet:
-        click.echo(outcome.summary(), err=True)
+    check_threads_variable(warn)
+    with interruptible() as interrupts:
+        outcome = plan(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        if not quiet:
+            click.echo(outcome.summary(), err=True)

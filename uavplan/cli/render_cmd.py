@@ -15,7 +15,14 @@ import click
 from uavplan.app.feedback import PlannerOptions
 from uavplan.app.render import RenderRequest, render
 from uavplan.cli import main
-from uavplan.cli.common import exit_interrupted, feedback, handle_errors, interruptible
+from uavplan.cli.common import (
+    check_threads_variable,
+    exit_interrupted,
+    feedback,
+    handle_errors,
+    interruptible,
+    warn,
+)
 from uavplan.cli.options import ALGORITHM
 
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
@@ -96,9 +103,10 @@ def render_command(
         height_px=height,
         dpi=dpi,
     )
-    with interruptible() as stop_requested:
-        outcome = render(request, feedback(quiet, should_stop=stop_requested))
-    if outcome.interrupted:
-        exit_interrupted()
-    if not quiet:
-        click.echo(outcome.line(), err=True)
+    check_threads_variable(warn)
+    with interruptible() as interrupts:
+        outcome = render(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        if not quiet:
+            click.echo(outcome.line(), err=True)

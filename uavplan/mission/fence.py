@@ -203,7 +203,8 @@ class FenceBuild:
 
     def summary(self) -> str:
         """One line: what went into the fence and what did not."""
-        parts = [f"{len(self.with_status(ZoneStatus.EXCLUDED))} exclusion zones"]
+        excluded = len(self.with_status(ZoneStatus.EXCLUDED))
+        parts = [f"{excluded} exclusion zone{'' if excluded == 1 else 's'}"]
         for status, label in (
             (ZoneStatus.FLOWN_OVER, "flown over"),
             (ZoneStatus.OVER_LIMIT, f"left out (over the {self.max_items}-item limit)"),

@@ -25,8 +25,10 @@ from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleCon
 from uavplan.scenario.site import Site
 from uavplan.scenario.values import (
     Scenario,
+    Surroundings,
     check_limits,
     load_scenario,
+    load_surroundings,
     problem_size,
     resolved_config,
     with_search,
@@ -39,10 +41,12 @@ __all__ = [
     "PlannerConfig",
     "Scenario",
     "Site",
+    "Surroundings",
     "VehicleConfig",
     "check_limits",
     "load_map",
     "load_scenario",
+    "load_surroundings",
     "problem_size",
     "resolved_config",
     "with_search",

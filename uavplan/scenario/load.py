@@ -118,14 +118,16 @@ def _terrain(chk: Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bound
         raise chk.fail("terrain", f"{dem.name}: {err.reason}") from None
 
 
-def read_scenario_file(path: str | Path) -> dict[str, Any]:
+def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any]:
     """The values of a scenario file (and of the map it names), checked key by key, as the
     keyword arguments of :class:`~uavplan.scenario.values.Scenario`, which checks them as a
-    whole."""
+    whole. ``route=False``: ``start`` and ``goal`` may be missing (None then); what the file
+    gives is checked key by key all the same (the values of a
+    :class:`~uavplan.scenario.values.Surroundings`)."""
     path = Path(path)
     chk = Checker(str(path))
     raw = read_yaml(path, "scenario")
-    chk.mapping(raw, "", _SCENARIO_KEYS, ("start", "goal"))
+    chk.mapping(raw, "", _SCENARIO_KEYS, ("start", "goal") if route else ())
 
     map_origin = map_bounds = None
     map_obstacles: tuple[Obstacle, ...] = ()
@@ -168,8 +170,8 @@ def read_scenario_file(path: str | Path) -> dict[str, Any]:
         margin = chk.number(
             raw["safety_margin"], "safety_margin", minimum=0, maximum=MAX_SAFETY_MARGIN_M
         )
-    start = chk.point(raw["start"], "start", 3)
-    goal = chk.point(raw["goal"], "goal", 3)
+    start = chk.point(raw["start"], "start", 3) if "start" in raw else None
+    goal = chk.point(raw["goal"], "goal", 3) if "goal" in raw else None
     via_raw = raw.get("via", [])
     if not isinstance(via_raw, list):
         raise chk.fail("via", f"must be a list of [x, y, z] points, got {type_name(via_raw)}")
@@ -184,8 +186,8 @@ def read_scenario_file(path: str | Path) -> dict[str, Any]:
         name=name,
         origin=origin,
         bounds=bounds,
-        start_m=(start[0], start[1], start[2]),
-        goal_m=(goal[0], goal[1], goal[2]),
+        start_m=None if start is None else (start[0], start[1], start[2]),
+        goal_m=None if goal is None else (goal[0], goal[1], goal[2]),
         via_m=tuple((p[0], p[1], p[2]) for p in via),
         obstacles=obstacles,
         safety_margin_m=margin,

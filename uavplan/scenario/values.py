@@ -137,6 +137,49 @@ def load_scenario(path: str | Path) -> Scenario:
     return Scenario.from_file(path)
 
 
+@dataclass(frozen=True)
+class Surroundings:
+    """What a scenario file says about where a route is flown, without the route: origin,
+    flight volume, obstacles (and DEM), margin and settings, checked as a scenario's are.
+    ``start_m``, ``goal_m`` and ``via_m`` are the file's as written (checked key by key, not
+    against the obstacles; None / empty when the file has none): the rerouting of a
+    QGroundControl plan takes its route from the plan, and ``render --no-plan`` draws them
+    where they are even when a scenario could not start there."""
+
+    name: str
+    origin: GeoPoint
+    bounds: Bounds
+    obstacles: tuple[Obstacle, ...]
+    safety_margin_m: float = 10.0
+    vehicle: VehicleConfig = field(default_factory=VehicleConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    mission: MissionConfig = field(default_factory=MissionConfig)
+    source: str | None = None
+    terrain: Surface | None = None
+    obstacle_sources: ObstacleSources = field(default_factory=ObstacleSources)
+    start_m: Point3 | None = None
+    goal_m: Point3 | None = None
+    via_m: tuple[Point3, ...] = ()
+
+    def __post_init__(self) -> None:
+        _check_surroundings(Checker(self.source or self.name), self)
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> Surroundings:
+        """Read and check a scenario or map file; ``start`` and ``goal`` are optional."""
+        return cls(**read_scenario_file(path, route=False))
+
+    def obstacle_name(self, index: int) -> str:
+        """How messages name obstacle ``index`` (as :meth:`Scenario.obstacle_name`)."""
+        return self.obstacle_sources.name(index)
+
+
+def load_surroundings(path: str | Path) -> Surroundings:
+    """Read and check a scenario or map file without requiring a route
+    (:meth:`Surroundings.from_file`)."""
+    return Surroundings.from_file(path)
+
+
 def with_search(scenario: Scenario, changes: Mapping[str, Any], key: str = "") -> Scenario:
     """``scenario`` with command-line overrides of its search values (``{"iterations": 5}``),
     validated by :func:`uavplan.config.override` (ConfigError naming ``key``, e.g.
@@ -208,6 +251,15 @@ def _check(scn: Scenario) -> None:
 
 def _check_values(chk: Checker, scn: Scenario) -> None:
     """The values a file's reader checks key by key, for a scenario made any other way."""
+    _check_surroundings(chk, scn)
+    if len(scn.via_m) > MAX_VIA_POINTS:
+        raise chk.fail("via", f"{len(scn.via_m):,} points (at most {MAX_VIA_POINTS:,})")
+    for key, point in _route_points(scn):
+        chk.point(point, key, 3)
+
+
+def _check_surroundings(chk: Checker, scn: Scenario | Surroundings) -> None:
+    """The values of a scenario but its route points."""
     if not scn.name.strip():
         raise chk.fail("name", "must not be empty")
     lat = scn.origin.lat_deg
@@ -224,10 +276,6 @@ def _check_values(chk: Checker, scn: Scenario) -> None:
         raise chk.fail("bounds.z", "must not go below the ground (z = 0)")
     if not (math.isfinite(scn.safety_margin_m) and 0 <= scn.safety_margin_m <= MAX_SAFETY_MARGIN_M):
         raise chk.fail("safety_margin", f"must be within [0, {MAX_SAFETY_MARGIN_M:g}] m")
-    if len(scn.via_m) > MAX_VIA_POINTS:
-        raise chk.fail("via", f"{len(scn.via_m):,} points (at most {MAX_VIA_POINTS:,})")
-    for key, point in _route_points(scn):
-        chk.point(point, key, 3)
     if len(scn.obstacles) > MAX_OBSTACLES:
         raise chk.fail(
             "obstacles", f"map and scenario hold {len(scn.obstacles):,} (at most {MAX_OBSTACLES:,})"
