@@ -182,7 +182,7 @@ def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem
         world or build_world(scenario),
         site.start_m,
         site.goal_m,
-        cfg.grid,
+        scenario.grid,
         cfg.energy,
     )
 
@@ -212,7 +212,7 @@ def reference_route(
     world = world or build_world(scenario)
     start = scenario.site.start_m if start_m is None else start_m
     goal = scenario.site.goal_m if goal_m is None else goal_m
-    frame = PathFrame.build(start, goal, scenario.planner.grid)
+    frame = PathFrame.build(start, goal, scenario.grid)
     world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
     return astar(world_pf, frame, scenario.planner.energy)
 
@@ -357,7 +357,9 @@ def plan_route(
         if problem is not None and n_legs == 1:
             leg_problem = problem
         else:
-            leg_problem = PathProblem.build(world, points[i], points[i + 1], cfg.grid, cfg.energy)
+            leg_problem = PathProblem.build(
+                world, points[i], points[i + 1], scenario.grid, cfg.energy
+            )
         leg_problem = leg_problem.with_fitness_smoothing(smoothing)
         leg_progress = None
         if progress is not None:
@@ -396,6 +398,8 @@ def plan_route(
         flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
     )
     notes = [n for leg in legs for n in leg.notes]
+    if scenario.grid_fitted:
+        notes.append(grid_note(scenario))
     if ground is not None:
         notes += _terrain_notes(ground, waypoints_enu)
     route = PlannedRoute(
@@ -426,6 +430,18 @@ def plan_route(
         notes=tuple(notes),
         guide_s=sum(leg.guide_s for leg in legs),
         legs=tuple(legs),
+    )
+
+
+def grid_note(scenario: Scenario) -> str:
+    """What the user should know of a grid fitted to a large flight volume."""
+    from uavplan.scenario.size import DEFAULT_GRID
+
+    g, d = scenario.grid, DEFAULT_GRID
+    return (
+        f"grid fitted to the flight volume: {g.dx_m:g} × {g.dy_m:g} × {g.dz_m:g} m (the "
+        f"default {d.dx_m:g} × {d.dy_m:g} × {d.dz_m:g} m is for smaller volumes; set "
+        "planner.grid to choose one)"
     )
 
 

@@ -32,8 +32,10 @@ from uavplan.planners.base import PathProblem
 
 #: grid refinements tried, as multiples of the planner's grid steps (coarse first)
 GUIDE_SCALES = (2.0, 1.0, 0.5)
-#: a finer grid is not tried when it would have more nodes than this
-MAX_GUIDE_NODES = 6_000_000
+#: a grid search holds about 70 bytes a node: no grid of more nodes than this is searched
+#: (about 140 MB). The first, coarsest grid is coarsened further until it fits; a finer one
+#: is not tried when it would not fit.
+MAX_GUIDE_NODES = 2_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,7 +82,10 @@ def find_guide(problem: PathProblem) -> Guide:
     base = (frame.dx_m, frame.grid.dy_m, frame.grid.dz_m)
     last: GridRoute | None = None
     steps = base
-    for scale in GUIDE_SCALES:
+    first = GUIDE_SCALES[0]
+    while _nodes(problem, tuple(b * first for b in base)) > MAX_GUIDE_NODES:  # type: ignore[arg-type]
+        first *= 1.25
+    for scale in (first, *(s for s in GUIDE_SCALES if s < first)):
         steps = (base[0] * scale, base[1] * scale, base[2] * scale)
         if last is not None and _nodes(problem, steps) > MAX_GUIDE_NODES:
             break
