@@ -49,6 +49,9 @@ if TYPE_CHECKING:
     from uavplan.render import Scene
 
 
+_Point = tuple[float, float, float]
+
+
 @dataclass
 class RouteResult:
     """A planning run: the planner's record and, when it found one, the planned route.
@@ -354,13 +357,17 @@ def plan_route(
     )
     legs: list[Leg] = []
     for i in range(n_legs):
-        if problem is not None and n_legs == 1:
-            leg_problem = problem
-        else:
-            leg_problem = PathProblem.build(
-                world, points[i], points[i + 1], scenario.grid, cfg.energy
-            )
-        leg_problem = leg_problem.with_fitness_smoothing(smoothing)
+
+        def leg_problem(
+            a: _Point = points[i],
+            b: _Point = points[i + 1],
+            given: PathProblem | None = problem if n_legs == 1 else None,
+        ) -> PathProblem:
+            # built where it is used, so only the leg holds it (and can let it go)
+            if given is None:
+                given = PathProblem.build(world, a, b, scenario.grid, cfg.energy)
+            return given.with_fitness_smoothing(smoothing)
+
         leg_progress = None
         if progress is not None:
             done, total = i * cfg.search.iterations, n_legs * cfg.search.iterations
@@ -478,7 +485,7 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
 def _plan_leg(
     scenario: Scenario,
     world: World,
-    problem: PathProblem,
+    make_problem: Callable[[], PathProblem],
     planner: Any,
     post: PostParams,
     rng: np.random.Generator,
@@ -487,25 +494,29 @@ def _plan_leg(
 ) -> Leg | _Unplanned:
     """Search one leg (straight frame first, a guide frame when that cannot hold a path,
     the grid route when the swarm still fails) and post-process it into waypoints; or why
-    there is none."""
+    there is none. ``make_problem`` builds the leg's path problem (the caller keeps no
+    reference: when the straight frame fails, its node table and memo are let go before the
+    global search and the guide frame build their own)."""
     cfg = scenario.planner
+    problem = make_problem()
     res = planner.solve(problem, rng, progress, termination)
     notes: list[str] = []
     guide_s = 0.0
     route_pf: np.ndarray | None = None
     if not res.solved:
         # the straight start→goal columns cannot hold a path: search the whole volume
-        from uavplan.planners.guide import find_guide, guided_problem
+        from uavplan.planners.guide import GuideSpace, find_guide, problem_along
 
-        guide = find_guide(problem)
+        space = GuideSpace.of(problem)
+        del problem  # its node table and memo: tens of MB on a large volume
+        guide = find_guide(space)
         guide_s = guide.runtime_s
         if guide.failure is not None:
             return _Unplanned(guide.failure, guide.message, res, guide_s)
         assert guide.route_pf is not None
-        guided = guided_problem(problem, guide)
-        res = planner.solve(guided, rng, progress, termination)
+        problem = make_problem() if guide.is_straight else problem_along(space, guide)
+        res = planner.solve(problem, rng, progress, termination)
         if res.solved:
-            problem = guided
             notes.append(
                 f"planned along a guide route from a grid search ({len(guide.route_pf)} "
                 "vertices): the straight start→goal columns could not hold a path"
