@@ -85,6 +85,16 @@ def test_a_tall_volume_coarsens_vertically_a_shallow_one_does_not() -> None:
     assert grid.dz_m / DEFAULT_GRID.dz_m == grid.dx_m / DEFAULT_GRID.dx_m > 1
 
 
+def test_a_thin_band_in_a_vast_tall_volume_still_gets_a_grid_that_fits() -> None:
+    """2,000 km of ground with 9 km of relief under a 50 m band: keeping 8 levels in the band
+    cannot fit, so the vertical step grows too; the grid still fits (and is within the
+    limits a grid step may have)."""
+    volume = Bounds((-1e6, 1e6), (-1e6, 1e6), (0.0, 9050.0))
+    grid = fitted_grid(volume, [(-9e5, -9e5), (9e5, 9e5)], band_m=50.0)
+    assert path_grid(volume, [(-9e5, -9e5), (9e5, 9e5)], grid)[0] <= FIT_GRID_CELLS
+    assert grid.dz_m > DEFAULT_GRID.dz_m and max(vars(grid).values()) <= 10_000
+
+
 def test_a_grid_the_user_sets_is_respected_and_still_checked() -> None:
     scn = _flat(50_000.0, 1600.0)
     mine = GridSpec(20.0, 20.0, 10.0)

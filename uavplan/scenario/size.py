@@ -97,4 +97,10 @@ def fitted_grid(
         grid = scaled(DEFAULT_GRID, factor, vertical)
         if path_grid(volume, points, grid)[0] <= budget:
             return grid
+    # a volume far taller than its band (a thin band over a DEM of a whole mountain range):
+    # the vertical step must grow too
+    for factor in FIT_FACTORS:
+        grid = scaled(DEFAULT_GRID, factor)
+        if path_grid(volume, points, grid)[0] <= budget:
+            return grid
     return scaled(DEFAULT_GRID, FIT_FACTORS[-1])  # pragma: no cover - the limits exclude it
