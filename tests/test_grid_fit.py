@@ -51,7 +51,7 @@ def _flat(length_m: float, width_m: float, height_m: float = 200.0, **changes: o
 
 def test_a_small_volume_keeps_the_default_grid() -> None:
     scn = _flat(2000.0, 1200.0)
-    assert scn.planner.grid is None and scn.grid == DEFAULT_GRID and not scn.grid_fitted
+    assert scn.grid_fitted and scn.grid == DEFAULT_GRID and not scn.grid_coarsened
     # every bundled scenario that sets no grid plans on the default one, as before
     for mission in sorted((ROOT / "missions").glob("*.yaml")):
         bundled = load_scenario(mission)
@@ -64,7 +64,7 @@ def test_a_large_volume_gets_the_finest_grid_that_fits(length_km: float, width_k
     scn = _flat(length_km * 1000.0, width_km * 1000.0)
     points = [scn.start_m, scn.goal_m]
     grid = scn.grid
-    assert scn.grid_fitted and grid.dx_m == grid.dy_m > DEFAULT_GRID.dx_m
+    assert scn.grid_coarsened and grid.dx_m == grid.dy_m > DEFAULT_GRID.dx_m
     assert path_grid(scn.volume, points, grid)[0] <= FIT_GRID_CELLS
     assert problem_size(scn)["grid_cells"] <= FIT_GRID_CELLS
     # the next finer factor would not fit: the grid is no coarser than it must be
@@ -100,6 +100,7 @@ def test_a_grid_the_user_sets_is_respected_and_still_checked() -> None:
     mine = GridSpec(20.0, 20.0, 10.0)
     given = scn.with_planner(grid=mine)
     assert given.grid == mine and not given.grid_fitted  # not fitted, though larger
+    assert not given.grid_coarsened
     assert problem_size(given)["grid_cells"] > FIT_GRID_CELLS
     with pytest.raises(ScenarioError) as info:
         scn.with_planner(grid=GridSpec(2.0, 2.0, 1.0))
@@ -169,7 +170,7 @@ def test_a_13_km_ridge_crossing_plans_at_the_defaults(tmp_path: Path) -> None:
     path = tmp_path / "ridge.yaml"
     path.write_text(RIDGE, encoding="utf-8")
     scn = load_scenario(path)
-    assert scn.planner.grid is None and scn.grid_fitted
+    assert scn.planner.grid is None and scn.grid_coarsened
     assert problem_size(scn)["grid_cells"] <= FIT_GRID_CELLS
     default = problem_size(scn.with_planner(grid=DEFAULT_GRID))["grid_cells"]
     assert default > 5 * FIT_GRID_CELLS  # what the default grid would have held

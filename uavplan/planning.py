@@ -405,7 +405,7 @@ def plan_route(
         flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
     )
     notes = [n for leg in legs for n in leg.notes]
-    if scenario.grid_fitted:
+    if scenario.grid_coarsened:
         notes.append(grid_note(scenario))
     if ground is not None:
         notes += _terrain_notes(ground, waypoints_enu)

@@ -30,7 +30,9 @@ polygon (a start or goal on the bounds' edge would otherwise sit on the fence li
 
 Autopilots hold few fence items (one per polygon vertex, one per circle): PX4 releases
 before 1.15 keep 63 (:data:`DEFAULT_MAX_ITEMS`; their first of 64 slots holds statistics).
-Zones closest to the route come first; the rest are left out (``OVER_LIMIT``) and reported.
+Zones closest to the route come first; the rest are left out (``OVER_LIMIT``) and counted.
+A zone is built only while the budget could still hold it, so the thousands of obstacles of
+a city map that cannot be fenced cost one vectorised distance each (:func:`route_distances`).
 
 This module is fence *policy*; the polygon geometry is :mod:`uavplan.geometry2d`. Nothing
 here plans or reads a scenario: the inputs are plain values (obstacles or footprints, the
@@ -162,7 +164,8 @@ class ObstacleZone:
     """What the fence does with one obstacle.
 
     ``route_distance_m``: smallest horizontal distance from the flown route to the footprint.
-    ``offset_m``: how far the zone reaches beyond the footprint (EXCLUDED and OVER_LIMIT).
+    ``offset_m``: how far the zone reaches beyond the footprint (EXCLUDED; for OVER_LIMIT
+    the most it could have reached: a zone left out is not built, so it has no polygon).
     ``height_above_top_m``: FLOWN_OVER / TOO_CLOSE: the route's lowest height above the
     obstacle top where it is horizontally within the margin of the footprint.
     ``polygon_enu`` (``(k, 2)``, counter-clockwise) or ``circle_enu`` (x, y, radius): the zone.

@@ -110,8 +110,14 @@ class Scenario:
 
     @property
     def grid_fitted(self) -> bool:
-        """Was :attr:`grid` fitted (the scenario sets no grid) and coarser than the default?"""
-        return self.planner.grid is None and self.grid != DEFAULT_GRID
+        """Was :attr:`grid` fitted to the flight volume (the scenario sets no grid)? It is
+        the default grid unless the volume is too large for it (:attr:`grid_coarsened`)."""
+        return self.planner.grid is None
+
+    @property
+    def grid_coarsened(self) -> bool:
+        """Was :attr:`grid` fitted coarser than the default, for a large volume?"""
+        return self.grid_fitted and self.grid != DEFAULT_GRID
 
     @property
     def volume(self) -> Bounds:
@@ -205,7 +211,7 @@ def resolved_config(scenario: Scenario | PlannerConfig, algorithm: str | None = 
         "planner": {
             **resolved_planner(scn.planner, algorithm),
             "grid": as_dict(scn.grid),
-            "grid_fitted": scn.planner.grid is None,
+            "grid_fitted": scn.grid_fitted,
         },
         "vehicle": {
             "cruise_speed_m_s": scn.vehicle.cruise_speed_m_s,
