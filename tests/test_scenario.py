@@ -208,7 +208,8 @@ def test_defaults(tmp_path: Path) -> None:
     assert scn.planner.search == SearchParams(
         population=30, iterations=1000, seed=1, t_max=10, init_half_window=10.0
     )
-    assert scn.planner.grid == GridSpec(20.0, 20.0, 10.0)
+    assert scn.planner.grid is None  # not set: fitted to the flight volume
+    assert scn.grid == GridSpec(20.0, 20.0, 10.0) and not scn.grid_coarsened  # a small one
     assert scn.planner.energy == EnergyWeights(1.0, 1.0, 1.0, 1.0)
     assert scn.planner.spsa == SpsaParams()
     assert scn.planner.post == PostParams()

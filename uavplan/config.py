@@ -684,11 +684,12 @@ class PlannerConfig:
     """Everything a planner run is configured with: the algorithm, the shared search values,
     the grid, the energy weights, the post-processing and each planner's own section
     (``sections[name]``, validated parameter objects; a planner without one uses its
-    defaults, see :meth:`params_for`)."""
+    defaults, see :meth:`params_for`). ``grid`` None: the grid is fitted to the flight
+    volume (:attr:`uavplan.scenario.Scenario.grid`, docs/scenario-format.md "Limits")."""
 
     algorithm: str = "spsa"
     search: SearchParams = field(default_factory=SearchParams)
-    grid: GridSpec = field(default_factory=GridSpec)
+    grid: GridSpec | None = None
     energy: EnergyWeights = field(default_factory=EnergyWeights)
     post: PostParams = field(default_factory=PostParams)
     sections: Mapping[str, Any] = field(default_factory=dict)
@@ -746,7 +747,7 @@ def resolved_planner(cfg: PlannerConfig, algorithm: str | None = None) -> dict[s
         "search": search,
         "fitness_smoothing_default": entry.fitness_smoothing,
         "params": None if params is None else as_dict(params),
-        "grid": as_dict(cfg.grid),
+        "grid": None if cfg.grid is None else as_dict(cfg.grid),
         "energy": as_dict(cfg.energy),
         "post": as_dict(cfg.post),
         "postprocess": entry.postprocess,

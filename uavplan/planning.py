@@ -49,6 +49,9 @@ if TYPE_CHECKING:
     from uavplan.render import Scene
 
 
+_Point = tuple[float, float, float]
+
+
 @dataclass
 class RouteResult:
     """A planning run: the planner's record and, when it found one, the planned route.
@@ -182,7 +185,7 @@ def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem
         world or build_world(scenario),
         site.start_m,
         site.goal_m,
-        cfg.grid,
+        scenario.grid,
         cfg.energy,
     )
 
@@ -212,7 +215,7 @@ def reference_route(
     world = world or build_world(scenario)
     start = scenario.site.start_m if start_m is None else start_m
     goal = scenario.site.goal_m if goal_m is None else goal_m
-    frame = PathFrame.build(start, goal, scenario.planner.grid)
+    frame = PathFrame.build(start, goal, scenario.grid)
     world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
     return astar(world_pf, frame, scenario.planner.energy)
 
@@ -354,11 +357,17 @@ def plan_route(
     )
     legs: list[Leg] = []
     for i in range(n_legs):
-        if problem is not None and n_legs == 1:
-            leg_problem = problem
-        else:
-            leg_problem = PathProblem.build(world, points[i], points[i + 1], cfg.grid, cfg.energy)
-        leg_problem = leg_problem.with_fitness_smoothing(smoothing)
+
+        def leg_problem(
+            a: _Point = points[i],
+            b: _Point = points[i + 1],
+            given: PathProblem | None = problem if n_legs == 1 else None,
+        ) -> PathProblem:
+            # built where it is used, so only the leg holds it (and can let it go)
+            if given is None:
+                given = PathProblem.build(world, a, b, scenario.grid, cfg.energy)
+            return given.with_fitness_smoothing(smoothing)
+
         leg_progress = None
         if progress is not None:
             done, total = i * cfg.search.iterations, n_legs * cfg.search.iterations
@@ -396,6 +405,8 @@ def plan_route(
         flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
     )
     notes = [n for leg in legs for n in leg.notes]
+    if scenario.grid_coarsened:
+        notes.append(grid_note(scenario))
     if ground is not None:
         notes += _terrain_notes(ground, waypoints_enu)
     route = PlannedRoute(
@@ -426,6 +437,18 @@ def plan_route(
         notes=tuple(notes),
         guide_s=sum(leg.guide_s for leg in legs),
         legs=tuple(legs),
+    )
+
+
+def grid_note(scenario: Scenario) -> str:
+    """What the user should know of a grid fitted to a large flight volume."""
+    from uavplan.scenario.size import DEFAULT_GRID
+
+    g, d = scenario.grid, DEFAULT_GRID
+    return (
+        f"grid fitted to the flight volume: {g.dx_m:g} × {g.dy_m:g} × {g.dz_m:g} m (the "
+        f"default {d.dx_m:g} × {d.dy_m:g} × {d.dz_m:g} m is for smaller volumes; set "
+        "planner.grid to choose one)"
     )
 
 
@@ -462,7 +485,7 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
 def _plan_leg(
     scenario: Scenario,
     world: World,
-    problem: PathProblem,
+    make_problem: Callable[[], PathProblem],
     planner: Any,
     post: PostParams,
     rng: np.random.Generator,
@@ -471,25 +494,29 @@ def _plan_leg(
 ) -> Leg | _Unplanned:
     """Search one leg (straight frame first, a guide frame when that cannot hold a path,
     the grid route when the swarm still fails) and post-process it into waypoints; or why
-    there is none."""
+    there is none. ``make_problem`` builds the leg's path problem (the caller keeps no
+    reference: when the straight frame fails, its node table and memo are let go before the
+    global search and the guide frame build their own)."""
     cfg = scenario.planner
+    problem = make_problem()
     res = planner.solve(problem, rng, progress, termination)
     notes: list[str] = []
     guide_s = 0.0
     route_pf: np.ndarray | None = None
     if not res.solved:
         # the straight start→goal columns cannot hold a path: search the whole volume
-        from uavplan.planners.guide import find_guide, guided_problem
+        from uavplan.planners.guide import GuideSpace, find_guide, problem_along
 
-        guide = find_guide(problem)
+        space = GuideSpace.of(problem)
+        del problem  # its node table and memo: tens of MB on a large volume
+        guide = find_guide(space)
         guide_s = guide.runtime_s
         if guide.failure is not None:
             return _Unplanned(guide.failure, guide.message, res, guide_s)
         assert guide.route_pf is not None
-        guided = guided_problem(problem, guide)
-        res = planner.solve(guided, rng, progress, termination)
+        problem = make_problem() if guide.is_straight else problem_along(space, guide)
+        res = planner.solve(problem, rng, progress, termination)
         if res.solved:
-            problem = guided
             notes.append(
                 f"planned along a guide route from a grid search ({len(guide.route_pf)} "
                 "vertices): the straight start→goal columns could not hold a path"

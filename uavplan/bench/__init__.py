@@ -305,7 +305,7 @@ def scenario_key(scenario: Scenario) -> str:
         scenario.safety_margin_m,
         scenario.start_m,
         scenario.goal_m,
-        cfg.grid,
+        scenario.grid,
         cfg.energy,
     )
     return hashlib.sha256(pickle.dumps(parts)).hexdigest()[:16]

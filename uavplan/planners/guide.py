@@ -24,16 +24,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uavplan.config import MARGIN_PAD_M
+from uavplan.config import MARGIN_PAD_M, EnergyWeights
 from uavplan.outcome import RouteFailure
+from uavplan.path.frame import PathFrame
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, _grid_extent, astar
 from uavplan.planners.base import PathProblem
+from uavplan.world import World
 
 #: grid refinements tried, as multiples of the planner's grid steps (coarse first)
 GUIDE_SCALES = (2.0, 1.0, 0.5)
-#: a finer grid is not tried when it would have more nodes than this
-MAX_GUIDE_NODES = 6_000_000
+#: a grid search holds about 70 bytes a node: no grid of more nodes than this is searched
+#: (about 140 MB). The first, coarsest grid is coarsened further until it fits; a finer one
+#: is not tried when it would not fit.
+MAX_GUIDE_NODES = 2_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,13 +69,29 @@ class Guide:
         return self.found and bool(np.all(np.diff(self.guide_xy[:, 0]) > 0))
 
 
-def _nodes(problem: PathProblem, steps: tuple[float, float, float]) -> int:
+@dataclass(frozen=True, eq=False)
+class GuideSpace:
+    """What the global search needs of a path problem: its world in the path frame, the
+    frame and the energy weights; not its node table or memo, so a caller can let those go
+    before the search builds its own grid (:meth:`of`)."""
+
+    world: World
+    frame: PathFrame
+    energy: EnergyWeights
+    fitness_smoothing: int = 0
+
+    @classmethod
+    def of(cls, problem: PathProblem) -> GuideSpace:
+        return cls(problem.world, problem.frame, problem.energy, problem.fitness_smoothing)
+
+
+def _nodes(problem: PathProblem | GuideSpace, steps: tuple[float, float, float]) -> int:
     """Nodes of the A* grid over the flight volume at ``steps``."""
     _, shape = _grid_extent(problem.world, steps)
     return int(np.prod(shape))
 
 
-def find_guide(problem: PathProblem) -> Guide:
+def find_guide(problem: PathProblem | GuideSpace) -> Guide:
     """Grid A* from start to goal over the whole flight volume of ``problem`` (its world in
     the path frame, its margin), coarse to fine; the first route found, shortened by line of
     sight, or why there is none."""
@@ -80,7 +100,10 @@ def find_guide(problem: PathProblem) -> Guide:
     base = (frame.dx_m, frame.grid.dy_m, frame.grid.dz_m)
     last: GridRoute | None = None
     steps = base
-    for scale in GUIDE_SCALES:
+    first = GUIDE_SCALES[0]
+    while _nodes(problem, tuple(b * first for b in base)) > MAX_GUIDE_NODES:  # type: ignore[arg-type]
+        first *= 1.25
+    for scale in (first, *(s for s in GUIDE_SCALES if s < first)):
         steps = (base[0] * scale, base[1] * scale, base[2] * scale)
         if last is not None and _nodes(problem, steps) > MAX_GUIDE_NODES:
             break
@@ -93,7 +116,7 @@ def find_guide(problem: PathProblem) -> Guide:
     return _why_not(problem, last, steps, time.perf_counter() - t0)
 
 
-def _why_not(problem: PathProblem, route: GridRoute, steps: tuple[float, float, float],
+def _why_not(problem: PathProblem | GuideSpace, route: GridRoute, steps: tuple[float, float, float],
              runtime_s: float) -> Guide:  # fmt: skip
     margin = problem.world.margin_m - MARGIN_PAD_M  # the user's margin (planning pads it)
     res = f"{steps[0]:g} × {steps[1]:g} × {steps[2]:g} m"
@@ -128,3 +151,10 @@ def guided_problem(problem: PathProblem, guide: Guide) -> PathProblem:
     if guide.is_straight or not guide.found:
         return problem
     return problem.along(guide.guide_xy)
+
+
+def problem_along(space: GuideSpace, guide: Guide) -> PathProblem:
+    """The path problem of ``space`` with its columns along ``guide``'s route (not
+    straight: a straight route keeps the problem the caller has)."""
+    frame = space.frame.along(guide.guide_xy)
+    return PathProblem.in_frame(space.world, frame, space.energy, space.fitness_smoothing)

@@ -175,7 +175,8 @@ def planner(chk: Checker, raw: Any) -> PlannerConfig:
                 raise ConfigError(f"must be a string, got {type_name(value)}", key="algorithm")
             algorithm = planner_entry(value, "algorithm").name
         search = build(SearchParams, {k: raw[k] for k in _SEARCH_KEYS if k in raw}, "")
-        grid = build(GridSpec, raw.get("grid", {}), "grid")
+        # no grid: the grid is fitted to the flight volume (Scenario.grid)
+        grid = build(GridSpec, raw["grid"], "grid") if "grid" in raw else None
         energy = build(EnergyWeights, raw.get("energy", {}), "energy")
         post = build(PostParams, raw.get("post", {}), "post")
         sections: dict[str, Any] = {}

@@ -27,9 +27,15 @@ MAX_SAFETY_MARGIN_M = 10_000.0
 MAX_NAME_CHARS = 200
 MAX_PATH_CHARS = 4096
 MAX_PATH_PART_CHARS = 255
-#: the path grid over the flight volume (columns × lateral × vertical cells, the grid a global
-#: search over the bounds uses: ~70 bytes a cell) at most this many cells
+#: the path grid over the flight volume (for the largest leg: columns × lateral × vertical
+#: nodes of the volume's box in the leg's frame; over a DEM the volume reaches from the datum
+#: to the highest ground plus the ceiling) at most this many cells with a grid the scenario
+#: sets (the node table alone holds 8 bytes a node of the leg's columns)
 MAX_GRID_CELLS = 50_000_000
+#: a scenario that sets no grid is planned on the default grid scaled up just enough that its
+#: path grid holds at most this many cells (uavplan.scenario.size.fitted_grid): at most 40 MB
+#: of node clearances, and a guide search at twice the steps within about 45 MB
+FIT_GRID_CELLS = 4_000_000
 #: population × iterations × path columns (node updates of one search) at most this many
 MAX_SEARCH_WORK = 2_000_000_000
 #: samples of the smoothed route (twice the start-goal distance / post.sample_step_m)

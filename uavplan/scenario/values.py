@@ -25,7 +25,9 @@ from typing import TYPE_CHECKING, Any
 
 from uavplan.config import (
     ConfigError,
+    GridSpec,
     PlannerConfig,
+    as_dict,
     build_params,
     override,
     planner_entry,
@@ -51,6 +53,7 @@ from uavplan.scenario.limits import (
 from uavplan.scenario.load import read_scenario_file
 from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleConfig
 from uavplan.scenario.site import Site, flat_site, terrain_site
+from uavplan.scenario.size import DEFAULT_GRID, fitted_grid, path_grid
 
 if TYPE_CHECKING:
     from uavplan.ground import Surface
@@ -96,6 +99,33 @@ class Scenario:
         return None if self.terrain is None else str(self.terrain.source)
 
     @cached_property
+    def grid(self) -> GridSpec:
+        """The grid the planner uses: ``planner.grid`` when the scenario sets one, else the
+        default grid fitted to the flight volume (:func:`uavplan.scenario.size.fitted_grid`:
+        the default steps unless the route or the volume is too large for them)."""
+        if self.planner.grid is not None:
+            return self.planner.grid
+        band = self.bounds.z_m[1] - self.bounds.z_m[0]  # over a DEM: above the ground
+        return fitted_grid(self.volume, _route_points_xy(self), band)
+
+    @property
+    def grid_fitted(self) -> bool:
+        """Was :attr:`grid` fitted to the flight volume (the scenario sets no grid)? It is
+        the default grid unless the volume is too large for it (:attr:`grid_coarsened`)."""
+        return self.planner.grid is None
+
+    @property
+    def grid_coarsened(self) -> bool:
+        """Was :attr:`grid` fitted coarser than the default, for a large volume?"""
+        return self.grid_fitted and self.grid != DEFAULT_GRID
+
+    @property
+    def volume(self) -> Bounds:
+        """The flight volume the planner searches: the bounds, over a DEM from the datum to
+        the highest ground plus the ceiling (:attr:`site`'s bounds)."""
+        return self.bounds if self.terrain is None else self.site.bounds
+
+    @cached_property
     def site(self) -> Site:
         """The scenario where the planner flies it (see :mod:`uavplan.scenario.site`): its
         own values over flat ground, moved onto the DEM over terrain. Derived, never stored:
@@ -107,7 +137,7 @@ class Scenario:
 
     def __getstate__(self) -> dict[str, Any]:
         # the site is derived (and over terrain holds a function): pickles carry the values
-        return {k: v for k, v in self.__dict__.items() if k != "site"}
+        return {k: v for k, v in self.__dict__.items() if k not in ("site", "grid")}
 
     def obstacle_name(self, index: int) -> str:
         """How messages name obstacle ``index`` (``obstacles[2]``, ``obstacle #4 of map
@@ -221,7 +251,11 @@ def resolved_config(scenario: Scenario | PlannerConfig, algorithm: str | None = 
         "goal": list(site.goal_m),
         "obstacles": len(scn.obstacles),
         "safety_margin_m": scn.safety_margin_m,
-        "planner": resolved_planner(scn.planner, algorithm),
+        "planner": {
+            **resolved_planner(scn.planner, algorithm),
+            "grid": as_dict(scn.grid),
+            "grid_fitted": scn.grid_fitted,
+        },
         "vehicle": {
             "cruise_speed_m_s": scn.vehicle.cruise_speed_m_s,
             "takeoff_altitude_m": scn.vehicle.takeoff_altitude_m,
@@ -243,9 +277,9 @@ def _check(scn: Scenario) -> None:
     chk = Checker(scn.source or scn.name)
     _check_values(chk, scn)
     _check_points(chk, scn)
-    _check_problem_size(chk, scn)
     if scn.terrain is not None:
-        _check_above_terrain(chk, scn)
+        _check_above_terrain(chk, scn)  # builds the site: the volume the size is of
+    _check_problem_size(chk, scn)
     _check_geometry(chk, scn.site, scn)
 
 
@@ -318,30 +352,23 @@ def _check_points(chk: Checker, scn: Scenario) -> None:
 
 
 def problem_size(scn: Scenario) -> dict[str, float]:
-    """Estimates of what planning ``scn`` needs, each checked against its documented limit:
-    ``grid_cells`` (path-frame columns × lateral × vertical cells over the flight volume),
-    ``search_work`` (population × iterations × columns), ``route_samples`` (twice the
-    start-goal distance / post.sample_step_m) and ``columns``."""
+    """Estimates of what planning ``scn`` needs on its grid (:attr:`Scenario.grid`), each
+    checked against its documented limit: ``grid_cells`` (for the largest leg: path-frame
+    columns × lateral × vertical nodes over the flight volume, :attr:`Scenario.volume`),
+    ``search_work`` (population × iterations × the path columns of all legs),
+    ``route_samples`` (twice the legs' length / post.sample_step_m) and ``columns``."""
     cfg = scn.planner
-    (x0, x1), (y0, y1), (z0, z1) = scn.bounds.x_m, scn.bounds.y_m, scn.bounds.z_m
-    dx, dy = scn.goal_m[0] - scn.start_m[0], scn.goal_m[1] - scn.start_m[1]
-    length = math.hypot(dx, dy)
-    c, s = (dx / length, dy / length) if length > 0 else (1.0, 0.0)
-    corners = [(x, y) for x in (x0, x1) for y in (y0, y1)]
-    along = [c * x + s * y for x, y in corners]
-    across = [-s * x + c * y for x, y in corners]
-    columns = max(2, round(length / cfg.grid.dx_m))
-    grid_cells = (
-        (math.floor((max(along) - min(along)) / cfg.grid.dx_m) + 1)
-        * (math.floor((max(across) - min(across)) / cfg.grid.dy_m) + 1)
-        * (math.floor((z1 - z0) / cfg.grid.dz_m) + 1)
-    )
+    cells, columns, length = path_grid(scn.volume, _route_points_xy(scn), scn.grid)
     return {
         "columns": float(columns),
-        "grid_cells": float(grid_cells),
+        "grid_cells": float(cells),
         "search_work": float(cfg.search.population * cfg.search.iterations * columns),
         "route_samples": 2.0 * length / cfg.post.sample_step_m,
     }
+
+
+def _route_points_xy(scn: Scenario) -> list[tuple[float, float]]:
+    return [(p[0], p[1]) for _, p in _route_points(scn)]
 
 
 _SIZE_LIMITS = {
@@ -366,12 +393,21 @@ def _check_problem_size(chk: Checker, scn: Scenario) -> None:
     size = problem_size(scn)
     for what, (limit, key, text) in _SIZE_LIMITS.items():
         if size[what] > limit:
+            hint = "coarsen the grid, shrink the bounds or lower the search effort"
+            if what == "grid_cells":
+                hint = (
+                    f"coarsen the grid ({_steps(scn.grid)} now) or leave planner.grid out to "
+                    "have one fitted to the flight volume, or shrink the bounds"
+                )
             raise chk.fail(
                 key,
                 f"the scenario is too large to plan: about {size[what]:.3g} {text}, "
-                f"the limit is {limit:.3g} (coarsen the grid, shrink the bounds or lower the "
-                "search effort)",
+                f"the limit is {limit:.3g} ({hint})",
             )
+
+
+def _steps(grid: GridSpec) -> str:
+    return f"{grid.dx_m:g} × {grid.dy_m:g} × {grid.dz_m:g} m"
 
 
 def _check_geometry(chk: Checker, site: Site, scn: Scenario) -> None:
