@@ -152,9 +152,9 @@ def test_a_mission_below_the_ridge_names_the_ground(ridge: dict[str, Path], tmp_
     save_mission(replace(plan, items=items), low)
     result = CliRunner().invoke(main, ["validate", str(low), "--scenario", str(scenario)])
     assert result.exit_code == 3, result.output
-    assert re.search(r"comes within \d+\.\d\d m of the ground at \(-?\d+, -?\d+\)", result.output)
+    assert re.search(r"comes within \d+\.\d\d m of the terrain at \(-?\d+, -?\d+\)", result.output)
     assert "obstacles[-" not in result.output
-    with pytest.raises(NoPathError, match="the ground at"):
+    with pytest.raises(NoPathError, match="the terrain at"):
         validate(str(low), str(scenario))
 
 

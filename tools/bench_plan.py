@@ -9,6 +9,9 @@ Each scenario is planned in a fresh interpreter that times its phases:
 * ``build``: the world and the path problem;
 * ``search``: the planner (and the guide search where it runs);
 * ``post``: post-processing into waypoints (``runtime_s`` minus the search);
+* ``cpu``: the CPU time of search and post together, every thread of the process counted
+  (``time.process_time``): the planner core's cost on a shared machine, where wall time is
+  noisy;
 * ``write``: building the mission and writing the .plan (pyproj, which it needs, is imported
   on a thread during the search, as ``uavplan plan`` does: with a second core that import
   costs the write nothing, on one core it is paid inside ``search`` instead);
@@ -39,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
-PHASES = ("import", "load", "kernels", "build", "search", "post", "write")
+PHASES = ("import", "load", "kernels", "build", "search", "post", "cpu", "write")
 
 #: the child: runs one plan phase by phase and prints one JSON line
 CHILD = r"""
@@ -67,11 +70,14 @@ t3 = time.perf_counter()
 world = planning.build_world(scn)
 problem = planning.build_problem(scn, world) if not scn.via_m else None
 t4 = time.perf_counter()
+c4 = time.process_time()
 res = planning.plan_route(scn, world=world, problem=problem)
+c5 = time.process_time()
 t5 = time.perf_counter()
 search = sum(leg.planner.runtime_s + leg.guide_s for leg in res.legs) or res.planner.runtime_s
 row = {"import": t1 - t0, "load": t2 - t1, "kernels": t3 - t2, "build": t4 - t3,
-       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status,
+       "search": search, "post": max(res.runtime_s - search, 0.0), "cpu": c5 - c4,
+       "status": res.status,
        "energy": res.energy, "iterations": int(sum(l.planner.iterations for l in res.legs)),
        "obstacles": len(scn.obstacles), "length_m": res.length_m, "notes": list(res.notes),
        "message": res.message}
@@ -143,7 +149,7 @@ def measure(path: Path, repeat: int, iterations: int, reference: bool) -> dict[s
 
 HEADER = (
     f"{'scenario':<22} {'obst':>6} {'import':>6} {'load':>6} {'kernels':>7} {'build':>6} "
-    f"{'search':>6} {'post':>6} {'write':>6} {'process':>7} {'RSS MiB':>7} {'iter':>5} "
+    f"{'search':>6} {'post':>6} {'cpu':>6} {'write':>6} {'process':>7} {'RSS MiB':>7} {'iter':>5} "
     f"{'E':>9} {'ref':>6}"
 )
 
@@ -151,7 +157,7 @@ HEADER = (
 def format_row(name: str, r: dict[str, Any]) -> str:
     return (
         f"{name:<22} {r['obstacles']:>6} {r['import']:6.2f} {r['load']:6.2f} {r['kernels']:7.2f} "
-        f"{r['build']:6.2f} {r['search']:6.2f} {r['post']:6.2f} {r['write']:6.2f} "
+        f"{r['build']:6.2f} {r['search']:6.2f} {r['post']:6.2f} {r['cpu']:6.2f} {r['write']:6.2f} "
         f"{r['process_s']:7.2f} {r['rss_mib']:7.0f} {r['iterations']:>5} {r['energy']:9.1f} "
         f"{r['ratio']:6.3f}"
     )
@@ -175,6 +181,7 @@ def main() -> int:
         print(format_row(path.stem, r), flush=True)
     print(
         "seconds; medians of the phases in one process (search includes the guide search), "
+        "'cpu' = the CPU time of search + post (every thread of the process), "
         "'process' = the whole `uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / "
         "(A* + line of sight)"
     )

@@ -453,8 +453,7 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
             f"terrain: the route rises to {agl[worst]:.0f} m above the ground at "
             f"({samples[worst, 0]:.0f}, {samples[worst, 1]:.0f}), above the ceiling "
             f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over "
-            f"{TERRAIN_SAMPLE_M * int(over.sum()):.0f} m: the planner's ceiling is flat at the "
-            "highest ground plus bounds.z max"
+            f"{TERRAIN_SAMPLE_M * int(over.sum()):.0f} m"
         )
     return notes
 
