@@ -27,8 +27,8 @@ from terrain_helpers import (  # noqa: E402
 from uavplan import _ckernels  # noqa: E402
 from uavplan.cli import main  # noqa: E402
 from uavplan.geo import EnuFrame  # noqa: E402
-from uavplan.planning import build_problem, build_world  # noqa: E402
 from uavplan.planners import _kernels as K  # noqa: E402
+from uavplan.planning import build_problem, build_world  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
 from uavplan.world import CEILING, GROUND  # noqa: E402
 
@@ -197,8 +197,8 @@ def test_the_independent_check_catches_a_ground_5_m_low(tmp_path: Path, monkeypa
     """The mutation check, in process: planned over the DEM lowered by 5 m (as if the reader
     lost 5 m), a route that keeps the margin from that ground comes closer than the margin
     to the real one, and the independent check (scipy on the file's own band) says so."""
-    from terrain_helpers import lower_the_ground
     import terrain_helpers
+    from terrain_helpers import lower_the_ground
 
     dem = write_utm_dem(tmp_path / "rough.tif", rough, cell_m=30.0, size=70)
     body = (
