@@ -216,3 +216,66 @@ def test_the_independent_check_catches_a_ground_5_m_low(tmp_path: Path, monkeypa
     frame = EnuFrame.at(load_scenario(path).site.origin)
     low, _ = independent_ground_check(out, dem, frame)
     assert low < 10.0 - 1.0, f"the route stays {low:.2f} m above the real ground"
+
+
+def valley(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """A 100 m deep valley running north-south across the route."""
+    return 500.0 - 100.0 * np.exp(-((e - E0) ** 2) / (2 * 150.0**2))
+
+
+VALLEY_BODY = """\
+bounds: {x: [-600, 600], y: [-300, 300], z: [0, 200]}
+start: [-500, 0, 40]
+goal: [500, 0, 40]
+safety_margin: 10
+obstacles:
+  - {type: cylinder, center: [0, 0], radius: 10, height: 50}
+vehicle: {takeoff_altitude: 40}
+planner: {seed: 1, iterations: 60}
+mission: {autopilot: ardupilot, spacing: 1500, end: land, altitude: terrain}
+"""
+
+
+def test_a_terrain_frame_leg_is_checked_as_flown_over_the_ground(tmp_path: Path) -> None:
+    """ArduPilot flies a terrain-frame leg over the ground (the height above it linear
+    between the waypoints'), not straight: a leg across a valley at 40 m above both rims
+    passes 90 m above a 50 m mast in the valley when straight, and through it when flown.
+    validate reads it as flown (exit 3 naming the mast); plan adds waypoints where a leg
+    flown so would come too close, and its mission keeps the margin from the mast and the
+    ground as flown (independent check: the flight rebuilt in the test over scipy's
+    surface)."""
+    from terrain_helpers import flown_samples
+
+    from uavplan.mission.builder import build_mission
+    from uavplan.mission.io import load_mission, save_mission
+    from uavplan.mission.items import Autopilot
+
+    dem = write_utm_dem(tmp_path / "valley.tif", valley, cell_m=30.0, size=60)
+    path = scenario(tmp_path, dem, VALLEY_BODY)
+    scn = load_scenario(path)
+    site = scn.site
+    frame = EnuFrame.at(site.origin)
+    ends = np.array([site.start_m, site.goal_m])
+    hand = build_mission(
+        ends, frame, autopilot=Autopilot.ARDUPILOT, end="land", takeoff_altitude_m=40.0,
+        ground_z_m=site.ground.z_at(ends), altitude="terrain",
+    )  # fmt: skip
+    save_mission(hand, tmp_path / "hand.plan")
+    result = CliRunner().invoke(
+        main, ["validate", str(tmp_path / "hand.plan"), "--scenario", str(path)]
+    )
+    assert result.exit_code == 3, result.output
+    assert "of obstacles[0]" in result.output
+
+    out = tmp_path / "m.plan"
+    printed = run("plan", str(path), "-o", str(out))
+    assert "waypoint" in printed and "added where a terrain-frame leg" in printed
+    assert "ok" in run("validate", str(out), "--scenario", str(path))
+    amsl = raw_ground(dem, frame)
+    samples, air = flown_samples(load_mission(out), frame, amsl, 0.5)
+    agl = samples[air, 2] - amsl(samples[air, :2])
+    assert agl.min() >= 10.0 - 0.02
+    mast_top = float(amsl(np.zeros((1, 2)))[0]) + 50.0
+    horizontal = np.hypot(samples[air, 0], samples[air, 1]) - 10.0
+    above = np.maximum(samples[air, 2] - mast_top, 0.0)
+    assert np.min(np.hypot(np.maximum(horizontal, 0.0), above)) >= 10.0 - 0.02

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from uavplan.geo import EnuFrame
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.items import MavCmd, MissionPlan
-from uavplan.route import keeps_margin
+from uavplan.route import Follow, keeps_margin
 from uavplan.world import CEILING, GROUND, World
 
 #: consecutive points closer than this horizontally are "the same place" (a climb or a
@@ -86,12 +86,14 @@ def flight_of_mission(
     plan: MissionPlan,
     frame: EnuFrame,
     ground_z: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    follow: Follow | None = None,
 ) -> Flight:
     """The flight the autopilot flies through ``plan`` in ``frame``, over the ground
     ``ground_z`` (ENU ``(n, 2)`` → z; None: flat at z = 0): from home on the ground, to the
-    return to launch or the landing. Raises ``ValueError`` when an item's altitude cannot be
-    placed."""
-    points = mission_polyline_enu(plan, frame, ground_z)
+    return to launch or the landing, terrain-frame legs flown over the ground as ``follow``
+    says (:meth:`uavplan.ground.Ground.follow`). Raises ``ValueError`` when an item's
+    altitude cannot be placed."""
+    points = mission_polyline_enu(plan, frame, ground_z, follow)
     return Flight.from_polyline(points, from_ground=plan.home is not None, to_ground=_lands(plan))
 
 

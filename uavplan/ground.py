@@ -27,6 +27,7 @@ volume's floor are arguments, so a scenario copied with another margin gets anot
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -47,6 +48,11 @@ MAX_FIELD_CELLS = 1_000_000
 MAX_SUBDIVISION = 12
 #: the kernels' metadata vector's length (kernels.h FIELD_META)
 FIELD_META = 16
+#: a leg flown over the ground (a terrain-frame leg) is checked as the polyline through
+#: samples of it: at every crossing of a row or column of DEM posts, where the ground's slope
+#: jumps, and between them so close that the flown curve departs from the chords by at most
+#: this (m)
+FOLLOW_TOL_M = 0.001
 
 
 class Surface(Protocol):
@@ -155,6 +161,60 @@ class HeightField:
     @property
     def zmin(self) -> float:
         return float(self.z.min())
+
+    def kinks(self, a_xy: Any, b_xy: Any) -> NDArray[Any]:
+        """The parameters t in (0, 1), sorted, where the horizontal segment a → b crosses a
+        row or a column of the DEM's posts (every ``subdivision``-th lattice line): the lines
+        along which the bilinear surface's slope jumps. Exact (the segment against each
+        post-to-post edge)."""
+        import numpy as np
+
+        a = np.asarray(a_xy, dtype=np.float64)[:2]
+        b = np.asarray(b_xy, dtype=np.float64)[:2]
+        s = self.subdivision
+        nr, nc = self.shape
+        lat = self.lattice
+        ua, ub = (lat[0] + lat[1] * p[0] + lat[2] * p[1] for p in (a, b))
+        va, vb = (lat[3] + lat[4] * p[0] + lat[5] * p[1] for p in (a, b))
+        r = self.slack + 1.0
+        starts, ends = [], []
+        for lines_of, lo, hi, n_lines, n_along, (o_lo, o_hi) in (
+            ("col", min(ua, ub), max(ua, ub), nc, nr, (min(va, vb), max(va, vb))),
+            ("row", min(va, vb), max(va, vb), nr, nc, (min(ua, ub), max(ua, ub))),
+        ):
+            k0 = max(0, math.ceil((lo - r) / s))
+            k1 = min((n_lines - 1) // s, math.floor((hi + r) / s))
+            i0 = max(0, math.floor(o_lo - r))
+            i1 = min(n_along - 1, math.ceil(o_hi + r))
+            if k1 < k0 or i1 <= i0:
+                continue
+            idx = np.arange(k0, k1 + 1) * s
+            if lines_of == "col":
+                pts = self.xy[i0 : i1 + 1][:, idx]  # (along, lines, 2)
+            else:
+                pts = self.xy[idx][:, i0 : i1 + 1].transpose(1, 0, 2)
+            starts.append(pts[:-1].reshape(-1, 2))
+            ends.append(pts[1:].reshape(-1, 2))
+        if not starts:
+            return np.empty(0)
+        p0, p1 = np.concatenate(starts), np.concatenate(ends)
+        d, e = b - a, p1 - p0
+        den = d[0] * e[:, 1] - d[1] * e[:, 0]
+        w = p0 - a
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / den
+            q = (w[:, 0] * d[1] - w[:, 1] * d[0]) / den
+        hit = (den != 0) & (t > 0.0) & (t < 1.0) & (q >= 0.0) & (q <= 1.0)
+        return np.unique(t[hit])
+
+    def follow_step_m(self, tol_m: float = FOLLOW_TOL_M) -> float:
+        """How far apart (m) samples of a leg over the ground may lie, between two crossings
+        of post lines, for the flown curve to stay within ``tol_m`` of the chords: along a
+        line the bilinear surface of a cell is a parabola of second derivative at most
+        2·|twist|·per_m² (twist in lattice units), whose chord over a length h departs from
+        it by at most that · h² / 8."""
+        curvature = 2.0 * 4.0 * self.twist_gap_m * self.per_m**2
+        return math.inf if curvature <= 0.0 else math.sqrt(8.0 * tol_m / curvature)
 
     def kernel_meta(
         self,
@@ -328,6 +388,34 @@ class Ground:
         return self.field.kernel_meta(
             origin_xy=origin_xy, cos_sin=cos_sin, lift=self.lift_m, roof=self.roof_m
         )
+
+    def follow(self, a: Any, b: Any) -> Any:
+        """The leg a → b as ArduPilot flies it into a terrain-frame waypoint: the track
+        straight over the ground, the height above the ground going linearly along it from
+        a's to b's (AC_WPNav turns the leg's origin into an altitude above terrain), over the
+        DEM's bilinear surface. Points ``(k, 3)`` after a, b last: at every crossing of a
+        post row or column and between them :meth:`HeightField.follow_step_m` apart, so the
+        flown curve departs from the polyline by at most :data:`FOLLOW_TOL_M`."""
+        import numpy as np
+
+        a = np.asarray(a, dtype=np.float64)
+        b = np.asarray(b, dtype=np.float64)
+        run = float(np.hypot(*(b[:2] - a[:2])))
+        if run < 1e-9:
+            return b[None, :].copy()
+        knots = np.concatenate([[0.0], self.field.kinks(a, b), [1.0]])
+        step = self.field.follow_step_m() / run
+        pieces = [np.array([0.0])]
+        for t0, t1 in itertools.pairwise(knots):
+            n = max(1, math.ceil((t1 - t0) / step - 1e-9)) if math.isfinite(step) else 1
+            pieces.append(t0 + (t1 - t0) * np.arange(1, n + 1) / n)
+        t = np.concatenate(pieces)
+        xy = a[:2] + t[:, None] * (b[:2] - a[:2])
+        g = self.z_at(xy)
+        agl = (a[2] - g[0]) + t * ((b[2] - g[-1]) - (a[2] - g[0]))
+        out = np.column_stack([xy, g + agl])[1:]
+        out[-1] = b  # the waypoint itself, to the last bit
+        return out
 
     def clearance(self, points: Any) -> tuple[Any, Any, Any]:
         """Exact distances from ENU points ``(n, 3)`` to the ground's and the ceiling's

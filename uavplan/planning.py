@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from uavplan.config import EndAction, PostParams, planner_entry
+from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
 from uavplan.flight import Flight, flight_clearance
 from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
@@ -383,6 +383,16 @@ def plan_route(
     end = cast(EndAction, scenario.mission.end)
     site = scenario.site
     ground = site.ground
+    follow = None
+    notes = [n for leg in legs for n in leg.notes]
+    if ground is not None and scenario.mission.altitude == "terrain":
+        follow = ground.follow
+        waypoints_enu, added = over_ground(waypoints_enu, world, follow)
+        if added:
+            notes.append(
+                f"terrain: {added} waypoint{'s' * (added > 1)} added where a terrain-frame leg, "
+                "flown over the ground, would have come closer than the margin"
+            )
     under = None if ground is None else ground.z_at(waypoints_enu)
     ends = (0.0, 0.0) if under is None else (float(under[0]), float(under[-1]))
     flown = flown_polyline(
@@ -391,13 +401,15 @@ def plan_route(
         end=end,
         ground_z_m=ends,
         takeoff=scenario.mission.takeoff,
+        follow=follow,
     )
     flight = Flight.from_polyline(
         flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
     )
-    notes = [n for leg in legs for n in leg.notes]
     if ground is not None:
-        notes += _terrain_notes(ground, waypoints_enu)
+        first, last = flight.airborne
+        over = flight.points_enu[first : last + 1] if follow is not None else waypoints_enu
+        notes += _terrain_notes(ground, over)
     route = PlannedRoute(
         frame=enu_frame(scenario),
         waypoints_enu=waypoints_enu,
@@ -438,6 +450,43 @@ def _min_clearance(world: World, flight: Flight) -> float:
 
 #: the flown legs are sampled this finely (m) for the check against the DEM's own surface
 TERRAIN_SAMPLE_M = 2.0
+#: a terrain-frame leg is split at most this many times over (each time where it comes
+#: closest) before it is left as it is (and the route's clearance says so)
+MAX_OVER_GROUND_SPLITS = 24
+
+
+def over_ground(
+    waypoints_enu: np.ndarray, world: World, follow: Callable[[np.ndarray, np.ndarray], np.ndarray]
+) -> tuple[np.ndarray, int]:
+    """Waypoints for a mission whose legs are flown over the ground (terrain-frame altitudes:
+    ArduPilot holds the height above the terrain, going linearly from one waypoint's to the
+    next, instead of the straight leg the planner checked). Each leg is flown as ``follow``
+    says and measured; where it comes closer than the margin (+ the planning pad) or leaves
+    the volume, a waypoint is added on the planned straight leg where it comes closest, and
+    the two halves are measured again, until every leg keeps the margin (split at most
+    :data:`MAX_OVER_GROUND_SPLITS` times). Returns the waypoints and how many were added."""
+    need = world.margin_m + MARGIN_PAD_M
+    w = [np.asarray(p, dtype=np.float64) for p in waypoints_enu]
+    out = [w[0]]
+    added = 0
+    pending = [(a, b, 0) for a, b in itertools.pairwise(w)][::-1]
+    while pending:
+        a, b, depth = pending.pop()
+        line = np.vstack([a[None, :], follow(a, b)])
+        dist, _ = world.segments_clearance(line[:-1], line[1:])
+        ok = dist.min() >= need and bool(world.points_inside_bounds(line).all())
+        if ok or depth >= MAX_OVER_GROUND_SPLITS:
+            out.append(b)
+            continue
+        worst = int(np.argmin(dist)) if dist.min() < need else len(line) // 2
+        run = float(np.hypot(*(b[:2] - a[:2])))
+        t = float(np.hypot(*(line[worst, :2] - a[:2]))) / run if run > 0 else 0.5
+        t = min(max(t, 0.05), 0.95)
+        mid = a + t * (b - a)
+        added += 1
+        pending.append((mid, b, depth + 1))
+        pending.append((a, mid, depth + 1))
+    return np.array(out), added
 
 
 def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
