@@ -104,8 +104,15 @@ def flown_samples(
         if not item.is_global or item.command >= 80:
             continue
         last = points[-1]
-        if item.command == MavCmd.NAV_TAKEOFF:
-            points.append(np.array([last[0], last[1], home.alt_m + item.alt_m]))
+        frame_id = int(item.frame)
+        if item.command == MavCmd.NAV_TAKEOFF:  # climbs where it is, to its altitude
+            if frame_id == int(MavFrame.GLOBAL):
+                alt = item.alt_m
+            elif frame_id in (int(MavFrame.GLOBAL_TERRAIN_ALT), 11):
+                alt = float(amsl(last[None, :2])[0]) + item.alt_m
+            else:
+                alt = home.alt_m + item.alt_m
+            points.append(np.array([last[0], last[1], alt]))
             air.append(False)
             continue
         xy = frame.to_enu_xy([item.lat_deg], [item.lon_deg])[0]
@@ -118,7 +125,6 @@ def flown_samples(
             points.append(np.array([xy[0], xy[1], ground]))
             air.append(False)
             break
-        frame_id = int(item.frame)
         if frame_id in (int(MavFrame.GLOBAL_TERRAIN_ALT), 11):
             # ArduPilot: the track straight, the height above the ground linear along it
             a_agl = last[2] - float(amsl(last[None, :2])[0])

@@ -614,22 +614,46 @@ def export_extras(
     scenario: Scenario,
     route: PlannedRoute | None = None,
     properties: Mapping[str, Any] | None = None,
+    plan: MissionPlan | None = None,
 ) -> ExportExtras:
     """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
-    and margin, and with a just-planned ``route`` its smoothed path and flown line."""
+    and margin, and with a just-planned ``route`` its smoothed path and flown line. Over
+    terrain: altitudes AMSL, the obstacles' heights above the ground, and (with the mission
+    ``plan`` of a file) its flight as the autopilot flies it over the ground."""
     from uavplan.mission.export import ExportExtras
 
     site = scenario.site
+    ground = site.ground
+    terrain: dict[str, Any] = {}
+    if ground is not None:
+        frame = enu_frame(site)
+        datum = ground.datum_amsl_m
+
+        def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+            return np.asarray(ground.z_at(frame.to_enu_xy(lat, lon))) + datum
+
+        terrain = {
+            "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
+            "ground_amsl_m": ground_amsl,
+        }
     if route is not None:
         return ExportExtras.for_route(
-            route, site.obstacles, name=scenario.name, properties=properties
+            route, site.obstacles, name=scenario.name, properties=properties, **terrain
         )
+    flown = None
+    if ground is not None and plan is not None:  # the one reading of a mission over terrain
+        from uavplan.flight import flight_of_mission
+
+        flown = flight_of_mission(plan, enu_frame(site), ground.z_at, ground.follow).points_enu
     return ExportExtras(
         frame=enu_frame(site),
         obstacles=site.obstacles,
+        flown_enu=flown,
         name=scenario.name,
         safety_margin_m=scenario.safety_margin_m,
         properties=dict(properties or {}),
+        datum_amsl_m=site.datum_amsl_m,
+        **terrain,
     )
 
 
@@ -671,4 +695,8 @@ def scene_for(scenario: Scenario) -> Scene:
         goal_enu=(gx, gy, gz),
         terrain=terrain,
         via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
+        datum_amsl_m=site.datum_amsl_m,
+        heights_agl_m=None
+        if site.ground is None
+        else tuple(float(o.height_m) for o in scenario.obstacles),
     )
