@@ -166,3 +166,82 @@ def test_pictures_label_heights_above_the_ground_and_amsl(ridge: dict[str, Path]
     ticks = [float(t.get_text()) for t in ax3d.get_zticklabels() if t.get_text()]
     highest = float(np.max(scene_for(scn).terrain[2])) + scn.site.origin.alt_m  # m AMSL
     assert ticks and min(ticks) >= scn.site.origin.alt_m and max(ticks) >= highest - 100.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Rerouting a QGroundControl plan over terrain (issue 26 item 6)
+
+
+def hillside(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """A slope with a valley across it: terrain-frame legs follow it down."""
+    from terrain_helpers import utm_origin
+
+    e0, n0 = utm_origin()
+    return 520.0 + 0.08 * (e - e0) - 80.0 * np.exp(-((e - e0) ** 2) / (2 * 160.0**2))
+
+
+@pytest.mark.parametrize("altitude", FRAMES)
+def test_a_plan_rerouted_over_terrain_keeps_its_altitudes_and_the_margin(
+    tmp_path: Path, altitude: str
+) -> None:
+    """A user's plan across a valley, an exclusion zone on the straight line, rerouted with a
+    scenario naming a DEM: every item kept, the planned waypoints in the plan's altitude frame,
+    the flight (terrain-frame legs over the ground) the margin from the ground, the zone and
+    the scenario's mast, by validate and by the independent check. Before: exit 2, "not
+    supported yet"."""
+    from dataclasses import replace as copy
+
+    from terrain_helpers import write_utm_dem
+
+    from uavplan.mission.builder import build_mission
+    from uavplan.mission.io import save_mission
+    from uavplan.mission.items import Autopilot, FencePolygon, GeoFence, canonical_frame
+
+    dem = write_utm_dem(tmp_path / "hill.tif", hillside, cell_m=30.0, size=60)
+    scenario = tmp_path / "area.yaml"
+    scenario.write_text(
+        f"name: area\norigin: {{lat: 47.0, lon: 9.2}}\nterrain: {dem.name}\n"
+        "bounds: {x: [-700, 700], y: [-500, 500], z: [0, 120]}\n"
+        "start: [-600, -100, 40]\ngoal: [600, 100, 40]\nsafety_margin: 12\n"
+        "obstacles:\n  - {type: cylinder, center: [250, -60], radius: 6, height: 45}\n"
+        "planner: {seed: 2, iterations: 60}\nmission: {spacing: 80}\n",
+        encoding="utf-8",
+    )
+    scn = load_scenario(scenario)
+    site = scn.site
+    frame = EnuFrame.at(site.origin)
+    xy = np.array([[-600.0, -100.0], [-100.0, 0.0], [600.0, 100.0]])
+    under = site.ground.z_at(xy)
+    user = np.column_stack([xy, under + np.array([40.0, 35.0, 40.0])])
+    plan = build_mission(
+        user, frame, autopilot=Autopilot.ARDUPILOT, end="land", takeoff_altitude_m=40.0,
+        ground_z_m=under, altitude=altitude,
+    )  # fmt: skip
+    box = np.array([[180.0, -200.0], [320.0, -200.0], [320.0, 200.0], [180.0, 200.0]])
+    lat, lon, _ = frame.to_geodetic(np.column_stack([box, np.zeros(4)]))
+    zone = FencePolygon(tuple(zip(lat, lon, strict=True)), inclusion=False)
+    plan = copy(plan, fence=GeoFence(polygons=(zone,)))
+    source, out = tmp_path / "user.plan", tmp_path / "safe.plan"
+    save_mission(plan, source)
+
+    printed = run("plan", str(source), "-o", str(out), "--scenario", str(scenario))
+    safe = load_mission(out)
+    user_items = load_mission(source).items
+    assert len(safe.items) > len(user_items)
+    # every item of the user's kept, in order; the added ones in the plan's own frame
+    kept = [i for i in safe.items if i in user_items]
+    assert kept == list(user_items)
+    frames = {canonical_frame(i.frame) for i in user_items if i.command == 16}
+    added = [i for i in safe.items if i not in user_items]
+    assert added and {canonical_frame(i.frame) for i in added} == frames
+    validated = run("validate", str(out), "--scenario", str(scenario))
+    assert float(CLEARANCE.findall(validated)[0]) >= 12.0
+    # the reroute measures the fence's zone too (validate: the scenario's obstacles only)
+    assert float(CLEARANCE.findall(printed)[-1]) >= 12.0
+    low, _ = independent_ground_check(out, dem, frame, step_m=0.5)
+    assert low >= 12.0 - 0.02
+    import shapely
+
+    flight = mission_flight(safe, scn)  # the zone stands above the volume: around it
+    path = shapely.LineString(flight.points_enu[:, :2])
+    assert shapely.Polygon(box).distance(path) >= 12.0 - 0.02

@@ -56,6 +56,7 @@ from uavplan.errors import InputError, NoPathError
 from uavplan.flight import check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.geometry2d import orient_ccw, polygon_problem
+from uavplan.ground import Ground
 from uavplan.limits import MAX_FENCE_POLYGON_VERTICES, MAX_FENCE_ZONES, MAX_HORIZONTAL_M
 from uavplan.mission.items import (
     MavCmd,
@@ -66,10 +67,10 @@ from uavplan.mission.items import (
 )
 from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.planners.base import ProgressFn
-from uavplan.planning import RouteResult, plan_route
-from uavplan.route import EndAction, keeps_margin
+from uavplan.planning import RouteResult, over_ground, plan_route
+from uavplan.route import EndAction, Follow, keeps_margin
 from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, VehicleConfig
-from uavplan.world import World
+from uavplan.world import CEILING, World
 
 #: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
 #: and above the highest position; fence obstacles stand this much above the ceiling
@@ -189,14 +190,22 @@ class RerouteResult:
 # Reading the route
 
 
-def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = None) -> UserRoute:
+def read_user_route(
+    plan: MissionPlan, frame: EnuFrame, *, file: str | None = None, ground: Ground | None = None
+) -> UserRoute:
     """The plan's positions in flight order (ENU in ``frame``) and its end action.
+
+    Over ``ground`` (a scenario's terrain; ``frame`` its site's, z above its datum) the plan
+    is read as the autopilot flies it: home on the ground there, relative altitudes above
+    home, AMSL ones through the datum, terrain-frame ones above the ground beneath the item.
 
     Raises :class:`InputError` for what cannot be rerouted without guessing: DO_JUMP, no
     planned home, positions after the landing or the RTL, a position on or below the ground.
     """
     if plan.home is None:
         raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
+    if ground is not None:
+        return _read_over_ground(plan, frame, ground, file=file)
     home_alt_m = plan.home.alt_m
     notes: list[str] = []
     raw: list[tuple[int, MissionItem, float]] = []  # (index, item, height above home)
@@ -290,6 +299,100 @@ def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = No
     return UserRoute(tuple(positions), end, has_takeoff, tuple(notes))
 
 
+def _read_over_ground(
+    plan: MissionPlan, frame: EnuFrame, ground: Ground, *, file: str | None
+) -> UserRoute:
+    """:func:`read_user_route` over terrain (see there): positions at their z above the
+    datum, each item's altitude in its own frame."""
+    assert plan.home is not None
+    datum = ground.datum_amsl_m
+    ends: tuple[str, str] | None = None
+    end: EndAction = "none"
+    has_takeoff = False
+    picked: list[tuple[int, MissionItem, str]] = []
+    for index, item in enumerate(plan.items):
+        what = f"mission item {index + 1} ({command_name(item.command)})"
+        if item.command == MavCmd.DO_JUMP:
+            raise InputError(
+                f"{what}: DO_JUMP is not supported: a loop's legs cannot be rerouted without "
+                "guessing how often it runs; unroll the loop in QGroundControl and try again",
+                file=file,
+            )
+        positional = item.is_global and item.command < _FIRST_NON_NAV_COMMAND
+        if ends is not None:
+            if positional:
+                raise InputError(
+                    f"{what} comes after the mission's {ends[0]}: positions after a landing "
+                    "or a return to launch are not supported",
+                    file=file,
+                )
+            continue
+        if item.command == MavCmd.NAV_RETURN_TO_LAUNCH:
+            end, ends = "rtl", ("NAV_RETURN_TO_LAUNCH", "")
+            continue
+        if not positional:
+            continue
+        if item.command == MavCmd.NAV_TAKEOFF:
+            if picked:
+                raise InputError(f"{what}: a take-off after the first position", file=file)
+            has_takeoff = True
+        if item.command == MavCmd.NAV_LAND:
+            end, ends = "land", ("NAV_LAND", "")
+        elif item.command != MavCmd.NAV_TAKEOFF and (item.x, item.y) == (0.0, 0.0):
+            raise InputError(f"{what} has no position (latitude and longitude 0)", file=file)
+        picked.append((index, item, what))
+    lat = [plan.home.lat_deg, *(it.lat_deg for _, it, _ in picked)]
+    lon = [plan.home.lon_deg, *(it.lon_deg for _, it, _ in picked)]
+    xy = frame.to_enu_xy(lat, lon)
+    home_xy = (float(xy[0, 0]), float(xy[0, 1]))
+    home_z = float(ground.z_at(np.array([home_xy]))[0])
+    positions: list[UserPosition] = []
+    for (index, item, what), (x, y) in zip(picked, xy[1:], strict=True):
+        px, py = float(x), float(y)
+        if item.command == MavCmd.NAV_TAKEOFF:
+            px, py = home_xy  # the vehicle climbs where it stands
+        if item.command == MavCmd.NAV_LAND:
+            if not positions:
+                raise InputError(f"{what}: a landing before any position to fly", file=file)
+            prev = positions[-1].point_m
+            if (item.x, item.y) == (0.0, 0.0):
+                px, py = prev[0], prev[1]  # lands where the vehicle is
+            positions.append(UserPosition(index, (px, py, prev[2]), what))
+            continue
+        under = float(ground.z_at(np.array([[px, py]]))[0])
+        frame_id = canonical_frame(item.frame)
+        if frame_id in _RELATIVE_FRAMES:
+            pz = home_z + item.alt_m
+        elif frame_id in _TERRAIN_FRAMES:
+            pz = under + item.alt_m
+        else:  # MAV_FRAME_GLOBAL (AMSL)
+            pz = item.alt_m - datum
+        if not pz - under > 0.0:
+            raise InputError(
+                f"{what} at {pz - under:.1f} m above the ground is not above it (over the "
+                "scenario's terrain)",
+                file=file,
+            )
+        positions.append(UserPosition(index, (px, py, pz), what))
+    if len(positions) < 2 or all(
+        math.hypot(p.point_m[0] - positions[0].point_m[0], p.point_m[1] - positions[0].point_m[1])
+        < MIN_LEG_M
+        for p in positions
+    ):
+        raise InputError(
+            "the plan has no route to reroute: it needs a take-off and at least one position "
+            "to fly to (or two positions)",
+            file=file,
+        )
+    notes = []
+    if not has_takeoff:
+        notes.append(
+            "the plan has no NAV_TAKEOFF: the route starts at its first position; the flight "
+            "from home to it is checked, not planned"
+        )
+    return UserRoute(tuple(positions), end, has_takeoff, tuple(notes))
+
+
 # ---------------------------------------------------------------------------------------------
 # The flight volume and the obstacles
 
@@ -370,15 +473,17 @@ def build_airspace(
 
     pts = np.array([p.point_m for p in route.positions])
     top_m = float(pts[:, 2].max())
-    if base is not None:
-        z_hi = max(base.bounds.z_m[1], 0.0)
-        z_lo = base.bounds.z_m[0]
+    # over terrain the scenario's site: z above its datum, obstacles standing on the ground
+    ref = None if base is None else (base.site if base.terrain is not None else base)
+    if ref is not None:
+        z_hi = max(ref.bounds.z_m[1], 0.0)
+        z_lo = 0.0 if base is not None and base.terrain is not None else ref.bounds.z_m[0]
     else:
         z_hi, z_lo = top_m + VOLUME_PAD_M, 0.0
     if inclusion is not None:
         x0, y0, x1, y1 = (float(v) for v in inclusion.bounds)
-    elif base is not None:
-        (x0, x1), (y0, y1) = base.bounds.x_m, base.bounds.y_m
+    elif ref is not None:
+        (x0, x1), (y0, y1) = ref.bounds.x_m, ref.bounds.y_m
     else:
         home_xy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg]) if plan.home else None
         xs = [*pts[:, 0]] + ([float(home_xy[0, 0])] if home_xy is not None else [])
@@ -396,8 +501,8 @@ def build_airspace(
 
     obstacles: list[Obstacle] = []
     names: list[str] = []
-    if base is not None:
-        obstacles.extend(base.obstacles)
+    if base is not None and ref is not None:
+        obstacles.extend(ref.obstacles)
         source = base.source or base.name
         names.extend(f"obstacles[{i}] of scenario {source}" for i in range(len(base.obstacles)))
     for ring, name in exclusion_rings:
@@ -475,51 +580,73 @@ def _check_points(
                 file=file,
             )
         clearance, index = world.nearest_obstacle(p)
-        if index >= 0 and clearance < margin_m - 1e-9:
+        if index != -1 and clearance < margin_m - 1e-9:
             inside = "inside" if clearance <= 0 else f"{clearance:.1f} m from"
+            thing = _name(world, airspace, index, np.array(p), np.array(p))
             raise InputError(
-                f"{where} is {inside} {airspace.names[index]} (needs {margin_m:g} m safety margin)",
-                file=file,
+                f"{where} is {inside} {thing} (needs {margin_m:g} m safety margin)", file=file
             )
 
 
 def _straight_segments(
-    route: UserRoute, home_xy: tuple[float, float]
-) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str]]:
+    route: UserRoute, home_xy: tuple[float, float], ground: Ground | None = None
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str, bool]]:
     """The flown segments no planner touches: the take-off climb (or the approach from home
-    without a take-off), hops between positions closer than MIN_LEG_M and the landing."""
+    without a take-off), hops between positions closer than MIN_LEG_M and the landing; each
+    with whether it is in the air (the climb from home and the landing touch the ground, and
+    are measured against the obstacles only)."""
     pos = route.positions
+
+    def on_ground(xy: Any) -> float:
+        return 0.0 if ground is None else float(ground.z_at(np.array([xy[:2]]))[0])
+
     first = np.array(pos[0].point_m)
-    ground = np.array([home_xy[0], home_xy[1], 0.0])
+    home = np.array([home_xy[0], home_xy[1], on_ground(home_xy)])
     what = "take-off climb above home" if route.has_takeoff else "flight from home"
-    segments = [(ground, first, f"the {what} to {pos[0].what}")]
+    segments = [(home, first, f"the {what} to {pos[0].what}", False)]
     for a, b in itertools.pairwise(pos):
         pa, pb = np.array(a.point_m), np.array(b.point_m)
         if math.hypot(*(pb[:2] - pa[:2])) < MIN_LEG_M:
-            segments.append((pa, pb, f"the climb or descent from {a.what} to {b.what}"))
+            segments.append((pa, pb, f"the climb or descent from {a.what} to {b.what}", True))
     if route.end == "land":
         last = np.array(pos[-1].point_m)
-        segments.append((last, np.array([last[0], last[1], 0.0]), f"the landing of {pos[-1].what}"))
+        down = np.array([last[0], last[1], on_ground(last)])
+        segments.append((last, down, f"the landing of {pos[-1].what}", False))
     return segments
 
 
 def _check_segments(
-    segments: list[tuple[NDArray[np.float64], NDArray[np.float64], str]],
+    segments: list[tuple[NDArray[np.float64], NDArray[np.float64], str, bool]],
     airspace: Airspace,
     world: World,
     margin_m: float,
     file: str | None,
 ) -> None:
-    for a, b, what in segments:
+    for a, b, what, airborne in segments:
         if np.allclose(a, b):
             continue
-        dist, which = world.segments_clearance(a[None, :], b[None, :])
-        if which[0] >= 0 and dist[0] < margin_m - 1e-9:
+        measured = world if airborne else world.without_ground()
+        dist, which = measured.segments_clearance(a[None, :], b[None, :])
+        if which[0] != -1 and dist[0] < margin_m - 1e-9:
+            thing = _name(measured, airspace, int(which[0]), a, b)
             raise InputError(
-                f"{what} passes {max(float(dist[0]), 0.0):.1f} m from "
-                f"{airspace.names[int(which[0])]} (needs {margin_m:g} m safety margin)",
+                f"{what} passes {max(float(dist[0]), 0.0):.1f} m from {thing} (needs "
+                f"{margin_m:g} m safety margin)",
                 file=file,
             )
+
+
+def _name(
+    world: World, airspace: Airspace, index: int, a: NDArray[np.float64], b: NDArray[np.float64]
+) -> str:
+    """What obstacle ``index`` of the airspace is, or the terrain and where."""
+    if index >= 0:
+        return airspace.names[index]
+    _, kind, where = world.terrain_nearest(a[None, :], b[None, :])
+    x, y = (float(v) for v in where[0])
+    if kind[0] == CEILING:
+        return f"the ceiling (bounds.z max above the ground) over ({x:.0f}, {y:.0f})"
+    return f"the terrain at ({x:.0f}, {y:.0f})"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -547,22 +674,21 @@ def reroute_plan(
     """
     if plan.home is None:
         raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
-    if base is not None and base.terrain is not None:
-        raise InputError(
-            "rerouting a plan over a scenario with terrain (a DEM) is not supported yet: the "
-            "plan's heights are read over flat ground",
-            file=base.source,
-            key="terrain",
-        )
     home = plan.home
-    origin = base.origin if base is not None else GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)
+    ground = None if base is None else base.site.ground
+    if base is not None:
+        origin = base.site.origin  # over terrain at the datum
+    else:
+        origin = GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)
     frame = EnuFrame.at(origin)
-    route = read_user_route(plan, frame, file=file)
+    route = read_user_route(plan, frame, file=file, ground=ground)
     margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
     airspace = build_airspace(plan, route, frame, margin_m=margin_m, base=base, file=file)
     _check_volume(airspace.bounds, file)
     b = airspace.bounds
-    world = World.build(airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m)
+    world = World.build(
+        airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m, ground=ground
+    )
     hxy = frame.to_enu_xy([home.lat_deg], [home.lon_deg])[0]
     home_xy = (float(hxy[0]), float(hxy[1]))
     if not airspace.bounds.contains((*home_xy, max(0.0, airspace.bounds.z_m[0]))):
@@ -572,8 +698,15 @@ def reroute_plan(
             file=file,
         )
     _check_points(route, airspace, world, margin_m, file)
-    _check_segments(_straight_segments(route, home_xy), airspace, world, margin_m, file)
+    _check_segments(_straight_segments(route, home_xy, ground), airspace, world, margin_m, file)
 
+    # a leg into a terrain-frame item is flown over the ground (ArduPilot): as drawn and as
+    # planned, it is measured so, and waypoints are added where it would come too close
+    over: dict[int, Follow] = {}
+    if ground is not None:
+        for k, pos in enumerate(route.positions):
+            if canonical_frame(plan.items[pos.item_index].frame) in _TERRAIN_FRAMES:
+                over[k] = ground.follow
     # one planning run (one world, one seed stream) per chain of consecutive legs that need
     # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
     points = [p.point_m for p in route.positions]
@@ -582,7 +715,7 @@ def reroute_plan(
     for k in range(1, len(points)):
         a, b_ = points[k - 1], points[k]
         if math.hypot(b_[0] - a[0], b_[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
-            world, a, b_, margin_m
+            world, a, b_, margin_m, over.get(k)
         ):
             straight += 1
             chains.append([k])
@@ -592,22 +725,33 @@ def reroute_plan(
     insert_before: dict[int, NDArray[np.float64]] = {}  # item index → planned waypoints
     runs: list[tuple[Scenario, RouteResult]] = []
     notes = list(route.notes)
+    lifted = _stretch_obstacles(airspace.obstacles, ground)
     for chain in chains:
         if len(chain) < 2:
             continue
-        # a stretch of the user's flight: it begins in the air and ends without a landing
+        # a stretch of the user's flight: it begins in the air and ends without a landing;
+        # over terrain its points and obstacles as a scenario holds them (above the ground)
+        def held(point: tuple[float, float, float]) -> tuple[float, float, float]:
+            if ground is None:
+                return point
+            under = float(ground.z_at(np.array([point[:2]]))[0])
+            return (point[0], point[1], point[2] - under)
+
         scn = Scenario(
             name=name,
-            origin=origin,
-            bounds=airspace.bounds,
-            start_m=points[chain[0]],
-            goal_m=points[chain[-1]],
-            via_m=tuple(points[k] for k in chain[1:-1]),
-            obstacles=airspace.obstacles,
+            origin=origin if base is None or base.terrain is None else base.origin,
+            bounds=airspace.bounds if ground is None or base is None else _held_bounds(
+                airspace.bounds, base.bounds
+            ),
+            start_m=held(points[chain[0]]),
+            goal_m=held(points[chain[-1]]),
+            via_m=tuple(held(points[k]) for k in chain[1:-1]),
+            obstacles=lifted,
             safety_margin_m=margin_m,
             source=file,
+            terrain=None if base is None else base.terrain,
             **settings,
-        )
+        )  # fmt: skip
         result = plan_route(scn, progress=progress, world=world, should_stop=should_stop)
         if result.interrupted:
             return RerouteResult(
@@ -625,14 +769,17 @@ def reroute_plan(
         runs.append((scn, result))
         notes.extend(result.notes)
         for leg, k in zip(result.legs, chain[1:], strict=True):
-            insert_before[route.positions[k].item_index] = leg.waypoints_enu[1:-1]
+            waypoints = leg.waypoints_enu
+            if k in over:  # flown over the ground: keep the margin so, adding waypoints
+                waypoints, _ = over_ground(waypoints, world, over[k])
+            insert_before[route.positions[k].item_index] = waypoints[1:-1]
 
     items: list[MissionItem] = []
     inserted = 0
     for index, item in enumerate(plan.items):
         planned = insert_before.get(index)
         if planned is not None and len(planned):
-            items.extend(_waypoints(frame, planned))
+            items.extend(_waypoints(frame, planned, item, ground, home_xy))
             inserted += len(planned)
         items.append(item)
     out = replace(plan, items=tuple(items))
@@ -642,7 +789,10 @@ def reroute_plan(
             "and stay straight"
         )
 
-    flight = flight_of_mission(out, frame)
+    if ground is None:
+        flight = flight_of_mission(out, frame)
+    else:
+        flight = flight_of_mission(out, frame, ground.z_at, ground.follow)
     check = check_flight(world, flight, name_of=lambda i: airspace.names[i], margin_m=margin_m)
     problem = check.problem()
     if problem is not None:
@@ -669,7 +819,10 @@ def _stretch_settings(
     (its take-off altitude unused), ``planner`` over them, the plan's autopilot; a stretch
     begins in the air and ends without a landing."""
     mission = base.mission if base is not None else MissionConfig()
-    mission = replace(mission, autopilot=plan.autopilot, end="none", takeoff=False)
+    # the altitude frames are the plan's own (legs flown over the ground: see reroute_plan)
+    mission = replace(
+        mission, autopilot=plan.autopilot, end="none", takeoff=False, altitude="relative"
+    )
     vehicle = VehicleConfig() if base is None else replace(base.vehicle, takeoff_altitude_m=None)
     cfg = planner if planner is not None else (base.planner if base is not None else None)
     out: dict[str, Any] = {"mission": mission, "vehicle": vehicle}
@@ -679,33 +832,82 @@ def _stretch_settings(
 
 
 def _clear_as_drawn(
-    world: World, a: tuple[float, float, float], b: tuple[float, float, float], margin_m: float
+    world: World,
+    a: tuple[float, float, float],
+    b: tuple[float, float, float],
+    margin_m: float,
+    follow: Follow | None = None,
 ) -> bool:
-    """Does the straight leg a→b stay inside the volume and keep the margin (plus the
-    planner's pad, so rounding in the file cannot take it below)?"""
-    pa, pb = np.array([a]), np.array([b])
-    if not world.points_inside_bounds(np.vstack([pa, pb])).all():
+    """Does the leg a→b (straight, or flown as ``follow`` says) stay inside the volume and
+    keep the margin (plus the planner's pad, so rounding in the file cannot take it below)?"""
+    pa, pb = np.array(a), np.array(b)
+    line = np.vstack([pa, pb]) if follow is None else np.vstack([pa, follow(pa, pb)])
+    if not world.points_inside_bounds(line).all():
         return False
-    dist, _ = world.segments_clearance(pa, pb)
-    return bool(dist[0] >= margin_m + CLEARANCE_PAD_M)
+    dist, _ = world.segments_clearance(line[:-1], line[1:])
+    return bool(dist.min() >= margin_m + CLEARANCE_PAD_M)
 
 
-def _waypoints(frame: EnuFrame, points_enu: NDArray[np.float64]) -> list[MissionItem]:
-    """Planned NAV_WAYPOINTs (relative altitude above home at the ground point below)."""
-    ground = np.array(points_enu, dtype=np.float64)
-    ground[:, 2] = 0.0
-    lat, lon, _ = frame.to_geodetic(ground)
+def _stretch_obstacles(
+    obstacles: tuple[Obstacle, ...], ground: Ground | None
+) -> tuple[Obstacle, ...]:
+    """The airspace's obstacles as a stretch's scenario holds them: over terrain their
+    heights above the ground at their centre (the scenario stands them there again)."""
+    if ground is None:
+        return obstacles
+    out: list[Obstacle] = []
+    for o in obstacles:
+        if isinstance(o, PrismObstacle):
+            xs, ys = zip(*o.polygon_m, strict=True)
+            centre = (sum(xs) / len(xs), sum(ys) / len(ys))
+        else:
+            centre = o.center_m
+        under = float(ground.z_at(np.array([centre]))[0])
+        out.append(replace(o, height_m=o.height_m - under))
+    return tuple(out)
+
+
+def _held_bounds(airspace: Bounds, base: Bounds) -> Bounds:
+    """A stretch's bounds over terrain: the airspace's x, y and the scenario's own z (above
+    the ground)."""
+    return Bounds(airspace.x_m, airspace.y_m, base.z_m)
+
+
+def _waypoints(
+    frame: EnuFrame,
+    points_enu: NDArray[np.float64],
+    before: MissionItem | None = None,
+    ground: Ground | None = None,
+    home_xy: tuple[float, float] = (0.0, 0.0),
+) -> list[MissionItem]:
+    """Planned NAV_WAYPOINTs. Over flat ground: relative altitudes above home at the ground
+    point below. Over terrain: in the frame of the item they lead to (``before``): above
+    home, AMSL or above the terrain beneath them, so the plan keeps its altitudes."""
+    flat = np.array(points_enu, dtype=np.float64)
+    flat[:, 2] = 0.0
+    lat, lon, _ = frame.to_geodetic(flat)
+    item_frame, alt = MavFrame.GLOBAL_RELATIVE_ALT, np.asarray(points_enu[:, 2], dtype=float)
+    if ground is not None and before is not None:
+        kind = canonical_frame(before.frame)
+        if kind in _TERRAIN_FRAMES:
+            item_frame = MavFrame.GLOBAL_TERRAIN_ALT
+            alt = alt - np.asarray(ground.z_at(points_enu[:, :2]))
+        elif kind in _RELATIVE_FRAMES:
+            alt = alt - float(ground.z_at(np.array([home_xy]))[0])
+        else:
+            item_frame = MavFrame.GLOBAL
+            alt = alt + ground.datum_amsl_m
     return [
         MissionItem(
             command=MavCmd.NAV_WAYPOINT,
-            frame=MavFrame.GLOBAL_RELATIVE_ALT,
+            frame=item_frame,
             param1=0.0,  # hold time s
             param2=0.0,  # acceptance radius: autopilot default
             param3=0.0,  # pass through
             param4=None,  # yaw: autopilot decides
             x=float(lat[i]),
             y=float(lon[i]),
-            z=float(points_enu[i, 2]),
+            z=float(alt[i]),
         )
         for i in range(len(points_enu))
     ]
