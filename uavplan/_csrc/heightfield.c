@@ -350,10 +350,28 @@ static double surface_walk(const HField *f, int kind, const double *a, const dou
         int64_t j0 = floor_in(umin, 0, ncc - 1), j1 = floor_in(umax, 0, ncc - 1);
         double zlo = dmin(a[2] + t0 * dz, a[2] + t1 * dz);
         for (int64_t j = j0; j <= j1; j++) {
-            if (zlo - cell_top(f, kind, i, j) >= best) continue;
+            double top = cell_top(f, kind, i, j);
+            if (zlo - top >= best) continue;
+            if (fabs(du) >= 1e-300) { /* the part of the row's stretch near this column */
+                double c0 = ((double)j - reach - ua) / du, c1 = ((double)(j + 1) + reach - ua) / du;
+                double lo_t = dmax(t0, dmin(c0, c1)), hi_t = dmin(t1, dmax(c0, c1));
+                if (lo_t > hi_t) continue;
+                if (dmin(a[2] + lo_t * dz, a[2] + hi_t * dz) - top >= best) continue;
+            }
             cell_triangles(f, kind, i, j, t);
             for (int k = 0; k < 2; k++) {
                 const double *tri = t + 9 * k;
+                /* the triangle's plane is no farther than the triangle: both ends on one side
+                 * of it, at least ``best`` away, and the triangle is too */
+                double e1[3], e2[3], nrm[3], pa[3], pb[3];
+                sub3(e1, tri + 3, tri);
+                sub3(e2, tri + 6, tri);
+                cross3(nrm, e1, e2);
+                sub3(pa, a, tri);
+                sub3(pb, b, tri);
+                double sa = dot3(pa, nrm), sb = dot3(pb, nrm);
+                if (sa * sb > 0.0 && dmin(sa * sa, sb * sb) >= best * best * dot3(nrm, nrm))
+                    continue;
                 double d = segment_triangle_dist(a, b, tri, q);
                 if (d < best) {
                     best = d;
