@@ -457,15 +457,115 @@ double field_point_dist(const HField *f, double x, double y, double z, double ca
     return field_segment_dist(f, x, y, z, x, y, z, cap, NULL, NULL);
 }
 
+/* the most levels of one column field_column measures exactly at once, and the most
+ * triangles it gathers for them (more: each level walks on its own) */
+#define COLUMN_LEVELS 256
+#define COLUMN_TRIANGLES 2048
+
+/* The exact distances from the points (X, Y, z of level need[i]) (field frame, kind 1 already
+ * mirrored in the z below) to surface ``kind``, each looked for within search[i], lowered into
+ * out[need[i]]: the triangles within ``radius`` of the column, gathered once, then measured
+ * for every level (a plane too far is skipped). */
+static void column_exact(const HField *f, int kind, double X, double Y, double z0, double dz,
+                         const int64_t *need, const double *search, int64_t m, double radius,
+                         double zlow, double *out) {
+    if (m == 0) return;
+    double u, v;
+    to_lattice(f, X, Y, &u, &v);
+    int64_t ncr = f->nr - 1, ncc = f->nc - 1;
+    double reach = radius * f->per_m + f->slack + 1e-9;
+    double tris[COLUMN_TRIANGLES * 9], normals[COLUMN_TRIANGLES * 4];
+    int64_t nt = 0, overflow = 0;
+    if (u + reach >= 0.0 && u - reach <= (double)ncc && v + reach >= 0.0 &&
+        v - reach <= (double)ncr) {
+        int64_t i0 = floor_in(v - reach, 0, ncr - 1), i1 = floor_in(v + reach, 0, ncr - 1);
+        int64_t j0 = floor_in(u - reach, 0, ncc - 1), j1 = floor_in(u + reach, 0, ncc - 1);
+        for (int64_t i = i0; i <= i1 && !overflow; i++) {
+            for (int64_t j = j0; j <= j1; j++) {
+                if (zlow - cell_top(f, kind, i, j) >= radius) continue;
+                if (nt + 2 > COLUMN_TRIANGLES) {
+                    overflow = 1;
+                    break;
+                }
+                cell_triangles(f, kind, i, j, tris + 9 * nt);
+                for (int k = 0; k < 2; k++, nt++) {
+                    const double *t = tris + 9 * nt;
+                    double e1[3], e2[3], *nrm = normals + 4 * nt;
+                    sub3(e1, t + 3, t);
+                    sub3(e2, t + 6, t);
+                    cross3(nrm, e1, e2);
+                    nrm[3] = dot3(nrm, nrm);
+                }
+            }
+        }
+    }
+    for (int64_t l = 0; l < m; l++) {
+        double p[3] = {X, Y, z0 + (double)need[l] * dz};
+        if (kind == 1) p[2] = -p[2];
+        double best = search[l];
+        if (overflow) {
+            best = surface_walk(f, kind, p, p, best, 0, NULL);
+        } else {
+            for (int64_t t = 0; t < nt; t++) {
+                const double *tri = tris + 9 * t, *nrm = normals + 4 * t;
+                double pa[3], q[3];
+                sub3(pa, p, tri);
+                double sa = dot3(pa, nrm);
+                if (sa * sa >= best * best * nrm[3]) continue; /* its plane is too far */
+                closest_on_triangle(p, tri, tri + 3, tri + 6, q);
+                double d = sqrt(dist2(p, q));
+                if (d < best) best = d;
+            }
+        }
+        if (best < out[need[l]]) out[need[l]] = best;
+    }
+}
+
+/* Blocks of FIELD_BLOCK x FIELD_BLOCK cells: the highest corner of surface ``kind`` and the
+ * steepest triangle in each (for field_column's bounds over a wide neighbourhood). */
+int field_blocks_init(const HField *f, FieldBlocks *fb) {
+    memset(fb, 0, sizeof(*fb));
+    int64_t ncr = f->nr - 1, ncc = f->nc - 1;
+    fb->nbr = (ncr + FIELD_BLOCK - 1) / FIELD_BLOCK;
+    fb->nbc = (ncc + FIELD_BLOCK - 1) / FIELD_BLOCK;
+    size_t n = (size_t)(fb->nbr * fb->nbc);
+    fb->top = malloc(sizeof(double) * 2 * n);
+    fb->slope = malloc(sizeof(double) * n);
+    if (fb->top == NULL || fb->slope == NULL) {
+        field_blocks_free(fb);
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (size_t k = 0; k < n; k++) {
+        fb->top[2 * k] = fb->top[2 * k + 1] = -INFINITY;
+        fb->slope[k] = 0.0;
+    }
+    for (int64_t i = 0; i < ncr; i++) {
+        for (int64_t j = 0; j < ncc; j++) {
+            size_t k = (size_t)((i / FIELD_BLOCK) * fb->nbc + j / FIELD_BLOCK);
+            fb->top[2 * k] = dmax(fb->top[2 * k], cell_top(f, 0, i, j));
+            if (f->roof < INFINITY) fb->top[2 * k + 1] = dmax(fb->top[2 * k + 1], cell_top(f, 1, i, j));
+            fb->slope[k] = dmax(fb->slope[k], cell_slope(f, i, j));
+        }
+    }
+    return 0;
+}
+
+void field_blocks_free(FieldBlocks *fb) {
+    free(fb->top);
+    free(fb->slope);
+    fb->top = fb->slope = NULL;
+}
+
 /* The distances from the points (x, y, z0 + k dz), k < n (world frame), to the field's solids
  * lowered into out[k] (pre-filled with the cap, or less: clearance_table's node columns).
  * Exact where below ``exact``; elsewhere possibly a lower bound (never above the distance, at
  * least ``exact``): with R the column's reach (the largest out[k]), G the steepest slope and T
- * the highest corner of the cells within R, and H the height above the surface, a surface
- * point within R horizontally lies at least max(H / sqrt(1 + G^2), z - T) away, and any other
- * at least R. */
-void field_column(const HField *f, double x, double y, double z0, double dz, int64_t n,
-                  double *out, double exact) {
+ * the highest corner of the blocks of cells within R (``fb``), and H the height above the
+ * surface, a surface point within R horizontally lies at least max(H / sqrt(1 + G^2), z - T)
+ * away, and any other at least R. */
+void field_column(const HField *f, const FieldBlocks *fb, double x, double y, double z0,
+                  double dz, int64_t n, double *out, double exact) {
     double cap = 0.0;
     for (int64_t k = 0; k < n; k++) cap = dmax(cap, out[k]);
     for (int kind = 0; kind < 2; kind++) {
@@ -479,34 +579,60 @@ void field_column(const HField *f, double x, double y, double z0, double dz, int
         double top = -INFINITY, slope = 0.0;
         if (u + reach >= 0.0 && u - reach <= (double)ncc && v + reach >= 0.0 &&
             v - reach <= (double)ncr) {
-            int64_t i0 = floor_in(v - reach, 0, ncr - 1), i1 = floor_in(v + reach, 0, ncr - 1);
-            int64_t j0 = floor_in(u - reach, 0, ncc - 1), j1 = floor_in(u + reach, 0, ncc - 1);
+            int64_t i0 = floor_in(v - reach, 0, ncr - 1) / FIELD_BLOCK;
+            int64_t i1 = floor_in(v + reach, 0, ncr - 1) / FIELD_BLOCK;
+            int64_t j0 = floor_in(u - reach, 0, ncc - 1) / FIELD_BLOCK;
+            int64_t j1 = floor_in(u + reach, 0, ncc - 1) / FIELD_BLOCK;
             for (int64_t i = i0; i <= i1; i++) {
                 for (int64_t j = j0; j <= j1; j++) {
-                    top = dmax(top, cell_top(f, kind, i, j));
-                    slope = dmax(slope, cell_slope(f, i, j));
+                    top = dmax(top, fb->top[2 * (i * fb->nbc + j) + kind]);
+                    slope = dmax(slope, fb->slope[i * fb->nbc + j]);
                 }
             }
         }
         double shrink = 1.0 / sqrt(1.0 + slope * slope);
+        /* the levels that need the exact distance, and how far to look for it */
+        int64_t need[COLUMN_LEVELS];
+        double search[COLUMN_LEVELS];
+        int64_t m = 0, rest = -1;
+        double radius = 0.0, zlow = INFINITY;
         for (int64_t k = 0; k < n; k++) {
+            double z = z0 + (double)k * dz;
+            if (kind == 1) z = -z;
+            if (z < h) {
+                out[k] = 0.0;
+                continue;
+            }
+            double lower = z - top; /* farther than the cap from every triangle: as is */
+            if (lower >= out[k]) continue;
+            if (!isnan(h)) lower = dmax(lower, (z - h) * shrink);
+            lower = dmin(lower, cap);
+            if (lower >= exact) {
+                if (lower < out[k]) out[k] = lower;
+                continue;
+            }
+            double r = out[k];
+            if (z - h < r) r = (z - h) * (1.0 + 1e-12) + 1e-12;
+            if (m == COLUMN_LEVELS) { /* more than a column's buffer: walk for the rest */
+                rest = k;
+                break;
+            }
+            need[m] = k;
+            search[m++] = r;
+            radius = dmax(radius, r);
+            zlow = dmin(zlow, z);
+        }
+        column_exact(f, kind, X, Y, z0, dz, need, search, m, radius, zlow, out);
+        for (int64_t k = rest; rest >= 0 && k < n; k++) { /* (not reached for real grids) */
             double p[3] = {X, Y, z0 + (double)k * dz};
             if (kind == 1) p[2] = -p[2];
             if (p[2] < h) {
                 out[k] = 0.0;
                 continue;
             }
-            double lower = p[2] - top; /* farther than the cap from every triangle: as is */
-            if (lower >= out[k]) continue;
-            if (!isnan(h)) lower = dmax(lower, (p[2] - h) * shrink);
-            lower = dmin(lower, cap);
-            if (lower >= exact) {
-                if (lower < out[k]) out[k] = lower;
-                continue;
-            }
-            double search = out[k];
-            if (p[2] - h < search) search = (p[2] - h) * (1.0 + 1e-12) + 1e-12;
-            double d = surface_walk(f, kind, p, p, search, 0, NULL);
+            double r = out[k];
+            if (p[2] - h < r) r = (p[2] - h) * (1.0 + 1e-12) + 1e-12;
+            double d = surface_walk(f, kind, p, p, r, 0, NULL);
             if (d < out[k]) out[k] = d;
         }
     }

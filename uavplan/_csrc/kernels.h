@@ -180,8 +180,17 @@ int field_segment_free(const HField *f, double ax, double ay, double az, double 
 double field_segment_dist(const HField *f, double ax, double ay, double az, double bx, double by,
                           double bz, double cap, int *kind_out, double *where);
 double field_point_dist(const HField *f, double x, double y, double z, double cap);
-void field_column(const HField *f, double x, double y, double z0, double dz, int64_t n,
-                  double *out, double exact);
+/* blocks of cells (field_column's bounds over wide neighbourhoods) */
+#define FIELD_BLOCK 8
+typedef struct {
+    int64_t nbr, nbc;
+    double *top;   /* (nbr, nbc, 2): the highest corner of the ground's, the ceiling's surface */
+    double *slope; /* (nbr, nbc): the steepest triangle */
+} FieldBlocks;
+int field_blocks_init(const HField *f, FieldBlocks *fb);
+void field_blocks_free(FieldBlocks *fb);
+void field_column(const HField *f, const FieldBlocks *fb, double x, double y, double z0,
+                  double dz, int64_t n, double *out, double exact);
 
 /* ------------------------------------------------------------------------------------------
  * The world (uavplan._geom.KernelWorld; read by args.c)

@@ -262,15 +262,18 @@ PyObject *py_clearance_table(PyObject *self, PyObject *args) {
         }
     }
     if (w->f.present) { /* the terrain's solids, one column of nodes at a time */
+        FieldBlocks fb;
+        if (field_blocks_init(&w->f, &fb) < 0) goto done;
         for (int64_t j = 0; j < n_cols + 1; j++) {
             for (int64_t a = 0; a < ny; a++) {
                 double yu = (double)(a + iy_lo);
                 double px = cols[4 * j + 0] + yu * dy * cols[4 * j + 2];
                 double py = cols[4 * j + 1] + yu * dy * cols[4 * j + 3];
-                field_column(&w->f, px, py, (double)iz_lo * dz, dz, nz, tab + (j * ny + a) * nz,
-                             exact);
+                field_column(&w->f, &fb, px, py, (double)iz_lo * dz, dz, nz,
+                             tab + (j * ny + a) * nz, exact);
             }
         }
+        field_blocks_free(&fb);
     }
     double eps = 1e-9;
     for (int64_t j = 0; j < n_cols + 1; j++) {
