@@ -176,7 +176,7 @@ def hillside(e: np.ndarray, n: np.ndarray) -> np.ndarray:
     """A slope with a valley across it: terrain-frame legs follow it down."""
     from terrain_helpers import utm_origin
 
-    e0, n0 = utm_origin()
+    e0, _ = utm_origin()
     return 520.0 + 0.08 * (e - e0) - 80.0 * np.exp(-((e - e0) ** 2) / (2 * 160.0**2))
 
 
@@ -245,3 +245,34 @@ def test_a_plan_rerouted_over_terrain_keeps_its_altitudes_and_the_margin(
     flight = mission_flight(safe, scn)  # the zone stands above the volume: around it
     path = shapely.LineString(flight.points_enu[:, :2])
     assert shapely.Polygon(box).distance(path) >= 12.0 - 0.02
+
+
+RIDGE_13_KM = """\
+name: ridge-13km
+origin: {lat: 36.59, lon: -84.25}
+terrain: dem.tif
+bounds: {x: [-5200, 5200], y: [-5200, 5200], z: [0, 150]}
+start: [4600, -4600, 40]
+goal: [-4600, 4600, 40]
+safety_margin: 15
+mission: {autopilot: ardupilot, end: rtl, altitude: terrain}
+"""
+
+
+@pytest.mark.timeout(300)
+def test_a_13_km_ridge_crossing_plans_at_the_defaults(tmp_path: Path) -> None:
+    """A 13 km crossing of the bundled ridge, no planner settings: planned, validated, and the
+    margin kept above scipy's surface as flown. (Its speed and memory are the adaptive grid's
+    to bring down: tools/bench_scale.py.)"""
+    shutil.copy(ROOT / "maps" / "jacksboro-fault-dem.tif", tmp_path / "dem.tif")
+    scenario = tmp_path / "ridge13.yaml"
+    scenario.write_text(RIDGE_13_KM, encoding="utf-8")
+    mission = tmp_path / "r.plan"
+    run("plan", str(scenario), "-o", str(mission), "-q")
+    assert (
+        float(CLEARANCE.findall(run("validate", str(mission), "--scenario", str(scenario)))[0])
+        >= 15.0
+    )
+    scn = load_scenario(scenario)
+    low, high = independent_ground_check(mission, scn.terrain_file, EnuFrame.at(scn.site.origin))
+    assert low >= 15.0 - 0.02 and high <= 150.0 + 0.02
