@@ -110,9 +110,12 @@ def run_child(args: list[str], env: dict[str, str] | None = None) -> tuple[float
 
 
 def phases(path: Path, iterations: int, reference: bool) -> dict[str, Any]:
+    # as `uavplan plan` runs (its entry point keeps numpy's OpenBLAS on one thread, whose
+    # idle helper threads would otherwise spin and count in the CPU column)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
     with tempfile.TemporaryDirectory() as tmp:
         args = [sys.executable, "-c", CHILD, str(path), str(Path(tmp) / "m.plan")]
-        _, _, out = run_child([*args, str(iterations), "1" if reference else "0"])
+        _, _, out = run_child([*args, str(iterations), "1" if reference else "0"], env)
     return json.loads(out.strip().splitlines()[-1])
 
 

@@ -409,7 +409,7 @@ def plan_route(
     if ground is not None:
         first, last = flight.airborne
         over = flight.points_enu[first : last + 1] if follow is not None else waypoints_enu
-        notes += _terrain_notes(ground, over)
+        notes += _terrain_notes(ground, over, dense=follow is not None)
     route = PlannedRoute(
         frame=enu_frame(scenario),
         waypoints_enu=waypoints_enu,
@@ -473,12 +473,12 @@ def over_ground(
     while pending:
         a, b, depth = pending.pop()
         line = np.vstack([a[None, :], follow(a, b)])
-        dist, _ = world.segments_clearance(line[:-1], line[1:])
-        ok = dist.min() >= need and bool(world.points_inside_bounds(line).all())
-        if ok or depth >= MAX_OVER_GROUND_SPLITS:
+        free = world.segments_free(line[:-1], line[1:], need)  # the bounds too
+        if free.all() or depth >= MAX_OVER_GROUND_SPLITS:
             out.append(b)
             continue
-        worst = int(np.argmin(dist)) if dist.min() < need else len(line) // 2
+        dist, _ = world.segments_clearance(line[:-1], line[1:])
+        worst = int(np.argmin(dist)) if dist.min() < need else int(np.argmin(free))
         run = float(np.hypot(*(b[:2] - a[:2])))
         t = float(np.hypot(*(line[worst, :2] - a[:2]))) / run if run > 0 else 0.5
         t = min(max(t, 0.05), 0.95)
@@ -489,20 +489,22 @@ def over_ground(
     return np.array(out), added
 
 
-def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
+def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray, *, dense: bool = False) -> list[str]:
     """What the user should know about the route over the terrain: its lowest height above
-    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground)."""
-    samples = densify(waypoints_enu, TERRAIN_SAMPLE_M)
+    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground).
+    ``dense``: the points are a flown line sampled finely already (legs over the ground)."""
+    samples = waypoints_enu if dense else densify(waypoints_enu, TERRAIN_SAMPLE_M)
     agl = samples[:, 2] - ground.z_at(samples)
     notes = [f"terrain: the route flies {agl.min():.1f} to {agl.max():.1f} m above the DEM surface"]
     over = agl > ground.ceiling_agl_m + 1e-6
     if np.any(over):
         worst = int(np.argmax(agl))
+        step = np.hypot(*np.diff(samples[:, :2], axis=0).T)
+        stretch = float(step[over[1:] | over[:-1]].sum())
         notes.append(
             f"terrain: the route rises to {agl[worst]:.0f} m above the ground at "
             f"({samples[worst, 0]:.0f}, {samples[worst, 1]:.0f}), above the ceiling "
-            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over "
-            f"{TERRAIN_SAMPLE_M * int(over.sum()):.0f} m"
+            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over {stretch:.0f} m"
         )
     return notes
 

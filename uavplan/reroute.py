@@ -729,6 +729,7 @@ def reroute_plan(
     for chain in chains:
         if len(chain) < 2:
             continue
+
         # a stretch of the user's flight: it begins in the air and ends without a landing;
         # over terrain its points and obstacles as a scenario holds them (above the ground)
         def held(point: tuple[float, float, float]) -> tuple[float, float, float]:
