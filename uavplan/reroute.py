@@ -25,9 +25,12 @@ How the plan is read (docs/reroute.md tells the user the same):
   are the union's bounding box and the part of that box outside the union becomes prisms.
   The route keeps the safety margin from the inclusion fence's edge too.
 * Without an inclusion fence the flight volume is the bounding box of home, the positions and
-  the exclusion zones grown by :data:`VOLUME_PAD_M` plus the margin, with a ceiling
-  :data:`VOLUME_PAD_M` above the highest position (a ``--scenario``'s own bounds, when one is
-  given). Fence obstacles stand :data:`VOLUME_PAD_M` above the ceiling.
+  the exclusion zones grown by ``VOLUME_PAD_M`` plus the margin, with a ceiling
+  ``VOLUME_PAD_M`` above the highest position (a ``--scenario``'s own bounds, when one is
+  given). Fence obstacles stand ``VOLUME_PAD_M`` above the ceiling (:mod:`uavplan.airspace`).
+* Over a scenario with terrain: the plan read as the autopilot flies it over the DEM, the
+  planned waypoints in the frame of the item they lead to, terrain-frame legs flown over the
+  ground (:func:`reroute_plan`).
 * DO_JUMP is refused: a loop's legs cannot be rerouted without guessing.
 
 Errors the user can cause raise :class:`~uavplan.errors.InputError` (exit 2); a leg that no
@@ -45,19 +48,24 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.airspace import (
+    Airspace,
+    build_airspace,
+    check_volume,
+    held_bounds,
+    stretch_obstacles,
+)
 from uavplan.errors import InputError, NoPathError
 from uavplan.flight import check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
-from uavplan.geometry2d import orient_ccw, polygon_problem
 from uavplan.ground import Ground
-from uavplan.limits import MAX_FENCE_POLYGON_VERTICES, MAX_FENCE_ZONES, MAX_HORIZONTAL_M
 from uavplan.mission.items import (
     MavCmd,
     MavFrame,
@@ -65,16 +73,12 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
-from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, over_ground, plan_route
 from uavplan.route import EndAction, Follow, keeps_margin
 from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, VehicleConfig
 from uavplan.world import CEILING, World
 
-#: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
-#: and above the highest position; fence obstacles stand this much above the ceiling
-VOLUME_PAD_M = 50.0
 #: the safety margin when no scenario gives one (the scenario format's default)
 DEFAULT_MARGIN_M = 10.0
 #: consecutive positions closer than this horizontally are joined by a straight segment
@@ -83,8 +87,6 @@ MIN_LEG_M = 1.0
 #: a straight leg is kept when it clears the margin by this much (a file rounds positions to
 #: about a centimetre; the planner keeps the same pad)
 CLEARANCE_PAD_M = 0.02
-#: a circle of the fence becomes a polygon with this many vertices on the circle (inclusion)
-CIRCLE_SEGMENTS = 64
 #: MAV_CMD values below this are NAV commands (the vehicle flies to their position)
 _FIRST_NON_NAV_COMMAND = 100
 _RELATIVE_FRAMES = frozenset({int(MavFrame.GLOBAL_RELATIVE_ALT)})
@@ -204,8 +206,6 @@ def read_user_route(
     """
     if plan.home is None:
         raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
-    if ground is not None:
-        return _read_over_ground(plan, frame, ground, file=file)
     home_alt_m = plan.home.alt_m
     notes: list[str] = []
     raw: list[tuple[int, MissionItem, float]] = []  # (index, item, height above home)
@@ -236,7 +236,9 @@ def read_user_route(
         if not positional:
             continue
         frame_id = canonical_frame(item.frame)
-        if frame_id in _RELATIVE_FRAMES:
+        if ground is not None:
+            z = math.inf  # placed over the ground beneath it below, where its x, y are known
+        elif frame_id in _RELATIVE_FRAMES:
             z = item.alt_m
         elif frame_id in _TERRAIN_FRAMES:
             z, terrain = item.alt_m, True
@@ -267,6 +269,7 @@ def read_user_route(
     lon = [plan.home.lon_deg, *(it.lon_deg for _, it, _ in raw)]
     xy = frame.to_enu_xy(lat, lon)
     home_xy = (float(xy[0, 0]), float(xy[0, 1]))
+    home_z = 0.0 if ground is None else float(ground.z_at(np.array([home_xy]))[0])
     positions: list[UserPosition] = []
     for (index, item, z), (x, y) in zip(raw, xy[1:], strict=True):
         what = f"mission item {index + 1} ({command_name(item.command)})"
@@ -280,6 +283,8 @@ def read_user_route(
             if (item.x, item.y) == (0.0, 0.0):
                 px, py = prev[0], prev[1]  # lands where the vehicle is
             pz = prev[2]  # flies there at its height, then descends
+        elif ground is not None:
+            pz = _over_ground(item, (px, py), ground, home_z, what, file)
         positions.append(UserPosition(index, (px, py, pz), what))
     if len(positions) < 2 or all(
         math.hypot(p.point_m[0] - positions[0].point_m[0], p.point_m[1] - positions[0].point_m[1])
@@ -299,261 +304,31 @@ def read_user_route(
     return UserRoute(tuple(positions), end, has_takeoff, tuple(notes))
 
 
-def _read_over_ground(
-    plan: MissionPlan, frame: EnuFrame, ground: Ground, *, file: str | None
-) -> UserRoute:
-    """:func:`read_user_route` over terrain (see there): positions at their z above the
-    datum, each item's altitude in its own frame."""
-    assert plan.home is not None
-    datum = ground.datum_amsl_m
-    ends: tuple[str, str] | None = None
-    end: EndAction = "none"
-    has_takeoff = False
-    picked: list[tuple[int, MissionItem, str]] = []
-    for index, item in enumerate(plan.items):
-        what = f"mission item {index + 1} ({command_name(item.command)})"
-        if item.command == MavCmd.DO_JUMP:
-            raise InputError(
-                f"{what}: DO_JUMP is not supported: a loop's legs cannot be rerouted without "
-                "guessing how often it runs; unroll the loop in QGroundControl and try again",
-                file=file,
-            )
-        positional = item.is_global and item.command < _FIRST_NON_NAV_COMMAND
-        if ends is not None:
-            if positional:
-                raise InputError(
-                    f"{what} comes after the mission's {ends[0]}: positions after a landing "
-                    "or a return to launch are not supported",
-                    file=file,
-                )
-            continue
-        if item.command == MavCmd.NAV_RETURN_TO_LAUNCH:
-            end, ends = "rtl", ("NAV_RETURN_TO_LAUNCH", "")
-            continue
-        if not positional:
-            continue
-        if item.command == MavCmd.NAV_TAKEOFF:
-            if picked:
-                raise InputError(f"{what}: a take-off after the first position", file=file)
-            has_takeoff = True
-        if item.command == MavCmd.NAV_LAND:
-            end, ends = "land", ("NAV_LAND", "")
-        elif item.command != MavCmd.NAV_TAKEOFF and (item.x, item.y) == (0.0, 0.0):
-            raise InputError(f"{what} has no position (latitude and longitude 0)", file=file)
-        picked.append((index, item, what))
-    lat = [plan.home.lat_deg, *(it.lat_deg for _, it, _ in picked)]
-    lon = [plan.home.lon_deg, *(it.lon_deg for _, it, _ in picked)]
-    xy = frame.to_enu_xy(lat, lon)
-    home_xy = (float(xy[0, 0]), float(xy[0, 1]))
-    home_z = float(ground.z_at(np.array([home_xy]))[0])
-    positions: list[UserPosition] = []
-    for (index, item, what), (x, y) in zip(picked, xy[1:], strict=True):
-        px, py = float(x), float(y)
-        if item.command == MavCmd.NAV_TAKEOFF:
-            px, py = home_xy  # the vehicle climbs where it stands
-        if item.command == MavCmd.NAV_LAND:
-            if not positions:
-                raise InputError(f"{what}: a landing before any position to fly", file=file)
-            prev = positions[-1].point_m
-            if (item.x, item.y) == (0.0, 0.0):
-                px, py = prev[0], prev[1]  # lands where the vehicle is
-            positions.append(UserPosition(index, (px, py, prev[2]), what))
-            continue
-        under = float(ground.z_at(np.array([[px, py]]))[0])
-        frame_id = canonical_frame(item.frame)
-        if frame_id in _RELATIVE_FRAMES:
-            pz = home_z + item.alt_m
-        elif frame_id in _TERRAIN_FRAMES:
-            pz = under + item.alt_m
-        else:  # MAV_FRAME_GLOBAL (AMSL)
-            pz = item.alt_m - datum
-        if not pz - under > 0.0:
-            raise InputError(
-                f"{what} at {pz - under:.1f} m above the ground is not above it (over the "
-                "scenario's terrain)",
-                file=file,
-            )
-        positions.append(UserPosition(index, (px, py, pz), what))
-    if len(positions) < 2 or all(
-        math.hypot(p.point_m[0] - positions[0].point_m[0], p.point_m[1] - positions[0].point_m[1])
-        < MIN_LEG_M
-        for p in positions
-    ):
+def _over_ground(
+    item: MissionItem,
+    xy: tuple[float, float],
+    ground: Ground,
+    home_z: float,
+    what: str,
+    file: str | None,
+) -> float:
+    """An item's z over terrain (above the datum): relative above home (on the ground at
+    ``home_z``), AMSL as it is, terrain-frame above the ground beneath; above that ground."""
+    under = float(ground.z_at(np.array([xy]))[0])
+    frame_id = canonical_frame(item.frame)
+    if frame_id in _RELATIVE_FRAMES:
+        z = home_z + item.alt_m
+    elif frame_id in _TERRAIN_FRAMES:
+        z = under + item.alt_m
+    else:  # MAV_FRAME_GLOBAL (AMSL)
+        z = item.alt_m - ground.datum_amsl_m
+    if not z - under > 0.0:
         raise InputError(
-            "the plan has no route to reroute: it needs a take-off and at least one position "
-            "to fly to (or two positions)",
+            f"{what} at {z - under:.1f} m above the ground is not above it (over the "
+            "scenario's terrain)",
             file=file,
         )
-    notes = []
-    if not has_takeoff:
-        notes.append(
-            "the plan has no NAV_TAKEOFF: the route starts at its first position; the flight "
-            "from home to it is checked, not planned"
-        )
-    return UserRoute(tuple(positions), end, has_takeoff, tuple(notes))
-
-
-# ---------------------------------------------------------------------------------------------
-# The flight volume and the obstacles
-
-
-@dataclass(frozen=True)
-class Airspace:
-    """Bounds and obstacles (with a name for each, for messages) of a reroute."""
-
-    bounds: Bounds
-    obstacles: tuple[Obstacle, ...]
-    names: tuple[str, ...]
-    inclusion: Any  # the shapely union of the inclusion zones in ENU, or None
-
-
-def _ring_xy(frame: EnuFrame, vertices: Sequence[tuple[float, float]]) -> NDArray[np.float64]:
-    lat = [v[0] for v in vertices]
-    lon = [v[1] for v in vertices]
-    return frame.to_enu_xy(lat, lon)
-
-
-def build_airspace(
-    plan: MissionPlan,
-    route: UserRoute,
-    frame: EnuFrame,
-    *,
-    margin_m: float,
-    base: Scenario | None = None,
-    file: str | None = None,
-) -> Airspace:
-    """The flight volume and obstacles for ``plan`` (see the module doc)."""
-    import shapely
-
-    fence = plan.fence
-    exclusion_rings: list[tuple[NDArray[np.float64], str]] = []
-    exclusion_circles: list[tuple[tuple[float, float], float, str]] = []
-    inclusion_shapes: list[Any] = []
-    n_poly = n_circ = 0
-    zones = len(fence.polygons) + len(fence.circles)
-    if zones > MAX_FENCE_ZONES:
-        raise InputError(
-            f"the geofence has {zones:,} polygons and circles; rerouting takes at most "
-            f"{MAX_FENCE_ZONES:,}",
-            file=file,
-        )
-    for i, poly in enumerate(fence.polygons):
-        kind = "inclusion" if poly.inclusion else "exclusion"
-        if len(poly.vertices) > MAX_FENCE_POLYGON_VERTICES:
-            # the polygon checks and the convex pieces grow with the square of the vertices
-            raise InputError(
-                f"{kind} polygon {i + 1} of the geofence has {len(poly.vertices):,} vertices; "
-                f"rerouting takes at most {MAX_FENCE_POLYGON_VERTICES:,} per polygon "
-                "(simplify it, e.g. in QGroundControl's polygon editor)",
-                file=file,
-            )
-        ring = _ring_xy(frame, poly.vertices)
-        problem = polygon_problem(ring)
-        if problem is not None:
-            raise InputError(f"{kind} polygon {i + 1} of the geofence: {problem}", file=file)
-        if poly.inclusion:
-            inclusion_shapes.append(shapely.Polygon(ring))
-        else:
-            n_poly += 1
-            exclusion_rings.append((orient_ccw(ring), f"exclusion polygon {n_poly} of the fence"))
-    for circle in fence.circles:
-        c = _ring_xy(frame, [circle.center])[0]
-        center = (float(c[0]), float(c[1]))
-        if circle.inclusion:
-            # vertices on the circle, chords inside it: the polygon lies inside the circle,
-            # so the outside we make into obstacles covers the true outside (conservative)
-            quad = CIRCLE_SEGMENTS // 4
-            inclusion_shapes.append(shapely.Point(center).buffer(circle.radius_m, quad_segs=quad))
-        else:
-            n_circ += 1
-            exclusion_circles.append(
-                (center, circle.radius_m, f"exclusion circle {n_circ} of the fence")
-            )
-    inclusion = shapely.union_all(inclusion_shapes) if inclusion_shapes else None
-
-    pts = np.array([p.point_m for p in route.positions])
-    top_m = float(pts[:, 2].max())
-    # over terrain the scenario's site: z above its datum, obstacles standing on the ground
-    ref = None if base is None else (base.site if base.terrain is not None else base)
-    if ref is not None:
-        z_hi = max(ref.bounds.z_m[1], 0.0)
-        z_lo = 0.0 if base is not None and base.terrain is not None else ref.bounds.z_m[0]
-    else:
-        z_hi, z_lo = top_m + VOLUME_PAD_M, 0.0
-    if inclusion is not None:
-        x0, y0, x1, y1 = (float(v) for v in inclusion.bounds)
-    elif ref is not None:
-        (x0, x1), (y0, y1) = ref.bounds.x_m, ref.bounds.y_m
-    else:
-        home_xy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg]) if plan.home else None
-        xs = [*pts[:, 0]] + ([float(home_xy[0, 0])] if home_xy is not None else [])
-        ys = [*pts[:, 1]] + ([float(home_xy[0, 1])] if home_xy is not None else [])
-        for ring, _ in exclusion_rings:
-            xs.extend(ring[:, 0])
-            ys.extend(ring[:, 1])
-        for (cx, cy), r, _ in exclusion_circles:
-            xs.extend((cx - r, cx + r))
-            ys.extend((cy - r, cy + r))
-        pad = VOLUME_PAD_M + margin_m
-        x0, x1, y0, y1 = min(xs) - pad, max(xs) + pad, min(ys) - pad, max(ys) + pad
-    bounds = Bounds((x0, x1), (y0, y1), (z_lo, z_hi))
-    height_m = z_hi + VOLUME_PAD_M
-
-    obstacles: list[Obstacle] = []
-    names: list[str] = []
-    if base is not None and ref is not None:
-        obstacles.extend(ref.obstacles)
-        source = base.source or base.name
-        names.extend(f"obstacles[{i}] of scenario {source}" for i in range(len(base.obstacles)))
-    for ring, name in exclusion_rings:
-        obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
-        names.append(name)
-    for center, radius, name in exclusion_circles:
-        obstacles.append(CylinderObstacle(center, radius, height_m))
-        names.append(name)
-    if inclusion is not None:
-        box = shapely.box(x0, y0, x1, y1)
-        for piece in _simple_pieces(box.difference(inclusion)):
-            ring = orient_ccw(np.asarray(piece.exterior.coords)[:-1])
-            obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
-            names.append("the area outside the inclusion fence")
-    return Airspace(bounds, tuple(obstacles), tuple(names), inclusion)
-
-
-def _check_volume(bounds: Bounds, file: str | None) -> None:
-    """The flight volume the plan spans (its fence, its items) within the horizontal limit of
-    any scenario."""
-    far = max(abs(v) for v in (*bounds.x_m, *bounds.y_m))
-    if far > MAX_HORIZONTAL_M:
-        raise InputError(
-            f"the plan and its geofence reach {far / 1000:,.0f} km from home, beyond the "
-            f"{MAX_HORIZONTAL_M / 1000:,.0f} km a flight volume may span",
-            file=file,
-        )
-
-
-def _simple_pieces(geometry: Any) -> list[Any]:
-    """Polygons without holes covering ``geometry`` (a box minus the inclusion zones): a
-    piece with a hole is split by a vertical line through the hole, until none is left."""
-    import shapely
-    from shapely.ops import split
-
-    todo = list(getattr(geometry, "geoms", [geometry]))
-    done: list[Any] = []
-    while todo:
-        piece = todo.pop()
-        if piece.geom_type != "Polygon" or piece.area < 1e-6:
-            if piece.geom_type in ("MultiPolygon", "GeometryCollection"):
-                todo.extend(piece.geoms)
-            continue
-        if not piece.interiors:
-            done.append(piece)
-            continue
-        hx = shapely.Polygon(piece.interiors[0]).representative_point().x
-        _, ymin, _, ymax = piece.bounds
-        cut = shapely.LineString([(hx, ymin - 1.0), (hx, ymax + 1.0)])
-        todo.extend(split(piece, cut).geoms)
-    return done
+    return z
 
 
 # ---------------------------------------------------------------------------------------------
@@ -683,8 +458,9 @@ def reroute_plan(
     frame = EnuFrame.at(origin)
     route = read_user_route(plan, frame, file=file, ground=ground)
     margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
-    airspace = build_airspace(plan, route, frame, margin_m=margin_m, base=base, file=file)
-    _check_volume(airspace.bounds, file)
+    points_m = np.array([p.point_m for p in route.positions])
+    airspace = build_airspace(plan, points_m, frame, margin_m=margin_m, base=base, file=file)
+    check_volume(airspace.bounds, file)
     b = airspace.bounds
     world = World.build(
         airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m, ground=ground
@@ -725,7 +501,7 @@ def reroute_plan(
     insert_before: dict[int, NDArray[np.float64]] = {}  # item index → planned waypoints
     runs: list[tuple[Scenario, RouteResult]] = []
     notes = list(route.notes)
-    lifted = _stretch_obstacles(airspace.obstacles, ground)
+    lifted = stretch_obstacles(airspace.obstacles, ground)
     for chain in chains:
         if len(chain) < 2:
             continue
@@ -741,7 +517,7 @@ def reroute_plan(
         scn = Scenario(
             name=name,
             origin=origin if base is None or base.terrain is None else base.origin,
-            bounds=airspace.bounds if ground is None or base is None else _held_bounds(
+            bounds=airspace.bounds if ground is None or base is None else held_bounds(
                 airspace.bounds, base.bounds
             ),
             start_m=held(points[chain[0]]),
@@ -847,31 +623,6 @@ def _clear_as_drawn(
         return False
     dist, _ = world.segments_clearance(line[:-1], line[1:])
     return bool(dist.min() >= margin_m + CLEARANCE_PAD_M)
-
-
-def _stretch_obstacles(
-    obstacles: tuple[Obstacle, ...], ground: Ground | None
-) -> tuple[Obstacle, ...]:
-    """The airspace's obstacles as a stretch's scenario holds them: over terrain their
-    heights above the ground at their centre (the scenario stands them there again)."""
-    if ground is None:
-        return obstacles
-    out: list[Obstacle] = []
-    for o in obstacles:
-        if isinstance(o, PrismObstacle):
-            xs, ys = zip(*o.polygon_m, strict=True)
-            centre = (sum(xs) / len(xs), sum(ys) / len(ys))
-        else:
-            centre = o.center_m
-        under = float(ground.z_at(np.array([centre]))[0])
-        out.append(replace(o, height_m=o.height_m - under))
-    return tuple(out)
-
-
-def _held_bounds(airspace: Bounds, base: Bounds) -> Bounds:
-    """A stretch's bounds over terrain: the airspace's x, y and the scenario's own z (above
-    the ground)."""
-    return Bounds(airspace.x_m, airspace.y_m, base.z_m)
 
 
 def _waypoints(
