@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from terrain_helpers import independent_ground_check
 
 from uavplan.app.check import check_flight_in, mission_flight, validate
 from uavplan.app.feedback import Feedback
@@ -21,6 +22,7 @@ from uavplan.app.render import RenderRequest, render
 from uavplan.cli import main
 from uavplan.errors import NoPathError
 from uavplan.flight import Flight, check_flight
+from uavplan.geo import EnuFrame
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.planning import build_world
 from uavplan.scenario import load_scenario
@@ -124,6 +126,10 @@ def test_terrain_missions_pass_validate_in_every_altitude_frame(
     picture = mission.with_suffix(".png")
     drawn = run("render", str(scenario), "--mission", str(mission), "-o", str(picture))
     assert CLEARANCE.findall(drawn) == CLEARANCE.findall(out)
+    # the independent ground check: the flight rebuilt by the tests, over scipy's surface
+    scn = load_scenario(scenario)
+    low, _ = independent_ground_check(mission, scn.terrain_file, EnuFrame.at(scn.site.origin))
+    assert low >= 15.0 - 0.02
 
 
 def test_the_three_frames_fly_the_same_waypoints(ridge: dict[str, Path]) -> None:
