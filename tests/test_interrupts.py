@@ -56,19 +56,27 @@ def start(args: list[Any]) -> subprocess.Popen[str]:
 
 
 def landed_before_uavplan(code: int, stderr: str) -> bool:
-    """The SIGINT came while the interpreter was starting, before ``uavplan.__main__`` ran:
-    the process ended by the signal with nothing said (before Python's handler), or with a
-    traceback none of whose frames is the package's but ``uavplan/__init__.py`` (``site``,
-    ``runpy``), or ``site`` reported the interrupt in a .pth file and went on."""
+    """The SIGINT came while the interpreter was starting, before ``uavplan.__main__.run``
+    ran: the process ended by the signal with nothing said (before Python's handler), or with
+    a traceback none of whose frames is the package's but ``uavplan/__init__.py`` or the
+    module level of ``uavplan/__main__.py`` (``site``, ``runpy``), or ``site`` reported the
+    interrupt in a .pth file and went on."""
     if code == -signal.SIGINT and not stderr:
         return True
     if "Error processing line" in stderr and ".pth" in stderr:
         return True
     if "Traceback" not in stderr:
         return False
-    frames = re.findall(r'File "([^"]+)"', stderr)
-    ours = [f for f in frames if Path(f).resolve().is_relative_to(PACKAGE)]
-    return all(Path(f).name == "__init__.py" and Path(f).parent == PACKAGE for f in ours)
+    # a signal that arrives while the interpreter starts is raised at the first instruction
+    # Python runs after it: it may be the package's __init__ or the first lines of
+    # uavplan/__main__.py, before run() has started (its module level, "in <module>")
+    frames = re.findall(r'File "([^"]+)", line \d+, in (\S+)', stderr)
+    ours = [(f, fn) for f, fn in frames if Path(f).resolve().is_relative_to(PACKAGE)]
+    return all(
+        Path(f).parent == PACKAGE
+        and (Path(f).name == "__init__.py" or (Path(f).name == "__main__.py" and fn == "<module>"))
+        for f, fn in ours
+    )
 
 
 def assert_interrupted(code: int, stdout: str, stderr: str, folder: Path) -> None:

@@ -18,6 +18,7 @@ rasterio = pytest.importorskip("rasterio")
 from click.testing import CliRunner  # noqa: E402
 from pyproj import Transformer  # noqa: E402
 from rasterio.transform import from_origin  # noqa: E402
+from terrain_helpers import independent_ground_check  # noqa: E402
 
 from uavplan.cli import main  # noqa: E402
 from uavplan.errors import ScenarioError  # noqa: E402
@@ -152,17 +153,21 @@ def test_a_copy_with_another_margin_gets_its_own_ground(slope_dem: Path, tmp_pat
     wider = replace(scn, safety_margin_m=20.0)
     g12, g20 = scn.site.ground, wider.site.ground
     assert g12 is not None and g20 is not None and g12 is not g20
-    assert np.allclose(g20.ceilings_m - g12.ceilings_m, 8.0)  # ceiling solids: margin above
+    assert g20.roof_m - g12.roof_m == pytest.approx(8.0)  # the ceiling's solid: margin above
     raised = replace(scn, bounds=Bounds(scn.bounds.x_m, scn.bounds.y_m, (14.0, 150.0)))
     g14 = raised.site.ground
     assert g14 is not None
-    assert np.allclose(g14.tops_m - g12.tops_m, 14.0 - 12.0)  # the floor, above the margin
+    assert g14.lift_m - g12.lift_m == pytest.approx(14.0 - 12.0)  # the floor, above the margin
     assert build_world(wider).margin_m == 20.0
 
 
-def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
-    """Random rough terrain: every point of the bilinear surface lies inside the world's ground
-    solids (clearance 0), and 1 m above the highest post of its quad it is outside them."""
+def test_the_exact_ground_is_the_dem_surface(tmp_path: Path) -> None:
+    """Random rough terrain: every point of the DEM's bilinear surface (scipy, not the
+    product's DEM code) is in the ground (clearance 0), and above it the world's distance to
+    the ground is the distance to that surface (brute force over it, sampled every 0.5 m):
+    never more, and less by at most the field's stated twist gap."""
+    from scipy.interpolate import RegularGridInterpolator
+
     rng = np.random.default_rng(5)
     e, n = posts()
     z = slope(e, n) + rng.uniform(-15, 15, e.shape)
@@ -176,15 +181,34 @@ def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
         )
     )
     world = build_world(scn)
-    assert scn.site.ground is not None
+    ground = scn.site.ground
+    assert ground is not None
+    frame = EnuFrame.at(scn.site.origin)
+    datum = scn.site.origin.alt_m
+    interp = RegularGridInterpolator((n[::-1, 0], e[0]), z[::-1], method="linear")
+
+    def bilinear_z(xy: np.ndarray) -> np.ndarray:
+        lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
+        ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+        return np.asarray(interp(np.column_stack([nn, ee]))) - datum
+
     xy = rng.uniform(-480, 480, (400, 2))
-    surface = scn.site.ground.z_at(xy)
+    surface = bilinear_z(xy)
     dist, owner = world.points_clearance(np.column_stack([xy, surface]))
     assert np.all(dist == 0.0) and np.all(owner == GROUND)
-    # and the solids are not a blanket far above the ground: within the DEM's local relief
-    above = np.column_stack([xy, surface + 31.0])  # posts vary by ±15 m around the plane
-    dist, _ = world.points_clearance(above)
-    assert np.all(dist > 0.0)
+    # 1.5 to 12 m above the surface: the distance to it, by brute force around the point
+    gap = ground.field.twist_gap_m + ground.field.warp_m
+    gx, gy = np.meshgrid(np.arange(-14.0, 14.01, 0.5), np.arange(-14.0, 14.01, 0.5))
+    disc = np.column_stack([gx.ravel(), gy.ravel()])
+    for p, h in zip(xy[:60], rng.uniform(1.5, 12.0, 60), strict=True):
+        point = np.array([p[0], p[1], bilinear_z(p[None, :])[0] + h])
+        around = disc + p
+        brute = np.min(np.linalg.norm(
+            np.column_stack([around, bilinear_z(around)]) - point, axis=1
+        ))  # fmt: skip
+        d, _ = world.points_clearance(point[None, :])
+        assert d[0] <= brute + 0.05  # never farther than the surface (0.5 m sampling)
+        assert d[0] >= brute - gap - 0.05
 
 
 def test_route_point_within_the_margin_of_the_terrain_is_a_clear_error(
@@ -232,10 +256,10 @@ def test_mission_over_a_hill_keeps_the_margin(
         return hill_amsl(lat, lon) - datum
 
     flown = mission_polyline_enu(plan, frame, known_ground_z)
-    # the climb from home and the landing descent touch the ground by design: check the legs
-    samples = densify(flown[2:-1], 1.0)
-    agl = samples[:, 2] - known_ground_z(samples[:, :2])
-    assert agl.min() >= 12.0 - 0.05, f"{agl.min():.2f} m above the ground"
+    # the legs as flown (terrain-frame ones over the ground), rebuilt by the tests' own code;
+    # the climb from home and the landing descent touch the ground by design
+    low, _ = independent_ground_check(out, hill_dem, frame)
+    assert low >= 12.0 - 0.05, f"{low:.2f} m above the ground"
     # the hill is in the way: the route had to climb over or go round it
     straight = np.linspace(flown[2], flown[-2], 200)
     assert np.min(straight[:, 2] - known_ground_z(straight[:, :2])) < 0.0
@@ -277,6 +301,9 @@ def test_terrain_altitude_with_px4_warns(slope_dem: Path, tmp_path: Path) -> Non
     result = CliRunner().invoke(main, ["plan", str(path), "-o", str(tmp_path / "m.plan")])
     assert result.exit_code == 0, result.output
     assert "warning: mission.altitude terrain" in result.output
+    frame = EnuFrame.at(load_scenario(path).site.origin)
+    low, _ = independent_ground_check(tmp_path / "m.plan", slope_dem, frame)
+    assert low >= 12.0 - 0.05
 
 
 def valley(e: np.ndarray, n: np.ndarray) -> np.ndarray:

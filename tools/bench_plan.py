@@ -9,6 +9,9 @@ Each scenario is planned in a fresh interpreter that times its phases:
 * ``build``: the world and the path problem;
 * ``search``: the planner (and the guide search where it runs);
 * ``post``: post-processing into waypoints (``runtime_s`` minus the search);
+* ``cpu``: the CPU time of search and post together, every thread of the process counted
+  (``time.process_time``): the planner core's cost on a shared machine, where wall time is
+  noisy;
 * ``write``: building the mission and writing the .plan (pyproj, which it needs, is imported
   on a thread during the search, as ``uavplan plan`` does: with a second core that import
   costs the write nothing, on one core it is paid inside ``search`` instead);
@@ -120,10 +123,13 @@ def run_child(args: list[str], env: dict[str, str] | None = None) -> tuple[float
 
 
 def phases(path: Path, iterations: int, reference: bool, fence: bool = False) -> dict[str, Any]:
+    # as `uavplan plan` runs (its entry point keeps numpy's OpenBLAS on one thread, whose
+    # idle helper threads would otherwise spin and count in the CPU column)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
     with tempfile.TemporaryDirectory() as tmp:
         args = [sys.executable, "-c", CHILD, str(path), str(Path(tmp) / "m.plan")]
         flags = ["1" if reference else "0", "1" if fence else "0"]
-        _, _, out = run_child([*args, str(iterations), *flags])
+        _, _, out = run_child([*args, str(iterations), *flags], env)
     return json.loads(out.strip().splitlines()[-1])
 
 

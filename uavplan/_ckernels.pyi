@@ -28,6 +28,7 @@ MEMO_BITS: int
 MEMO_PROBES: int
 STEP_MAX_THREADS: int
 HAVE_THREADS: int
+FIELD_META: int
 GOLD: float
 DIST_TOL_M: float
 FAR: float
@@ -75,7 +76,7 @@ def node_resolve(
 def reachable(j: int, y0: float, z0: float, y1: float, z1: float, reach: Reach) -> int: ...
 def clearance_table(
     cols: _A, ylim: _A, iy_lo: int, iy_hi: int, iz_lo: int, iz_hi: int, dy: float, dz: float,
-    world: KernelWorld, cap: float, tab: _A,
+    world: KernelWorld, cap: float, tab: _A, exact: float = ...,
 ) -> None: ...  # fmt: skip
 def init_population(
     n_pop: int, n_inner: int, start_u: _A, goal_u: _A, half_window: float, t_max: int,
@@ -108,6 +109,8 @@ def spsa_step(
     x: _A, f: _A, osc_fixed: _A, counts: _A, setup: StepSetup, draws: StepDraws
 ) -> None: ...
 def node_clearance(px: float, py: float, pz: float, world: KernelWorld, cap: float) -> float: ...
+def field_heights(p: _A, world: KernelWorld, kind: int, out: _A) -> None: ...
+def field_nearest(p0: _A, p1: _A, world: KernelWorld, dist: _A, kind: _A, where: _A) -> None: ...
 def astar_kernel(
     lo: _A, shape: _A, steps: _A, start: _A, goal: _A, world: KernelWorld, margin: float,
     cap: float, k0: float, k2: float, moves: _A,

@@ -70,8 +70,11 @@ class KernelWorld:
     counts, ``poly_h`` (npoly,) heights (negative: a ceiling piece from −h up), ``circ``
     (ncirc, 4) circles (x, y, r, h), ``box`` (npieces, 5) every piece's (xmin, xmax, ymin,
     ymax, zmax); bounds: half-planes ``hp`` (nhp, 3) and ``zlim`` (2,); the cell grid of
-    :func:`build_cells`: ``gmeta``, ``cell_start``, ``cell_items``, ``piece_cells``. Arrays
-    are brought to the kernels' dtypes once, here (:func:`kernel_fields`)."""
+    :func:`build_cells`: ``gmeta``, ``cell_start``, ``cell_items``, ``piece_cells``; the
+    terrain's height field (:class:`uavplan.ground.HeightField`): ``hf_xy`` (nr, nc, 2),
+    ``hf_z`` (nr, nc), ``hf_cell`` (nr − 1, nc − 1, 2), ``hf_meta`` (``FIELD_META``,): empty
+    arrays over flat ground. Arrays are brought to the kernels' dtypes once, here
+    (:func:`kernel_fields`)."""
 
     poly_xy: np.ndarray
     poly_n: np.ndarray
@@ -84,6 +87,10 @@ class KernelWorld:
     cell_start: np.ndarray
     cell_items: np.ndarray
     piece_cells: np.ndarray
+    hf_xy: np.ndarray
+    hf_z: np.ndarray
+    hf_cell: np.ndarray
+    hf_meta: np.ndarray
 
     def __post_init__(self) -> None:
         kernel_fields(self, "world")

@@ -27,8 +27,8 @@ from numpy.typing import NDArray
 from uavplan.geo import EnuFrame
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.items import MavCmd, MissionPlan
-from uavplan.route import keeps_margin
-from uavplan.world import GROUND, World
+from uavplan.route import Follow, keeps_margin
+from uavplan.world import CEILING, GROUND, World
 
 #: consecutive points closer than this horizontally are "the same place" (a climb or a
 #: descent): files round positions to about a centimetre
@@ -86,12 +86,14 @@ def flight_of_mission(
     plan: MissionPlan,
     frame: EnuFrame,
     ground_z: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    follow: Follow | None = None,
 ) -> Flight:
     """The flight the autopilot flies through ``plan`` in ``frame``, over the ground
     ``ground_z`` (ENU ``(n, 2)`` → z; None: flat at z = 0): from home on the ground, to the
-    return to launch or the landing. Raises ``ValueError`` when an item's altitude cannot be
-    placed."""
-    points = mission_polyline_enu(plan, frame, ground_z)
+    return to launch or the landing, terrain-frame legs flown over the ground as ``follow``
+    says (:meth:`uavplan.ground.Ground.follow`). Raises ``ValueError`` when an item's
+    altitude cannot be placed."""
+    points = mission_polyline_enu(plan, frame, ground_z, follow)
     return Flight.from_polyline(points, from_ground=plan.home is not None, to_ground=_lands(plan))
 
 
@@ -111,7 +113,7 @@ class FlightCheck:
 
     ``clearance_m`` ``(n - 1,)``: each segment's distance to the nearest thing it must keep
     clear of; ``worst`` the segment with the least and ``nearest`` what that is (in words:
-    ``obstacles[3]``, ``the ground at (120, -40)``, ...); ``outside`` the first point outside
+    ``obstacles[3]``, ``the terrain at (120, -40)``, ...); ``outside`` the first point outside
     the flight volume (None: none)."""
 
     flight: Flight
@@ -151,9 +153,9 @@ def flight_clearance(
     world: World, flight: Flight
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     """Per segment of ``flight``: (distance, obstacle index or :data:`~uavplan.world.GROUND`
-    or -1, nearest piece of ``world`` or -1). Airborne segments are measured against the
-    whole world, the climb and the descent against its obstacles only (over flat ground the
-    world holds nothing else)."""
+    / :data:`~uavplan.world.CEILING` or -1, nearest piece of ``world`` or -1). Airborne
+    segments are measured against the whole world, the climb and the descent against its
+    obstacles only (over flat ground the world holds nothing else)."""
     p = flight.points_enu
     if len(p) < 2:
         empty = np.empty(0, dtype=np.int64)
@@ -164,7 +166,6 @@ def flight_clearance(
     obstacles = world.without_ground()
     dist, piece = obstacles.segments_nearest(p[:-1], p[1:])
     owner = obstacles.owner_of(piece)
-    piece = np.full(len(dist), -1, dtype=np.int64)  # only the terrain's pieces are described
     first, last = flight.airborne
     if last > first:
         d_air, p_air = world.segments_nearest(p[first:last], p[first + 1 : last + 1])
@@ -181,7 +182,7 @@ def check_flight(
     """Measure ``flight`` in ``world`` (see :class:`FlightCheck`); ``name_of(i)`` names
     obstacle ``i`` of the world for the message; ``margin_m`` defaults to the world's."""
     margin = world.margin_m if margin_m is None else float(margin_m)
-    dist, owner, piece = flight_clearance(world, flight)
+    dist, owner, _ = flight_clearance(world, flight)
     p = flight.points_enu
     first, last = flight.airborne
     lifted = p.copy()  # the ground below the take-off and the landing is not "outside"
@@ -193,14 +194,23 @@ def check_flight(
     worst = int(np.argmin(dist)) if dist.size else 0
     nearest = "nothing"
     if dist.size and owner[worst] != -1:
-        nearest = _describe(world, int(owner[worst]), int(piece[worst]), name_of)
+        nearest = _describe(world, int(owner[worst]), p[worst], p[worst + 1], name_of)
     return FlightCheck(flight, dist, worst, nearest, margin, outside)
 
 
-def _describe(world: World, owner: int, piece: int, name_of: Callable[[int], str]) -> str:
-    if owner != GROUND:
+def _describe(
+    world: World,
+    owner: int,
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    name_of: Callable[[int], str],
+) -> str:
+    """What segment a→b comes nearest, in words: an obstacle's name, or the terrain and
+    where (the closest point of its surface)."""
+    if owner not in (GROUND, CEILING):
         return name_of(owner)
-    x, y = world.piece_centre(piece)
-    if world.is_ceiling(piece):
+    _, _, where = world.terrain_nearest(a, b)
+    x, y = (float(v) for v in where[0])
+    if owner == CEILING:
         return f"the ceiling (bounds.z max above the ground) over ({x:.0f}, {y:.0f})"
-    return f"the ground at ({x:.0f}, {y:.0f})"
+    return f"the terrain at ({x:.0f}, {y:.0f})"

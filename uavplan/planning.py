@@ -13,16 +13,17 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from uavplan.config import EndAction, PostParams, planner_entry
+from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
 from uavplan.flight import Flight, flight_clearance
 from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
+from uavplan.obstacles import Obstacle
 from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
 from uavplan.path.energy import energy_terms
 from uavplan.path.frame import PathFrame
@@ -392,6 +393,16 @@ def plan_route(
     end = cast(EndAction, scenario.mission.end)
     site = scenario.site
     ground = site.ground
+    follow = None
+    notes = [n for leg in legs for n in leg.notes]
+    if ground is not None and scenario.mission.altitude == "terrain":
+        follow = ground.follow
+        waypoints_enu, added = over_ground(waypoints_enu, world, follow)
+        if added:
+            notes.append(
+                f"terrain: {added} waypoint{'s' * (added > 1)} added where a terrain-frame leg, "
+                "flown over the ground, would have come closer than the margin"
+            )
     under = None if ground is None else ground.z_at(waypoints_enu)
     ends = (0.0, 0.0) if under is None else (float(under[0]), float(under[-1]))
     flown = flown_polyline(
@@ -400,15 +411,17 @@ def plan_route(
         end=end,
         ground_z_m=ends,
         takeoff=scenario.mission.takeoff,
+        follow=follow,
     )
     flight = Flight.from_polyline(
         flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
     )
-    notes = [n for leg in legs for n in leg.notes]
     if scenario.grid_coarsened:
         notes.append(grid_note(scenario))
     if ground is not None:
-        notes += _terrain_notes(ground, waypoints_enu)
+        first, last = flight.airborne
+        over = flight.points_enu[first : last + 1] if follow is not None else waypoints_enu
+        notes += _terrain_notes(ground, over, dense=follow is not None)
     route = PlannedRoute(
         frame=enu_frame(scenario),
         waypoints_enu=waypoints_enu,
@@ -461,23 +474,61 @@ def _min_clearance(world: World, flight: Flight) -> float:
 
 #: the flown legs are sampled this finely (m) for the check against the DEM's own surface
 TERRAIN_SAMPLE_M = 2.0
+#: a terrain-frame leg is split at most this many times over (each time where it comes
+#: closest) before it is left as it is (and the route's clearance says so)
+MAX_OVER_GROUND_SPLITS = 24
 
 
-def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
+def over_ground(
+    waypoints_enu: np.ndarray, world: World, follow: Callable[[np.ndarray, np.ndarray], np.ndarray]
+) -> tuple[np.ndarray, int]:
+    """Waypoints for a mission whose legs are flown over the ground (terrain-frame altitudes:
+    ArduPilot holds the height above the terrain, going linearly from one waypoint's to the
+    next, instead of the straight leg the planner checked). Each leg is flown as ``follow``
+    says and measured; where it comes closer than the margin (+ the planning pad) or leaves
+    the volume, a waypoint is added on the planned straight leg where it comes closest, and
+    the two halves are measured again, until every leg keeps the margin (split at most
+    :data:`MAX_OVER_GROUND_SPLITS` times). Returns the waypoints and how many were added."""
+    need = world.margin_m + MARGIN_PAD_M
+    w = [np.asarray(p, dtype=np.float64) for p in waypoints_enu]
+    out = [w[0]]
+    added = 0
+    pending = [(a, b, 0) for a, b in itertools.pairwise(w)][::-1]
+    while pending:
+        a, b, depth = pending.pop()
+        line = np.vstack([a[None, :], follow(a, b)])
+        free = world.segments_free(line[:-1], line[1:], need)  # the bounds too
+        if free.all() or depth >= MAX_OVER_GROUND_SPLITS:
+            out.append(b)
+            continue
+        dist, _ = world.segments_clearance(line[:-1], line[1:])
+        worst = int(np.argmin(dist)) if dist.min() < need else int(np.argmin(free))
+        run = float(np.hypot(*(b[:2] - a[:2])))
+        t = float(np.hypot(*(line[worst, :2] - a[:2]))) / run if run > 0 else 0.5
+        t = min(max(t, 0.05), 0.95)
+        mid = a + t * (b - a)
+        added += 1
+        pending.append((mid, b, depth + 1))
+        pending.append((a, mid, depth + 1))
+    return np.array(out), added
+
+
+def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray, *, dense: bool = False) -> list[str]:
     """What the user should know about the route over the terrain: its lowest height above
-    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground)."""
-    samples = densify(waypoints_enu, TERRAIN_SAMPLE_M)
+    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground).
+    ``dense``: the points are a flown line sampled finely already (legs over the ground)."""
+    samples = waypoints_enu if dense else densify(waypoints_enu, TERRAIN_SAMPLE_M)
     agl = samples[:, 2] - ground.z_at(samples)
     notes = [f"terrain: the route flies {agl.min():.1f} to {agl.max():.1f} m above the DEM surface"]
     over = agl > ground.ceiling_agl_m + 1e-6
     if np.any(over):
         worst = int(np.argmax(agl))
+        step = np.hypot(*np.diff(samples[:, :2], axis=0).T)
+        stretch = float(step[over[1:] | over[:-1]].sum())
         notes.append(
             f"terrain: the route rises to {agl[worst]:.0f} m above the ground at "
             f"({samples[worst, 0]:.0f}, {samples[worst, 1]:.0f}), above the ceiling "
-            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over "
-            f"{TERRAIN_SAMPLE_M * int(over.sum()):.0f} m: the planner's ceiling is flat at the "
-            "highest ground plus bounds.z max"
+            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over {stretch:.0f} m"
         )
     return notes
 
@@ -593,22 +644,46 @@ def export_extras(
     scenario: Scenario,
     route: PlannedRoute | None = None,
     properties: Mapping[str, Any] | None = None,
+    plan: MissionPlan | None = None,
 ) -> ExportExtras:
     """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
-    and margin, and with a just-planned ``route`` its smoothed path and flown line."""
+    and margin, and with a just-planned ``route`` its smoothed path and flown line. Over
+    terrain: altitudes AMSL, the obstacles' heights above the ground, and (with the mission
+    ``plan`` of a file) its flight as the autopilot flies it over the ground."""
     from uavplan.mission.export import ExportExtras
 
     site = scenario.site
+    ground = site.ground
+    terrain: dict[str, Any] = {}
+    if ground is not None:
+        frame = enu_frame(site)
+        datum = ground.datum_amsl_m
+
+        def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+            return np.asarray(ground.z_at(frame.to_enu_xy(lat, lon))) + datum
+
+        terrain = {
+            "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
+            "ground_amsl_m": ground_amsl,
+        }
     if route is not None:
         return ExportExtras.for_route(
-            route, site.obstacles, name=scenario.name, properties=properties
+            route, site.obstacles, name=scenario.name, properties=properties, **terrain
         )
+    flown = None
+    if ground is not None and plan is not None:  # the one reading of a mission over terrain
+        from uavplan.flight import flight_of_mission
+
+        flown = flight_of_mission(plan, enu_frame(site), ground.z_at, ground.follow).points_enu
     return ExportExtras(
         frame=enu_frame(site),
         obstacles=site.obstacles,
+        flown_enu=flown,
         name=scenario.name,
         safety_margin_m=scenario.safety_margin_m,
         properties=dict(properties or {}),
+        datum_amsl_m=site.datum_amsl_m,
+        **terrain,
     )
 
 
@@ -630,10 +705,12 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
 
 def scene_for(scenario: Scenario) -> Scene:
     """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
-    return _scene(scenario.name, scenario.site, scenario.safety_margin_m)
+    return _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
 
 
-def _scene(name: str, site: Site, margin_m: float) -> Scene:
+def _scene(name: str, site: Site, margin_m: float, written: Sequence[Obstacle]) -> Scene:
+    """``written``: the obstacles as the file gives them (over terrain, their heights above
+    the ground, which the picture's colour bar shows)."""
     from uavplan.render import Scene
 
     sx, sy, sz = (float(v) for v in site.start_m)
@@ -653,6 +730,8 @@ def _scene(name: str, site: Site, margin_m: float) -> Scene:
         goal_enu=(gx, gy, gz),
         terrain=terrain,
         via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
+        datum_amsl_m=site.datum_amsl_m,
+        heights_agl_m=None if site.ground is None else tuple(float(o.height_m) for o in written),
     )
 
 
@@ -667,4 +746,4 @@ def scene_around(around: Surroundings) -> Scene:
         site = flat_site(*args, around.obstacles, around.safety_margin_m)
     else:
         site = terrain_site(*args, around.obstacles, around.safety_margin_m, around.terrain)
-    return _scene(around.name, site, around.safety_margin_m)
+    return _scene(around.name, site, around.safety_margin_m, around.obstacles)

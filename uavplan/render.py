@@ -91,6 +91,12 @@ class Scene:
     terrain: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
     #: the route's via points ``(x, y, z)`` in order (the scenario's ``via``)
     via_enu: tuple[tuple[float, float, float], ...] = ()
+    #: over terrain: z is metres above this altitude AMSL (the site's datum); the picture
+    #: labels heights AMSL, never in the datum
+    datum_amsl_m: float | None = None
+    #: over terrain: each obstacle's height above the ground it stands on (the scenario's
+    #: own values), by obstacle index: what the colours and the colour bar show
+    heights_agl_m: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -98,6 +104,12 @@ class Scene:
     @property
     def footprints(self) -> tuple[Footprint, ...]:
         return footprints_of(self.obstacles)
+
+    def shown_height(self, fp: Footprint) -> float:
+        """The height an obstacle is coloured by: above the ground it stands on."""
+        if self.heights_agl_m is not None and 0 <= fp.index < len(self.heights_agl_m):
+            return float(self.heights_agl_m[fp.index])
+        return float(fp.height_m)
 
 
 @dataclass(frozen=True)
@@ -134,8 +146,10 @@ class RouteLayers:
 
         Raises ``ValueError`` if an item's altitude cannot be placed (AMSL without a home).
         """
-        flown = mission_polyline_enu(plan, frame) if flown_enu is None else flown_enu
-        waypoints = flown[1:] if plan.home is not None else flown
+        items = mission_polyline_enu(plan, frame)
+        flown = items if flown_enu is None else flown_enu
+        waypoints = _on_waypoints(flown, items)
+        waypoints = waypoints[1:] if plan.home is not None else waypoints
         return cls(flown_enu=flown, waypoints_enu=waypoints, fence=_fence_outlines(plan, frame))
 
     @classmethod
@@ -147,9 +161,18 @@ class RouteLayers:
             raw_path_enu=route.raw_path_enu,
             smoothed_path_enu=route.path_enu,
             flown_enu=route.flown_enu,
-            waypoints_enu=route.flown_enu[1:],
+            waypoints_enu=_on_waypoints(route.flown_enu, route.waypoints_enu)[1:],
             fence=() if fence is None else _build_outlines(fence),
         )
+
+
+def _on_waypoints(flown: NDArray[np.float64], waypoints: NDArray[np.float64]) -> Any:
+    """The points of a flown line that stand over a waypoint (a leg flown over the ground,
+    sampled densely, is marked at its ends only; a line of straight legs at every point)."""
+    if len(flown) <= len(waypoints) + 3:
+        return flown
+    d = np.min(np.linalg.norm(flown[:, None, :2] - waypoints[None, :, :2], axis=2), axis=1)
+    return flown[d < 0.01]
 
 
 def _build_outlines(fence: FenceBuild) -> tuple[FenceOutline, ...]:
@@ -243,7 +266,7 @@ def draw_scene(
 
     layers = layers or RouteLayers()
     footprints = scene.footprints
-    heights = [fp.height_m for fp in footprints] or [1.0]
+    heights = [scene.shown_height(fp) for fp in footprints] or [1.0]
     shade = _HeightShade(min(heights), max(heights))
 
     fig = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
@@ -295,7 +318,11 @@ def draw_scene(
     mappable = _draw_top(ax2d, scene, footprints, layers, shade, scale)
     # the colour bar rides on the top view (whatever its aspect leaves of the panel)
     bar = fig.colorbar(mappable, cax=ax2d.inset_axes((1.03, 0.0, 0.03, 1.0)))
-    bar.set_label("obstacle height (m)", fontsize=9 * scale)
+    over_terrain = scene.datum_amsl_m is not None
+    bar.set_label(
+        "obstacle height above the ground (m)" if over_terrain else "obstacle height (m)",
+        fontsize=9 * scale,
+    )
     bar.ax.tick_params(labelsize=8 * scale)
 
     handles = _legend_handles(scene, layers, scale)
@@ -388,7 +415,7 @@ def _draw_3d(
     for fp in footprints:
         ring = _outline(fp)
         h = min(fp.height_m, ceiling)  # drawn up to the top of the box, coloured by height
-        base = np.asarray(shade(fp.height_m)[:3])
+        base = np.asarray(shade(scene.shown_height(fp))[:3])
         nxt = np.roll(ring, -1, axis=0)
         side = nxt - ring
         # outward normals of the walls, lit from the south-west
@@ -441,8 +468,14 @@ def _draw_3d(
     fs = 8 * scale
     ax.set_xlabel("x east (m)", fontsize=fs, labelpad=2)
     ax.set_ylabel("y north (m)", fontsize=fs, labelpad=2)
-    zlabel = "z up (m)" if stretch < 1.05 else f"z up (m, ×{stretch:.1f})"
+    zlabel = "z up (m" if scene.datum_amsl_m is None else "altitude (m AMSL"
+    zlabel += ")" if stretch < 1.05 else f", ×{stretch:.1f})"
     ax.set_zlabel(zlabel, fontsize=fs, labelpad=2)
+    if scene.datum_amsl_m is not None:  # heights in the datum frame, labelled AMSL
+        from matplotlib.ticker import FuncFormatter
+
+        datum = scene.datum_amsl_m
+        ax.zaxis.set_major_formatter(FuncFormatter(lambda z, _: f"{z + datum:.0f}"))
     ax.tick_params(labelsize=7 * scale, pad=0)
 
 
@@ -462,8 +495,9 @@ def _draw_top(
     if scene.terrain is not None:
         gx, gy, gz = scene.terrain
         ax.contourf(gx, gy, gz, levels=16, cmap=_TERRAIN_CMAP, alpha=0.45, zorder=-1)
+        datum = scene.datum_amsl_m or 0.0
         lines = ax.contour(gx, gy, gz, levels=8, colors="0.45", linewidths=0.4 * scale, zorder=-1)
-        ax.clabel(lines, fontsize=6 * scale, fmt="%.0f")
+        ax.clabel(lines, fontsize=6 * scale, fmt=lambda z: f"{z + datum:.0f}")  # m AMSL
     ax.add_patch(
         Rectangle(
             (x0, y0),
@@ -481,7 +515,7 @@ def _draw_top(
         ax.add_collection(
             PolyCollection(
                 [_outline(fp) for fp in footprints],
-                facecolors=[shade(fp.height_m) for fp in footprints],
+                facecolors=[shade(scene.shown_height(fp)) for fp in footprints],
                 edgecolors="#222222",
                 linewidths=0.5 * scale,
                 zorder=2,
@@ -621,6 +655,11 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
     lw = 1.0 * scale
     handles: list[Any] = [
         Patch(fc="#9a9a9a", ec="#222222", label="obstacle"),
+        *(
+            [Line2D([], [], color="0.45", lw=0.6, label="ground contours (m AMSL)")]
+            if scene.terrain is not None
+            else []
+        ),
         Line2D(
             [],
             [],

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +26,7 @@ __all__ = [
     "ALTITUDE_TOLERANCE_M",
     "END_ACTIONS",
     "EndAction",
+    "Follow",
     "PlannedRoute",
     "densify",
     "drop_repeats",
@@ -35,6 +37,10 @@ __all__ = [
 #: an altitude difference below this is "the same altitude" (ArduPilot stores centimetres)
 ALTITUDE_TOLERANCE_M = 0.01
 
+#: how a leg into a waypoint is flown over the ground, when not straight: (a, b) → the flown
+#: points after a, b last (:meth:`uavplan.ground.Ground.follow` for terrain-frame legs)
+Follow = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+
 
 def flown_polyline(
     waypoints_enu: NDArray[np.float64],
@@ -43,6 +49,7 @@ def flown_polyline(
     end: EndAction = "rtl",
     ground_z_m: tuple[float, float] = (0.0, 0.0),
     takeoff: bool = True,
+    follow: Follow | None = None,
 ) -> NDArray[np.float64]:
     """The polyline the vehicle flies for these waypoints, ``(n, 3)`` ENU metres.
 
@@ -53,14 +60,22 @@ def flown_polyline(
     with ``end="land"`` it descends vertically at the goal to the ground there
     (``ground_z_m[1]``). The RTL leg home is the autopilot's and not part of the line.
     Without ``takeoff`` the line begins in the air at the start (a stretch of a longer
-    flight).
+    flight). With ``follow`` every leg into a waypoint is flown as it says (terrain-frame
+    waypoints: over the ground) instead of straight.
     """
     w = np.asarray(waypoints_enu, dtype=np.float64)
     sx, sy, sz = (float(v) for v in w[0])
     home_z, landing_z = float(ground_z_m[0]), float(ground_z_m[1])
     takeoff_z = sz if takeoff_altitude_m is None else home_z + float(takeoff_altitude_m)
     rows = [np.array([[sx, sy, home_z], [sx, sy, takeoff_z]])] if takeoff else []
-    rows.append(w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M or not takeoff else w[1:])
+    legs = w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M or not takeoff else w[1:]
+    if follow is None:
+        rows.append(legs)
+    else:
+        last = rows[-1][-1] if rows else None
+        for b in legs:
+            rows.append(b[None, :] if last is None else follow(last, b))
+            last = b
     if end == "land":
         gx, gy, _ = (float(v) for v in w[-1])
         rows.append(np.array([[gx, gy, landing_z]]))

@@ -88,8 +88,8 @@ typedef struct {
 /* A field of structure ``s``: its attribute ``n`` (and "s.n" for messages) */
 #define F(s, n, kind, ndim, writable) {#n, #s "." #n, kind, ndim, writable}
 
-/* uavplan._geom.KernelWorld. A kernel reads the first 5 (pieces), 7 (and the bounds) or all
- * 11 (and the cell grid). */
+/* uavplan._geom.KernelWorld. A kernel reads the first 5 (pieces), 7 (and the bounds) or 11
+ * (and the cell grid), and always the last 4 (the height field). */
 static const Field WORLD_FIELDS[WORLD_BUFS] = {
     F(world, poly_xy, T_F64, 3, 0),
     F(world, poly_n, T_I64, 1, 0),
@@ -102,7 +102,12 @@ static const Field WORLD_FIELDS[WORLD_BUFS] = {
     F(world, cell_start, T_I64, 1, 0),
     F(world, cell_items, T_I64, 1, 0),
     F(world, piece_cells, T_I64, 2, 0),
+    F(world, hf_xy, T_F64, 3, 0),
+    F(world, hf_z, T_F64, 2, 0),
+    F(world, hf_cell, T_F64, 3, 0),
+    F(world, hf_meta, T_F64, 1, 0),
 };
+#define WORLD_FIELD0 11 /* the height field's first field */
 
 /* uavplan.planners._kernels.Reach */
 enum { R_WORLD, R_COLS, R_MEMO, R_TABLE, R_TABLE_OFF, R_STEPS, R_START, R_GOAL, R_MARGIN,
@@ -208,12 +213,12 @@ void values_release(Value *v, int n) {
     }
 }
 
-/* Reads the first ``n`` fields of structure ``s`` from ``o`` into ``v`` (zeroed first):
- * arrays acquired, numbers converted, objects as new references. On an error nothing is
- * held. */
-static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
-    memset(v, 0, sizeof(Value) * (size_t)n);
-    for (int i = 0; i < n; i++) {
+/* Reads fields ``lo`` .. ``n`` - 1 of structure ``s`` from ``o`` into ``v`` (zeroed first):
+ * arrays acquired, numbers converted, objects as new references. On an error nothing of
+ * them is held. */
+static int values_range(PyObject *o, const Structure *s, int lo, int n, Value *v) {
+    memset(v + lo, 0, sizeof(Value) * (size_t)(n - lo));
+    for (int i = lo; i < n; i++) {
         const Field *f = &s->fields[i];
         PyObject *a = PyObject_GetAttr(o, s->names[i]);
         if (a == NULL) {
@@ -221,7 +226,7 @@ static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
                 PyErr_Format(PyExc_TypeError, "%s: expected a %s (no field '%s' in a %.80s)",
                              s->what, s->python, f->name, Py_TYPE(o)->tp_name);
             }
-            values_release(v, i);
+            values_release(v + lo, i - lo);
             return -1;
         }
         int bad = 0;
@@ -243,11 +248,16 @@ static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
         }
         Py_XDECREF(a);
         if (bad) {
-            values_release(v, i + 1);
+            values_release(v + lo, i + 1 - lo);
             return -1;
         }
     }
     return 0;
+}
+
+/* The first ``n`` fields (see values_range). */
+static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
+    return values_range(o, s, 0, n, v);
 }
 
 /* ------------------------------------------------------------------------------------------
@@ -256,12 +266,54 @@ static int values_get(PyObject *o, const Structure *s, int n, Value *v) {
 
 void world_release(WorldBufs *wb) { values_release(wb->v, WORLD_BUFS); }
 
+/* The height field of a world whose field arrays are held (an empty field: none). */
+static int field_get(WorldBufs *wb) {
+    const Buf *bxy = &wb->v[WORLD_FIELD0].buf, *bz = &wb->v[WORLD_FIELD0 + 1].buf,
+              *bc = &wb->v[WORLD_FIELD0 + 2].buf, *bm = &wb->v[WORLD_FIELD0 + 3].buf;
+    HField *f = &wb->w.f;
+    memset(f, 0, sizeof(*f));
+    Py_ssize_t nr = dim(bz, 0), nc = dim(bz, 1);
+    if (need(dim(bxy, 0) == nr && dim(bxy, 1) == nc && dim(bxy, 2) == 2 &&
+                 dim(bm, 0) == FIELD_META &&
+                 (nr < 2 || nc < 2 ||
+                  (dim(bc, 0) == nr - 1 && dim(bc, 1) == nc - 1 && dim(bc, 2) == 3)),
+             "world: inconsistent height field arrays") < 0) {
+        world_release(wb);
+        return -1;
+    }
+    if (nr < 2 || nc < 2) return 0;
+    const double *m = F64(*bm);
+    f->xy = F64(*bxy);
+    f->z = F64(*bz);
+    f->cell = F64(*bc);
+    f->nr = nr;
+    f->nc = nc;
+    f->ox = m[0];
+    f->oy = m[1];
+    f->c = m[2];
+    f->s = m[3];
+    memcpy(f->aff, m + 4, sizeof(f->aff));
+    f->slack = m[10];
+    f->per_m = m[11];
+    f->lift = m[12];
+    f->roof = m[13];
+    f->zmax = m[14];
+    f->zmin = m[15];
+    f->present = 1;
+    return 0;
+}
+
 /* Reads a world: ``n_min`` = 5 (pieces only), 7 (and bounds) or 11 (and the grid) of its
- * fields. */
+ * fields, and its height field. */
 int world_get(PyObject *o, WorldBufs *wb, int n_min) {
     memset(wb, 0, sizeof(*wb));
     int n = n_min;
     if (values_get(o, &WORLD, n, wb->v) < 0) return -1;
+    if (values_range(o, &WORLD, WORLD_FIELD0, WORLD_BUFS, wb->v) < 0) {
+        world_release(wb);
+        return -1;
+    }
+    if (field_get(wb) < 0) return -1;
     Value *v = wb->v;
 #define B(i) (&v[i].buf)
     World *w = &wb->w;

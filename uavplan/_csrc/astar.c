@@ -22,6 +22,7 @@ static double node_clearance(double px, double py, double pz, const World *w, do
         double d = point_piece_dist(px, py, pz, k, w);
         if (d < best) best = d;
     }
+    if (w->f.present) best = field_point_dist(&w->f, px, py, pz, best); /* the terrain */
     return best;
 }
 

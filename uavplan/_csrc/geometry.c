@@ -138,6 +138,7 @@ static int segment_free_h(double ax, double ay, double az, double bx, double by,
     if (!(inside_bounds(ax, ay, az, w) && inside_bounds(bx, by, bz, w))) return 0;
     double thr = margin - 1e-9;
     if (thr < 1e-9) thr = 1e-9;
+    if (w->f.present && !field_segment_free(&w->f, ax, ay, az, bx, by, bz, thr)) return 0;
     Py_ssize_t npieces = w->npieces;
     double gx0 = w->gmeta[0];
     double gy0 = w->gmeta[1];
@@ -568,7 +569,8 @@ done:
     return ret;
 }
 
-/* points_clearance(p, W, dist, which): dist pre-filled with inf, which with -1 */
+/* points_clearance(p, W, dist, which): dist pre-filled with inf, which with -1; the
+ * terrain's solids are pieces npieces (the ground) and npieces + 1 (the ceiling) */
 PyObject *py_points_clearance(PyObject *self, PyObject *args) {
     PyObject *op, *wt, *od, *ow;
     Buf bp = {0}, bd = {0}, bw = {0};
@@ -595,6 +597,15 @@ PyObject *py_points_clearance(PyObject *self, PyObject *args) {
             if (d < dist[i]) {
                 dist[i] = d;
                 which[i] = k;
+            }
+        }
+        if (w->f.present) { /* the terrain: piece npieces (the ground) or npieces + 1 */
+            int kind = -1;
+            double d = field_segment_dist(&w->f, q[0], q[1], q[2], q[0], q[1], q[2], dist[i],
+                                          &kind, NULL);
+            if (kind >= 0 && d < dist[i]) {
+                dist[i] = d;
+                which[i] = w->npieces + kind;
             }
         }
     }
@@ -638,6 +649,14 @@ PyObject *py_segments_clearance(PyObject *self, PyObject *args) {
             if (d < dist[i]) {
                 dist[i] = d;
                 which[i] = k;
+            }
+        }
+        if (w->f.present) { /* the terrain: piece npieces (the ground) or npieces + 1 */
+            int kind = -1;
+            double d = field_segment_dist(&w->f, ax, ay, az, bx, by, bz, dist[i], &kind, NULL);
+            if (kind >= 0 && d < dist[i]) {
+                dist[i] = d;
+                which[i] = w->npieces + kind;
             }
         }
     }

@@ -16,6 +16,8 @@
  *   spsa_step.c  one fused SPSA / SSA iteration and its helper threads
  *                (uavplan/planners/sparrow.py)
  *   astar.c      the grid A* (uavplan/planners/astar.py)
+ *   heightfield.c  the terrain as a height field: exact distances to the ground and the
+ *                ceiling over it (uavplan/ground.py builds it, the world carries it)
  *   module.c     the method table, and the constants Python reads from the module
  *
  * A line-by-line port of the former numba kernels: same loops, same floating-point
@@ -150,6 +152,47 @@ int args_init(void);
 PyObject *args_fields(void);
 
 /* ------------------------------------------------------------------------------------------
+ * The terrain as a height field (heightfield.c; uavplan.ground.HeightField's arrays, read by
+ * args.c as part of the world)
+ */
+
+typedef struct {
+    const double *xy;   /* (nr, nc, 2) the lattice points' (x, y) in the field's frame */
+    const double *z;    /* (nr, nc) their ground z */
+    const double *cell; /* (nr - 1, nc - 1, 3) each cell's highest and lowest corner z and
+                         * its steepest triangle (either diagonal) */
+    int64_t nr, nc;
+    double ox, oy, c, s; /* world frame -> field frame: X = ox + c x - s y, Y = oy + s x + c y */
+    double aff[6];       /* field frame -> lattice: col = aff0 + aff1 X + aff2 Y, row = aff3 + ... */
+    double slack;        /* lattice units: how far a lattice point lies from where aff puts it */
+    double per_m;        /* lattice units per metre, at most (the largest singular value of aff) */
+    double lift;         /* the ground's solid: below the upper surface + lift */
+    double roof;         /* the ceiling's solid: above the lower surface + roof (INFINITY: none) */
+    double zmax, zmin;   /* the highest and the lowest lattice point */
+    int present;         /* a field of at least 2 x 2 points */
+} HField;
+
+/* the field's metadata vector (uavplan.ground.FIELD_META): its length */
+#define FIELD_META 16
+
+int field_segment_free(const HField *f, double ax, double ay, double az, double bx, double by,
+                       double bz, double thr);
+double field_segment_dist(const HField *f, double ax, double ay, double az, double bx, double by,
+                          double bz, double cap, int *kind_out, double *where);
+double field_point_dist(const HField *f, double x, double y, double z, double cap);
+/* blocks of cells (field_column's bounds over wide neighbourhoods) */
+#define FIELD_BLOCK 8
+typedef struct {
+    int64_t nbr, nbc;
+    double *top;   /* (nbr, nbc, 2): the highest corner of the ground's, the ceiling's surface */
+    double *slope; /* (nbr, nbc): the steepest triangle */
+} FieldBlocks;
+int field_blocks_init(const HField *f, FieldBlocks *fb);
+void field_blocks_free(FieldBlocks *fb);
+void field_column(const HField *f, const FieldBlocks *fb, double x, double y, double z0,
+                  double dz, int64_t n, double *out, double exact);
+
+/* ------------------------------------------------------------------------------------------
  * The world (uavplan._geom.KernelWorld; read by args.c)
  */
 
@@ -169,9 +212,12 @@ typedef struct {
     const int64_t *cell_items;   /* (m,) */
     const int64_t *piece_cells;  /* (npieces, 4) */
     int grid;                    /* cell arrays present */
+    HField f;                    /* the terrain (f.present == 0: none) */
 } World;
 
-#define WORLD_BUFS 11
+/* the world's fields: 5 pieces, 2 bounds, 4 cell grid, then the 4 of the height field, which
+ * world_get always reads */
+#define WORLD_BUFS 15
 
 typedef struct {
     World w;
@@ -476,6 +522,8 @@ PyObject *py_cells_fill(PyObject *self, PyObject *args);
 PyObject *py_clearance_table(PyObject *self, PyObject *args);
 PyObject *py_energy_bounds(PyObject *self, PyObject *args);
 PyObject *py_farthest_visible(PyObject *self, PyObject *args);
+PyObject *py_field_heights(PyObject *self, PyObject *args);
+PyObject *py_field_nearest(PyObject *self, PyObject *args);
 PyObject *py_init_population(PyObject *self, PyObject *args);
 PyObject *py_largest_free_fraction(PyObject *self, PyObject *args);
 PyObject *py_moving_average_repair(PyObject *self, PyObject *args);

@@ -39,6 +39,8 @@ static PyMethodDef methods[] = {
     {"sign_draws", py_sign_draws, METH_VARARGS, NULL},
     {"node_clearance", py_node_clearance, METH_VARARGS, NULL},
     {"astar_kernel", py_astar_kernel, METH_VARARGS, NULL},
+    {"field_heights", py_field_heights, METH_VARARGS, NULL},
+    {"field_nearest", py_field_nearest, METH_VARARGS, NULL},
     {NULL, NULL, 0, NULL},
 };
 
@@ -63,7 +65,7 @@ static int add_constants(PyObject *m) {
         {"DRAW_UNIFORM", DRAW_UNIFORM},     {"DRAW_SYMMETRIC", DRAW_SYMMETRIC},
         {"DRAW_NORMAL", DRAW_NORMAL},       {"MEMO_BITS", MEMO_BITS},
         {"MEMO_PROBES", MEMO_PROBES},       {"STEP_MAX_THREADS", STEP_MAX_THREADS},
-        {"HAVE_THREADS", HAVE_THREADS},
+        {"HAVE_THREADS", HAVE_THREADS},     {"FIELD_META", FIELD_META},
     };
     static const struct {
         const char *name;

@@ -163,16 +163,19 @@ PyObject *py_reachable(PyObject *self, PyObject *args) {
     return PyLong_FromLong(code);
 }
 
-/* clearance_table(cols, ylim, iy_lo, iy_hi, iz_lo, iz_hi, dy, dz, world, tab) with tab
- * pre-filled with cap; cap = tab's fill value is passed too */
+/* clearance_table(cols, ylim, iy_lo, iy_hi, iz_lo, iz_hi, dy, dz, world, cap, tab, exact)
+ * with tab pre-filled with cap; cap = tab's fill value is passed too. Distances below
+ * ``exact`` are exact; above it the terrain's may be lower bounds (never above the distance;
+ * the reachability rule's cheap answers stay right: a node is refused exactly when its
+ * distance is below a margin under ``exact``, and d0 + d1 - length bounds a segment). */
 PyObject *py_clearance_table(PyObject *self, PyObject *args) {
     PyObject *oc, *ol, *wt, *ot;
     long long iy_lo, iy_hi, iz_lo, iz_hi;
-    double dy, dz, cap;
+    double dy, dz, cap, exact = INFINITY;
     Buf bc = {0}, bl = {0}, bt = {0};
     WorldBufs wb;
-    if (!PyArg_ParseTuple(args, "OOLLLLddOdO", &oc, &ol, &iy_lo, &iy_hi, &iz_lo, &iz_hi, &dy,
-                          &dz, &wt, &cap, &ot))
+    if (!PyArg_ParseTuple(args, "OOLLLLddOdO|d", &oc, &ol, &iy_lo, &iy_hi, &iz_lo, &iz_hi, &dy,
+                          &dz, &wt, &cap, &ot, &exact))
         return NULL;
     if (world_get(wt, &wb, 7) < 0) return NULL;
     PyObject *ret = NULL;
@@ -257,6 +260,20 @@ PyObject *py_clearance_table(PyObject *self, PyObject *args) {
                 }
             }
         }
+    }
+    if (w->f.present) { /* the terrain's solids, one column of nodes at a time */
+        FieldBlocks fb;
+        if (field_blocks_init(&w->f, &fb) < 0) goto done;
+        for (int64_t j = 0; j < n_cols + 1; j++) {
+            for (int64_t a = 0; a < ny; a++) {
+                double yu = (double)(a + iy_lo);
+                double px = cols[4 * j + 0] + yu * dy * cols[4 * j + 2];
+                double py = cols[4 * j + 1] + yu * dy * cols[4 * j + 3];
+                field_column(&w->f, &fb, px, py, (double)iz_lo * dz, dz, nz,
+                             tab + (j * ny + a) * nz, exact);
+            }
+        }
+        field_blocks_free(&fb);
     }
     double eps = 1e-9;
     for (int64_t j = 0; j < n_cols + 1; j++) {

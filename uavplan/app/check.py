@@ -152,15 +152,17 @@ def _check_against_fence(file: str, base: Surroundings | None = None) -> FenceCh
 
 def mission_flight(plan: MissionPlan, scenario: Scenario, *, file: str | None = None) -> Flight:
     """The flight of ``plan`` where ``scenario`` is planned (its site's frame; over a DEM on
-    the ground: home on the ground there, each item's altitude in its frame)."""
+    the ground: home on the ground there, each item's altitude in its frame, terrain-frame
+    legs flown over the ground as ArduPilot flies them)."""
     # numpy, pyproj and the world's kernels: not for `validate` of a scenario (test_startup)
     from uavplan.flight import flight_of_mission
     from uavplan.planning import enu_frame
 
     site = scenario.site
     ground_z = None if site.ground is None else site.ground.z_at
+    follow = None if site.ground is None else site.ground.follow
     try:
-        return flight_of_mission(plan, enu_frame(site), ground_z)
+        return flight_of_mission(plan, enu_frame(site), ground_z, follow)
     except ValueError as err:
         raise InputError(str(err), file=file) from None
 

@@ -15,7 +15,8 @@ from uavplan.mission.items import Autopilot, GeoFence, MissionPlan
 @dataclass(frozen=True)
 class ConvertRequest:
     """Mission file ``source`` (.plan, .waypoints) → ``output`` (.plan, .waypoints,
-    .geojson, .kml); ``scenario`` adds its obstacles to a map export; ``autopilot`` reads
+    .geojson, .kml); ``scenario`` adds its obstacles to a map export and, over terrain,
+    places the route as the autopilot flies it there (altitudes AMSL); ``autopilot`` reads
     the source as that autopilot's mission."""
 
     source: str
@@ -64,8 +65,22 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
         from uavplan.planning import export_extras
         from uavplan.scenario import load_scenario
 
-        extras = export_extras(load_scenario(request.scenario))
+        try:
+            extras = export_extras(load_scenario(request.scenario), plan=plan)
+        except ValueError as err:  # an item's altitude cannot be placed
+            raise InputError(str(err), file=request.source) from None
+    elif out_format.dumps_extras is not None and _terrain_frame_items(plan):
+        notes.append(
+            "terrain-frame altitudes are heights above the terrain: without --scenario (and "
+            "its DEM) the export places them above home as if the ground were flat"
+        )
     with outputs:
         output.write_text(mission_text(plan, request.output, extras=extras))
         outputs.commit()
     return ConvertOutcome(plan, request.output, out_format.name, request.source, tuple(notes))
+
+
+def _terrain_frame_items(plan: MissionPlan) -> bool:
+    from uavplan.mission.items import MavFrame, canonical_frame
+
+    return any(canonical_frame(i.frame) == MavFrame.GLOBAL_TERRAIN_ALT for i in plan.items)

@@ -11,12 +11,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from uavplan.airspace import OUTSIDE_INCLUSION, Airspace
 from uavplan.app.feedback import Feedback, PlannerOptions, plural
 from uavplan.app.outputs import OutputSet
 from uavplan.config import PlannerConfig
 from uavplan.errors import InputError
 from uavplan.mission.io import load_mission, mission_text
-from uavplan.reroute import OUTSIDE_INCLUSION, Airspace, RerouteResult, reroute_plan
+from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import load_surroundings
 
 if TYPE_CHECKING:

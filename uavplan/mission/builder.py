@@ -31,7 +31,7 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
-from uavplan.route import ALTITUDE_TOLERANCE_M, END_ACTIONS, EndAction, drop_repeats
+from uavplan.route import ALTITUDE_TOLERANCE_M, END_ACTIONS, EndAction, Follow, drop_repeats
 
 __all__ = [
     "ALTITUDE_TOLERANCE_M",
@@ -231,6 +231,7 @@ def mission_polyline_enu(
     plan: MissionPlan,
     frame: EnuFrame,
     ground_z: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    follow: Follow | None = None,
 ) -> NDArray[np.float64]:
     """The path the vehicle flies through ``plan``'s items, as ENU points ``(n, 3)``.
 
@@ -247,6 +248,8 @@ def mission_polyline_enu(
     there, relative altitudes are above home, AMSL ones are placed through home's AMSL
     altitude, terrain ones are above the ground beneath the item, and a landing descends to
     the ground. NAV_LAND at lat/lon 0 lands where the vehicle is, as the autopilots read it.
+    With ``follow`` as well, a leg into a terrain-frame item is flown as ArduPilot flies it,
+    over the ground (``follow(a, b)``: the flown points after a, b last); without it, straight.
     """
     home_alt_m = plan.home.alt_m if plan.home is not None else None
     flown: list[MissionItem] = []
@@ -290,6 +293,17 @@ def mission_polyline_enu(
             z = _on_terrain(item, home_alt_m, home_z, ground_at(float(x), float(y)))
         if item.command == MavCmd.NAV_LAND and points:
             points.append((float(x), float(y), points[-1][2]))
+        over_ground = (
+            follow is not None
+            and ground_z is not None
+            and points
+            and item.command not in (MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND)
+            and canonical_frame(item.frame) == MavFrame.GLOBAL_TERRAIN_ALT
+        )
+        if over_ground:
+            assert follow is not None
+            leg = follow(np.array(points[-1]), np.array([float(x), float(y), z]))
+            points.extend((float(p[0]), float(p[1]), float(p[2])) for p in leg[:-1])
         points.append((float(x), float(y), z))
     return drop_repeats(np.array(points, dtype=np.float64).reshape(-1, 3))
 

@@ -124,17 +124,21 @@ def clearance_table(
     dz: float,
     world: KernelWorld,
     cap: float,
+    exact_m: float | None = None,
 ) -> np.ndarray:
     """Distance from every grid node (column, y, z) to the nearest piece, capped at ``cap``;
     −1 for nodes outside the bounds or outside their column's lateral window ``ylim[j]``
     (grid units; where columns of a curved guide would fold over each other). Shape
     (D + 1, iy_hi − iy_lo + 1, iz_hi − iz_lo + 1). A piece only visits the nodes of the
-    columns whose lateral line passes within ``cap`` of its bounding box."""
+    columns whose lateral line passes within ``cap`` of its bounding box. With ``exact_m``,
+    the terrain's distances at or above it may be lower bounds (never above the distance):
+    exact where the reachability rule's node test needs them, cheap elsewhere."""
     cols = _f64(cols)
     tab = np.full((cols.shape[0], iy_hi - iy_lo + 1, iz_hi - iz_lo + 1), float(cap))
+    exact = math.inf if exact_m is None else float(exact_m)
     _c.clearance_table(
         cols, _f64(ylim), int(iy_lo), int(iy_hi), int(iz_lo), int(iz_hi), float(dy), float(dz),
-        world, float(cap), tab,
+        world, float(cap), tab, exact,
     )  # fmt: skip
     return tab
 

@@ -29,6 +29,9 @@ from uavplan.world import World
 
 #: starts per individual before the initialisation gives up on it
 INIT_MAX_ATTEMPTS = 25
+#: the clearance table is exact below the margin + this (m); the terrain's clearances above
+#: it may be lower bounds (see ``K.clearance_table``)
+TABLE_EXACT_PAD_M = 1.0
 
 ProgressFn = Callable[[int, int, float], None]  # (iteration, iterations, best fitness)
 
@@ -315,6 +318,7 @@ def _clearance_table(
         g.dz_m,
         world.kernel_args,
         cap,
+        world.margin_m + TABLE_EXACT_PAD_M,
     )
     window = np.empty((frame.n_cols + 1, 4))
     window[:, :2] = ylim

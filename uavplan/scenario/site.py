@@ -5,10 +5,10 @@ above z = 0). Over flat ground the site is the scenario's own values. Over a DEM
 the same scenario moved onto the terrain: every z becomes metres above a datum just below the
 lowest ground (:func:`uavplan.ground.datum_below`, the site's origin altitude), obstacles
 stand on the ground at their centre and reach down into it, the flight volume spans from the
-datum to the highest ground plus the ceiling, and the ground's solids are built for the
-scenario's margin (:func:`uavplan.ground.build_ground`). The scenario itself keeps the file's
-values and the DEM; a site is derived from them whenever it is needed
-(:attr:`uavplan.scenario.Scenario.site`), so it can never be stale.
+datum to the highest ground plus the ceiling, and the ground (the DEM as an exact height
+field) is built for the scenario's margin (:func:`uavplan.ground.build_ground`). The scenario
+itself keeps the file's values and the DEM; a site is derived from them whenever it is
+needed (:attr:`uavplan.scenario.Scenario.site`), so it can never be stale.
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def terrain_site(
     datum = datum_below(terrain)
     site_origin = GeoPoint(origin.lat_deg, origin.lon_deg, datum)
     on_datum = terrain.in_frame(EnuFrame.at(site_origin))
-    ground = build_ground(terrain, on_datum, datum_amsl_m=datum, bounds=bounds, margin_m=margin_m)
+    ground = build_ground(on_datum, datum_amsl_m=datum, bounds=bounds, margin_m=margin_m)
     points = np.array([start_m, *via_m, goal_m], dtype=np.float64)
     under = ground.z_at(points[:, :2])
     centres = np.array([_centre(o) for o in obstacles], dtype=np.float64).reshape(-1, 2)
@@ -103,11 +103,9 @@ def terrain_site(
         replace(o, height_m=float(g + o.height_m))
         for o, g in zip(obstacles, obstacle_ground, strict=True)
     )
-    lift = max(0.0, bounds.z_m[0] - margin_m)
-    top = float(np.max(ground.tops_m)) - lift + bounds.z_m[1]
     return Site(
         origin=site_origin,
-        bounds=Bounds(bounds.x_m, bounds.y_m, (0.0, top)),
+        bounds=Bounds(bounds.x_m, bounds.y_m, (0.0, ground.top_m)),
         start_m=_xyz(moved[0]),
         goal_m=_xyz(moved[-1]),
         via_m=tuple(_xyz(p) for p in moved[1:-1]),

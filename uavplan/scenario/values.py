@@ -35,9 +35,9 @@ from uavplan.config import (
 )
 from uavplan.errors import InputError
 from uavplan.geo import GeoPoint
-from uavplan.obstacles import Bounds, Obstacle, PrismObstacle
+from uavplan.obstacles import Bounds, Obstacle
 from uavplan.scenario.checker import Checker
-from uavplan.scenario.clearance import column_clearance, footprints, point_clearance
+from uavplan.scenario.clearance import column_clearance, point_clearance
 from uavplan.scenario.limits import (
     MAX_ALTITUDE_M,
     MAX_GRID_CELLS,
@@ -202,6 +202,25 @@ class Surroundings:
     def obstacle_name(self, index: int) -> str:
         """How messages name obstacle ``index`` (as :meth:`Scenario.obstacle_name`)."""
         return self.obstacle_sources.name(index)
+
+    @cached_property
+    def site(self) -> Site:
+        """Where a route through these surroundings is flown (:attr:`Scenario.site`): the
+        origin (over terrain the datum), the bounds, the obstacles standing on the ground and
+        the ground itself. Without a route of their own, the file's start and goal (or the
+        middle of the volume) hold the site's route points, which a user of the site (the
+        rerouting of a plan) replaces by its own."""
+        b = self.bounds
+        middle = ((b.x_m[0] + b.x_m[1]) / 2, (b.y_m[0] + b.y_m[1]) / 2, (b.z_m[0] + b.z_m[1]) / 2)
+        start = self.start_m if self.start_m is not None else middle
+        goal = self.goal_m if self.goal_m is not None else middle
+        args = (self.origin, b, start, goal, self.via_m, self.obstacles)
+        if self.terrain is None:
+            return flat_site(*args, self.safety_margin_m)
+        return terrain_site(*args, self.safety_margin_m, self.terrain)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "site"}
 
 
 def load_surroundings(path: str | Path) -> Surroundings:
@@ -441,46 +460,35 @@ def _check_geometry(chk: Checker, site: Site, scn: Scenario) -> None:
 
 def _check_above_terrain(chk: Checker, scn: Scenario) -> None:
     """The site over the DEM can be built (the DEM covers the bounds and the points), and
-    every route point keeps the margin from the terrain's solids (the DEM cells up to their
-    highest post) and from the ceiling above the ground: a clear error naming the point."""
+    every route point keeps the margin from the terrain (the exact distance to the DEM's
+    surface, see :mod:`uavplan.ground`) and from the ceiling above the ground: a clear error
+    naming the point and where the terrain comes closest."""
     try:
         site = scn.site
     except InputError as err:  # the DEM's own error (TerrainError)
         raise chk.fail("terrain", err.reason) from None
-    import numpy as np
-
     g = site.ground
     assert g is not None
     margin = scn.safety_margin_m
-    lo = g.prisms_xy.min(axis=1)
-    hi = g.prisms_xy.max(axis=1)
-    for (key, point), z_ground in zip(_route_points(site), site.ground_under_m, strict=True):
-        near = (
-            (lo[:, 0] <= point[0] + margin)
-            & (hi[:, 0] >= point[0] - margin)
-            & (lo[:, 1] <= point[1] + margin)
-            & (hi[:, 1] >= point[1] - margin)
-        )
-        solids = tuple(
-            PrismObstacle(tuple((float(x), float(y)) for x, y in xy), float(h))
-            for xy, h in zip(g.prisms_xy[near], g.tops_m[near], strict=True)
-        )
-        clearance, _ = point_clearance(solids, point)
+    points = [point for _, point in _route_points(site)]
+    dist, kind, where = g.clearance(points)
+    for (key, point), z_ground, d, k, xy in zip(
+        _route_points(site), site.ground_under_m, dist, kind, where, strict=True
+    ):
         agl = point[2] - float(z_ground)
-        if clearance < margin - 1e-9:
+        if d >= margin - 1e-9:
+            continue
+        at = f"({xy[0]:.0f}, {xy[1]:.0f})"
+        if k == 0:
             raise chk.fail(
                 key,
-                f"{agl:.1f} m above the ground there is {max(clearance, 0.0):.1f} m from the "
-                f"terrain (needs {margin:g} m safety margin; the terrain is held as DEM cells up "
-                "to their highest post): fly higher or move the point",
+                f"{agl:.1f} m above the ground there is {max(float(d), 0.0):.1f} m from the "
+                f"terrain at {at} (needs {margin:g} m safety margin): fly higher or move the "
+                "point",
             )
-        if g.ceilings_m is not None and solids:
-            horizontal = footprints(solids).horizontal(point[:2])
-            below = np.maximum(np.asarray(g.ceilings_m)[near] - point[2], 0.0)
-            if float(np.min(np.hypot(horizontal, below))) < margin - 1e-9:
-                raise chk.fail(
-                    key,
-                    f"{agl:.1f} m above the ground there is too close to the ceiling "
-                    f"(bounds.z max {g.ceiling_agl_m:g} m above the lowest ground nearby, less "
-                    f"the {margin:g} m safety margin): fly lower or raise bounds.z",
-                )
+        raise chk.fail(
+            key,
+            f"{agl:.1f} m above the ground there is too close to the ceiling over {at} "
+            f"(bounds.z max {g.ceiling_agl_m:g} m above the ground, kept with the {margin:g} m "
+            "safety margin): fly lower or raise bounds.z",
+        )
