@@ -59,7 +59,14 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
     "scenario": ("scenario/*.py",),
-    "wiring": ("planning.py", "flight.py", "bench/*.py", "render.py", "reroute.py"),
+    "wiring": (
+        "planning.py",
+        "flight.py",
+        "bench/*.py",
+        "render.py",
+        "reroute.py",
+        "rehearsal.py",
+    ),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),
 }

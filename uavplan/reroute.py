@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.errors import InputError, NoPathError
-from uavplan.flight import check_flight, flight_of_mission
+from uavplan.flight import FlightPrediction, check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.geometry2d import orient_ccw, polygon_problem
 from uavplan.limits import MAX_FENCE_POLYGON_VERTICES, MAX_FENCE_ZONES, MAX_HORIZONTAL_M
@@ -145,6 +145,8 @@ class RerouteResult:
     notes: tuple[str, ...] = ()
     obstacle_names: tuple[str, ...] = field(default_factory=tuple)
     interrupted: bool = False
+    #: the flight the model predicts for the plan (uavplan.rehearsal), if rehearsed
+    flight: FlightPrediction | None = None
 
     @property
     def routes(self) -> tuple[RouteResult, ...]:
@@ -182,6 +184,14 @@ class RerouteResult:
             "end": self.end,
             "notes": list(self.notes),
             "runs": [r.report(scn) for scn, r in self.runs],
+            **(
+                {}
+                if self.flight is None
+                else {
+                    "flight_time_s": round(self.flight.flight_time_s, 1),
+                    "flight": self.flight.summary(),
+                }
+            ),
         }
 
 
@@ -535,11 +545,14 @@ def reroute_plan(
     file: str | None = None,
     progress: ProgressFn | None = None,
     should_stop: Callable[[], bool] | None = None,
+    margin_pad_m: float = 0.0,
 ) -> RerouteResult:
     """``plan`` with planned NAV_WAYPOINTs inserted between the user's positions so that the
     flown line keeps the safety margin from the fence's exclusion zones (and from ``base``'s
     obstacles, whose planner and mission settings are used; ``planner`` overrides the
-    planner settings). ``file`` labels messages.
+    planner settings). ``file`` labels messages. ``margin_pad_m``: the legs are planned (and
+    judged straight) with the margin this much wider, so that the track an autopilot flies
+    through them keeps it (:func:`uavplan.rehearsal.reroute_safe_as_flown`).
 
     Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
     :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
@@ -573,6 +586,12 @@ def reroute_plan(
         )
     _check_points(route, airspace, world, margin_m, file)
     _check_segments(_straight_segments(route, home_xy), airspace, world, margin_m, file)
+    plan_margin_m = margin_m + max(0.0, margin_pad_m)
+    plan_world = world
+    if plan_margin_m != margin_m:
+        plan_world = World.build(
+            airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=plan_margin_m
+        )
 
     # one planning run (one world, one seed stream) per chain of consecutive legs that need
     # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
@@ -582,7 +601,7 @@ def reroute_plan(
     for k in range(1, len(points)):
         a, b_ = points[k - 1], points[k]
         if math.hypot(b_[0] - a[0], b_[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
-            world, a, b_, margin_m
+            plan_world, a, b_, plan_margin_m
         ):
             straight += 1
             chains.append([k])
@@ -604,11 +623,11 @@ def reroute_plan(
             goal_m=points[chain[-1]],
             via_m=tuple(points[k] for k in chain[1:-1]),
             obstacles=airspace.obstacles,
-            safety_margin_m=margin_m,
+            safety_margin_m=plan_margin_m,
             source=file,
             **settings,
         )
-        result = plan_route(scn, progress=progress, world=world, should_stop=should_stop)
+        result = plan_route(scn, progress=progress, world=plan_world, should_stop=should_stop)
         if result.interrupted:
             return RerouteResult(
                 plan, name, margin_m, route.end, tuple(runs), 0, math.nan,

@@ -20,6 +20,7 @@ from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, save_mission
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
+from uavplan.rehearsal import plan_safe_as_flown
 from uavplan.scenario import Scenario, load_scenario
 
 if TYPE_CHECKING:
@@ -78,8 +79,17 @@ class PlanOutcome:
             f"{route.waypoints_enu.shape[0]} waypoints, {route.length_m:.0f} m, energy "
             f"{result.energy:.1f} (path {e_path:.1f}, turning {e_turn:.2f}, climb "
             f"{e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
-            f"{result.runtime_s:.2f} s"
+            f"{result.runtime_s:.2f} s{flight_text(result)}"
         )
+
+
+def flight_text(result: RouteResult) -> str:
+    """``, flight 7 min 36 s (ardupilot flight model)``: the predicted flight time."""
+    flight = result.flight
+    if flight is None:
+        return ""
+    minutes, seconds = divmod(round(flight.flight_time_s), 60)
+    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
 def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome:
@@ -119,6 +129,8 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         )
     feedback.say(_announce(scn))
     result = _search(scn, feedback)
+    if result.collision_free:  # and the track the flight model predicts keeps the margin too
+        result = plan_safe_as_flown(scn, result, should_stop=feedback.should_stop)
     if request.report:
         atomic_write_text(request.report, json.dumps(result.report(scn), indent=2) + "\n")
     if result.interrupted:

@@ -9,9 +9,10 @@ from pathlib import Path
 
 from uavplan.app.feedback import Feedback, PlannerOptions
 from uavplan.config import PlannerConfig
-from uavplan.errors import InputError
+from uavplan.errors import InputError, NoPathError
 from uavplan.fileio import atomic_write_text, check_writable
 from uavplan.mission.io import load_mission, save_mission
+from uavplan.rehearsal import reroute_safe_as_flown
 from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import load_scenario
 
@@ -50,8 +51,16 @@ class RerouteOutcome:
             f"({r.inserted} planned waypoints added to the plan's "
             f"{len(r.plan.items) - r.inserted}), {r.length_m:.0f} m flown, "
             f"min clearance {r.min_clearance_m:.2f} m "
-            f"(margin {r.safety_margin_m:g} m), planned in {r.runtime_s:.2f} s"
+            f"(margin {r.safety_margin_m:g} m), planned in {r.runtime_s:.2f} s{_flight_text(r)}"
         )
+
+
+def _flight_text(result: RerouteResult) -> str:
+    flight = result.flight
+    if flight is None:
+        return ""
+    minutes, seconds = divmod(round(flight.flight_time_s), 60)
+    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
 def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
@@ -99,8 +108,21 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
     finally:
         if bar is not None:
             bar.close()
+    if not result.interrupted:  # the track the flight model predicts keeps the margin too
+        result = reroute_safe_as_flown(
+            plan,
+            result,
+            base=base,
+            planner=planner,
+            name=name,
+            file=request.source,
+            should_stop=feedback.should_stop,
+        )
     if result.interrupted:
         return RerouteOutcome(result, request.output)
+    problem = None if result.flight is None else result.flight.problem()
+    if problem is not None:
+        raise NoPathError(f"{name}: {problem}")
     save_mission(result.plan, request.output)
     if request.report:
         atomic_write_text(request.report, json.dumps(result.report(), indent=2) + "\n")

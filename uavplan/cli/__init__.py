@@ -55,6 +55,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "render_cmd",
         "Draw SCENARIO in 3-D and from above, with a planned route or a mission's route.",
     ),
+    "simulate": (
+        "simulate_cmd",
+        "Fly MISSION through the flight model, in simulated time, without a vehicle.",
+    ),
     "upload": (
         "link_cmd",
         "Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).",
