@@ -41,6 +41,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "link_cmd",
         "Read the vehicle's mission (and geofence / rally points for a .plan) into a file.",
     ),
+    "fly": (
+        "fly_cmd",
+        "Fly MISSION on the vehicle at CONN: check it, start it, follow it to the landing.",
+    ),
     "import": (
         "import_cmd",
         "Read buildings and tall structures from SOURCE (.osm, .osm.pbf, GeoJSON, GeoPackage, "
