@@ -5,7 +5,7 @@ by the one mission check, :func:`uavplan.app.check.check_flight_in`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from uavplan.app.check import check_flight_in, read_mission_flight
@@ -31,6 +31,8 @@ class RenderRequest:
     width_px: int = 1600
     height_px: int = 800
     dpi: int = 100
+    #: a flown track (.csv / .geojson, ``simulate`` or ``fly --track``) drawn over it
+    track: str | None = None
 
 
 @dataclass(frozen=True)
@@ -67,7 +69,10 @@ def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
     return _render_planned(request.options.apply(scn), request, feedback)
 
 
-def _draw(scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str) -> None:
+def _draw(scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str) -> str:
+    """Draw the picture; the subtitle it carries (with a flown track's clearance)."""
+    if request.track is not None:
+        layers, subtitle = _with_track(scn, request, layers, subtitle)
     render_scene(
         scene_for(scn),
         request.output,
@@ -77,6 +82,43 @@ def _draw(scn: Scenario, request: RenderRequest, layers: RouteLayers | None, sub
         height_px=request.height_px,
         dpi=request.dpi,
     )
+    return subtitle
+
+
+def _with_track(
+    scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str
+) -> tuple[RouteLayers, str]:
+    """``layers`` with the flown track of ``request.track`` (placed in the scenario's site)
+    and, in the subtitle, its clearance by the one check: with ``request.mission`` the
+    mission's part apart from the autopilot's return to launch."""
+    import numpy as np
+
+    from uavplan.mission.io import load_mission
+    from uavplan.mission.track import Track
+    from uavplan.rehearsal import CheckSite, return_seq
+
+    assert request.track is not None
+    track = Track.load(request.track)
+    layers = layers or RouteLayers()
+    if len(track) < 2:
+        return layers, subtitle
+    site = CheckSite.of_scenario(scn)
+    cut = len(track)
+    if request.mission is not None:
+        plan = load_mission(request.mission)
+        rtl = return_seq(plan, plan.autopilot)
+        if rtl is not None:
+            hits = np.flatnonzero(track.current_seq >= rtl)
+            cut = int(hits[0]) + 1 if hits.size else cut
+    whole = site.check(track, lands=bool(track.relative_alt_m[-1] < 0.5))
+    text = f"flown track {Path(request.track).name}: min clearance "
+    if cut < len(track):
+        part = site.check(track.until(cut), lands=False)
+        text += f"{part.min_clearance_m:.2f} m to the return, {whole.min_clearance_m:.2f} m with it"
+    else:
+        text += f"{whole.min_clearance_m:.2f} m"
+    layers = replace(layers, track_enu=whole.check.flight.points_enu)
+    return layers, f"{subtitle}; {text}" if subtitle else text
 
 
 def _outcome(
@@ -116,7 +158,7 @@ def _render_mission(scn: Scenario, request: RenderRequest) -> RenderOutcome:
             subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
                 "  (closer than the margin!)" if close else ""
             )
-    _draw(scn, request, layers, subtitle)
+    subtitle = _draw(scn, request, layers, subtitle)
     return _outcome(request, subtitle, min_clearance_m=clearance)
 
 

@@ -44,6 +44,12 @@ def _parse_size(_ctx: Any, _param: Any, value: str) -> tuple[int, int]:
 )
 @click.option("--no-plan", is_flag=True, help="Draw the scenario alone, without a route.")
 @click.option(
+    "--track",
+    "track_path",
+    type=click.Path(dir_okay=False),
+    help="Also draw this flown track (.csv / .geojson from `simulate --track` or `fly --track`).",
+)
+@click.option(
     "--algorithm",
     type=ALGORITHM,
     help="Planner (default: the scenario's, else spsa).",
@@ -70,6 +76,7 @@ def render_command(
     output: str,
     mission_path: str | None,
     no_plan: bool,
+    track_path: str | None,
     algorithm: str | None,
     seed: int | None,
     iterations: int | None,
@@ -95,6 +102,7 @@ def render_command(
         width_px=width,
         height_px=height,
         dpi=dpi,
+        track=track_path,
     )
     with interruptible() as stop_requested:
         outcome = render(request, feedback(quiet, should_stop=stop_requested))
