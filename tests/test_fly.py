@@ -10,13 +10,12 @@ did and said (its mode, its words, simulated times), never the wall clock.
 - Ctrl-C: the vehicle holds, exit 130; a lost link: exit 4 saying what the vehicle did;
 - bundled scenarios flown to the end in both flavours: exit 0, the track's clearance by the
   independent end-to-end check, the flight time within 5 % of the flight model's
-  (two scenarios per flavour here; every one with ``UAVPLAN_SLOW=1``, and in
-  ``tools/fly_all.py`` against the ``mock-vehicle`` process).
+  (two scenarios per flavour here; every one, the QGroundControl plan included, with
+  ``UAVPLAN_SLOW=1``, and in ``tools/fly_all.py`` against the ``mock-vehicle`` process).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import signal
@@ -29,6 +28,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from mavlink_helpers import HOME, client_conn, running_mock, synthetic_mission
+from track_check import fence_clearance, mission_part, scenario_clearance, scenario_for
 
 from uavplan.cli import main
 from uavplan.geo import EnuFrame, GeoPoint
@@ -37,7 +37,7 @@ from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import Autopilot, MavCmd, MavFrame, MissionItem, MissionPlan, MissionType
 from uavplan.mission.track import Track
-from uavplan.rehearsal import rehearse, return_seq
+from uavplan.rehearsal import rehearse
 from uavplan.scenario import load_scenario
 from uavplan.sim.faults import Faults
 from uavplan.sim.vehicle import VehicleConfig
@@ -51,9 +51,13 @@ SPEEDUP = 60.0
 SLOW = os.environ.get("UAVPLAN_SLOW") == "1"
 
 
-def fly(*args: str) -> tuple[int, str]:
-    result = CliRunner().invoke(main, ["fly", *args, "-q"])
+def run(*args: str) -> tuple[int, str]:
+    result = CliRunner().invoke(main, list(args))
     return result.exit_code, result.output
+
+
+def fly(*args: str) -> tuple[int, str]:
+    return run("fly", *args, "-q")
 
 
 def saved(tmp_path: Path, plan: MissionPlan, name: str = "m.plan") -> str:
@@ -208,34 +212,13 @@ def test_ctrl_c_puts_the_vehicle_into_the_interrupt_mode_and_exits_130(
 # Bundled scenarios flown to the end
 
 
-def mission_part(track: Track, plan: MissionPlan, autopilot: Autopilot) -> Track:
-    """The track up to where the autopilot's return to launch begins."""
-    rtl = return_seq(plan, autopilot)
-    if rtl is None:
-        return track
-    hits = np.flatnonzero(track.current_seq >= rtl)
-    return track.until(int(hits[0]) + 1 if hits.size else len(track))
-
-
-def independent_track_clearance(scenario_path: Path, track: Track) -> float:
-    """The end-to-end test's own distance computation (not the library's kernels), over
-    the track's samples in the scenario's frame (flat-ground scenarios)."""
-    from test_end_to_end import densify, independent_clearance
-
-    scenario = load_scenario(scenario_path)
-    site = scenario.site
-    assert site.ground is None, "the terrain scenario is checked by tools/fly_all.py"
-    xy = EnuFrame.at(site.origin).to_enu_xy(track.lat_deg, track.lon_deg)
-    points = np.column_stack((xy, track.relative_alt_m))
-    moving = points[np.concatenate(([True], np.any(np.diff(points, axis=0) != 0, axis=1)))]
-    return float(independent_clearance(scenario, densify(moving, 0.5)).min())
-
-
 QUICK = [("courtyard", PX4), ("helsinki-centre", PX4), ("hairpin", AP), ("narrow-gap", AP)]
 EVERY = [
     (p.stem, ap)
-    for p in sorted((ROOT / "missions").glob("*.yaml"))
-    if p.stem != "jacksboro-ridge"
+    for p in [
+        *sorted((ROOT / "missions").glob("*.yaml")),
+        ROOT / "missions" / "qgc-inspection.plan",
+    ]
     for ap in (PX4, AP)
 ]
 
@@ -246,28 +229,39 @@ EVERY = [
 def test_a_bundled_mission_flies_to_the_end_keeping_the_margin(
     tmp_path: Path, name: str, autopilot: Autopilot
 ) -> None:
-    scenario = ROOT / "missions" / f"{name}.yaml"
-    planned, report, track = tmp_path / "m.plan", tmp_path / "r.json", tmp_path / "t.csv"
-    args = ["plan", str(scenario), "-o", str(planned), "--autopilot", autopilot.label,
-            "--report", str(report), "-q"]  # fmt: skip
+    qgc = name == "qgc-inspection"
+    source = ROOT / "missions" / (f"{name}.plan" if qgc else f"{name}.yaml")
+    scenario = None if qgc else scenario_for(source, autopilot, tmp_path)
+    planned, track = tmp_path / "m.plan", tmp_path / "t.csv"
+    args = ["plan", str(source if qgc else scenario), "-o", str(planned), "-q"]
+    if not qgc:
+        args += ["--autopilot", autopilot.label]
     done = CliRunner().invoke(main, args)
     assert done.exit_code == 0, done.output
     plan = load_mission(planned)
-    predicted = json.loads(report.read_text())["flight"]
+    simulated = ["simulate", str(planned), "--autopilot", autopilot.label, "-q"]
+    if scenario is not None:
+        simulated += ["--scenario", str(scenario)]
+    code, out = run(*simulated)
+    assert code == 0, out  # the flight model's track keeps the margin
     with running_mock(config(plan, autopilot, speedup=100.0)) as vehicle:
-        code, out = fly(str(planned), "--conn", client_conn(vehicle), "--scenario",
-                        str(scenario), "--track", str(track))  # fmt: skip
+        flown_args = [str(planned), "--conn", client_conn(vehicle), "--track", str(track)]
+        if scenario is not None:
+            flown_args += ["--scenario", str(scenario)]
+        code, out = fly(*flown_args)
         assert vehicle.stats().uploads_accepted == 1  # it held nothing: uploaded, verified
     assert code == 0, out
     assert "mission complete" in out
-    flown = Track.load(track)
-    margin = load_scenario(scenario).safety_margin_m
-    clearance = independent_track_clearance(scenario, mission_part(flown, plan, autopilot))
+    part = mission_part(Track.load(track), plan, autopilot)
+    if scenario is None:
+        clearance, margin = fence_clearance(plan, part), 10.0
+    else:
+        clearance = scenario_clearance(scenario, part)
+        margin = load_scenario(scenario).safety_margin_m
     assert clearance >= margin - 0.05, (clearance, margin)
     # take-off to touchdown within 5 % of the flight model's
-    model = rehearse(plan).airborne_s
+    model = rehearse(plan, autopilot=autopilot).airborne_s
     match = re.search(r"(\d+) min (\d+) s take-off to touchdown", out)
     assert match and model, out
     flown_s = 60 * int(match.group(1)) + int(match.group(2))
     assert flown_s == pytest.approx(model, rel=0.05, abs=1.0)
-    assert predicted["keeps_margin"] is True

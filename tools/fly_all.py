@@ -2,8 +2,10 @@
 
 For each of missions/*.yaml and missions/qgc-inspection.plan, as PX4 and as ArduPilot:
 
-1. ``uavplan plan`` (the .plan is rerouted; jacksboro-ridge flies AMSL altitudes as PX4,
-   which flies no terrain frames);
+1. ``uavplan plan`` (the .plan is rerouted; jacksboro-ridge is flown with AMSL altitudes:
+   PX4 flies no terrain frames, and the simulated vehicle has no terrain database, so it
+   would fly ArduPilot's terrain-frame altitudes over flat ground; the bundled terrain-frame
+   mission is planned and simulated over the DEM in a row of its own);
 2. ``uavplan simulate --scenario``: the flight model's track keeps the margin (exit 0) and
    its take-off-to-touchdown time;
 3. ``uavplan mock-vehicle --speedup 20`` (a process, standing at the plan's home, holding
@@ -24,34 +26,26 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import shutil
 import signal
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from types import SimpleNamespace
-
-import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from test_end_to_end import (  # noqa: E402  (the independent check lives with the tests)
-    _edge_distance,
-    _inside,
-    densify,
-    independent_clearance,
-    independent_ground,
+from track_check import (  # noqa: E402  (the independent check lives with the tests)
+    fence_clearance,
+    mission_part,
+    scenario_clearance,
+    scenario_for,
 )
 
-from uavplan.geo import EnuFrame  # noqa: E402
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot, MissionPlan  # noqa: E402
 from uavplan.mission.track import Track  # noqa: E402
-from uavplan.obstacles import CylinderObstacle, PrismObstacle  # noqa: E402
-from uavplan.rehearsal import return_seq  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
 
 UAVPLAN = [sys.executable, "-m", "uavplan"]
@@ -62,81 +56,6 @@ QGC = ROOT / "missions" / "qgc-inspection.plan"
 def sh(*args: str, timeout: float = 1200) -> tuple[int, str]:
     done = subprocess.run([*UAVPLAN, *args], capture_output=True, text=True, timeout=timeout)
     return done.returncode, done.stdout + done.stderr
-
-
-def scenario_for(source: Path, autopilot: Autopilot, work: Path) -> Path:
-    """The scenario to plan: jacksboro-ridge flies AMSL altitudes as PX4."""
-    if source.stem != "jacksboro-ridge" or autopilot != Autopilot.PX4:
-        return source
-    text = source.read_text(encoding="utf-8")
-    dem = (source.parent / "../maps/jacksboro-fault-dem.tif").resolve()
-    shutil.copy(dem, work / "dem.tif")
-    text = text.replace("../maps/jacksboro-fault-dem.tif", "dem.tif")
-    copy = work / "jacksboro-ridge-amsl.yaml"
-    copy.write_text(text.replace("altitude: terrain", "altitude: amsl"), encoding="utf-8")
-    return copy
-
-
-def mission_part(track: Track, plan: MissionPlan, autopilot: Autopilot) -> Track:
-    rtl = return_seq(plan, autopilot)
-    if rtl is None:
-        return track
-    hits = np.flatnonzero(track.current_seq >= rtl)
-    return track.until(int(hits[0]) + 1 if hits.size else len(track))
-
-
-def independent_scenario_clearance(scenario_path: Path, track: Track) -> float:
-    """The least distance from the track (take-off climb included, the landing's last
-    metre to the ground excluded) to the scenario's obstacles and, over a DEM, to the
-    ground (from where the take-off has climbed the margin), by the end-to-end check."""
-    scenario = load_scenario(scenario_path)
-    site = scenario.site
-    frame = EnuFrame.at(site.origin)
-    xy = frame.to_enu_xy(track.lat_deg, track.lon_deg)
-    if site.ground is None:
-        z = track.relative_alt_m
-    else:
-        z = track.alt_amsl_m - site.origin.alt_m
-    points = np.column_stack((xy, z))
-    keep = np.concatenate(([True], np.any(np.diff(points, axis=0) != 0, axis=1)))
-    points = points[keep]
-    dense = densify(points, 0.5)
-    best = float(independent_clearance(scenario, dense).min())
-    if site.ground is not None:
-        ground = independent_ground(scenario, frame)
-        agl = dense[:, 2] - ground(dense[:, :2])
-        climbed = np.flatnonzero(agl >= scenario.safety_margin_m)
-        if climbed.size:  # from the first point the take-off has raised above the margin
-            best = min(best, float(agl[climbed[0] :].min()))
-    return best
-
-
-def independent_fence_clearance(plan: MissionPlan, track: Track, margin_m: float) -> float:
-    """The least distance from the track to the plan's exclusion zones and to the edge of
-    its inclusion fence (inside it), computed here like the end-to-end check does."""
-    assert plan.home is not None
-    frame = EnuFrame.at(plan.home)
-    xy = frame.to_enu_xy(track.lat_deg, track.lon_deg)
-    points = densify(np.column_stack((xy, track.relative_alt_m)), 0.5)
-    obstacles: list[object] = []
-    inclusion = []
-    for poly in plan.fence.polygons:
-        ring = frame.to_enu_xy([v[0] for v in poly.vertices], [v[1] for v in poly.vertices])
-        if poly.inclusion:
-            inclusion.append(ring)
-        else:
-            obstacles.append(PrismObstacle(tuple(map(tuple, ring)), 10_000.0))
-    for circle in plan.fence.circles:
-        (cx, cy), = frame.to_enu_xy([circle.center[0]], [circle.center[1]])  # fmt: skip
-        obstacles.append(CylinderObstacle((float(cx), float(cy)), circle.radius_m, 10_000.0))
-    fake = SimpleNamespace(site=SimpleNamespace(obstacles=obstacles))
-    best = float(independent_clearance(fake, points).min()) if obstacles else np.inf
-    for ring in inclusion:
-        px, py = points[:, 0], points[:, 1]
-        edge = _edge_distance(px, py, np.asarray(ring))
-        edge = np.where(_inside(px, py, np.asarray(ring)), edge, -edge)
-        best = min(best, float(edge.min()))
-    return best
 
 
 def start_vehicle(
@@ -165,12 +84,17 @@ def stop_vehicle(proc: subprocess.Popen[str]) -> None:
         proc.communicate()
 
 
-def one(source: Path, autopilot: Autopilot, speedup: float, work: Path) -> dict[str, object]:
-    row: dict[str, object] = {"scenario": source.stem, "autopilot": autopilot.label}
+def one(
+    source: Path, autopilot: Autopilot, speedup: float, work: Path, *, as_bundled: bool = False
+) -> dict[str, object]:
+    """Plan, simulate, fly and check one scenario; ``as_bundled``: plan and simulate the
+    scenario file as it is, and fly nothing (the terrain-frame row)."""
+    name = source.stem + (" (terrain frames)" if as_bundled else "")
+    row: dict[str, object] = {"scenario": name, "autopilot": autopilot.label}
     planned = work / f"{source.stem}-{autopilot.label}.plan"
     report = work / f"{source.stem}-{autopilot.label}.json"
     is_qgc = source.suffix == ".plan"
-    scenario = None if is_qgc else scenario_for(source, autopilot, work)
+    scenario = None if is_qgc else (source if as_bundled else scenario_for(source, autopilot, work))
     args = ["plan", str(source if is_qgc else scenario), "-o", str(planned), "-q",
             "--report", str(report)]  # fmt: skip
     if not is_qgc:
@@ -189,6 +113,9 @@ def one(source: Path, autopilot: Autopilot, speedup: float, work: Path) -> dict[
     sim = re.search(r"\((\d+\.\d) s, take-off .*?min clearance (\d+\.\d\d) m", out)
     if sim:
         row["sim_clearance_m"] = float(sim.group(2))
+    if as_bundled:  # over the DEM: simulate's own time (mission start to touchdown)
+        row["sim_airborne_s"] = float(sim.group(1)) if sim else None
+        return row
     from uavplan.rehearsal import rehearse
 
     predicted = rehearse(plan, autopilot=autopilot).airborne_s
@@ -215,16 +142,18 @@ def one(source: Path, autopilot: Autopilot, speedup: float, work: Path) -> dict[
     part = mission_part(flown_track, plan, autopilot)
     if scenario is not None:
         row["margin_m"] = load_scenario(scenario).safety_margin_m
-        row["track_clearance_m"] = independent_scenario_clearance(scenario, part)
+        row["track_clearance_m"] = scenario_clearance(scenario, part)
     else:
         from uavplan.reroute import DEFAULT_MARGIN_M
 
         row["margin_m"] = DEFAULT_MARGIN_M
-        row["track_clearance_m"] = independent_fence_clearance(plan, part, DEFAULT_MARGIN_M)
+        row["track_clearance_m"] = fence_clearance(plan, part)
     return row
 
 
 def verdict(row: dict[str, object]) -> bool:
+    if "(terrain frames)" in str(row["scenario"]):
+        return row.get("simulate") == 0
     try:
         margin = float(row["margin_m"])  # type: ignore[arg-type]
         clear = float(row["track_clearance_m"])  # type: ignore[arg-type]
@@ -250,34 +179,36 @@ def main() -> int:
     if args.autopilot:
         flavours = [Autopilot.from_name(args.autopilot)]
     rows = []
-    header = (f"{'scenario':18} {'flavour':9} {'simulate':>8} {'fly':>4} {'model s':>8} "
+    header = (f"{'scenario':32} {'flavour':9} {'simulate':>8} {'fly':>4} {'model s':>8} "
               f"{'flown s':>8} {'diff':>6} {'track clear':>11} {'margin':>6}  ok")  # fmt: skip
     print(header)
+    runs = [(source, autopilot, False) for source in sources for autopilot in flavours]
+    if any(s.stem == "jacksboro-ridge" for s in sources) and Autopilot.ARDUPILOT in flavours:
+        runs.append((ROOT / "missions" / "jacksboro-ridge.yaml", Autopilot.ARDUPILOT, True))
     with tempfile.TemporaryDirectory() as tmp:
-        for source in sources:
-            for autopilot in flavours:
-                work = Path(tmp) / f"{source.stem}-{autopilot.label}"
-                work.mkdir()
-                row = one(source, autopilot, args.speedup, work)
-                row["ok"] = verdict(row)
-                rows.append(row)
-                model, flown = row.get("sim_airborne_s"), row.get("fly_airborne_s")
-                diff = (
-                    f"{100.0 * (float(flown) / float(model) - 1.0):+5.1f}%"  # type: ignore[arg-type]
-                    if model and flown
-                    else "-"
-                )
-                clear = row.get("track_clearance_m")
-                print(
-                    f"{row['scenario']:18} {row['autopilot']:9} {row.get('simulate', '-')!s:>8} "
-                    f"{row.get('fly', '-')!s:>4} "
-                    f"{(f'{model:.1f}' if model else '-'):>8} "
-                    f"{(f'{flown:.0f}' if flown else '-'):>8} {diff:>6} "
-                    f"{(f'{clear:.2f}' if clear is not None else '-'):>11} "
-                    f"{row.get('margin_m', '-')!s:>6}  {'yes' if row['ok'] else 'NO'}"
-                    + (f"  {row['error']}" if "error" in row else ""),
-                    flush=True,
-                )
+        for k, (source, autopilot, as_bundled) in enumerate(runs):
+            work = Path(tmp) / f"{k}-{source.stem}-{autopilot.label}"
+            work.mkdir()
+            row = one(source, autopilot, args.speedup, work, as_bundled=as_bundled)
+            row["ok"] = verdict(row)
+            rows.append(row)
+            model, flown = row.get("sim_airborne_s"), row.get("fly_airborne_s")
+            diff = (
+                f"{100.0 * (float(flown) / float(model) - 1.0):+5.1f}%"  # type: ignore[arg-type]
+                if model and flown
+                else "-"
+            )
+            clear = row.get("track_clearance_m")
+            print(
+                f"{row['scenario']:32} {row['autopilot']:9} {row.get('simulate', '-')!s:>8} "
+                f"{row.get('fly', '-')!s:>4} "
+                f"{(f'{model:.1f}' if model else '-'):>8} "
+                f"{(f'{flown:.0f}' if flown else '-'):>8} {diff:>6} "
+                f"{(f'{clear:.2f}' if clear is not None else '-'):>11} "
+                f"{row.get('margin_m', '-')!s:>6}  {'yes' if row['ok'] else 'NO'}"
+                + (f"  {row['error']}" if "error" in row else ""),
+                flush=True,
+            )
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1, default=str))
     failed = [r for r in rows if not r["ok"]]

@@ -30,7 +30,6 @@ from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.flight import FlightPrediction, TrackCheck, check_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground
-from uavplan.mavlink.modes import ModeKind, mode_named
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
 from uavplan.planning import RouteResult, build_world, enu_frame, mission_for, plan_route
@@ -208,15 +207,6 @@ def track_of(flown: FlownTrack, source: str) -> Track:
     """The model's record as a :class:`Track` (its mode column is the mode the vehicle
     reports: PX4 Mission, then Return from its RTL; ArduPilot AUTO throughout)."""
     autopilot = flown.autopilot
-    mission_mode = mode_named(autopilot, ModeKind.MISSION).name
-    modes = [mission_mode] * len(flown.t_s)
-    if autopilot == Autopilot.PX4:
-        from uavplan.sim.model import EventKind
-
-        rtl_at = [e.t_s for e in flown.events if e.kind is EventKind.RTL]
-        if rtl_at:
-            name = mode_named(autopilot, ModeKind.RETURN).name
-            modes = [name if t >= rtl_at[0] - 1e-9 else mission_mode for t in flown.t_s]
     return Track(
         time_s=flown.t_s,
         lat_deg=flown.lat_deg,
@@ -225,7 +215,7 @@ def track_of(flown: FlownTrack, source: str) -> Track:
         relative_alt_m=flown.z_m,
         speed_m_s=flown.speed_m_s,
         current_seq=flown.current_seq,
-        mode=tuple(modes),
+        mode=flown.modes(),
         source=source,
         autopilot=autopilot.label,
     )

@@ -23,6 +23,7 @@ The flown track is written (atomically) whatever the ending.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -495,8 +496,6 @@ class _Watch:
         bar = self.feedback.progress
         if bar is None:
             return
-        import time
-
         now = time.monotonic()
         if now - self.last_drawn < PROGRESS_EVERY_S and not final:
             return
