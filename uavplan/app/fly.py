@@ -463,7 +463,7 @@ class _Watch:
         over = float(error[worst]) > self.max_deviation_m
         if over and not self.off_route:
             s = mission[worst]
-            self.feedback.warn(
+            self._warn(
                 f"warning: {s.time_s - self.samples[0].time_s:.0f} s into the flight (item "
                 f"{s.current_seq}) the vehicle is {error[worst]:.1f} m off the planned route "
                 f"(--max-deviation {self.max_deviation_m:g} m)"
@@ -485,12 +485,18 @@ class _Watch:
         close = not check.keeps_margin
         if close and not self.too_close:
             s = samples[min(check.worst + 1, len(samples) - 1)]
-            self.feedback.warn(
+            self._warn(
                 f"warning: {s.time_s - self.samples[0].time_s:.0f} s into the flight (item "
                 f"{s.current_seq}) the vehicle is {check.min_clearance_m:.1f} m from "
                 f"{check.nearest} (margin {site.margin_m:g} m)"
             )
         self.too_close = close
+
+    def _warn(self, text: str) -> None:
+        """A warning on a line of its own (the progress line, if drawn, ends first)."""
+        if self.feedback.progress is not None:
+            self.feedback.progress.close()
+        self.feedback.warn(text)
 
     def _progress(self, state: VehicleState, final: bool) -> None:
         bar = self.feedback.progress
@@ -502,14 +508,23 @@ class _Watch:
         self.last_drawn = now
         s = self.samples[-1]
         self.speeds.append(s.speed_m_s)
-        to_go = _distance_to_go(self._enu([s])[0], self.legs)
+        here = self._enu([s])[0]
+        returning = (state.mode is not None and state.mode.kind is ModeKind.RETURN) or (
+            self.rtl is not None and s.current_seq >= self.rtl
+        )
+        if returning:  # the autopilot's own way home: no planned legs left
+            to_go = float(math.hypot(here[0], here[1]))
+            where = f"{to_go / 1000.0:.2f} km from home"
+        else:
+            to_go = _distance_to_go(here, self.legs)
+            where = f"{to_go / 1000.0:.2f} km to go"
         moving = [v for v in self.speeds if v > 1.0]
         speed = sum(moving) / len(moving) if moving else 0.0
         eta = f"ETA {_minutes(to_go / speed)}" if speed > 1.0 else "ETA -"
         battery = "-" if state.battery_pct is None else f"{state.battery_pct:.0f} %"
         mode = "?" if state.mode is None else state.mode.name
         detail = (
-            f"{mode}, {to_go / 1000.0:.2f} km to go, {eta}, alt {s.relative_alt_m:.0f} m, "
+            f"{mode}, {where}, {eta}, alt {s.relative_alt_m:.0f} m, "
             f"{s.speed_m_s:.1f} m/s, battery {battery}"
         )
         item = max(0, s.current_seq)
