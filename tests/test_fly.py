@@ -155,6 +155,20 @@ def test_an_upload_the_vehicle_rejects_is_refused_quoting_its_answer(tmp_path: P
     assert "MAV_MISSION_NO_SPACE" in out and "upload mission" in out
 
 
+def test_a_mission_the_vehicle_holds_is_not_uploaded_again_unless_asked(tmp_path: Path) -> None:
+    plan = synthetic_mission(3, seed=9, autopilot=AP)
+    path = saved(tmp_path, plan)
+    with running_mock(config(plan, AP)) as vehicle:
+        vehicle.preload(MissionType.MISSION, plan_wire_items(plan, MissionType.MISSION, AP))
+        code, out = run("fly", path, "--conn", client_conn(vehicle))
+        assert code == 0, out
+        assert "the vehicle holds this mission" in out
+        assert vehicle.stats().uploads_accepted == 0
+        code, out = fly(path, "--conn", client_conn(vehicle), "--upload")
+        assert code == 0, out
+        assert vehicle.stats().uploads_accepted == 1
+
+
 # ---------------------------------------------------------------------------------------------
 # Endings
 

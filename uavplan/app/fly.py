@@ -344,10 +344,17 @@ def _mission_on_board(
 def _interrupted(
     client: FlightClient, kind: ModeKind, watch: _Watch, request: FlyRequest, who: str
 ) -> FlyOutcome:
-    """Ctrl-C: a vehicle that is armed goes into ``kind`` mode and is seen in it."""
+    """Ctrl-C: a vehicle that is armed goes into ``kind`` mode and is seen in it (one armed on
+    the ground by the start, not yet flown, is disarmed instead)."""
     state = client.state
     mode_name = "its mode" if state.mode is None else state.mode.name
-    if state.armed:
+    if state.armed and state.on_ground and not state.flew:
+        # stopped during the start, still on the ground: disarm rather than hold there
+        client.commands([disarm_step()])
+        mode_name = f"{mode_name}, disarmed" if not state.armed else mode_name
+        watch.tick(state, final=True)
+        watch.save(request.track)
+    elif state.armed:
         changed: CommandOutcome = client.change_mode(kind)
         watch.tick(state, final=True)
         watch.save(request.track)
