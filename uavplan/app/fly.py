@@ -206,8 +206,9 @@ def _fly_on(
         )
     if pre.home is None:
         raise VehicleRefused(
-            "the vehicle reports no home (no HOME_POSITION): it has no position to take off "
-            "from", step="pre-flight: home")  # fmt: skip
+            "the vehicle reports no home (no HOME_POSITION): it has no position to take off from",
+            step="pre-flight: home",
+        )
     _check_home(plan, pre.home, request.home_tolerance_m)
     feedback.say("pre-flight: ready to arm, home matches the plan")
     uploaded = _mission_on_board(link, plan, autopilot, request, feedback)
