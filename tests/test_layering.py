@@ -66,6 +66,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "render.py",
         "reroute.py",
         "airspace.py",
+        "rehearsal.py",
     ),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),

@@ -7,7 +7,9 @@ between is checked against the whole world, the terrain and its ceiling included
 comes from a route that was just planned (:meth:`Flight.from_polyline`), from a mission file
 (:func:`flight_of_mission`: the autopilot's reading of its items, through
 :func:`uavplan.mission.builder.mission_polyline_enu`, the one reconstruction) or from a
-flown track (any polyline, with the points where it left and reached the ground).
+flown track (:func:`flight_of_track`: a simulated or flown
+:class:`~uavplan.mission.track.Track`, with the samples where it left and reached the
+ground).
 
 :func:`check_flight` measures it: the clearance of every segment, what is nearest, and the
 first point outside the flight volume. ``plan`` reports its clearance, and ``validate
@@ -27,6 +29,7 @@ from numpy.typing import NDArray
 from uavplan.geo import EnuFrame
 from uavplan.mission.builder import mission_polyline_enu
 from uavplan.mission.items import MavCmd, MissionPlan
+from uavplan.mission.track import Track
 from uavplan.route import Follow, keeps_margin
 from uavplan.world import CEILING, GROUND, World
 
@@ -35,6 +38,9 @@ from uavplan.world import CEILING, GROUND, World
 VERTICAL_TOL_M = 0.05
 #: a flown point may be this far outside the flight volume (files round positions)
 VOLUME_TOL_M = 0.05
+#: ... and a flown track's sample this far: a vehicle overshoots a waypoint by a step or so
+#: (PX4 settles onto a landing point at the edge of the volume 0.1 m past it in the model)
+TRACK_VOLUME_TOL_M = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,6 +101,92 @@ def flight_of_mission(
     altitude cannot be placed."""
     points = mission_polyline_enu(plan, frame, ground_z, follow)
     return Flight.from_polyline(points, from_ground=plan.home is not None, to_ground=_lands(plan))
+
+
+#: a flown landing drifts onto its landing point while it descends (PX4 starts the descent
+#: once within its acceptance radius): the final descent may begin this far from touchdown
+LANDING_DRIFT_M = 15.0
+
+
+def flight_of_track(
+    track: Track,
+    frame: EnuFrame,
+    *,
+    datum_amsl_m: float | None = None,
+    takes_off: bool = True,
+    lands: bool,
+) -> Flight:
+    """The flight of a flown ``track`` in ``frame`` (a site's): x/y where the ellipsoid
+    normal through each sample meets the ground plane (as mission items are placed), z the
+    height above home's ground over flat ground (``datum_amsl_m`` None: the relative
+    altitude) or, over terrain, the altitude above the site's datum (AMSL minus the datum).
+
+    With ``takes_off`` (the track starts on the ground) the take-off climb is the leading
+    samples that climb where the track starts; with ``lands``, the landing is the trailing
+    samples that only descend, ending on the ground within :data:`LANDING_DRIFT_M` of where
+    they touch down."""
+    xy = frame.to_enu_xy(track.lat_deg, track.lon_deg) if len(track) else np.empty((0, 2))
+    z = track.relative_alt_m if datum_amsl_m is None else track.alt_amsl_m - datum_amsl_m
+    points = np.column_stack((xy, z)).astype(np.float64).reshape(-1, 3)
+    n = len(points)
+    if n == 0:
+        return Flight(points, (0, 0))
+    first = 0
+    while (
+        takes_off
+        and first + 1 < n
+        and _same_place(points[first + 1], points[0])
+        and points[first + 1, 2] >= points[first, 2] - 1e-6
+    ):
+        first += 1
+    last = n - 1
+    if lands:
+        end = points[-1]
+        while (
+            last - 1 > first
+            and points[last - 1, 2] >= points[last, 2] - 1e-6
+            and math.hypot(*(points[last - 1, :2] - end[:2])) <= LANDING_DRIFT_M
+        ):
+            last -= 1
+    return Flight(points, (first, last))
+
+
+#: a track is thinned to within this distance before it is measured (1 cm: far below what a
+#: position report resolves; a terrain world measures thousands of samples slowly)
+THIN_TOL_M = 0.01
+
+
+def thin_polyline(points: NDArray[np.float64], tol_m: float = THIN_TOL_M) -> NDArray[np.int64]:
+    """The indices of the points of ``points`` ``(n, 3)`` to keep so that every dropped
+    point lies within ``tol_m`` of the polyline through the kept ones (Douglas-Peucker; the
+    first and last points are kept). A polyline's clearance then differs from the thinned
+    one's by at most ``tol_m``."""
+    n = len(points)
+    if n <= 2:
+        return np.arange(n, dtype=np.int64)
+    keep = np.zeros(n, dtype=bool)
+    keep[0] = keep[-1] = True
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = points[i], points[j]
+        inner = points[i + 1 : j]
+        ab = b - a
+        length2 = float(ab @ ab)
+        if length2 <= 1e-18:
+            dist = np.linalg.norm(inner - a, axis=1)
+        else:
+            t = np.clip((inner - a) @ ab / length2, 0.0, 1.0)
+            dist = np.linalg.norm(inner - (a + t[:, None] * ab), axis=1)
+        k = int(np.argmax(dist))
+        if dist[k] > tol_m:
+            mid = i + 1 + k
+            keep[mid] = True
+            stack.append((i, mid))
+            stack.append((mid, j))
+    return np.flatnonzero(keep).astype(np.int64)
 
 
 def _lands(plan: MissionPlan) -> bool:
@@ -177,10 +269,16 @@ def flight_clearance(
 
 
 def check_flight(
-    world: World, flight: Flight, *, name_of: Callable[[int], str], margin_m: float | None = None
+    world: World,
+    flight: Flight,
+    *,
+    name_of: Callable[[int], str],
+    margin_m: float | None = None,
+    volume_tol_m: float = VOLUME_TOL_M,
 ) -> FlightCheck:
     """Measure ``flight`` in ``world`` (see :class:`FlightCheck`); ``name_of(i)`` names
-    obstacle ``i`` of the world for the message; ``margin_m`` defaults to the world's."""
+    obstacle ``i`` of the world for the message; ``margin_m`` defaults to the world's; a
+    point up to ``volume_tol_m`` outside the flight volume counts as inside."""
     margin = world.margin_m if margin_m is None else float(margin_m)
     dist, owner, _ = flight_clearance(world, flight)
     p = flight.points_enu
@@ -189,7 +287,7 @@ def check_flight(
     grounded = np.ones(len(p), dtype=bool)
     grounded[first : last + 1] = False
     lifted[grounded, 2] = np.maximum(lifted[grounded, 2], world.zlim[0])
-    inside = world.points_inside_bounds(lifted, tol_m=VOLUME_TOL_M)
+    inside = world.points_inside_bounds(lifted, tol_m=volume_tol_m)
     outside = None if inside.all() else int(np.flatnonzero(~inside)[0])
     worst = int(np.argmin(dist)) if dist.size else 0
     nearest = "nothing"
@@ -214,3 +312,145 @@ def _describe(
     if owner == CEILING:
         return f"the ceiling (bounds.z max above the ground) over ({x:.0f}, {y:.0f})"
     return f"the terrain at ({x:.0f}, {y:.0f})"
+
+
+@dataclass(frozen=True, eq=False)
+class TrackCheck:
+    """A flown :class:`~uavplan.mission.track.Track` measured by :func:`check_flight`:
+    ``check`` measured its line thinned to within :data:`THIN_TOL_M` (``samples``: the track
+    sample of each point of that line), so its messages can say when and where."""
+
+    check: FlightCheck
+    samples: NDArray[np.int64]
+    track: Track
+
+    @property
+    def min_clearance_m(self) -> float:
+        return self.check.min_clearance_m
+
+    @property
+    def margin_m(self) -> float:
+        return self.check.margin_m
+
+    @property
+    def nearest(self) -> str:
+        return self.check.nearest
+
+    @property
+    def outside(self) -> int | None:
+        """The first sample outside the flight volume (None: none)."""
+        out = self.check.outside
+        return None if out is None else int(self.samples[out])
+
+    @property
+    def ok(self) -> bool:
+        return self.check.ok
+
+    def when(self, sample: int) -> str:
+        """``3 min 05.2 s into the flight, flying to item 12,`` (the track's time)."""
+        track = self.track
+        minutes, seconds = divmod(float(track.time_s[sample]), 60.0)
+        text = f"{int(minutes)} min {seconds:04.1f} s into the flight"
+        seq = int(track.current_seq[sample])
+        return text + (f", flying to item {seq}," if seq >= 0 else "")
+
+    def problem(self) -> str | None:
+        """What is wrong with the track, in words (None: nothing)."""
+        check = self.check
+        if check.outside is not None:
+            sample = int(self.samples[check.outside])
+            point = check.flight.points_enu[check.outside].round(1).tolist()
+            return f"{self.when(sample)} the track is outside the flight volume at {point}"
+        if not check.keeps_margin:
+            sample = int(self.samples[check.worst])
+            return (
+                f"{self.when(sample)} the track comes within {check.min_clearance_m:.2f} m "
+                f"of {check.nearest} (safety margin {check.margin_m:g} m)"
+            )
+        return None
+
+
+def check_track(
+    world: World,
+    track: Track,
+    frame: EnuFrame,
+    *,
+    name_of: Callable[[int], str],
+    datum_amsl_m: float | None = None,
+    takes_off: bool = True,
+    lands: bool,
+) -> TrackCheck:
+    """``track`` (see :func:`flight_of_track`) measured in ``world`` by the one check, its
+    line thinned to within :data:`THIN_TOL_M` first (the take-off and landing's ends kept);
+    a sample up to :data:`TRACK_VOLUME_TOL_M` outside the volume counts as inside."""
+    flight = flight_of_track(
+        track, frame, datum_amsl_m=datum_amsl_m, takes_off=takes_off, lands=lands
+    )
+    first, last = flight.airborne
+    # sorted and unique without np.union1d (np.unique imports numpy.ma: tests/test_startup)
+    kept = np.sort(np.concatenate((thin_polyline(flight.points_enu), [first, last])))
+    kept = kept[np.concatenate(([True], kept[1:] != kept[:-1]))].astype(np.int64)
+    kept = kept[kept < len(flight.points_enu)]
+    if len(kept):
+        where = np.searchsorted(kept, [first, last])
+        thinned = Flight(flight.points_enu[kept], (int(where[0]), int(where[1])))
+    else:
+        thinned = flight
+    check = check_flight(world, thinned, name_of=name_of, volume_tol_m=TRACK_VOLUME_TOL_M)
+    return TrackCheck(check, kept, track)
+
+
+@dataclass(frozen=True, eq=False)
+class FlightPrediction:
+    """What the flight model predicts for a mission where a scenario is planned
+    (:mod:`uavplan.rehearsal`): the mission flown as ``autopilot`` flies it with its default
+    parameters.
+
+    ``check``: the mission's part of the track (take-off to where the return to launch
+    begins, or the landing) measured by :func:`check_flight`; ``return_check``: the return
+    leg the autopilot flies on its own (None without one); ``max_deviation_m``: the largest
+    distance of the mission's part from the straight legs between the items;
+    ``margin_pad_m``: how much wider than the scenario's margin the route was planned so
+    that the track keeps it (0: as planned). Issue 27's energy estimate joins here.
+    """
+
+    autopilot: str
+    flight_time_s: float
+    max_deviation_m: float
+    check: TrackCheck
+    return_check: TrackCheck | None = None
+    margin_pad_m: float = 0.0
+    #: why a wider margin could not be planned (when the track still breaks the margin)
+    gave_up: str = ""
+
+    def problem(self) -> str | None:
+        """What is wrong with the predicted flight (None: nothing), with what was tried."""
+        problem = self.check.problem()
+        if problem is None:
+            return None
+        tried = f" ({self.gave_up})" if self.gave_up else ""
+        return (
+            f"as {self.autopilot} flies it (the flight model, default parameters): {problem}{tried}"
+        )
+
+    @property
+    def keeps_margin(self) -> bool:
+        return self.check.ok
+
+    def summary(self) -> dict[str, object]:
+        """The report's ``flight`` entry."""
+        ret = self.return_check
+        return {
+            "autopilot": self.autopilot,
+            "flight_time_s": round(self.flight_time_s, 1),
+            "max_deviation_m": round(self.max_deviation_m, 3),
+            "min_clearance_m": _finite_or_none(self.check.min_clearance_m),
+            "keeps_margin": self.keeps_margin,
+            "margin_pad_m": round(self.margin_pad_m, 3),
+            "return_min_clearance_m": None if ret is None else _finite_or_none(ret.min_clearance_m),
+            "return_keeps_margin": None if ret is None else ret.ok,
+        }
+
+
+def _finite_or_none(value: float) -> float | None:
+    return round(value, 3) if math.isfinite(value) else None

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
-from uavplan.flight import Flight, flight_clearance
+from uavplan.flight import Flight, FlightPrediction, flight_clearance
 from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
 from uavplan.obstacles import Obstacle
@@ -77,6 +77,8 @@ class RouteResult:
     guide_s: float = 0.0
     #: the legs between consecutive route points (one without via points)
     legs: tuple[Leg, ...] = ()
+    #: the flight the model predicts for the route's mission (uavplan.rehearsal), if rehearsed
+    flight: FlightPrediction | None = None
 
     @property
     def ok(self) -> bool:
@@ -152,10 +154,20 @@ class RouteResult:
             "notes": list(self.notes),
             "guide_s": self.guide_s,
             "legs": [leg.summary() for leg in self.legs],
+            **self._flight_entries(),
             "config": {
                 **resolved_config(scenario, self.algorithm),
                 "post_applied": vars(self.post),
             },
+        }
+
+    def _flight_entries(self) -> dict[str, Any]:
+        """``flight_time_s`` and ``flight`` (the predicted flight) when it was rehearsed."""
+        if self.flight is None:
+            return {}
+        return {
+            "flight_time_s": round(self.flight.flight_time_s, 1),
+            "flight": self.flight.summary(),
         }
 
 

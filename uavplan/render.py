@@ -66,6 +66,7 @@ _COLORS = {
     "fence_exclusion": "#d62728",
     "fence_inclusion": "#2ca02c",
     "bounds": "#777777",
+    "track": "#e377c2",
 }
 _OBSTACLE_CMAP = "Greys"
 _LIGHT_XY = np.array([-0.55, -0.83])  # walls facing south-west are lit
@@ -127,7 +128,8 @@ class RouteLayers:
 
     ``raw_path_enu``: the planner's best node polyline; ``smoothed_path_enu``: the final
     smooth curve; ``flown_enu``: the polyline the autopilot flies through the mission items;
-    ``waypoints_enu``: the mission's positions (marked along the flown route).
+    ``waypoints_enu``: the mission's positions (marked along the flown route);
+    ``track_enu``: a flown (or simulated) track, sample by sample.
     """
 
     raw_path_enu: NDArray[np.float64] | None = None
@@ -135,6 +137,7 @@ class RouteLayers:
     flown_enu: NDArray[np.float64] | None = None
     waypoints_enu: NDArray[np.float64] | None = None
     fence: tuple[FenceOutline, ...] = field(default_factory=tuple)
+    track_enu: NDArray[np.float64] | None = None
 
     @classmethod
     def from_mission(
@@ -605,6 +608,9 @@ def _draw_paths(ax: Any, layers: RouteLayers, scale: float, *, three_d: bool) ->
         p = layers.waypoints_enu[:, :dims].T
         extra = {"depthshade": False} if three_d else {}
         ax.scatter(*p, s=9 * scale, color=_COLORS["flown"], zorder=8, **common, **extra)
+    if layers.track_enu is not None and len(layers.track_enu):
+        p = layers.track_enu[:, :dims].T
+        ax.plot(*p, "--", color=_COLORS["track"], lw=1.0 * lw, zorder=8.5, **common)
 
 
 def _start_goal(ax: Any, scene: Scene, scale: float, *, three_d: bool) -> None:
@@ -695,6 +701,10 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
                 markersize=3.5,
                 label="mission waypoints (flown route)",
             )
+        )
+    if layers.track_enu is not None:
+        handles.append(
+            Line2D([], [], ls="--", color=_COLORS["track"], lw=1.0 * lw, label="flown track")
         )
     if any(not z.inclusion for z in layers.fence):
         handles.append(

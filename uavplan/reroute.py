@@ -63,7 +63,7 @@ from uavplan.airspace import (
     stretch_obstacles,
 )
 from uavplan.errors import InputError, NoPathError
-from uavplan.flight import Flight, FlightCheck, check_flight, flight_of_mission
+from uavplan.flight import Flight, FlightCheck, FlightPrediction, check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground
 from uavplan.mission.items import (
@@ -153,6 +153,8 @@ class RerouteResult:
     frame: EnuFrame | None = None
     #: the user's positions in flight order (ENU metres)
     positions_enu: tuple[tuple[float, float, float], ...] = ()
+    #: the flight the model predicts for the plan (uavplan.rehearsal), if rehearsed
+    flight: FlightPrediction | None = None
 
     @property
     def routes(self) -> tuple[RouteResult, ...]:
@@ -190,6 +192,14 @@ class RerouteResult:
             "end": self.end,
             "notes": list(self.notes),
             "runs": [r.report(scn) for scn, r in self.runs],
+            **(
+                {}
+                if self.flight is None
+                else {
+                    "flight_time_s": round(self.flight.flight_time_s, 1),
+                    "flight": self.flight.summary(),
+                }
+            ),
         }
 
 
@@ -495,7 +505,7 @@ def _plan_world(
 
 
 def fence_world(
-    plan: MissionPlan, *, base: Surroundings | None = None, file: str | None = None
+    plan: MissionPlan, *, base: Scenario | Surroundings | None = None, file: str | None = None
 ) -> tuple[PlanWorld, Flight]:
     """The world the rerouting of ``plan`` plans in (its geofence's zones as obstacles, and
     ``base``'s), spanning the plan's whole flight, and that flight (as the autopilot flies the
@@ -524,11 +534,16 @@ def reroute_plan(
     file: str | None = None,
     progress: ProgressFn | None = None,
     should_stop: Callable[[], bool] | None = None,
+    margin_pad_m: float = 0.0,
 ) -> RerouteResult:
     """``plan`` with planned NAV_WAYPOINTs inserted between the user's positions so that the
     flown line keeps the safety margin from the fence's exclusion zones (and from ``base``'s
     obstacles, whose planner and mission settings are used; ``planner`` overrides the
     planner settings). ``file`` labels messages (``name`` when there is none).
+    ``margin_pad_m``: the legs are planned (and judged straight) with the margin this much
+    wider, so that the track an autopilot flies through them keeps it
+    (:func:`uavplan.rehearsal.reroute_safe_as_flown`); over terrain the same ground serves,
+    so the ceiling comes down by the pad too.
 
     Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
     :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
@@ -549,6 +564,16 @@ def reroute_plan(
     who = file or name
     _check_points(route, airspace, world, margin_m, file)
     _check_segments(_straight_segments(route, home_xy, ground), airspace, world, margin_m, file)
+    plan_margin_m = margin_m + max(0.0, margin_pad_m)
+    plan_world = world
+    if plan_margin_m != margin_m:
+        b = airspace.bounds
+        plan_world = World.build(
+            airspace.obstacles,
+            bounds_xyz=(b.x_m, b.y_m, b.z_m),
+            margin_m=plan_margin_m,
+            ground=ground,
+        )
 
     # a leg into a terrain-frame item is flown over the ground (ArduPilot): as drawn and as
     # planned, it is measured so, and waypoints are added where it would come too close
@@ -565,7 +590,7 @@ def reroute_plan(
     for k in range(1, len(points)):
         a, b_ = points[k - 1], points[k]
         if math.hypot(b_[0] - a[0], b_[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
-            world, a, b_, margin_m, over.get(k)
+            plan_world, a, b_, plan_margin_m, over.get(k)
         ):
             straight += 1
             chains.append([k])
@@ -598,12 +623,12 @@ def reroute_plan(
             goal_m=held(points[chain[-1]]),
             via_m=tuple(held(points[k]) for k in chain[1:-1]),
             obstacles=lifted,
-            safety_margin_m=margin_m,
+            safety_margin_m=plan_margin_m,
             source=file,
             terrain=None if base is None else base.terrain,
             **settings,
         )  # fmt: skip
-        result = plan_route(scn, progress=progress, world=world, should_stop=should_stop)
+        result = plan_route(scn, progress=progress, world=plan_world, should_stop=should_stop)
         if result.interrupted:
             return RerouteResult(
                 plan, name, margin_m, route.end, tuple(runs), 0, math.nan,
@@ -622,7 +647,7 @@ def reroute_plan(
         for leg, k in zip(result.legs, chain[1:], strict=True):
             waypoints = leg.waypoints_enu
             if k in over:  # flown over the ground: keep the margin so, adding waypoints
-                waypoints, _ = over_ground(waypoints, world, over[k])
+                waypoints, _ = over_ground(waypoints, plan_world, over[k])
             insert_before[route.positions[k].item_index] = waypoints[1:-1]
 
     items: list[MissionItem] = []

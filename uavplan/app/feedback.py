@@ -120,6 +120,10 @@ def require_route(scenario: Scenario, result: RouteResult) -> PlannedRoute:
             f"{scenario.name}: the route comes within {result.min_clearance_m:.2f} m of an "
             f"obstacle (safety margin {scenario.safety_margin_m:g} m)"
         )
+    flight = result.flight
+    problem = None if flight is None else flight.problem()
+    if problem is not None:
+        raise NoPathError(f"{scenario.name}: {problem}")
     return result.route
 
 

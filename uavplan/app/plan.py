@@ -23,6 +23,7 @@ from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
+from uavplan.rehearsal import plan_safe_as_flown
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
@@ -86,7 +87,7 @@ class PlanOutcome:
             f"goal, energy {result.energy:.1f} (path {e_path:.1f}, turning {fixed(e_turn, 2)}, "
             f"climb {e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
             f"{result.runtime_s:.2f} s ({self.elapsed_s:.2f} s in all, reading and writing "
-            "included)"
+            f"included){flight_text(result)}"
         )
 
 
@@ -94,6 +95,15 @@ def fixed(value: float, digits: int) -> str:
     """``value`` with ``digits`` decimals, never ``-0.00`` (a tiny negative rounds to 0)."""
     text = f"{value:.{digits}f}"
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def flight_text(result: RouteResult) -> str:
+    """``, flight 7 min 36 s (ardupilot flight model)``: the predicted flight time."""
+    flight = result.flight
+    if flight is None:
+        return ""
+    minutes, seconds = divmod(round(flight.flight_time_s), 60)
+    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
 def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome:
@@ -138,6 +148,8 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     with outputs:
         with feedback.polled():
             result = _search(scn, feedback)
+            if result.collision_free:  # and the track the flight model predicts keeps it too
+                result = plan_safe_as_flown(scn, result, should_stop=feedback.should_stop)
         if result.interrupted:
             return PlanOutcome(scn, result, request.output)
         route = require_route(scn, result)

@@ -5,7 +5,7 @@ by the one mission check, :func:`uavplan.app.check.check_flight_in`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from uavplan.app.check import check_flight_in, no_fence, read_mission_flight
@@ -34,6 +34,8 @@ class RenderRequest:
     width_px: int = 1600
     height_px: int = 800
     dpi: int = 100
+    #: a flown track (.csv / .geojson, ``simulate`` or ``fly --track``) drawn over it
+    track: str | None = None
 
 
 @dataclass(frozen=True)
@@ -99,7 +101,18 @@ def _draw(
     failure: NoPathError | None = None,
     min_clearance_m: float | None = None,
     summary: str | None = None,
+    scenario: Scenario | None = None,
 ) -> _Drawn:
+    """The picture of ``scene`` with ``layers``; with ``request.track`` the flown track over
+    it, measured in ``scenario``'s site (the subtitle gives its clearance)."""
+    if request.track is not None:
+        if scenario is None:
+            raise InputError(
+                "--track draws a flown track over a scenario: give a scenario file (a "
+                "QGroundControl plan's own geofence is not one)",
+                file=request.track,
+            )
+        layers, subtitle = _with_track(scenario, request, layers, subtitle)
     png = render_png(
         scene,
         layers,
@@ -116,6 +129,42 @@ def _draw(
         min_clearance_m=min_clearance_m,
     )
     return _Drawn(outcome, png, failure)
+
+
+def _with_track(
+    scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str
+) -> tuple[RouteLayers, str]:
+    """``layers`` with the flown track of ``request.track`` (placed in the scenario's site)
+    and, in the subtitle, its clearance by the one check: with ``request.mission`` the
+    mission's part apart from the autopilot's return to launch."""
+    import numpy as np
+
+    from uavplan.mission.io import load_mission
+    from uavplan.mission.track import Track
+    from uavplan.rehearsal import CheckSite, return_seq
+
+    assert request.track is not None
+    track = Track.load(request.track)
+    layers = layers or RouteLayers()
+    if len(track) < 2:
+        return layers, subtitle
+    site = CheckSite.of_scenario(scn)
+    cut = len(track)
+    if request.mission is not None:
+        plan = load_mission(request.mission)
+        rtl = return_seq(plan, plan.autopilot)
+        if rtl is not None:
+            hits = np.flatnonzero(track.current_seq >= rtl)
+            cut = int(hits[0]) + 1 if hits.size else cut
+    whole = site.check(track, lands=bool(track.relative_alt_m[-1] < 0.5))
+    text = f"flown track {Path(request.track).name}: min clearance "
+    if cut < len(track):
+        part = site.check(track.until(cut), lands=False)
+        text += f"{part.min_clearance_m:.2f} m to the return, {whole.min_clearance_m:.2f} m with it"
+    else:
+        text += f"{whole.min_clearance_m:.2f} m"
+    layers = replace(layers, track_enu=whole.check.flight.points_enu)
+    return layers, f"{subtitle}; {text}" if subtitle else text
 
 
 def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
@@ -140,7 +189,7 @@ def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
         f"{plural(len(scn.obstacles), 'obstacle')}, safety margin {scn.safety_margin_m:g} m, "
         f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"
     )
-    return _draw(scene_for(scn), request, None, subtitle, summary="scenario only")
+    return _draw(scene_for(scn), request, None, subtitle, summary="scenario only", scenario=scn)
 
 
 #: the keys of a scenario's route: a problem there does not keep --no-plan from drawing it
@@ -197,7 +246,7 @@ def _render_mission(scn: Scenario, request: RenderRequest) -> _Drawn:
             subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
                 "  (closer than the margin!)" if close else ""
             )
-    return _draw(scene_for(scn), request, layers, subtitle, min_clearance_m=clearance)
+    return _draw(scene_for(scn), request, layers, subtitle, min_clearance_m=clearance, scenario=scn)
 
 
 def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -> _Drawn:
@@ -219,7 +268,7 @@ def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -
             f"in {request.output})"
         )
         subtitle = f"no collision-free path: {result.message}"
-        return _draw(scene_for(scn), request, None, subtitle, failure=no_route)
+        return _draw(scene_for(scn), request, None, subtitle, failure=no_route, scenario=scn)
     assert result.route is not None
     subtitle = route_subtitle(
         result.route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
@@ -230,4 +279,4 @@ def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -
     except NoPathError as err:
         failure = err
     layers = RouteLayers.from_route(result.route)
-    return _draw(scene_for(scn), request, layers, subtitle, failure=failure)
+    return _draw(scene_for(scn), request, layers, subtitle, failure=failure, scenario=scn)

@@ -15,8 +15,9 @@ from uavplan.airspace import OUTSIDE_INCLUSION, Airspace
 from uavplan.app.feedback import Feedback, PlannerOptions, plural
 from uavplan.app.outputs import OutputSet
 from uavplan.config import PlannerConfig
-from uavplan.errors import InputError
+from uavplan.errors import InputError, NoPathError
 from uavplan.mission.io import load_mission, mission_text
+from uavplan.rehearsal import reroute_safe_as_flown
 from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import load_surroundings
 
@@ -62,8 +63,16 @@ class RerouteOutcome:
             f"{len(r.plan.items) - r.inserted}), {r.length_m:.0f} m flown from take-off, "
             f"min clearance {r.min_clearance_m:.2f} m "
             f"(margin {r.safety_margin_m:g} m), rerouted in {self.elapsed_s:.2f} s "
-            f"(the search {r.runtime_s:.2f} s of it)"
+            f"(the search {r.runtime_s:.2f} s of it){_flight_text(r)}"
         )
+
+
+def _flight_text(result: RerouteResult) -> str:
+    flight = result.flight
+    if flight is None:
+        return ""
+    minutes, seconds = divmod(round(flight.flight_time_s), 60)
+    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
 def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
@@ -110,11 +119,24 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
                     progress=bar,
                     should_stop=feedback.should_stop,
                 )
+                if not result.interrupted:  # the track the flight model predicts keeps it too
+                    result = reroute_safe_as_flown(
+                        plan,
+                        result,
+                        base=base,
+                        planner=planner,
+                        name=name,
+                        file=request.source,
+                        should_stop=feedback.should_stop,
+                    )
         finally:
             if bar is not None:
                 bar.close()
         if result.interrupted:
             return RerouteOutcome(result, request.output)
+        problem = None if result.flight is None else result.flight.problem()
+        if problem is not None:
+            raise NoPathError(f"{request.source}: {problem}")
         plan_out.write_text(mission_text(result.plan, request.output))
         if report_out is not None:
             report_out.write_text(json.dumps(result.report(), indent=2) + "\n")

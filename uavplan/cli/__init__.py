@@ -43,6 +43,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "link_cmd",
         "Read the vehicle's mission (and geofence / rally points for a .plan) into a file.",
     ),
+    "fly": (
+        "fly_cmd",
+        "Fly MISSION on the vehicle at CONN: check it, start it, follow it to the landing.",
+    ),
     "import": (
         "import_cmd",
         "Read buildings and tall structures from SOURCE (.osm, .osm.pbf, GeoJSON, GeoPackage, "
@@ -56,6 +60,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": (
         "render_cmd",
         "Draw SCENARIO in 3-D and from above, with a planned route or a mission's route.",
+    ),
+    "simulate": (
+        "simulate_cmd",
+        "Fly MISSION through the flight model, in simulated time, without a vehicle.",
     ),
     "upload": (
         "link_cmd",

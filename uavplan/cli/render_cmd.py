@@ -51,6 +51,12 @@ def _parse_size(_ctx: Any, _param: Any, value: str) -> tuple[int, int]:
 )
 @click.option("--no-plan", is_flag=True, help="Draw the scenario alone, without a route.")
 @click.option(
+    "--track",
+    "track_path",
+    type=click.Path(dir_okay=False),
+    help="Also draw this flown track (.csv / .geojson from `simulate --track` or `fly --track`).",
+)
+@click.option(
     "--algorithm",
     type=ALGORITHM,
     help="Planner (default: the scenario's, else spsa).",
@@ -77,6 +83,7 @@ def render_command(
     output: str,
     mission_path: str | None,
     no_plan: bool,
+    track_path: str | None,
     algorithm: str | None,
     seed: int | None,
     iterations: int | None,
@@ -102,6 +109,7 @@ def render_command(
         width_px=width,
         height_px=height,
         dpi=dpi,
+        track=track_path,
     )
     check_threads_variable(warn)
     with interruptible() as interrupts:

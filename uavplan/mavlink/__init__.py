@@ -11,6 +11,9 @@ Layers (each module imports only the ones above it):
 - :mod:`.machines` - upload / download / clear state machines (no I/O, the time passed in);
 - :mod:`.protocol` - the client driving them over a link, outcomes as values;
 - :mod:`.transfer` - whole plans: firmware layout, mission + fence + rally, read-back;
+- :mod:`.flightmachines` - flying a mission: pre-flight checks, command sequences, the
+  monitor, as state machines without I/O;
+- :mod:`.flightclient` - their driver over a link;
 - :mod:`.faultproxy` - a seeded UDP fault proxy between two endpoints.
 
 The vehicle side (the simulated PX4 / ArduPilot vehicle, its mission-protocol server and its

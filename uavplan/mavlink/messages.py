@@ -119,6 +119,7 @@ class MavCommand(enum.IntEnum):
     DO_SET_MISSION_CURRENT = 224
     MISSION_START = 300
     COMPONENT_ARM_DISARM = 400
+    RUN_PREARM_CHECKS = 401
     GET_HOME_POSITION = 410
     SET_MESSAGE_INTERVAL = 511
     REQUEST_MESSAGE = 512
@@ -183,6 +184,10 @@ class Severity(enum.IntEnum):
     INFO = 6
     DEBUG = 7
 
+
+#: MAV_SYS_STATUS_PREARM_CHECK: the SYS_STATUS sensor bit of the pre-arm checks (healthy:
+#: they pass; "always healthy when armed", common.xml). QGroundControl's "Ready To Fly".
+SYS_STATUS_PREARM_CHECK = 0x10000000
 
 #: MAVLink message id of AUTOPILOT_VERSION (param1 of MAV_CMD_REQUEST_MESSAGE)
 AUTOPILOT_VERSION_ID = 148

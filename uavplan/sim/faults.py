@@ -10,7 +10,8 @@ seed:
   ACCEPTED, falling silent, ignoring requests (the fault-matrix tests);
 - **the flight**: the link lost for good some simulated seconds after the vehicle armed
   (the vehicle keeps flying, as PX4 and ArduPilot do with their ground-station failsafe at
-  its default, disabled).
+  its default, disabled); a pre-arm check that fails (the vehicle will not arm, and says
+  why).
 
 :class:`FaultInjector` applies the packet faults to messages (the vehicle is sans-I/O: its
 messages pass through the injector before the I/O loop encodes them). (The fault proxy of
@@ -57,7 +58,10 @@ class Faults:
     COUNT / REQUEST_LIST / CLEAR_ALL.
 
     Flight: ``link_lost_after_s`` simulated seconds after the vehicle arms, it neither sends
-    nor hears anything any more (and keeps flying).
+    nor hears anything any more (and keeps flying). ``prearm_failure``: a pre-arm check
+    fails with this reason (``"Need Position Estimate"``): SYS_STATUS reports the pre-arm
+    check unhealthy, and arming is refused with the reason in the firmware's words
+    (ArduPilot ``PreArm: <reason>``, PX4 ``Preflight Fail: <reason>``).
     """
 
     drop_rate: float = 0.0
@@ -72,6 +76,7 @@ class Faults:
     silent_after_seq: int | None = None
     ignore_requests: bool = False
     link_lost_after_s: float | None = None
+    prearm_failure: str | None = None
     seed: int | None = 0
 
     def __post_init__(self) -> None:
@@ -83,6 +88,8 @@ class Faults:
             raise ValueError(f"direction must be both, in or out, got {self.direction!r}")
         if self.link_lost_after_s is not None and not self.link_lost_after_s >= 0.0:
             raise ValueError(f"link_lost_after_s must be >= 0, got {self.link_lost_after_s!r}")
+        if self.prearm_failure is not None and not self.prearm_failure.strip():
+            raise ValueError("prearm_failure must name the failing check")
 
     @property
     def packet_faults(self) -> bool:

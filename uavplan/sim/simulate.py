@@ -123,6 +123,18 @@ class FlownTrack:
     def relative_alt_m(self) -> NDArray[np.float64]:
         return self.z_m
 
+    def modes(self) -> tuple[str, ...]:
+        """The flight mode the vehicle reports at each sample: PX4 Mission, then Return from
+        its RTL item; ArduPilot AUTO throughout (it flies the mission's RTL inside AUTO)."""
+        from uavplan.mavlink.modes import ModeKind, mode_named
+
+        mission = mode_named(self.autopilot, ModeKind.MISSION).name
+        rtl_at = [e.t_s for e in self.events if e.kind is EventKind.RTL]
+        if self.autopilot != Autopilot.PX4 or not rtl_at:
+            return (mission,) * len(self.t_s)
+        back = mode_named(self.autopilot, ModeKind.RETURN).name
+        return tuple(back if t >= rtl_at[0] - 1e-9 else mission for t in self.t_s)
+
     def reached(self) -> list[tuple[int, float]]:
         """(seq, time) of every mission item the vehicle completed, in order."""
         return [

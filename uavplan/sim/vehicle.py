@@ -40,6 +40,7 @@ from struct import error as struct_error
 
 from uavplan.geo import GeoPoint
 from uavplan.mavlink.messages import (
+    SYS_STATUS_PREARM_CHECK,
     AutopilotVersion,
     BatteryStatus,
     Capability,
@@ -101,8 +102,12 @@ PX4_DISARM_AFTER_LANDING_S = 2.0
 PX4_TAKEOFF_ALT_M = 2.5
 #: MAV_CMD_COMPONENT_ARM_DISARM param2 that forces arming / disarming
 FORCE_MAGIC = 21196.0
-#: SYS_STATUS sensors: 3D gyro, accel, mag, absolute pressure, GPS, battery
-_SENSORS = 0x1 | 0x2 | 0x4 | 0x8 | 0x20 | 0x2000000
+#: SYS_STATUS sensors: 3D gyro, accel, mag, absolute pressure, GPS, battery, and the pre-arm
+#: checks (both firmwares report them as a sensor: QGroundControl's "Ready To Fly")
+_SENSORS = 0x1 | 0x2 | 0x4 | 0x8 | 0x20 | 0x2000000 | SYS_STATUS_PREARM_CHECK
+#: ArduPilot repeats a failing pre-arm check's message this often while disarmed
+#: (libraries/AP_Arming/AP_Arming.cpp, PREARM_DISPLAY_PERIOD)
+ARDUPILOT_PREARM_DISPLAY_S = 30.0
 _UINT16_MAX = 65535
 _INT16_MAX = 32767
 
@@ -238,6 +243,7 @@ class SimVehicle:
         self.last_rejection: str | None = None
         #: every STATUSTEXT sent, for tests and the I/O loop's log
         self.texts: list[StatusText] = []
+        self._next_prearm_display_s = 0.0
 
     # -- inspection -----------------------------------------------------------------------
     @property
@@ -296,6 +302,7 @@ class SimVehicle:
             return []
         out.extend(self.server.timers(now))
         out.extend(self._due_streams(self.sim_time_s))
+        out.extend(self._prearm_display())
         wire = self._injector.outbound(out)
         if link_idle:
             wire.extend(self._injector.flush())
@@ -450,6 +457,13 @@ class SimVehicle:
             return ack(self._do_set_mission_current(cmd.param1, out))
         if command == MavCommand.COMPONENT_ARM_DISARM:
             return ack(self._arm_disarm(cmd.param1, cmd.param2, out))
+        if command == MavCommand.RUN_PREARM_CHECKS:
+            # ArduPilot GCS_Common.cpp handle_command_run_prearm_checks, PX4 Commander
+            # VEHICLE_CMD_RUN_PREARM_CHECKS: run the checks and report what fails
+            if self.armed:
+                return ack(MavResult.TEMPORARILY_REJECTED)
+            out.extend(self._prearm_report())
+            return ack(MavResult.ACCEPTED)
         if command == MavCommand.DO_SET_MODE:
             return ack(self._do_set_mode(cmd.param1, cmd.param2, cmd.param3, out))
         if command == MavCommand.MISSION_START:
@@ -554,7 +568,41 @@ class SimVehicle:
             return MavResult.ACCEPTED
         return MavResult.DENIED if self.autopilot == Autopilot.PX4 else MavResult.UNSUPPORTED
 
+    def _prearm_display(self) -> list[Message]:
+        """ArduPilot repeats a failing pre-arm check every PREARM_DISPLAY_PERIOD while
+        disarmed (AP_Arming::update); PX4 reports it when asked or when arming."""
+        if (
+            self.faults.prearm_failure is None
+            or self.armed
+            or self.autopilot != Autopilot.ARDUPILOT
+            or self.sim_time_s < self._next_prearm_display_s
+        ):
+            return []
+        self._next_prearm_display_s = self.sim_time_s + ARDUPILOT_PREARM_DISPLAY_S
+        return self._prearm_report()
+
+    def _prearm_report(self) -> list[Message]:
+        """The failing pre-arm check's STATUSTEXT in the firmware's words (ArduPilot's
+        AP_Arming::check_failed prefixes "PreArm: ", PX4's health checks "Preflight Fail: "),
+        or nothing when the checks pass."""
+        reason = self.faults.prearm_failure
+        if reason is None:
+            return []
+        prefix = "PreArm: " if self.autopilot == Autopilot.ARDUPILOT else "Preflight Fail: "
+        return [self._say(Severity.CRITICAL, prefix + reason)]
+
     def _arm(self, out: list[Message], *, forced: bool = False) -> MavResult:
+        if self.faults.prearm_failure is not None and not forced:
+            # a failing pre-arm check refuses arming: ArduPilot reports it and answers
+            # FAILED (AP_Arming::arm, GCS_Common.cpp); PX4 reports the health failure, then
+            # "Arming denied: Resolve system health failures first", TEMPORARILY_REJECTED
+            out.extend(self._prearm_report())
+            if self.autopilot == Autopilot.ARDUPILOT:
+                return MavResult.FAILED
+            out.append(
+                self._say(Severity.CRITICAL, "Arming denied: Resolve system health failures first")
+            )
+            return MavResult.TEMPORARILY_REJECTED
         if self.autopilot == Autopilot.ARDUPILOT:
             # ArduCopter/AP_Arming_Copter.cpp arm_checks: "%s mode not armable" prefixed
             # "Arm: " by AP_Arming::check_failed; GCS_Common.cpp answers MAV_RESULT_FAILED
@@ -966,7 +1014,8 @@ class SimVehicle:
         if math.hypot(vx, vy) > 0.5:
             self._heading_cdeg = round(math.degrees(math.atan2(vx, vy)) % 360.0 * 100.0) % 36000
         return GlobalPositionInt(
-            time_boot_ms=int(self.sim_time_s * 1000.0) & 0xFFFFFFFF,
+            # the flight model's time: a sample taken while catching up keeps its own time
+            time_boot_ms=int(round(self.flight.t_s * 1000.0)) & 0xFFFFFFFF,
             lat=deg_to_e7(lat),
             lon=deg_to_e7(lon),
             alt=round(alt * 1000.0),
@@ -992,12 +1041,19 @@ class SimVehicle:
         return SysStatus(
             onboard_control_sensors_present=_SENSORS,
             onboard_control_sensors_enabled=_SENSORS,
-            onboard_control_sensors_health=_SENSORS,
+            onboard_control_sensors_health=self._health(),
             load=200,
             voltage_battery=round(battery.voltage_v * 1000.0),
             current_battery=round(battery.current_a * 100.0),
             battery_remaining=round(battery.remaining_fraction * 100.0),
         )
+
+    def _health(self) -> int:
+        """SYS_STATUS health: every sensor healthy; the pre-arm check bit clear while a
+        pre-arm check fails on the ground (it is "always healthy when armed")."""
+        if self.faults.prearm_failure is not None and not self.armed:
+            return _SENSORS & ~SYS_STATUS_PREARM_CHECK
+        return _SENSORS
 
     def _battery_status(self) -> BatteryStatus:
         battery = self.battery
