@@ -134,3 +134,17 @@ def test_the_profile_sets_the_hover_draw(profile: str) -> None:
     off = Battery(spec)
     off.drain(PowerState(False, False), 1.0)
     assert climb.used_wh > battery.used_wh > cruise.used_wh > off.used_wh == 0.0
+
+
+def test_a_simulated_track_prints_and_reports_like_the_estimate() -> None:
+    """The seam for ``simulate`` and ``fly``: the flown track as a FlightEnergy."""
+    from uavplan.estimate import flown_energy
+
+    track = simulate(synthetic_mission(4, seed=5, autopilot=AP))
+    flown = flown_energy(track)
+    assert flown.energy_wh == pytest.approx(track.energy_wh, rel=1e-12)
+    assert flown.time_s == track.flight_time_s
+    assert flown.battery_used_pct == pytest.approx(track.battery_used_pct, rel=1e-12)
+    minutes, seconds = divmod(round(track.flight_time_s), 60)
+    assert flown.summary().startswith(f"flight {minutes} min {seconds:02d} s, ")
+    assert flown.report_fields()["energy_wh"] == round(track.energy_wh, 2)

@@ -38,6 +38,7 @@ from uavplan.mission.items import MavCmd, MissionPlan
 
 if TYPE_CHECKING:
     from uavplan.flight import Flight
+    from uavplan.sim.simulate import FlownTrack
 from uavplan.scenario import Scenario
 from uavplan.sim.params import FlightLimits, Parameters, flight_limits
 from uavplan.vehicle import DEFAULT_RESERVE_PCT, FlightEnergy, Legs, VehicleProfile, Wind
@@ -50,6 +51,7 @@ __all__ = [
     "estimate_mission",
     "estimate_route",
     "estimate_straight_route",
+    "flown_energy",
     "mission_limits",
 ]
 
@@ -444,4 +446,35 @@ def estimate_mission(
         cruise_speed_m_s=speed,
         reserve_pct=reserve_pct,
         rtl_altitude_m=rtl_altitude_m,
+    )
+
+
+def flown_energy(track: FlownTrack) -> FlightEnergy:
+    """A simulated (or flown) track's time, energy and battery, step by step, as the
+    estimate's :class:`~uavplan.vehicle.FlightEnergy`: its ``summary()`` is the line ``plan``
+    prints, its ``report_fields()`` the report's keys, so ``simulate`` and ``fly`` print what
+    the vehicle drew next to the estimate (:func:`estimate_mission`) of the same mission."""
+    from uavplan.vehicle.flight import LegFigures
+
+    dt = np.diff(track.t_s)
+    power = np.asarray(track.power_w, dtype=np.float64)[1:]
+    we, wn = track.wind_en_m_s
+    vx = np.gradient(track.x_m, track.t_s)[1:] if len(track.t_s) > 1 else np.zeros(0)
+    vy = np.gradient(track.y_m, track.t_s)[1:] if len(track.t_s) > 1 else np.zeros(0)
+    legs = LegFigures(
+        duration_s=dt,
+        energy_wh=power * dt / 3600.0,
+        power_w=power,
+        ground_speed_m_s=track.speed_m_s[1:],
+        airspeed_m_s=np.hypot(vx - we, vy - wn),
+        vertical_speed_m_s=track.climb_m_s[1:],
+    )
+    profile = track.vehicle.profile
+    return FlightEnergy(
+        profile_name=profile.name,
+        time_s=track.flight_time_s,
+        energy_wh=float(np.sum(legs.energy_wh)),
+        battery_wh=profile.battery_wh,
+        usable_wh=profile.usable_wh,
+        legs=legs,
     )
