@@ -162,3 +162,14 @@ def test_the_physical_fitness_flies_the_scenario_speeds(tmp_path: Path) -> None:
     assert (fitness.climb_rate_m_s, fitness.descent_rate_m_s) == (2.5, 1.5)  # WPNAV_SPEED_UP/DN
     assert fitness.profile.name == "x500" and fitness.wind == scn.wind
     assert math.isclose(fitness.datum_amsl_m, scn.site.origin.alt_m)
+
+
+def test_bench_keeps_the_paper_s_comparison(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from uavplan.cli import main
+
+    path = scenario(tmp_path, "spsa")
+    result = CliRunner().invoke(main, ["bench", str(path), "--runs", "1"])
+    assert result.exit_code == 2, result.output
+    assert "planner.energy" in result.output and "Traceback" not in result.output
