@@ -4,9 +4,11 @@ Prints, as Markdown tables: each profile's predicted hover time against the one 
 publishes; the power-speed table of one profile (default ``x500``); the time and energy of a
 straight level leg (default 2 km) at a cruise speed (default 10 m/s, ArduPilot's
 WPNAV_SPEED) in calm air and with a 5 m/s head- and tailwind; and the climb/descent powers.
+With ``--simulated``: the bundled missions flown by ``simulate`` against their estimates.
 
     python tools/energy_figures.py
     python tools/energy_figures.py --profile heavy-lift --speed 8 --length 5000
+    python tools/energy_figures.py --simulated   # the bundled missions: simulate vs estimate
 """
 
 from __future__ import annotations
@@ -88,12 +90,60 @@ def leg_table(p: profiles.VehicleProfile, length_m: float, speed_m_s: float) -> 
     return rows
 
 
+def simulated_table() -> list[str]:
+    """Each flat bundled scenario planned (its own seed), its mission flown by ``simulate``
+    (calm air, the x500) and estimated: what the simulation adds (accelerations, corners)."""
+    import tempfile
+    from pathlib import Path
+
+    from uavplan.app.check import read_mission_flight
+    from uavplan.estimate import estimate_mission
+    from uavplan.mission.io import mission_text
+    from uavplan.planning import mission_for, plan_route
+    from uavplan.scenario import load_scenario
+    from uavplan.sim.simulate import simulate
+
+    rows = [
+        "| scenario | autopilot | end | estimate s | simulated s | estimate Wh | simulated Wh "
+        "| simulated − estimate |",
+        "|---|---|---|---:|---:|---:|---:|---:|",
+    ]
+    root = Path(__file__).resolve().parent.parent / "missions"
+    for path in sorted(root.glob("*.yaml")):
+        scn = load_scenario(path)
+        if scn.terrain is not None:
+            continue  # simulate flies over flat ground unless given the DEM's ground_z
+        result = plan_route(scn, threads=1)
+        if result.route is None:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "m.plan"
+            out.write_text(mission_text(mission_for(scn, result.route), str(out)))
+            plan, flight = read_mission_flight(str(out), scn)
+        est = estimate_mission(scn, plan, flight).energy
+        track = simulate(plan)
+        rows.append(
+            f"| {path.stem} | {plan.autopilot.name.lower()} | {scn.mission.end} "
+            f"| {est.time_s:.0f} | {track.flight_time_s:.0f} | {est.energy_wh:.2f} "
+            f"| {track.energy_wh:.2f} | {100 * (track.energy_wh / est.energy_wh - 1):+.1f} % |"
+        )
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--profile", default="x500", choices=list(profiles.PROFILES))
     ap.add_argument("--speed", type=float, default=10.0, help="cruise ground speed (m/s)")
     ap.add_argument("--length", type=float, default=2000.0, help="leg length (m)")
+    ap.add_argument(
+        "--simulated",
+        action="store_true",
+        help="only the table of the bundled missions simulated against their estimates",
+    )
     args = ap.parse_args()
+    if args.simulated:
+        print("\n".join(simulated_table()))
+        return
     p = profiles.get(args.profile)
     out = ["## Hover time: predicted and published", "", *hover_table(), ""]
     out += [f"## {args.profile}: power against airspeed (sea level, calm)", ""]

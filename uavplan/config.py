@@ -304,6 +304,12 @@ class EnergyWeights:
     k2: float = _num(1.0, lo=0, hi=1e6, doc="per metre climbed or descended")
 
 
+#: the search fitness: ``paper`` (eq. 1-2 with :class:`EnergyWeights`, the default and the
+#: paper's protocol) or ``physical`` (the power model's watt-hours, wind included:
+#: docs/energy.md "The physical fitness")
+FITNESS_MODES: tuple[str, ...] = ("paper", "physical")
+
+
 @dataclass(frozen=True)
 class GridSpec:
     """Path grid (section 2.1, 6): one node per ``dx`` column, nodes rounded to ``dy``/``dz``."""
@@ -693,6 +699,12 @@ class PlannerConfig:
     energy: EnergyWeights = field(default_factory=EnergyWeights)
     post: PostParams = field(default_factory=PostParams)
     sections: Mapping[str, Any] = field(default_factory=dict)
+    #: the search fitness, one of :data:`FITNESS_MODES` (``planner: {energy: physical}``)
+    fitness: str = "paper"
+
+    def __post_init__(self) -> None:
+        if self.fitness not in FITNESS_MODES:
+            raise ConfigError(f"must be one of {', '.join(FITNESS_MODES)}", key="energy")
 
     def params_for(self, name: str | None = None) -> Any:
         """Planner ``name``'s parameters (default: the configured algorithm's): its section
@@ -749,6 +761,7 @@ def resolved_planner(cfg: PlannerConfig, algorithm: str | None = None) -> dict[s
         "params": None if params is None else as_dict(params),
         "grid": None if cfg.grid is None else as_dict(cfg.grid),
         "energy": as_dict(cfg.energy),
+        "fitness": cfg.fitness,
         "post": as_dict(cfg.post),
         "postprocess": entry.postprocess,
         "margin_pad_m": MARGIN_PAD_M,

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +33,9 @@ from uavplan.mission.items import MavCmd, MissionPlan
 from uavplan.mission.track import Track
 from uavplan.route import Follow, keeps_margin
 from uavplan.world import CEILING, GROUND, World
+
+if TYPE_CHECKING:
+    from uavplan.sim.simulate import FlownTrack
 
 #: consecutive points closer than this horizontally are "the same place" (a climb or a
 #: descent): files round positions to about a centimetre
@@ -422,6 +426,8 @@ class FlightPrediction:
     margin_pad_m: float = 0.0
     #: why a wider margin could not be planned (when the track still breaks the margin)
     gave_up: str = ""
+    #: the flight model's record of that flight (its energy: the vehicle's power model)
+    flown: FlownTrack | None = None
 
     def problem(self) -> str | None:
         """What is wrong with the predicted flight (None: nothing), with what was tried."""

@@ -25,7 +25,7 @@ from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
 from uavplan.obstacles import Obstacle
 from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
-from uavplan.path.energy import energy_terms
+from uavplan.path.energy import PhysicalFitness, energy_terms
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import (
     dedupe,
@@ -200,6 +200,26 @@ def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem
         site.goal_m,
         scenario.grid,
         cfg.energy,
+        physical=physical_fitness(scenario),
+    )
+
+
+def physical_fitness(scenario: Scenario) -> PhysicalFitness | None:
+    """The physical fitness of ``scenario`` (``planner: {energy: physical}``): its vehicle and
+    wind, the mission's speed and the autopilot's climb and descent rates, as the flight
+    estimate flies the route (:func:`uavplan.estimate.mission_limits`). None: the paper's."""
+    if scenario.planner.fitness != "physical":
+        return None
+    from uavplan.estimate import mission_limits
+
+    limits = mission_limits(scenario.mission.autopilot, scenario.vehicle.cruise_speed_m_s)
+    return PhysicalFitness(
+        profile=scenario.vehicle.profile,
+        wind=scenario.wind,
+        speed_m_s=limits.speed_xy_m_s,
+        climb_rate_m_s=limits.speed_up_m_s,
+        descent_rate_m_s=limits.speed_down_m_s,
+        datum_amsl_m=scenario.site.origin.alt_m,
     )
 
 
@@ -252,9 +272,17 @@ def _best_simplified(
     problem: PathProblem, population: np.ndarray, nodes_pf: np.ndarray, vertices: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Among the distinct final individuals (and the best one), the one whose simplified
-    polyline has the lowest energy: (its column polyline, its simplified vertices)."""
-    w = problem.energy
-    best = (sum(energy_terms(vertices, w)), nodes_pf, vertices)
+    polyline has the lowest energy (the problem's fitness: eq. 1-2, or the physical
+    watt-hours): (its column polyline, its simplified vertices)."""
+    w, physical = problem.energy, problem.physical
+    heading = problem.frame.heading_rad
+
+    def energy_of(v: np.ndarray) -> float:
+        if physical is not None:
+            return physical.polyline_wh(v, heading)
+        return sum(energy_terms(v, w))
+
+    best = (energy_of(vertices), nodes_pf, vertices)
     # the distinct individuals in np.unique(rows, axis=0)'s order (lexicographic), without
     # np.unique, which imports numpy.ma (about 20 ms of every plan)
     rows = population.reshape(population.shape[0], -1)
@@ -264,7 +292,7 @@ def _best_simplified(
     for nodes in rows[distinct]:
         pts = problem.node_points(nodes.reshape(-1, 2))
         v = pts[simplify(pts, problem.world)]
-        e = sum(energy_terms(v, w))
+        e = energy_of(v)
         if e < best[0]:
             best = (e, pts, v)
     return best[1], best[2]
@@ -358,6 +386,7 @@ def plan_route(
         post = replace(post, refine=False, tighten=False, select="best")
     points = route_points(scenario)
     n_legs = len(points) - 1
+    physical = physical_fitness(scenario)
 
     warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
@@ -378,7 +407,7 @@ def plan_route(
         ) -> PathProblem:
             # built where it is used, so only the leg holds it (and can let it go)
             if given is None:
-                given = PathProblem.build(world, a, b, scenario.grid, cfg.energy)
+                given = PathProblem.build(world, a, b, scenario.grid, cfg.energy, 0, physical)
             return given.with_fitness_smoothing(smoothing)
 
         leg_progress = None
@@ -602,9 +631,9 @@ def _plan_leg(
                 nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
     else:
         nodes_pf = vertices = route_pf
-    if post.refine:
-        vertices = refine(vertices, wpf, cfg.energy)
-    elif post.tighten or route_pf is not None:
+    if post.refine and problem.physical is None:
+        vertices = refine(vertices, wpf, cfg.energy)  # a pattern search on eq. 1-2
+    elif post.tighten or post.refine or route_pf is not None:
         vertices = tighten(vertices, wpf)
     smoothed = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
     waypoints_pf = resample_waypoints(smoothed, wpf, scenario.mission.spacing_m)

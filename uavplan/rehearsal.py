@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -37,6 +38,7 @@ from uavplan.planning import RouteResult, build_world, enu_frame, mission_for, p
 from uavplan.reroute import RerouteResult, fence_world, reroute_plan
 from uavplan.scenario import PlannerConfig, Scenario, Surroundings
 from uavplan.sim.params import Parameters
+from uavplan.sim.power import VehicleSpec
 from uavplan.sim.simulate import FlownTrack, distance_to_polyline, simulate
 from uavplan.world import World
 
@@ -106,6 +108,7 @@ class Rehearsal:
             return_check=self.return_check,
             margin_pad_m=margin_pad_m,
             gave_up=gave_up,
+            flown=self.flown,
         )
 
 
@@ -225,6 +228,21 @@ def return_seq(plan: MissionPlan, autopilot: Autopilot) -> int | None:
     return None
 
 
+def conditions_of(scenario: Scenario) -> dict[str, Any]:
+    """How ``scenario``'s vehicle flies: its power model (the profile it names, default x500)
+    and its wind as one (east, north) vector, at the mean height of the flight volume above
+    the ground (the flight model's wind does not vary with height)."""
+    from uavplan.sim.power import spec_for
+
+    out: dict[str, Any] = {"vehicle": spec_for(scenario.vehicle.profile)}
+    wind = scenario.wind
+    if wind is not None:
+        z0, z1 = scenario.bounds.z_m
+        east, north = (float(v) for v in np.asarray(wind.velocity_at((z0 + z1) / 2)).ravel()[:2])
+        out["wind_en_m_s"] = (east, north)
+    return out
+
+
 def rehearse(
     plan: MissionPlan,
     site: CheckSite | None = None,
@@ -232,6 +250,7 @@ def rehearse(
     autopilot: Autopilot | None = None,
     params: Parameters | Mapping[str, float] | None = None,
     wind_en_m_s: tuple[float, float] = (0.0, 0.0),
+    vehicle: VehicleSpec | None = None,
 ) -> Rehearsal:
     """Fly ``plan`` (as ``autopilot``, default its own) through the flight model and, with
     ``site``, check the track there: the mission's part against the margin, the return leg
@@ -251,9 +270,19 @@ def rehearse(
         xy = site.frame.to_enu_xy([home.lat_deg], [home.lon_deg])
         ground_amsl = float(site.ground.z_at(xy)[0]) + site.datum_amsl_m
         plan = replace(plan, home=GeoPoint(home.lat_deg, home.lon_deg, ground_amsl))
-    flown = simulate(
-        plan, autopilot=flavour, params=params, wind_en_m_s=wind_en_m_s, ground_z=ground
-    )
+    if vehicle is None:
+        flown = simulate(
+            plan, autopilot=flavour, params=params, wind_en_m_s=wind_en_m_s, ground_z=ground
+        )
+    else:
+        flown = simulate(
+            plan,
+            autopilot=flavour,
+            params=params,
+            wind_en_m_s=wind_en_m_s,
+            ground_z=ground,
+            vehicle=vehicle,
+        )
     track = track_of(flown, f"simulate {flown.autopilot.label}")
     rtl = return_seq(plan, flown.autopilot)
     start = None
@@ -306,7 +335,8 @@ def plan_safe_as_flown(
         return result
     site = CheckSite.of_scenario(scenario)
     margin = scenario.safety_margin_m
-    rehearsal = rehearse(mission_for(scenario, result.route), site)
+    flying = conditions_of(scenario)
+    rehearsal = rehearse(mission_for(scenario, result.route), site, **flying)
     pad = 0.0
     notes: list[str] = []
     gave_up = ""
@@ -338,7 +368,7 @@ def plan_safe_as_flown(
         pad = grown
         route = replace(again.route, safety_margin_m=margin)
         result = replace(again, route=route, runtime_s=result.runtime_s + again.runtime_s)
-        rehearsal = rehearse(mission_for(scenario, route), site)
+        rehearsal = rehearse(mission_for(scenario, route), site, **flying)
     flight = rehearsal.prediction(margin_pad_m=pad, gave_up=gave_up)
     if flight.return_check is not None and not flight.return_check.ok:
         notes.append(_return_note(flight.return_check, autopilot))

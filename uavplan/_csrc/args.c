@@ -128,7 +128,7 @@ static const Field REACH_FIELDS[R_N] = {
 
 /* uavplan.path.energy.EnergyArgs */
 enum { E_START, E_GOAL, E_COLS, E_DX, E_DY, E_DZ, E_N_SUB, E_K0, E_K1, E_MU0, E_K2, E_SMOOTH,
-       E_STRAIGHT, E_N };
+       E_STRAIGHT, E_PHYS, E_N };
 typedef char energy_fields_check[E_N == ENERGY_NFIELDS ? 1 : -1];
 static const Field ENERGY_FIELDS[E_N] = {
     [E_START] = F(energy, start_yz, T_F64, 1, 0),
@@ -144,6 +144,7 @@ static const Field ENERGY_FIELDS[E_N] = {
     [E_K2] = F(energy, k2, K_REAL, 0, 0),
     [E_SMOOTH] = F(energy, smooth, K_INT, 0, 0),
     [E_STRAIGHT] = F(energy, straight, K_FLAG, 0, 0),
+    [E_PHYS] = F(energy, phys, T_F64, 1, 0),
 };
 
 /* uavplan.planners._kernels.EnergyCache */
@@ -449,6 +450,12 @@ int energy_get(PyObject *o, Energy *e, EnergyBufs *eb, int64_t inner) {
     e->smooth = v[E_SMOOTH].integer;
     e->inner = inner;
     e->straight = straight;
+    e->n_phys = dim(&v[E_PHYS].buf, 0);
+    e->phys = e->n_phys > 0 ? F64(v[E_PHYS].buf) : NULL;
+    if (e->phys != NULL && phys_check(e->phys, e->n_phys) < 0) {
+        values_release(v, E_N);
+        return -1;
+    }
     if (energy_init(e) < 0) {
         values_release(v, E_N);
         return -1;

@@ -1,5 +1,6 @@
 /* uavplan._ckernels: the energy fitness of the paper (eq. 1-2) on the cubic spline through a
- * path's nodes (uavplan/path/energy.py), and the polyline energy. */
+ * path's nodes (uavplan/path/energy.py), the polyline energy, and the physical fitness (the
+ * power model's watt-hours on the same spline). */
 #include "kernels.h"
 
 PyObject *py_polyline_energy(PyObject *self, PyObject *args) {
@@ -223,10 +224,108 @@ void energy_knots(const double *nodes, const Energy *e) {
     }
 }
 
+/* ------------------------------------------------------------------------------------------
+ * The physical fitness (planner.energy: physical): the watt-hours of the power model
+ * (uavplan/vehicle/power.py, flight.py) along the spline's samples, each step a leg flown at
+ * the commanded ground speed, its climb no faster than the climb or descent rate, through a
+ * wind tabulated by height. The same expressions as the Python model; tests hold the two to
+ * each other (tests/test_physical_fitness.py). ``phys`` (PhysicalFitness.table in
+ * uavplan/path/energy.py): the scalars below, then PHYS_NZ rows of (wind x, wind y in the path
+ * frame, air density) at heights PHYS_Z0 + i·PHYS_DZ, linear in between, clamped at the ends.
+ */
+enum { PHYS_WEIGHT, PHYS_AREA, PHYS_FM, PHYS_KAPPA, PHYS_ETA, PHYS_CT, PHYS_DRAG, PHYS_AVIONICS,
+       PHYS_SCALE, PHYS_VMAX, PHYS_SPEED, PHYS_CLIMB, PHYS_DESCENT, PHYS_K1, PHYS_K2, PHYS_K3,
+       PHYS_K4, PHYS_Z0, PHYS_DZ, PHYS_NZ, PHYS_HEAD };
+
+int phys_check(const double *ph, int64_t n) {
+    if (n < PHYS_HEAD) return need(0, "energy.phys: too short");
+    double nz = ph[PHYS_NZ];
+    if (!(nz >= 1.0 && nz == floor(nz) && n == PHYS_HEAD + 3 * (int64_t)nz))
+        return need(0, "energy.phys: its table does not match its length");
+    for (int i = 0; i < PHYS_K1; i++)
+        if (!(ph[i] > 0.0) && i != PHYS_AVIONICS && i != PHYS_DRAG)
+            return need(0, "energy.phys: a vehicle figure is not positive");
+    if (!(ph[PHYS_DZ] > 0.0)) return need(0, "energy.phys: the table step is not positive");
+    return 0;
+}
+
+/* Leishman's g(x): induced velocity over v_f in axial flight (power.py _vertical_factor) */
+static double phys_vertical(double x, const double *ph) {
+    double kappa = ph[PHYS_KAPPA], half = x / 2.0;
+    if (x >= 0.0) return kappa / (half + sqrt(half * half + 1.0));
+    if (x >= -2.0)
+        return kappa +
+               x * (ph[PHYS_K1] + x * (ph[PHYS_K2] + x * (ph[PHYS_K3] + x * ph[PHYS_K4])));
+    double d = half * half - 1.0;
+    return kappa / (-half + sqrt(d > 0.0 ? d : 0.0));
+}
+
+/* Electrical power (W) at airspeed v, vertical speed vz, air density rho (power.py
+ * _shaft_terms and power_terms) */
+static double phys_power(const double *ph, double v, double vz, double rho) {
+    double w = ph[PHYS_WEIGHT], area = ph[PHYS_AREA], kappa = ph[PHYS_KAPPA];
+    double drag = 0.5 * rho * ph[PHYS_DRAG] * v * v;
+    double thrust = sqrt(w * w + drag * drag);
+    double v_h = sqrt(thrust / (2.0 * rho * area));
+    double p0 = thrust * v_h * (1.0 / ph[PHYS_FM] - kappa);
+    double tip_sq = thrust / (rho * area * ph[PHYS_CT]);
+    double blade = p0 * (1.0 + 3.0 * v * v / tip_sq);
+    double a = v * v / (2.0 * v_h * v_h);
+    double v_f = v_h * sqrt(1.0 / (sqrt(1.0 + a * a) + a));
+    double induced = w * vz + thrust * v_f * phys_vertical(vz / v_f, ph);
+    if (induced < 0.0) induced = 0.0;
+    double scale = ph[PHYS_SCALE];
+    return ph[PHYS_AVIONICS] + (scale * blade + scale * induced + scale * (drag * v)) / ph[PHYS_ETA];
+}
+
+/* Watt-hours of the steps (ex, ey, ez, length) ending at samples 1..ns-1 of heights qz */
+static double phys_energy(const Energy *e, const double *qz, const double *vx, const double *vy,
+                          const double *vz, const double *vl, int64_t ns) {
+    const double *ph = e->phys, *table = ph + PHYS_HEAD;
+    int64_t nz = (int64_t)ph[PHYS_NZ];
+    double z0 = ph[PHYS_Z0], dz = ph[PHYS_DZ], vmax = ph[PHYS_VMAX], speed = ph[PHYS_SPEED];
+    double joules = 0.0;
+    for (int64_t t = 1; t < ns; t++) {
+        if (!(vl[t] > 1e-12)) continue;
+        double ex = vx[t], ey = vy[t], ez = vz[t];
+        /* the wind and the density at the step's mean height */
+        double f = ((qz[t - 1] + qz[t]) / 2.0 - z0) / dz;
+        if (f < 0.0) f = 0.0;
+        if (f > (double)(nz - 1)) f = (double)(nz - 1);
+        int64_t i = (int64_t)f;
+        if (i > nz - 2) i = nz > 1 ? nz - 2 : 0;
+        double u = nz > 1 ? f - (double)i : 0.0;
+        const double *r0 = table + 3 * i, *r1 = nz > 1 ? r0 + 3 : r0;
+        double wx = r0[0] + u * (r1[0] - r0[0]), wy = r0[1] + u * (r1[1] - r0[1]);
+        double rho = r0[2] + u * (r1[2] - r0[2]);
+        double h = sqrt(ex * ex + ey * ey);
+        double ux = 0.0, uy = 0.0, t_h = 0.0;
+        if (h > 0.0) {
+            ux = ex / h;
+            uy = ey / h;
+            double g = speed, ax = speed * ux - wx, ay = speed * uy - wy;
+            if (ax * ax + ay * ay > vmax * vmax) { /* the headwind caps the ground speed */
+                double along = ux * wx + uy * wy;
+                double disc = vmax * vmax - (wx * wx + wy * wy - along * along);
+                double root = along + sqrt(disc > 0.0 ? disc : 0.0);
+                if (root < g) g = root;
+            }
+            t_h = h / g;
+        }
+        double t_v = fabs(ez) / (ez > 0.0 ? ph[PHYS_CLIMB] : ph[PHYS_DESCENT]);
+        double travel = t_h > t_v ? t_h : t_v;
+        if (!(travel > 0.0)) continue;
+        double gs = h / travel;
+        double ax = gs * ux - wx, ay = gs * uy - wy;
+        joules += phys_power(ph, sqrt(ax * ax + ay * ay), ez / travel, rho) * travel;
+    }
+    return joules / 3600.0;
+}
+
 /* Whether energy_bound is a lower bound for these weights: k0, k2, k1·μ0 >= 0 (the
- * configuration's bounds). */
+ * configuration's bounds), and the paper's fitness (the physical one has none). */
 int bound_valid(const Energy *e) {
-    return e->k0 >= 0.0 && e->k2 >= 0.0 && e->k1 * e->mu0 >= 0.0;
+    return e->phys == NULL && e->k0 >= 0.0 && e->k2 >= 0.0 && e->k1 * e->mu0 >= 0.0;
 }
 
 /* energy_bound of the knots energy_knots left in e->work. */
@@ -305,6 +404,7 @@ double energy_from_knots(const Energy *e) {
         vz[t] = ez;
         vl[t] = sqrt(ex * ex + ey * ey + ez * ez);
     }
+    if (e->phys != NULL) return phys_energy(e, qz, vx, vy, vz, vl, ns);
     double length = 0.0, turn = 0.0, climb = 0.0;
     double pdx = 0.0, pdy = 0.0, pdz = 0.0, plen = 0.0;
     for (int64_t t = 1; t < ns; t++) {

@@ -467,9 +467,11 @@ typedef struct {
     double *work;
     double *coef; /* per sub-step k: u, a = 1 − u, c, d (the spline's weights) */
     double *samp; /* 7 × samples: x, y, z of every sample, then each step's ex, ey, ez, length */
+    const double *phys; /* the physical fitness's table (energy.c PHYS_*), NULL: the paper's */
+    int64_t n_phys;
 } Energy;
 
-#define ENERGY_NFIELDS 13
+#define ENERGY_NFIELDS 14
 
 typedef struct {
     Value v[ENERGY_NFIELDS];
@@ -484,6 +486,7 @@ double bound_from_knots(const Energy *e);
 double energy_from_knots(const Energy *e);
 double energy_one(const double *nodes, const Energy *e);
 double energy_bound(const double *nodes, const Energy *e);
+int phys_check(const double *phys, int64_t n);
 
 /* ------------------------------------------------------------------------------------------
  * The fused SPSA step's arguments besides the population (uavplan.planners._kernels'

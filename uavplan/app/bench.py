@@ -74,6 +74,14 @@ def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
     if any(v.algorithm in OMPL_PLANNERS for v in variants) and not ompl_available():
         raise InputError(OMPL_MISSING.removesuffix("; they were skipped"), key="--algorithms")
     loaded = [load_scenario_file(path, "bench") for path in request.scenarios]
+    for path, scn in zip(request.scenarios, loaded, strict=True):
+        if scn.planner.fitness != "paper":  # the references and tables are eq. 1-2's
+            raise InputError(
+                "bench runs the paper's comparison on its fitness (eq. 1-2); planner.energy: "
+                f"{scn.planner.fitness} is for plan (tools/energy_savings.py compares the two)",
+                file=str(path),
+                key="planner.energy",
+            )
     smoothing = request.fitness_smoothing
     try:
         jobs = bench.make_jobs(

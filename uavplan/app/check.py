@@ -14,7 +14,7 @@ world and the mission readers where it runs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from uavplan.app.feedback import plural
@@ -23,6 +23,7 @@ from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.scenario import Scenario, Surroundings, load_scenario, load_surroundings
 
 if TYPE_CHECKING:
+    from uavplan.estimate import FlightEstimate
     from uavplan.flight import Flight, FlightCheck
     from uavplan.mission.items import MissionPlan
 
@@ -33,13 +34,18 @@ class ScenarioCheck:
 
     file: str
     scenario: Scenario
+    #: the straight route's flight time, energy and battery (the least the flight needs)
+    estimate: FlightEstimate | None = None
+    #: a flight over the battery budget with no vehicle named (not refused), or None
+    warning: str | None = None
 
     def summary(self) -> str:
         scn = self.scenario
-        return (
+        line = (
             f"{self.file}: ok — {scn.name}, {len(scn.obstacles)} obstacles, "
             f"margin {scn.safety_margin_m:g} m"
         )
+        return line if self.estimate is None else f"{line}\n{self.estimate.summary()}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +55,10 @@ class MissionCheck:
     file: str
     plan: MissionPlan
     check: FlightCheck
+    #: the mission's flight time, energy and battery with the scenario's vehicle and wind
+    estimate: FlightEstimate | None = None
+    #: a flight over the battery budget with no vehicle named (not refused), or None
+    warning: str | None = None
 
     @property
     def min_clearance_m(self) -> float:
@@ -56,10 +66,11 @@ class MissionCheck:
 
     def summary(self) -> str:
         margin = self.check.margin_m
-        return (
+        line = (
             f"{self.file}: ok — {len(self.plan.items)} items, min clearance "
             f"{self.min_clearance_m:.2f} m (margin {margin:g} m)"
         )
+        return line if self.estimate is None else f"{line}\n{self.estimate.summary()}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,17 +98,30 @@ class FenceCheck:
 
 
 def validate(
-    file: str, scenario_path: str | None = None
+    file: str, scenario_path: str | None = None, *, reserve_pct: float | None = None
 ) -> ScenarioCheck | MissionCheck | FenceCheck:
     """Check the scenario ``file``, or with ``scenario_path`` the mission ``file`` against
     that scenario; a QGroundControl ``.plan`` without a scenario is checked against its own
     geofence. A scenario's problem raises ScenarioError (exit 2); a mission that leaves the
-    flight volume or comes closer than the margin raises NoPathError (exit 3)."""
+    flight volume or comes closer than the margin raises NoPathError (exit 3).
+
+    A scenario, and a mission against one, are also estimated (flight time, energy, battery:
+    :mod:`uavplan.estimate`; a scenario alone by its straight route). A flight that does not
+    leave ``reserve_pct`` (default 20 %) of the battery raises EnergyBudgetError (exit 2)
+    when the scenario names its vehicle or ``reserve_pct`` is given, else it is a warning."""
     if scenario_path is None:
         kind = mission_kind(file)
         if kind == "plan":
+            if reserve_pct is not None:
+                raise InputError("--reserve needs a scenario (--scenario) to estimate against")
             return _check_against_fence(file)
-        return ScenarioCheck(file, load_scenario_file(file, "validate"))
+        scn = load_scenario_file(file, "validate")
+        from uavplan.estimate import DEFAULT_RESERVE_PCT, estimate_straight_route  # numpy
+
+        reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
+        estimate = estimate_straight_route(scn, reserve_pct=reserve)
+        warning = estimate.check(enforce=scn.vehicle.named or reserve_pct is not None)
+        return ScenarioCheck(file, scn, estimate, warning)
     try:
         scenario = load_scenario(scenario_path)
     except ScenarioError as err:
@@ -113,7 +137,37 @@ def validate(
     problem = checked.check.problem()
     if problem is not None:
         raise NoPathError(f"{file}: {problem}")
-    return checked
+    from uavplan.estimate import DEFAULT_RESERVE_PCT
+
+    reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
+    estimate = _mission_estimate(scenario, plan, flight, reserve)
+    warning = estimate.check(enforce=scenario.vehicle.named or reserve_pct is not None)
+    return replace(checked, estimate=estimate, warning=warning)
+
+
+def _mission_estimate(
+    scenario: Scenario, plan: MissionPlan, flight: Flight, reserve_pct: float
+) -> FlightEstimate:
+    """The mission's flight time, energy and battery as ``plan`` estimates what it writes:
+    flown by the flight model of its autopilot with the scenario's vehicle and wind
+    (:func:`uavplan.estimate.estimate_flown`); a mission the model does not fly (not PX4 or
+    ArduPilot, or one the autopilot would refuse to start) by its legs
+    (:func:`uavplan.estimate.estimate_mission`)."""
+    from uavplan.estimate import estimate_flown, estimate_mission
+    from uavplan.mission.items import Autopilot
+    from uavplan.rehearsal import CheckSite, conditions_of, rehearse
+    from uavplan.sim.simulate import MissionRefused
+
+    if plan.autopilot in (Autopilot.PX4, Autopilot.ARDUPILOT) and plan.home is not None:
+        # over a DEM the model needs the ground (terrain-frame heights, the landing)
+        site = None if scenario.terrain is None else CheckSite.of_scenario(scenario)
+        try:
+            flown = rehearse(plan, site, **conditions_of(scenario)).flown
+        except MissionRefused:
+            pass
+        else:
+            return estimate_flown(scenario, flown, reserve_pct=reserve_pct)
+    return estimate_mission(scenario, plan, flight, reserve_pct=reserve_pct)
 
 
 def no_fence(file: str, command: str) -> InputError:

@@ -19,6 +19,7 @@ from uavplan.app.inputs import load_scenario_file
 from uavplan.app.outputs import Output, OutputSet
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError
+from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
 from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
@@ -29,6 +30,7 @@ from uavplan.scenario import Scenario
 if TYPE_CHECKING:
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
+    from uavplan.sim.simulate import FlownTrack
 
 
 class InputKind(enum.Enum):
@@ -57,6 +59,9 @@ class PlanRequest:
     plot: str | None = None
     fence: bool = False
     scenario: str | None = None
+    #: ``--reserve``: % of the usable battery left on landing (None: the default, 20 %, and a
+    #: flight over it is refused only when the scenario names its vehicle)
+    reserve_pct: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +75,8 @@ class PlanOutcome:
     output: str
     mission: MissionPlan | None = None
     elapsed_s: float = math.nan
+    #: the flight's time, energy and battery (docs/energy.md)
+    estimate: FlightEstimate | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -110,6 +117,8 @@ def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutco
     """Plan ``request.source`` as what it is (:func:`recognise`)."""
     kind = recognise(request.source)
     if kind is InputKind.QGC_PLAN:
+        if request.reserve_pct is not None:
+            raise InputError("--reserve goes with a scenario (a rerouted plan is not estimated)")
         return reroute_file(
             RerouteRequest(
                 request.source,
@@ -153,13 +162,16 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         if result.interrupted:
             return PlanOutcome(scn, result, request.output)
         route = require_route(scn, result)
+        flown = None if result.flight is None else result.flight.flown
+        estimate = flight_estimate(scn, route, request.reserve_pct, feedback, flown)
         mission, built = _mission(scn, route, request, feedback)
         summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
         mission_out.write_text(
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
         )
         if report_out is not None:
-            report_out.write_text(json.dumps(result.report(scn), indent=2) + "\n")
+            report = {**result.report(scn), **estimate.report_fields()}
+            report_out.write_text(json.dumps(report, indent=2) + "\n")
         if plot_out is not None:
             # matplotlib (and the fence's outlines) load only for a picture
             from uavplan.planning import scene_for
@@ -176,7 +188,30 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     if built is not None:
         for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
             feedback.say(line)
-    return PlanOutcome(scn, result, request.output, mission, time.perf_counter() - t0)
+    return PlanOutcome(scn, result, request.output, mission, time.perf_counter() - t0, estimate)
+
+
+def flight_estimate(
+    scn: Scenario,
+    route: PlannedRoute,
+    reserve_pct: float | None,
+    feedback: Feedback,
+    flown: FlownTrack | None = None,
+) -> FlightEstimate:
+    """The planned route's flight time, energy and battery (issue 27): of ``flown``, the
+    mission as the flight model flew it (the vehicle's power model at every step), else of
+    the route's flown line. A flight that does not leave the reserve raises
+    EnergyBudgetError (exit 2, nothing written) when the scenario names its vehicle or
+    ``--reserve`` was given, else it is a warning."""
+    reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
+    if flown is not None:  # the mission as the flight model flies it: one time for both lines
+        estimate = estimate_flown(scn, flown, reserve_pct=reserve)
+    else:
+        estimate = estimate_route(scn, route.flown_enu, reserve_pct=reserve)
+    warning = estimate.check(enforce=scn.vehicle.named or reserve_pct is not None)
+    if warning is not None:
+        feedback.warn(warning)
+    return estimate
 
 
 def _search(scn: Scenario, feedback: Feedback) -> RouteResult:

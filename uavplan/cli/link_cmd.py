@@ -298,6 +298,14 @@ def _parse_params(pairs: tuple[str, ...]) -> dict[str, float]:
     help="Wind blowing toward east and north, m/s: it changes the ground speed.",
 )
 @click.option(
+    "--profile",
+    "profile_name",
+    type=click.Choice(["small-quad", "x500", "heavy-lift"]),
+    default="x500",
+    show_default=True,
+    help="The vehicle whose power model drains the battery (docs/energy.md).",
+)
+@click.option(
     "--param",
     "param_pairs",
     metavar="NAME=VALUE",
@@ -329,6 +337,7 @@ def mock_vehicle_cmd(
     home: str | None,
     speedup: float,
     wind: str | None,
+    profile_name: str,
     param_pairs: tuple[str, ...],
     firmware_timing: bool,
     preload: str | None,
@@ -346,7 +355,9 @@ def mock_vehicle_cmd(
     from uavplan.sim.faults import Faults
     from uavplan.sim.mock import MockVehicle
     from uavplan.sim.params import UnknownParameter
+    from uavplan.sim.power import spec_for
     from uavplan.sim.vehicle import VehicleConfig
+    from uavplan.vehicle import resolve
 
     flavour = Autopilot.from_name(autopilot)
     plan = load_mission(preload) if preload else None
@@ -365,6 +376,7 @@ def mock_vehicle_cmd(
             params=_parse_params(param_pairs),
             speedup=speedup,
             wind_en_m_s=_parse_wind(wind),
+            vehicle=spec_for(resolve({"profile": profile_name})),
         )
     except UnknownParameter as err:
         raise InputError(str(err), key="--param") from None
@@ -390,6 +402,7 @@ def mock_vehicle_cmd(
             )
             at = config.standing_at
             extra = f", speedup {speedup:g}" if speedup != 1.0 else ""
+            extra += f", {profile_name}"
             if wind:
                 extra += f", wind {config.wind_en_m_s[0]:g},{config.wind_en_m_s[1]:g} m/s"
             click.echo(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from uavplan.app.feedback import PlannerOptions
-from uavplan.app.plan import PlanRequest, plan
+from uavplan.app.plan import PlanOutcome, PlanRequest, plan
 from uavplan.cli import main
 from uavplan.cli.common import (
     check_threads_variable,
@@ -66,6 +66,14 @@ from uavplan.cli.options import ALGORITHM
     help="With a .plan input: add this scenario's obstacles and use its planner and mission "
     "settings.",
 )
+@click.option(
+    "--reserve",
+    "reserve_pct",
+    type=click.FloatRange(0, 100, max_open=True),
+    help="Battery (%% of the usable energy) that must be left on landing; a mission that "
+    "needs more exits 2 (default 20; without it, and without vehicle.profile in the "
+    "scenario, only a warning).",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress output.")
 @handle_errors
 def plan_command(
@@ -80,6 +88,7 @@ def plan_command(
     plot: str | None,
     fence: bool,
     scenario_path: str | None,
+    reserve_pct: float | None,
     quiet: bool,
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file.
@@ -103,6 +112,7 @@ def plan_command(
         plot=plot,
         fence=fence,
         scenario=scenario_path,
+        reserve_pct=reserve_pct,
     )
     check_threads_variable(warn)
     with interruptible() as interrupts:
@@ -111,3 +121,5 @@ def plan_command(
             exit_interrupted()
         if not quiet:
             click.echo(outcome.summary(), err=True)
+            if isinstance(outcome, PlanOutcome) and outcome.estimate is not None:
+                click.echo(outcome.estimate.summary(), err=True)

@@ -21,7 +21,7 @@ import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EnergyWeights, GridSpec, SearchParams
 from uavplan.outcome import SearchEnd
-from uavplan.path.energy import N_SUB, EnergyArgs, energy_of
+from uavplan.path.energy import N_SUB, NO_PHYSICS, EnergyArgs, PhysicalFitness, energy_of
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
 from uavplan.planners.proposal import Proposal
@@ -59,6 +59,9 @@ class PathProblem:
     #: limit), like ``Termination.max_evaluations``; carried by the problem so a caller that
     #: hands the problem to a pipeline (the bench) can share one budget among algorithms
     max_evaluations: int | None = None
+    #: the physical fitness (``planner: {energy: physical}``): the fitness is the power
+    #: model's watt-hours of the path, not eq. 1-2 with ``energy``'s weights (None: the paper's)
+    physical: PhysicalFitness | None = None
 
     @classmethod
     def build(
@@ -69,6 +72,7 @@ class PathProblem:
         grid: GridSpec,
         energy: EnergyWeights,
         fitness_smoothing: int = 0,
+        physical: PhysicalFitness | None = None,
     ) -> PathProblem:
         """The problem from ``start_enu`` to ``goal_enu`` in ``world_enu``, in the paper's
         straight frame. The route keeps the margin from the ground too: it never flies lower
@@ -79,11 +83,16 @@ class PathProblem:
         world = world_enu.in_frame(
             frame.origin_xy, frame.heading_rad, world_enu.margin_m + MARGIN_PAD_M, floor
         )
-        return cls.in_frame(world, frame, energy, fitness_smoothing)
+        return cls.in_frame(world, frame, energy, fitness_smoothing, physical)
 
     @classmethod
     def in_frame(
-        cls, world: World, frame: PathFrame, energy: EnergyWeights, fitness_smoothing: int = 0
+        cls,
+        world: World,
+        frame: PathFrame,
+        energy: EnergyWeights,
+        fitness_smoothing: int = 0,
+        physical: PhysicalFitness | None = None,
     ) -> PathProblem:
         """The problem of ``frame``'s columns in ``world`` (already in the path frame)."""
         start_m = np.array([0.0, 0.0, float(frame.start_enu[2])])
@@ -103,13 +112,16 @@ class PathProblem:
             table,
             window,
             fitness_smoothing,
+            physical=physical,
         )
 
     def along(self, guide_xy: np.ndarray) -> PathProblem:
         """The same problem with its columns along ``guide_xy`` (k, 2), a polyline in the path
         frame from the start to the goal (see :meth:`PathFrame.along`); fresh memo."""
         frame = self.frame.along(guide_xy)
-        return PathProblem.in_frame(self.world, frame, self.energy, self.fitness_smoothing)
+        return PathProblem.in_frame(
+            self.world, frame, self.energy, self.fitness_smoothing, self.physical
+        )
 
     def with_fresh_memo(self) -> PathProblem:
         """The same problem with an empty reachability memo (the memo is pure, but one that
@@ -187,10 +199,14 @@ class PathProblem:
             k2=float(w.k2),
             smooth=int(self.fitness_smoothing),
             straight=bool(self.frame.straight),
+            phys=NO_PHYSICS
+            if self.physical is None
+            else self.physical.table(self.frame.heading_rad, *self.world.zlim),
         )
 
     def fitness(self, nodes: np.ndarray) -> np.ndarray:
-        """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
+        """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2, or the
+        physical fitness's watt-hours)."""
         self.counters[0] += nodes.shape[0]
         return energy_of(nodes, self.energy_args)
 

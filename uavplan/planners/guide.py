@@ -26,6 +26,7 @@ import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EnergyWeights
 from uavplan.outcome import RouteFailure
+from uavplan.path.energy import PhysicalFitness
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, _grid_extent, astar
@@ -79,10 +80,17 @@ class GuideSpace:
     frame: PathFrame
     energy: EnergyWeights
     fitness_smoothing: int = 0
+    physical: PhysicalFitness | None = None
 
     @classmethod
     def of(cls, problem: PathProblem) -> GuideSpace:
-        return cls(problem.world, problem.frame, problem.energy, problem.fitness_smoothing)
+        return cls(
+            problem.world,
+            problem.frame,
+            problem.energy,
+            problem.fitness_smoothing,
+            problem.physical,
+        )
 
 
 def _nodes(problem: PathProblem | GuideSpace, steps: tuple[float, float, float]) -> int:
@@ -157,4 +165,6 @@ def problem_along(space: GuideSpace, guide: Guide) -> PathProblem:
     """The path problem of ``space`` with its columns along ``guide``'s route (not
     straight: a straight route keeps the problem the caller has)."""
     frame = space.frame.along(guide.guide_xy)
-    return PathProblem.in_frame(space.world, frame, space.energy, space.fitness_smoothing)
+    return PathProblem.in_frame(
+        space.world, frame, space.energy, space.fitness_smoothing, space.physical
+    )

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from uavplan.config import (
     ALTITUDE_MODES,
+    FITNESS_MODES,
     PLANNER_KEYS,
     PLANNERS,
     Autopilot,
@@ -24,6 +25,7 @@ from uavplan.config import (
     SearchParams,
     build,
     build_params,
+    key_text,
     planner_entry,
     short_repr,
     type_name,
@@ -46,6 +48,9 @@ from uavplan.scenario.limits import (
     SPACING_RANGE_M,
 )
 from uavplan.scenario.settings import MissionConfig, VehicleConfig
+
+if TYPE_CHECKING:
+    from uavplan.vehicle.wind import Wind
 
 
 def polygon_area_and_crossing(poly: list[tuple[float, float]]) -> tuple[float, bool]:
@@ -177,7 +182,7 @@ def planner(chk: Checker, raw: Any) -> PlannerConfig:
         search = build(SearchParams, {k: raw[k] for k in _SEARCH_KEYS if k in raw}, "")
         # no grid: the grid is fitted to the flight volume (Scenario.grid)
         grid = build(GridSpec, raw["grid"], "grid") if "grid" in raw else None
-        energy = build(EnergyWeights, raw.get("energy", {}), "energy")
+        energy, fitness = _energy(raw.get("energy", {}))
         post = build(PostParams, raw.get("post", {}), "post")
         sections: dict[str, Any] = {}
         for name in PLANNERS:
@@ -197,11 +202,37 @@ def planner(chk: Checker, raw: Any) -> PlannerConfig:
                 sections[algorithm] = params
     except ConfigError as err:
         raise chk.config(err.under("planner")) from None
-    return PlannerConfig(algorithm, search, grid, energy, post, sections)
+    return PlannerConfig(algorithm, search, grid, energy, post, sections, fitness)
+
+
+def _energy(raw: Any) -> tuple[EnergyWeights, str]:
+    """``planner.energy``: the fitness by name (``paper``, the default, or ``physical``: Wh
+    of the power model, wind included), or the paper fitness's weights as a mapping."""
+    if isinstance(raw, str):
+        if raw not in FITNESS_MODES:
+            raise ConfigError(
+                f"must be one of {', '.join(FITNESS_MODES)} or a mapping of the paper "
+                f"fitness's weights, got {short_repr(raw)}",
+                key="energy",
+            )
+        return EnergyWeights(), raw
+    return build(EnergyWeights, raw, "energy"), "paper"
+
+
+#: ``vehicle:`` keys that are the mission's, not the power model's (short, unit-free keys)
+_MISSION_VEHICLE_KEYS = ("cruise_speed", "takeoff_altitude")
 
 
 def vehicle(chk: Checker, raw: Any) -> VehicleConfig:
-    chk.mapping(raw, "vehicle", {"cruise_speed", "takeoff_altitude"})
+    """``vehicle:``: ``cruise_speed`` and ``takeoff_altitude`` (what the mission commands),
+    ``profile`` (a bundled vehicle) and any field of the power model's vehicle profile
+    (``mass_kg``, ``battery_wh``, ...; units in the names). The profile's fields are checked
+    by the profile itself (numpy loads only for a scenario that names them)."""
+    if not isinstance(raw, Mapping):
+        raise chk.fail("vehicle", f"must be a mapping, got {type_name(raw)}")
+    spec = {k: v for k, v in raw.items() if k not in _MISSION_VEHICLE_KEYS}
+    if spec:
+        spec = _vehicle_profile(chk, spec)
     speed = raw.get("cruise_speed")
     if speed is not None:
         speed = chk.number(
@@ -212,7 +243,49 @@ def vehicle(chk: Checker, raw: Any) -> VehicleConfig:
         takeoff = chk.number(
             takeoff, "vehicle.takeoff_altitude", minimum=0, strict=True, maximum=MAX_ALTITUDE_M
         )
-    return VehicleConfig(speed, takeoff)
+    return VehicleConfig(speed, takeoff, tuple(spec.items()))
+
+
+def _vehicle_profile(chk: Checker, spec: Mapping[Any, Any]) -> dict[str, Any]:
+    """The power model's part of ``vehicle:``, resolved once to check it (ScenarioError naming
+    ``vehicle.<field>``)."""
+    from uavplan.errors import InputError
+    from uavplan.vehicle.profile import VehicleProfile
+    from uavplan.vehicle.profiles import resolve
+
+    for k in spec:
+        if not isinstance(k, str):
+            raise chk.fail("vehicle", f"keys must be strings, got {short_repr(k)}")
+    allowed = {"profile", *VehicleProfile.field_names()} - {"name"}
+    for k in spec:
+        if k not in allowed:
+            names = ", ".join(sorted(allowed | set(_MISSION_VEHICLE_KEYS)))
+            raise chk.fail(join("vehicle", key_text(k)), f"unknown key (allowed: {names})")
+    if "cruise_speed_m_s" in spec and "cruise_power_w" not in spec:
+        raise chk.fail(
+            "vehicle.cruise_speed_m_s",
+            "is the speed cruise_power_w was measured at; the speed the mission flies is "
+            "vehicle.cruise_speed",
+        )
+    try:
+        resolve(spec)
+    except InputError as err:
+        raise chk.fail(join("vehicle", err.key or ""), err.reason) from None
+    return dict(spec)
+
+
+def wind(chk: Checker, raw: Any) -> Wind:
+    """``wind: {speed: m/s, from: deg}`` with an optional ``profile`` by height
+    (:meth:`uavplan.vehicle.wind.Wind.from_mapping`; numpy loads here, for a scenario with
+    wind)."""
+    from uavplan.errors import InputError
+    from uavplan.vehicle.wind import Wind
+
+    try:
+        return Wind.from_mapping(raw)
+    except InputError as err:
+        key = err.key or "wind"
+        raise chk.fail(key if key.startswith("wind") else join("wind", key), err.reason) from None
 
 
 def mission(chk: Checker, raw: Any) -> MissionConfig:

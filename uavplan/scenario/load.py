@@ -41,6 +41,9 @@ from uavplan.scenario.fields import (
 from uavplan.scenario.fields import (
     vehicle as read_vehicle,
 )
+from uavplan.scenario.fields import (
+    wind as read_wind,
+)
 from uavplan.scenario.limits import MAX_OBSTACLES, MAX_SAFETY_MARGIN_M, MAX_VIA_POINTS
 from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleConfig
 from uavplan.scenario.yamlfile import read_yaml
@@ -63,6 +66,7 @@ _SCENARIO_KEYS = {
     "mission",
     "obstacle_files",
     "terrain",
+    "wind",
 }
 _MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files", "terrain"}
 
@@ -182,6 +186,7 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
     vehicle = read_vehicle(chk, raw["vehicle"]) if "vehicle" in raw else VehicleConfig()
     planner = read_planner(chk, raw["planner"]) if "planner" in raw else PlannerConfig()
     mission = read_mission(chk, raw["mission"]) if "mission" in raw else MissionConfig()
+    wind = read_wind(chk, raw["wind"]) if "wind" in raw else None
     return dict(
         name=name,
         origin=origin,
@@ -197,4 +202,5 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         source=str(path),
         terrain=terrain,
         obstacle_sources=ObstacleSources(len(map_obstacles), raw.get("map"), len(inline)),
+        wind=wind,
     )

@@ -4,16 +4,33 @@ frozen values, checked when they are made."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 from uavplan.config import ALTITUDE_MODES, END_ACTIONS, Autopilot
 from uavplan.scenario.limits import MAX_ALTITUDE_M, MAX_CRUISE_SPEED_M_S, SPACING_RANGE_M
 
+if TYPE_CHECKING:
+    from uavplan.vehicle import VehicleProfile
+
+#: the power model's vehicle when a scenario names none (the simulated vehicle's too)
+DEFAULT_PROFILE = "x500"
+
 
 @dataclass(frozen=True)
 class VehicleConfig:
+    """``vehicle:``. The two short keys are what the mission tells the autopilot
+    (``cruise_speed``: the DO_CHANGE_SPEED of the mission, ``takeoff_altitude``); every other
+    key is a field of the power model's vehicle (:class:`~uavplan.vehicle.VehicleProfile`,
+    units in their names), ``profile`` the bundled profile they override.
+    ``profile_spec`` holds those as the file gave them (empty: the scenario names no
+    vehicle and the estimates use :data:`DEFAULT_PROFILE`); :attr:`profile` resolves them.
+    """
+
     cruise_speed_m_s: float | None = None
     takeoff_altitude_m: float | None = None  # None: the start point's height
+    profile_spec: tuple[tuple[str, Any], ...] = field(default=())
 
     def __post_init__(self) -> None:
         speed, takeoff = self.cruise_speed_m_s, self.takeoff_altitude_m
@@ -21,6 +38,26 @@ class VehicleConfig:
             raise ValueError(f"cruise speed must be in (0, {MAX_CRUISE_SPEED_M_S:g}] m/s")
         if takeoff is not None and not (math.isfinite(takeoff) and 0 < takeoff <= MAX_ALTITUDE_M):
             raise ValueError(f"take-off altitude must be in (0, {MAX_ALTITUDE_M:g}] m")
+        if self.profile_spec:
+            _ = self.profile  # resolve once: a bad field raises InputError naming it
+
+    @property
+    def named(self) -> bool:
+        """Does the scenario name its vehicle (a profile or its figures)? Without one the
+        estimates use :data:`DEFAULT_PROFILE` and the battery is advice, not a refusal."""
+        return bool(self.profile_spec)
+
+    @cached_property
+    def profile(self) -> VehicleProfile:
+        """The power model's vehicle: the bundled profile named (default
+        :data:`DEFAULT_PROFILE`) with the scenario's fields. numpy loads here: a scenario
+        that names no vehicle is read without it."""
+        from uavplan.vehicle.profiles import resolve
+
+        spec = dict(self.profile_spec)
+        if not spec:
+            return resolve({"profile": DEFAULT_PROFILE})
+        return resolve(spec)
 
 
 @dataclass(frozen=True)

@@ -57,6 +57,7 @@ from uavplan.scenario.size import DEFAULT_GRID, fitted_grid, path_grid
 
 if TYPE_CHECKING:
     from uavplan.ground import Surface
+    from uavplan.vehicle.wind import Wind
 
 Point3 = tuple[float, float, float]
 
@@ -84,6 +85,8 @@ class Scenario:
     terrain: Surface | None = None
     #: where the obstacles came from (for messages)
     obstacle_sources: ObstacleSources = field(default_factory=ObstacleSources)
+    #: ``wind:`` (None: calm), for the flight estimates and the physical fitness
+    wind: Wind | None = None
 
     def __post_init__(self) -> None:
         _check(self)
@@ -190,6 +193,7 @@ class Surroundings:
     start_m: Point3 | None = None
     goal_m: Point3 | None = None
     via_m: tuple[Point3, ...] = ()
+    wind: Wind | None = None
 
     def __post_init__(self) -> None:
         _check_surroundings(Checker(self.source or self.name), self)
@@ -278,13 +282,30 @@ def resolved_config(scenario: Scenario | PlannerConfig, algorithm: str | None = 
         "vehicle": {
             "cruise_speed_m_s": scn.vehicle.cruise_speed_m_s,
             "takeoff_altitude_m": scn.vehicle.takeoff_altitude_m,
+            "profile": dict(scn.vehicle.profile_spec) or None,
         },
+        "wind": None if scn.wind is None else wind_dict(scn.wind),
         "mission": {
             "autopilot": scn.mission.autopilot.name.lower(),
             "spacing_m": scn.mission.spacing_m,
             "end": scn.mission.end,
         },
     }
+
+
+def wind_dict(wind: Wind) -> dict[str, Any]:
+    """``wind`` as the report echoes it (the scenario's keys)."""
+    out: dict[str, Any] = {"from": wind.from_deg}
+    if wind.heights_m is not None and wind.speeds_m_s is not None:
+        out["profile"] = {"heights": list(wind.heights_m), "speeds": list(wind.speeds_m_s)}
+        return out
+    out["speed"] = wind.speed_m_s
+    if wind.shear_exponent:
+        out["profile"] = {
+            "exponent": wind.shear_exponent,
+            "reference_height": wind.reference_height_m,
+        }
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -332,6 +353,28 @@ def _check_surroundings(chk: Checker, scn: Scenario | Surroundings) -> None:
     if len(scn.obstacles) > MAX_OBSTACLES:
         raise chk.fail(
             "obstacles", f"map and scenario hold {len(scn.obstacles):,} (at most {MAX_OBSTACLES:,})"
+        )
+    if scn.wind is not None:
+        _check_wind(chk, scn.wind, scn.vehicle, scn.bounds.z_m[1])
+
+
+def _check_wind(chk: Checker, wind: Wind, vehicle: VehicleConfig, ceiling_m: float) -> None:
+    """The wind must leave the vehicle able to hold its position at every height it may fly
+    (up to the ceiling, above the ground): a wind as fast as its top airspeed stops it."""
+    import numpy as np
+
+    heights = np.linspace(0.0, max(ceiling_m, 0.0), 257)
+    if wind.heights_m is not None:
+        heights = np.concatenate([heights, [h for h in wind.heights_m if h <= ceiling_m]])
+    speeds = wind.speed_at(heights)
+    worst = int(np.argmax(speeds))
+    profile = vehicle.profile
+    if speeds[worst] >= profile.max_airspeed_m_s:
+        raise chk.fail(
+            "wind.speed",
+            f"{float(speeds[worst]):.1f} m/s at {float(heights[worst]):.0f} m above the ground "
+            f"is more than {profile.name} can fly against (max airspeed "
+            f"{profile.max_airspeed_m_s:g} m/s)",
         )
 
 

@@ -23,7 +23,7 @@ from uavplan.geo import GeoPoint
 from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
 from uavplan.sim.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, NavItem, nav_items
 from uavplan.sim.params import Parameters
-from uavplan.sim.power import X500, Battery, PowerState, VehicleSpec
+from uavplan.sim.power import X500, VehicleSpec, power_w_array
 
 __all__ = [
     "FlownTrack",
@@ -104,6 +104,10 @@ class FlownTrack:
     params: Parameters
     wind_en_m_s: tuple[float, float] = (0.0, 0.0)
     nav: tuple[NavItem, ...] = field(default=(), repr=False)
+    #: the electrical power drawn over the step that ended at each row (W; row 0: 0)
+    power_w: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
+    #: the simulated vehicle (its power model profile and pack)
+    vehicle: VehicleSpec = field(default=X500, repr=False)
 
     @property
     def completed(self) -> bool:
@@ -211,28 +215,20 @@ def simulate(
     model = FlightModel(values, wind_en_m_s=wind_en_m_s, dt_s=dt_s, ground_z=ground_z)
     model.set_mission(nav)
     model.start_mission()
-    battery = Battery(vehicle)
 
-    rows: list[tuple[float, float, float, float, float, float, float, int]] = []
+    rows: list[tuple[float, float, float, float, float, float, float, int, float]] = []
     events: list[FlightEvent] = []
 
     def record() -> None:
         x, y, z = model.position
         vx, vy, vz = model.velocity
         seq = -1 if model.current_seq is None else model.current_seq
-        rows.append((model.t_s, x, y, z, vx, vy, vz, seq))
+        rows.append((model.t_s, x, y, z, vx, vy, vz, seq, 0.0 if model.landed else 1.0))
 
     record()
     ended = "timeout"
     while model.t_s < max_duration_s:
         step_events = model.step()
-        vx, vy, vz = model.velocity
-        battery.drain(
-            PowerState(
-                armed=True, airborne=not model.landed, speed_xy_m_s=math.hypot(vx, vy), climb_m_s=vz
-            ),
-            dt_s,
-        )
         record()
         events.extend(step_events)
         kinds = {e.kind for e in step_events}
@@ -247,6 +243,18 @@ def simulate(
     t, x, y, z = table[:, 0], table[:, 1], table[:, 2], table[:, 3]
     speed = np.hypot(table[:, 4], table[:, 5])
     climb = table[:, 6]
+    # the battery: each step drains the power of the state it ended in (armed throughout)
+    we, wn = (float(v) for v in wind_en_m_s)
+    power = power_w_array(
+        vehicle,
+        armed=np.ones(len(t), dtype=bool),
+        airborne=table[:, 8] > 0.5,
+        airspeed_m_s=np.hypot(table[:, 4] - we, table[:, 5] - wn),
+        climb_m_s=climb,
+        altitude_amsl_m=plan.home.alt_m + z,
+    )
+    power[0] = 0.0
+    energy_wh = float(np.sum(power) * dt_s / 3600.0)
     from uavplan.geo import EnuFrame
 
     lat, lon, _ = EnuFrame.at(plan.home).to_geodetic(np.column_stack((x, y, np.zeros_like(x))))
@@ -265,9 +273,11 @@ def simulate(
         current_seq=table[:, 7].astype(np.int64),
         events=tuple(events),
         ended=ended,
-        energy_wh=battery.used_wh,
-        battery_used_pct=100.0 * (1.0 - battery.remaining_fraction),
+        energy_wh=energy_wh,
+        battery_used_pct=100.0 * energy_wh / vehicle.usable_wh,
         params=values,
         wind_en_m_s=(float(wind_en_m_s[0]), float(wind_en_m_s[1])),
         nav=nav,
+        power_w=power,
+        vehicle=vehicle,
     )

@@ -326,10 +326,7 @@ class SimVehicle:
         while flight.t_s + flight.dt_s <= self.sim_time_s + 1e-9:
             events = flight.step()
             self.flight_events.extend(events)
-            vx, vy, vz = flight.velocity
-            self.battery.drain(
-                PowerState(self.armed, not flight.landed, math.hypot(vx, vy), vz), flight.dt_s
-            )
+            self.battery.drain(self._power_state(), flight.dt_s)
             out.extend(self._on_flight_events(events))
             # telemetry is sampled when it falls due, not when the link next looks
             out.extend(self._due_streams(flight.t_s))
@@ -1036,6 +1033,19 @@ class SimVehicle:
     def _extended_sys_state(self) -> ExtendedSysState:
         return ExtendedSysState(vtol_state=0, landed_state=int(self.landed_state))
 
+    def _power_state(self) -> PowerState:
+        """What the battery is drained by now: the velocity through the wind, the altitude."""
+        vx, vy, vz = self.flight.velocity
+        we, wn = self.config.wind_en_m_s
+        return PowerState(
+            self.armed,
+            not self.flight.landed,
+            math.hypot(vx, vy),
+            vz,
+            airspeed_m_s=math.hypot(vx - we, vy - wn),
+            altitude_amsl_m=self.home.alt_m + self.flight.position[2],
+        )
+
     def _sys_status(self) -> SysStatus:
         battery = self.battery
         return SysStatus(
@@ -1060,7 +1070,7 @@ class SimVehicle:
         cells = battery.spec.cells
         cell_mv = round(battery.cell_voltage_v * 1000.0)
         voltages = tuple([cell_mv] * min(cells, 10) + [_UINT16_MAX] * (10 - min(cells, 10)))
-        remaining = battery.time_remaining_s(PowerState(self.armed, not self.flight.landed))
+        remaining = battery.time_remaining_s(self._power_state())
         return BatteryStatus(
             id=0,
             battery_function=1,  # MAV_BATTERY_FUNCTION_ALL

@@ -302,13 +302,19 @@ def flight_energy(
     wind: Wind | None = None,
     *,
     home_altitude_amsl_m: float = 0.0,
+    altitude_amsl_m: ArrayLike | None = None,
 ) -> FlightEnergy:
     """Fly ``legs`` with ``profile`` in ``wind`` (default calm) from a home at
     ``home_altitude_amsl_m`` (the air density of each leg is the ISA's at home altitude plus
-    the leg's height). Raises :class:`WindTooStrongError` when the wind beats the vehicle."""
+    the leg's height; ``altitude_amsl_m``, one per leg, gives each leg's altitude instead,
+    over terrain where the ground is not at home's altitude). Raises
+    :class:`WindTooStrongError` when the wind beats the vehicle."""
     wind = Wind.calm() if wind is None else wind
     n = len(legs)
-    rho = air_density_kg_m3(home_altitude_amsl_m + legs.height_m)
+    if altitude_amsl_m is None:
+        rho = air_density_kg_m3(home_altitude_amsl_m + legs.height_m)
+    else:
+        rho = air_density_kg_m3(_vec(altitude_amsl_m, n, "altitude_amsl_m"))
     w = wind.velocity_at(legs.height_m).reshape(n, 2)
     wind_speed = np.hypot(w[:, 0], w[:, 1])
     v_max = profile.max_airspeed_m_s

@@ -212,6 +212,14 @@ def calibration(profile: Airframe) -> tuple[float, float]:
     return scale, (low + high) / 2.0
 
 
+def scale_and_drag(profile: Airframe) -> tuple[float, float]:
+    """(shaft-power scale, drag area m²) the model flies ``profile`` with: 1 and the profile's
+    (or the generic) drag area, or the calibration to its measured figures."""
+    if profile.hover_power_w is None:
+        return 1.0, _default_drag_area(profile)
+    return calibration(profile)
+
+
 def _induced_ratio(airspeed: NDArray[np.float64], v_h: NDArray[np.float64]) -> NDArray[np.float64]:
     """Glauert's v_i/v_h in level flight, sqrt(sqrt(1 + a²) − a) with a = V²/(2 v_h²), written
     without the cancellation at high speed."""
