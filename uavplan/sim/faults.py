@@ -58,6 +58,9 @@ class Faults:
 
     Flight: ``link_lost_after_s`` simulated seconds after the vehicle arms, it neither sends
     nor hears anything any more (and keeps flying).
+
+    Parameters: ``refuse_param_set`` names parameters the vehicle will not write (as a
+    read-only one): a PARAM_SET of one is answered with the value it keeps.
     """
 
     drop_rate: float = 0.0
@@ -72,6 +75,7 @@ class Faults:
     silent_after_seq: int | None = None
     ignore_requests: bool = False
     link_lost_after_s: float | None = None
+    refuse_param_set: frozenset[str] = frozenset()
     seed: int | None = 0
 
     def __post_init__(self) -> None:
