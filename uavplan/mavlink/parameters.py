@@ -183,8 +183,7 @@ class ParamResult:
         said = f' [vehicle: "{self.statustext}"]' if self.statustext else ""
         if self.status is ParamStatus.REFUSED:
             return (
-                f"{self.name}: the vehicle refused {_num(self.new)} and kept {_num(self.old)}"
-                f"{said}"
+                f"{self.name}: the vehicle refused {_num(self.new)} and kept {_num(self.old)}{said}"
             )
         return (
             f"{self.name}: no PARAM_VALUE answered {self.step} (the vehicle does not know "

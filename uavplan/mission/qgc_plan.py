@@ -367,8 +367,7 @@ class _PlanReader:
         if named is not None and named is not autopilot:
             self.fail(
                 f"{PARAMETERS_KEY}.firmwareType",
-                f"the parameters are {named.label}'s, the mission is read as "
-                f"{autopilot.label}'s",
+                f"the parameters are {named.label}'s, the mission is read as {autopilot.label}'s",
             )
         out: list[VehicleParameter] = []
         for i, entry in enumerate(self.array(value, "items", PARAMETERS_KEY)):

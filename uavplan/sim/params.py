@@ -691,9 +691,7 @@ def flight_limits(params: Parameters) -> FlightLimits:
             rtl_min_dist_m=p["RTL_MIN_DIST"],
             corner_gain=p["MPC_XY_TRAJ_P"],
             fence_ceiling_m=(
-                p["GF_MAX_VER_DIST"]
-                if p["GF_ACTION"] >= 1 and p["GF_MAX_VER_DIST"] > 0.0
-                else None
+                p["GF_MAX_VER_DIST"] if p["GF_ACTION"] >= 1 and p["GF_MAX_VER_DIST"] > 0.0 else None
             ),
             rtl_type=int(p["RTL_TYPE"]),
         )
