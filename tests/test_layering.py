@@ -14,7 +14,8 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
 * scenario (the YAML reader and the checked scenario values): vocabulary and sources;
-* wiring (planning, flight, reroute, bench, render): everything but the application and CLI;
+* wiring (planning, flight, wayhome, reroute, bench, render): everything but the application
+  and CLI;
 * app (the use cases): everything but the CLI;
 * cli: thin; nothing imports it.
 
@@ -59,7 +60,14 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
     "scenario": ("scenario/*.py",),
-    "wiring": ("planning.py", "flight.py", "bench/*.py", "render.py", "reroute.py"),
+    "wiring": (
+        "planning.py",
+        "flight.py",
+        "wayhome.py",
+        "bench/*.py",
+        "render.py",
+        "reroute.py",
+    ),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),
 }

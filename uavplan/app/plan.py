@@ -28,6 +28,7 @@ from uavplan.scenario import Scenario
 if TYPE_CHECKING:
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
+    from uavplan.wayhome import WayHome
 
 
 class InputKind(enum.Enum):
@@ -69,10 +70,12 @@ class PlanOutcome:
     output: str
     mission: MissionPlan | None = None
     elapsed_s: float = math.nan
+    #: how the route gets home (the RTL proof, a planned return, the parameters)
+    way: WayHome | None = None
 
     @property
     def interrupted(self) -> bool:
-        return self.result.interrupted
+        return self.result.interrupted or (self.way is not None and self.way.interrupted)
 
     def summary(self) -> str:
         """One line: the mission, the route (its length: the planned path from the start to
@@ -138,16 +141,25 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     with outputs:
         with feedback.polled():
             result = _search(scn, feedback)
-        if result.interrupted:
-            return PlanOutcome(scn, result, request.output)
+            way = None if result.route is None else _way_home(scn, result.route, request, feedback)
+        if result.interrupted or (way is not None and way.interrupted):
+            return PlanOutcome(scn, result, request.output, way=way)
         route = require_route(scn, result)
+        if way is not None:  # the route as flown: with a planned return when there is one
+            route = way.route
+            result = replace(result, route=route)
         mission, built = _mission(scn, route, request, feedback)
+        if way is not None:
+            mission = replace(mission, parameters=way.parameters)
         summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
         mission_out.write_text(
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
         )
         if report_out is not None:
-            report_out.write_text(json.dumps(result.report(scn), indent=2) + "\n")
+            report = result.report(scn)
+            if way is not None:
+                report.update(way.report())
+            report_out.write_text(json.dumps(report, indent=2) + "\n")
         if plot_out is not None:
             # matplotlib (and the fence's outlines) load only for a picture
             from uavplan.planning import scene_for
@@ -164,7 +176,50 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     if built is not None:
         for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
             feedback.say(line)
-    return PlanOutcome(scn, result, request.output, mission, time.perf_counter() - t0)
+    if way is not None:
+        for line in way.lines():
+            feedback.say(line)
+        if way.parameters and not _holds_parameters(request.output):
+            feedback.say(
+                f"note: a {Path(request.output).suffix} file holds no parameters: set them by hand"
+            )
+    return PlanOutcome(scn, result, request.output, mission, time.perf_counter() - t0, way)
+
+
+def _holds_parameters(output: str) -> bool:
+    """Does the mission file keep the parameters the mission relies on? (A .plan does.)"""
+    return Path(output).suffix.lower() == ".plan"
+
+
+def _way_home(
+    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
+) -> WayHome:
+    """The way home of ``route`` (:func:`uavplan.wayhome.way_home`): a return planned with
+    the feedback's progress bar and Ctrl-C flag when the mission needs one."""
+    from uavplan.wayhome import way_home
+
+    bar = feedback.progress
+    started = False
+
+    def progress(iteration: int, total: int, best: float) -> None:
+        nonlocal started
+        assert bar is not None
+        if not started:  # only when a return is planned
+            bar.start(f"{scn.planner.algorithm} {scn.name}: the way home")
+            started = True
+        bar(iteration, total, best)
+
+    try:
+        return way_home(
+            scn,
+            route,
+            fence=request.fence,
+            progress=None if bar is None else progress,
+            should_stop=feedback.should_stop,
+        )
+    finally:
+        if bar is not None and started:
+            bar.close()
 
 
 def _search(scn: Scenario, feedback: Feedback) -> RouteResult:

@@ -13,6 +13,7 @@ from typing import Any
 
 from uavplan.config import (
     ALTITUDE_MODES,
+    END_ACTIONS,
     PLANNER_KEYS,
     PLANNERS,
     Autopilot,
@@ -231,7 +232,7 @@ def mission(chk: Checker, raw: Any) -> MissionConfig:
         )
     end = MissionConfig.end
     if "end" in raw:
-        end = chk.string(raw["end"], "mission.end", ("rtl", "land", "none"))
+        end = chk.string(raw["end"], "mission.end", END_ACTIONS)
     altitude = MissionConfig.altitude
     if "altitude" in raw:
         altitude = chk.string(raw["altitude"], "mission.altitude", ALTITUDE_MODES)

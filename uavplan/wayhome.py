@@ -1,0 +1,778 @@
+"""The way home, proven: does the autopilot's own return to launch keep the margin from every
+point of the route, and from which RTL altitude up?
+
+Both firmwares return the same way (:mod:`uavplan.sim.rtl` holds the rule, which the flight
+model flies too): from where the return begins they climb vertically to the return altitude
+(if below it), fly straight home at it, and descend at home. :func:`prove_rtl` checks that
+return from points every ``step_m`` along the flown line (vertical legs included), for an
+RTL altitude parameter A, with the world's exact segment clearances (the same machinery as
+:func:`uavplan.flight.check_flight`): the climb, the straight return at the return altitude
+and the descent at home must each keep the safety margin from the obstacles and the terrain.
+
+**Monotonicity.** Every solid a return must clear stands on the ground (obstacles, the
+terrain's solids: from below the ground up to a height), so a point's distance to them never
+shrinks as the point rises. A return's climb is nearest to them at its bottom (the route
+point, the same for every A), its straight leg home lies higher when A is higher (the
+return altitude never decreases with A, :func:`~uavplan.sim.rtl.return_altitude_m`), and the
+descent at home is nearest at the ground. So a return that keeps the margin at A keeps it at
+every higher A: the safe altitudes are an interval [lowest, ceiling], and the lowest is
+found by bisection (to 1 cm). The ceiling (the flight volume's top above home, less
+ArduPilot's FENCE_MARGIN under an altitude fence, which caps its return altitude) bounds it
+from above: a return above the ceiling leaves the volume. The terrain's ceiling over each
+cell (the route's highest height above the ground) is not a wall a return must clear, so the
+proof uses the world without it (:func:`floor_world`).
+
+What is left out (docs/way-home.md): the braking distance before the climb (the return
+starts where the vehicle stops, up to v²/2a further along the track), ArduPilot's S-curve
+corner between the climb and the leg home, rally points (none are planned), and terrain
+following (RTL_ALT_TYPE): the return altitude is above home.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uavplan.config import Autopilot
+from uavplan.flight import Flight
+from uavplan.mission.builder import CORNER_ACCEPTANCE_M
+from uavplan.mission.items import VehicleParameter
+from uavplan.planners.base import ProgressFn
+from uavplan.planning import Leg, PlannedReturn, build_world, plan_return, with_return
+from uavplan.route import PlannedRoute, keeps_margin
+from uavplan.scenario import Scenario
+from uavplan.sim.params import (
+    FENCE_TYPE_ALT_MAX,
+    FENCE_TYPE_POLYGON,
+    FlightLimits,
+    Parameters,
+    flight_limits,
+    param_table,
+)
+from uavplan.sim.rtl import ARDUPILOT_RTL_ALT_MIN_M, return_altitude_m
+from uavplan.world import GROUND, World
+
+__all__ = [
+    "RTL_PARAMETERS",
+    "RtlProof",
+    "WayHome",
+    "fence_parameters",
+    "firmware_rtl",
+    "floor_world",
+    "prove_rtl",
+    "return_samples",
+    "rtl_parameter",
+    "sample_step_m",
+    "way_home",
+]
+
+#: the bisection stops when the safe and the unsafe altitude are this close (m)
+RESOLUTION_M = 0.01
+#: returns are checked from points at most this far apart along the flown line (m) ...
+SAMPLE_STEP_M = 1.0
+#: ... or as many as this on a long route (the step grows with the route's length)
+MAX_SAMPLES = 4000
+#: ArduPilot's FENCE_MARGIN default (m): under an altitude fence its return flies at most
+#: FENCE_ALT_MAX less this (ModeRTL::compute_return_target, AC_Fence::get_safe_alt_max)
+ARDUPILOT_FENCE_MARGIN_M = 2.0
+
+
+@dataclass(frozen=True)
+class RtlParameter:
+    """The parameter that sets a firmware's RTL altitude: its name and unit per metre."""
+
+    name: str
+    unit: str
+    per_m: float
+    minimum_m: float
+
+
+#: ArduPilot Copter RTL_ALT (cm, at least RTL_ALT_MIN's 30 cm); PX4 RTL_RETURN_ALT (m)
+RTL_PARAMETERS = {
+    Autopilot.ARDUPILOT: RtlParameter("RTL_ALT", "cm", 100.0, ARDUPILOT_RTL_ALT_MIN_M),
+    Autopilot.PX4: RtlParameter("RTL_RETURN_ALT", "m", 1.0, 0.0),
+}
+
+
+def firmware_rtl(autopilot: Autopilot) -> FlightLimits:
+    """The firmware's return behaviour at its parameter defaults (cone, climb, descent)."""
+    return flight_limits(Parameters.defaults(autopilot))
+
+
+def default_rtl_altitude_m(autopilot: Autopilot) -> float:
+    """The firmware's default RTL altitude (ArduPilot 15 m, PX4 60 m)."""
+    spec = RTL_PARAMETERS[autopilot]
+    for row in param_table(autopilot):
+        if row.name == spec.name:
+            return row.default / spec.per_m
+    raise KeyError(spec.name)  # pragma: no cover - the tables hold both
+
+
+@dataclass(frozen=True)
+class ReturnCheck:
+    """Returns from samples (``index``) at one RTL altitude: which of them fail to keep the
+    margin (``unsafe``), and the altitude each flies home at (``top_z``, site z)."""
+
+    altitude_m: float
+    index: NDArray[np.int64]
+    top_z: NDArray[np.float64]
+    unsafe: NDArray[np.bool_]
+
+    @property
+    def safe(self) -> bool:
+        return not bool(self.unsafe.any())
+
+
+@dataclass(frozen=True)
+class RtlProof:
+    """The autopilot's return checked from every point of a route (see the module doc).
+
+    ``safe_altitude_m``: the lowest RTL altitude above home from which every return keeps
+    the margin (None: none up to ``ceiling_m``). ``default_safe``: the firmware's default
+    (``default_altitude_m``) does. ``blocked``: the first point (ENU) from which no altitude
+    up to the ceiling is safe, and what its return passes (words, clearance m), else None;
+    ``default_blocked`` the same at the default altitude."""
+
+    autopilot: Autopilot
+    safe_altitude_m: float | None
+    ceiling_m: float
+    default_altitude_m: float
+    default_safe: bool
+    samples: int
+    step_m: float
+    margin_m: float
+    blocked: tuple[tuple[float, float, float], str, float] | None = None
+    default_blocked: tuple[tuple[float, float, float], str, float] | None = None
+    evaluations: int = 0
+
+    @property
+    def proven(self) -> bool:
+        return self.safe_altitude_m is not None
+
+    @property
+    def parameter(self) -> RtlParameter:
+        return RTL_PARAMETERS[self.autopilot]
+
+    def report(self) -> dict[str, object]:
+        def where(b: tuple[tuple[float, float, float], str, float] | None) -> object:
+            if b is None:
+                return None
+            return {"point": list(b[0]), "nearest": b[1], "clearance_m": b[2]}
+
+        return {
+            "rtl_safe_altitude_m": self.safe_altitude_m,
+            "rtl_ceiling_m": self.ceiling_m,
+            "rtl_default_altitude_m": self.default_altitude_m,
+            "rtl_default_safe": self.default_safe,
+            "rtl_samples": self.samples,
+            "rtl_sample_step_m": self.step_m,
+            "rtl_blocked": where(self.blocked),
+            "rtl_default_blocked": where(self.default_blocked),
+        }
+
+
+def sample_step_m(length_m: float) -> float:
+    """The sampling step for a flown line ``length_m`` long (:data:`SAMPLE_STEP_M`, longer
+    beyond :data:`MAX_SAMPLES` samples)."""
+    return max(SAMPLE_STEP_M, length_m / MAX_SAMPLES)
+
+
+def return_samples(flight: Flight, step_m: float) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Points ``(n, 3)`` at most ``step_m`` apart (horizontally and vertically) along the
+    airborne part of ``flight`` and its landing descent, vertices included, and which of
+    them are on the landing descent (their climb starts near the ground and is measured
+    against the obstacles only, as the landing is). The take-off climb is left out: a
+    return from it descends where it climbed."""
+    p = flight.points_enu
+    first, last = flight.airborne
+    pieces: list[NDArray[np.float64]] = []
+    grounded: list[NDArray[np.bool_]] = []
+    for i in range(first, len(p) - 1):
+        a, b = p[i], p[i + 1]
+        span = max(float(np.hypot(*(b[:2] - a[:2]))), abs(float(b[2] - a[2])))
+        k = max(1, math.ceil(span / step_m))
+        t = np.arange(k)[:, None] / k
+        pieces.append(a + t * (b - a))
+        grounded.append(np.full(k, i >= last))
+    end = len(p) - 1
+    pieces.append(p[end : end + 1])
+    grounded.append(np.array([end > last]))
+    return np.vstack(pieces), np.concatenate(grounded)
+
+
+def prove_rtl(
+    world: World,
+    flight: Flight,
+    *,
+    home_enu: tuple[float, float, float],
+    autopilot: Autopilot,
+    ceiling_m: float,
+    name_of: Callable[[int], str],
+    limits: FlightLimits | None = None,
+    step_m: float | None = None,
+) -> RtlProof:
+    """Check the autopilot's return from every point of ``flight`` in ``world`` (ground
+    standing solids only: :func:`floor_world`) and find the lowest safe RTL altitude up to
+    ``ceiling_m`` above home (see the module docstring). ``limits``: the firmware's return
+    behaviour (default: its parameter defaults, :func:`firmware_rtl`); ``name_of(i)`` names
+    obstacle ``i`` for the messages."""
+    base = limits or firmware_rtl(autopilot)
+    step = sample_step_m(flight.length_m) if step_m is None else float(step_m)
+    points, grounded = return_samples(flight, step)
+    checker = _Returns(world, points, grounded, home_enu, base)
+    spec = RTL_PARAMETERS[autopilot]
+    default = default_rtl_altitude_m(autopilot)
+    floor = spec.minimum_m
+    margin = world.margin_m
+    describe = _Describer(world, name_of, checker)
+
+    # A return safe at an altitude stays safe higher up (the module doc), so once the lowest
+    # altitude has been checked from every sample, only those it fails need a further look.
+    low = checker.at(max(floor, min(floor, ceiling_m)), None)
+    still = np.flatnonzero(low.unsafe)
+    at_default = checker.at(max(floor, min(default, ceiling_m)), still)
+    default_safe = default <= ceiling_m + 1e-9 and at_default.safe
+    default_blocked = None if default_safe else describe.first(points, at_default)
+    common = dict(
+        autopilot=autopilot,
+        ceiling_m=float(ceiling_m),
+        default_altitude_m=default,
+        default_safe=default_safe,
+        samples=len(points),
+        step_m=step,
+        margin_m=margin,
+        default_blocked=default_blocked,
+    )
+    if ceiling_m < floor:
+        return RtlProof(
+            safe_altitude_m=None,
+            blocked=describe.first(points, low),
+            evaluations=checker.evaluations,
+            **common,  # type: ignore[arg-type]
+        )
+    if low.safe:
+        return RtlProof(
+            safe_altitude_m=floor,
+            evaluations=checker.evaluations,
+            **common,  # type: ignore[arg-type]
+        )
+    high = checker.at(ceiling_m, still)
+    if not high.safe:
+        return RtlProof(
+            safe_altitude_m=None,
+            blocked=describe.first(points, high),
+            evaluations=checker.evaluations,
+            **common,  # type: ignore[arg-type]
+        )
+    # bisection over the samples still unsafe at the lower end
+    lo, hi = floor, float(ceiling_m)
+    while hi - lo > RESOLUTION_M:
+        mid = 0.5 * (lo + hi)
+        check = checker.at(mid, still)
+        if check.safe:
+            hi = mid
+        else:
+            lo, still = mid, still[check.unsafe]
+    safe = math.ceil(hi / RESOLUTION_M - 1e-9) * RESOLUTION_M
+    final = checker.at(safe, np.flatnonzero(low.unsafe))
+    if not final.safe:  # pragma: no cover - monotonicity holds (tests/test_way_home.py)
+        raise AssertionError(f"the return at {safe} m is not safe after the bisection")
+    return RtlProof(
+        safe_altitude_m=round(safe, 2),
+        evaluations=checker.evaluations,
+        **common,  # type: ignore[arg-type]
+    )
+
+
+class _Returns:
+    """The returns from ``points`` at any RTL altitude, measured in ``world``."""
+
+    def __init__(
+        self,
+        world: World,
+        points: NDArray[np.float64],
+        grounded: NDArray[np.bool_],
+        home: tuple[float, float, float],
+        limits: FlightLimits,
+    ) -> None:
+        self.world = world
+        self.obstacles = world.without_ground()
+        self.points = points
+        self.grounded = grounded
+        self.home = np.asarray(home, dtype=np.float64)
+        self.distance_m = np.hypot(points[:, 0] - home[0], points[:, 1] - home[1])
+        self.limits = limits
+        self.evaluations = 0
+        # the descent at home, from as high as any return can fly (the volume's top): nearest
+        # the obstacles at its bottom, whatever the altitude, so measured once (it is the
+        # take-off column, which the scenario's checks keep clear)
+        column = np.array([[home[0], home[1], float(world.zlim[1])]])
+        d_home, p_home = self.obstacles.segments_nearest(column, self.home[None, :])
+        self.home_clearance_m = float(d_home[0])
+        self.home_owner = int(self.obstacles.owner_of(p_home)[0])
+        self.home_free = keeps_margin(self.home_clearance_m, world.margin_m)
+
+    def at(self, altitude_m: float, which: NDArray[np.int64] | None) -> ReturnCheck:
+        """The returns from the samples ``which`` (None: all) at RTL altitude ``altitude_m``
+        above home: climb, straight leg home, descent at home (each with
+        :meth:`~uavplan.world.World.segments_free`, the world's exact test)."""
+        self.evaluations += 1
+        idx = np.arange(len(self.points)) if which is None else which
+        p, top, home = self.legs(altitude_m, idx)
+        free = self.world.segments_free(top, home)
+        air = ~self.grounded[idx]
+        for space, mask in ((self.world, air), (self.obstacles, ~air)):
+            if mask.any():
+                free[mask] &= space.segments_free(p[mask], top[mask])
+        unsafe = ~free if self.home_free else np.ones(len(idx), dtype=bool)
+        return ReturnCheck(float(altitude_m), idx, top[:, 2].copy(), unsafe)
+
+    def legs(
+        self, altitude_m: float, idx: NDArray[np.int64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The samples ``idx``, the tops of their climbs and home at that height."""
+        p = self.points[idx]
+        hx, hy, hz = (float(v) for v in self.home)
+        lim = replace(self.limits, rtl_altitude_m=float(altitude_m))
+        top_z = hz + return_altitude_m(lim, self.distance_m[idx], p[:, 2] - hz)
+        top = p.copy()
+        top[:, 2] = top_z
+        home = np.column_stack([np.full(len(p), hx), np.full(len(p), hy), top_z])
+        return p, top, home
+
+    def nearest(self, altitude_m: float, i: int) -> tuple[str, float, int, int]:
+        """What the return from sample ``i`` passes nearest: (which leg, clearance m, the
+        obstacle index or GROUND or -1, the piece or -1)."""
+        idx = np.array([i])
+        p, top, home = self.legs(altitude_m, idx)
+        space = self.obstacles if self.grounded[i] else self.world
+        legs = [
+            ("climb", space, p, top),
+            ("leg home", self.world, top, home),
+        ]
+        best = ("descent at home", self.home_clearance_m, self.home_owner, -1)
+        for name, world, a, b in legs:
+            dist, piece = world.segments_nearest(a, b)
+            if float(dist[0]) < best[1]:
+                mine = int(piece[0]) if world is self.world else -1
+                best = (name, float(dist[0]), int(world.owner_of(piece)[0]), mine)
+        return best
+
+
+class _Describer:
+    """Names what a return passes, in words, as the flight check does."""
+
+    def __init__(self, world: World, name_of: Callable[[int], str], returns: _Returns) -> None:
+        self.world = world
+        self.name_of = name_of
+        self.returns = returns
+
+    def first(
+        self, points: NDArray[np.float64], check: ReturnCheck
+    ) -> tuple[tuple[float, float, float], str, float] | None:
+        """The first unsafe sample (in flight order), what its return passes, how close."""
+        bad = np.flatnonzero(check.unsafe)
+        if not bad.size:
+            return None
+        i = int(check.index[int(bad[0])])
+        leg, clearance, owner, piece = self.returns.nearest(check.altitude_m, i)
+        x, y, z = (round(float(v), 1) for v in points[i])
+        return (x, y, z), f"{self.name(owner, piece)} ({leg})", max(0.0, clearance)
+
+    def name(self, owner: int, piece: int) -> str:
+        if owner == -1:
+            return "nothing"
+        if owner != GROUND:
+            return self.name_of(owner)
+        if piece < 0:
+            return "the ground"
+        x, y = self.world.piece_centre(piece)
+        return f"the ground at ({x:.0f}, {y:.0f})"
+
+
+def ceiling_above_home(route: PlannedRoute, top_z_m: float) -> float:
+    """The flight volume's top ``top_z_m`` (site z) as an altitude above home."""
+    home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
+    return float(top_z_m) - home_z
+
+
+# ---------------------------------------------------------------------------------------------
+# The way home of a planned scenario: the proof, the planned return, the parameters
+
+
+def floor_world(scenario: Scenario) -> World:
+    """What a return from ``scenario``'s route must clear: its obstacles and the terrain's
+    solids that stand on the ground, keeping its margin, in bounds open above and below and
+    :data:`BOUNDS_PAD_M` wider than the volume (the ceiling is the proof's own bound, and a
+    route point that files or rounding put a hair outside is not a return's fault)."""
+    site = scenario.site
+    ground = site.ground
+    if ground is not None and ground.ceilings_m is not None:
+        ground = replace(ground, ceilings_m=None)
+    (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
+    pad = BOUNDS_PAD_M
+    return World.build(
+        site.obstacles,
+        bounds_xyz=((x0 - pad, x1 + pad), (y0 - pad, y1 + pad), (-OPEN_Z_M, OPEN_Z_M)),
+        margin_m=site.safety_margin_m,
+        ground=ground,
+    )
+
+
+#: the proof's world is this much wider than the flight volume (m)
+BOUNDS_PAD_M = 1.0
+#: ... and open this far above and below (m)
+OPEN_Z_M = 1e7
+
+
+@dataclass(frozen=True, eq=False)
+class WayHome:
+    """How a planned route gets home, as ``plan`` writes and reports it.
+
+    ``route``: the route as the mission flies it (with the planned return when there is
+    one); ``proof``: the autopilot's own return checked from every point;
+    ``planned_return``: the mission ends with a planned return (``end: return``, or
+    ``end: rtl`` where no RTL altitude up to the ceiling is safe: ``switched``);
+    ``parameters``: what the mission relies on (``upload --set-params``)."""
+
+    end: str
+    route: PlannedRoute
+    proof: RtlProof | None
+    fence_ceiling_m: float | None = None
+    switched: bool = False
+    return_leg: Leg | None = None
+    parameters: tuple[VehicleParameter, ...] = ()
+    interrupted: bool = False
+    failure: str = ""
+
+    @property
+    def planned_return(self) -> bool:
+        return self.route.return_enu is not None
+
+    @property
+    def return_length_m(self) -> float:
+        back = self.route.return_enu
+        if back is None:
+            return 0.0
+        return float(np.linalg.norm(np.diff(back, axis=0), axis=1).sum())
+
+    def report(self) -> dict[str, object]:
+        proof = {} if self.proof is None else self.proof.report()
+        return {
+            "rtl_safe_altitude_m": None if self.proof is None else self.proof.safe_altitude_m,
+            "way_home": {
+                "end": self.end,
+                "flown_end": "return" if self.planned_return else self.end,
+                "autopilot": None if self.proof is None else self.proof.autopilot.label,
+                **proof,
+                "planned_return": self.planned_return,
+                "return_replaces_rtl": self.switched,
+                "return_length_m": self.return_length_m if self.planned_return else None,
+                "return_min_clearance_m": (
+                    self.return_leg.min_clearance_m if self.return_leg is not None else None
+                ),
+                "fence_ceiling_m": self.fence_ceiling_m,
+                "parameters": [
+                    {
+                        "name": p.name,
+                        "value": p.value,
+                        "at_least": p.at_least,
+                        "at_most": p.at_most,
+                        "unit": p.unit,
+                        "reason": p.reason,
+                    }
+                    for p in self.parameters
+                ],
+            },
+        }
+
+    def lines(self) -> list[str]:
+        """What ``plan`` prints about the way home: the proof, the return, the parameters."""
+        out: list[str] = []
+        proof = self.proof
+        if proof is not None:
+            out.append(_proof_line(proof))
+        if self.planned_return:
+            why = (
+                "no RTL altitude brings it home safely, so the mission"
+                if self.switched
+                else "the mission"
+            )
+            clearance = (
+                ""
+                if self.return_leg is None
+                else (f", clearance {self.return_leg.min_clearance_m:.2f} m")
+            )
+            out.append(
+                f"way home: {why} ends with a planned return ({self.return_length_m:.0f} m"
+                f"{clearance}) after DO_LAND_START, landing at home"
+            )
+            if proof is not None and not proof.proven:
+                out.append(_failsafe_advice(proof.autopilot))
+        if self.parameters:
+            out.append(
+                "parameters the mission relies on (upload --set-params sends them): "
+                + ", ".join(p.describe() for p in self.parameters)
+            )
+        return out
+
+
+#: how ``plan`` names each firmware
+FIRMWARE_NAMES = {Autopilot.ARDUPILOT: "ArduPilot", Autopilot.PX4: "PX4"}
+
+
+def _where(b: tuple[tuple[float, float, float], str, float]) -> str:
+    (x, y, z), what, clearance = b
+    return f"from ({x:.0f}, {y:.0f}, {z:.0f}) its return passes {clearance:.2f} m from {what}"
+
+
+def _proof_line(proof: RtlProof) -> str:
+    spec = proof.parameter
+    default = f"{proof.default_altitude_m:g} m"
+    if proof.safe_altitude_m is None:
+        assert proof.blocked is not None
+        return (
+            f"way home: no RTL altitude up to the ceiling ({proof.ceiling_m:.0f} m above home) "
+            f"keeps the {proof.margin_m:g} m margin from every point of the route: at the "
+            f"ceiling, {_where(proof.blocked)}"
+        )
+    safe = proof.safe_altitude_m
+    value = _rtl_value(proof)
+    head = (
+        f"way home: {FIRMWARE_NAMES[proof.autopilot]}'s return to launch keeps the "
+        f"{proof.margin_m:g} m margin from every point of the route at an RTL altitude of "
+        f"{safe:.2f} m or more (set {spec.name} ≥ {value:g} {spec.unit}; ceiling "
+        f"{proof.ceiling_m:.0f} m)"
+    )
+    if proof.default_safe:
+        return f"{head}; the default {default} does"
+    if proof.default_blocked is None:
+        return f"{head}; the default {default} is above the ceiling"
+    return f"{head}; the default {default} does not: {_where(proof.default_blocked)}"
+
+
+def _failsafe_advice(autopilot: Autopilot) -> str:
+    if autopilot is Autopilot.PX4:
+        return (
+            "way home: for a return (a failsafe, RTL) to fly the mission on to its planned "
+            "landing instead of straight home, PX4 needs RTL_TYPE 2 (upload --set-params "
+            "sets it)"
+        )
+    return (
+        "way home: ArduPilot flies the planned return at the mission's end; a failsafe RTL "
+        "still flies straight home. A failsafe action 'Auto DO_LAND_START or RTL' (e.g. "
+        "FS_THR_ENABLE 6, FS_GCS_ENABLE 6, BATT_FS_LOW_ACT 6) jumps to the landing sequence "
+        "instead, flying straight from where it is to the goal first (not proven)"
+    )
+
+
+def _rtl_value(proof: RtlProof) -> float:
+    """The least RTL parameter value (firmware unit) at the safe altitude, rounded up to a
+    whole metre."""
+    spec = proof.parameter
+    assert proof.safe_altitude_m is not None
+    return math.ceil(proof.safe_altitude_m - 1e-9) * spec.per_m
+
+
+def rtl_parameter(proof: RtlProof) -> VehicleParameter | None:
+    """The RTL altitude parameter a proven return needs: at least the safe altitude
+    (rounded up to a whole metre), at most the ceiling; set to the firmware's default when
+    that lies between, else to the nearer bound."""
+    if proof.safe_altitude_m is None:
+        return None
+    spec = proof.parameter
+    low = _rtl_value(proof)
+    high = math.floor(proof.ceiling_m + 1e-9) * spec.per_m
+    if high < low:
+        high = low  # a ceiling that is not a whole number of metres above the safe one
+    value = min(max(proof.default_altitude_m * spec.per_m, low), high)
+    return VehicleParameter(
+        spec.name,
+        value,
+        at_least=low,
+        at_most=high,
+        unit=spec.unit,
+        reason=(
+            f"the return to launch keeps the {proof.margin_m:g} m margin from every point of "
+            f"the route at {proof.safe_altitude_m:.2f} m or higher, up to the ceiling"
+        ),
+    )
+
+
+def fence_parameters(autopilot: Autopilot, ceiling_m: float) -> tuple[VehicleParameter, ...]:
+    """The altitude fence at ``ceiling_m`` above home, enabled: ArduPilot FENCE_ENABLE 1,
+    FENCE_TYPE 5 (maximum altitude and the uploaded polygons and circles; not the circle
+    around home of FENCE_RADIUS), FENCE_ALT_MAX; PX4 GF_MAX_VER_DIST, GF_ACTION 1..5 (not
+    0, which turns the fence off; 2, Hold, its default)."""
+    ceiling = round(float(ceiling_m), 2)
+    why = "the mission's ceiling (the flight volume's top above home)"
+    if autopilot is Autopilot.PX4:
+        return (
+            VehicleParameter("GF_MAX_VER_DIST", ceiling, unit="m", reason=why),
+            VehicleParameter(
+                "GF_ACTION", 2.0, 1.0, 5.0, reason="a fence breach does something (0: no fence)"
+            ),
+        )
+    return (
+        VehicleParameter("FENCE_ENABLE", 1.0, reason="the geofence is on"),
+        VehicleParameter(
+            "FENCE_TYPE",
+            float(FENCE_TYPE_ALT_MAX | FENCE_TYPE_POLYGON),
+            reason="the ceiling and the uploaded zones (not the circle of FENCE_RADIUS "
+            "around home)",
+        ),
+        VehicleParameter("FENCE_ALT_MAX", ceiling, unit="m", reason=why),
+    )
+
+
+def way_home(
+    scenario: Scenario,
+    route: PlannedRoute,
+    *,
+    fence: bool = False,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> WayHome:
+    """The way home of ``route`` planned for ``scenario``: the proof of the autopilot's return
+    from every point (:func:`prove_rtl`), a planned return where the mission ends with one
+    (``end: return``) or where no RTL altitude is safe (``end: rtl``), and the parameters
+    the mission relies on (the RTL altitude; with ``fence``, the fence's ceiling)."""
+    autopilot = scenario.mission.autopilot
+    end = scenario.mission.end
+    if autopilot not in RTL_PARAMETERS:
+        return WayHome(end, route, None)
+    site = scenario.site
+    world = build_world(scenario)
+    floor = floor_world(scenario)
+    home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
+    start = route.waypoints_enu[0]
+    home = (float(start[0]), float(start[1]), home_z)
+    top = ceiling_above_home(route, site.bounds.z_m[1])
+    ceiling = top - (ARDUPILOT_FENCE_MARGIN_M if fence and autopilot is Autopilot.ARDUPILOT else 0)
+
+    def prove(line: PlannedRoute) -> RtlProof:
+        flight = Flight.from_polyline(
+            line.flown_enu, from_ground=scenario.mission.takeoff, to_ground=line.end in LANDING
+        )
+        return prove_rtl(
+            floor,
+            flight,
+            home_enu=home,
+            autopilot=autopilot,
+            ceiling_m=ceiling,
+            name_of=scenario.obstacle_name,
+        )
+
+    proof = None if end == "return" else prove(route)
+    if should_stop is not None and should_stop():
+        return WayHome(end, route, proof, interrupted=True, failure="interrupted")
+    switched = False
+    leg = None
+    if end == "return" or (end == "rtl" and proof is not None and not proof.proven):
+        planned = _plan_return(scenario, route, world, progress, should_stop)
+        if planned.route is None:
+            assert planned.failure is not None
+            return WayHome(
+                end, route, proof, interrupted=planned.interrupted,
+                failure=planned.failure.message,
+            )  # fmt: skip
+        switched = end == "rtl"
+        route, leg = planned.route, planned.leg
+        assert route.return_enu is not None
+        route = replace(route, return_stops=corner_stops(world, route))
+        if proof is None:
+            proof = prove(route)
+    parameters: list[VehicleParameter] = []
+    rtl = rtl_parameter(proof) if proof is not None else None
+    if rtl is not None:
+        parameters.append(rtl)
+    elif autopilot is Autopilot.PX4 and (route.return_enu is not None or end == "land"):
+        parameters.append(
+            VehicleParameter(
+                "RTL_TYPE",
+                2.0,
+                reason="no direct return is safe: a return flies the mission on to its landing",
+            )
+        )
+    if fence:
+        parameters.extend(fence_parameters(autopilot, top))
+    return WayHome(
+        end,
+        route,
+        proof,
+        fence_ceiling_m=top if fence else None,
+        switched=switched,
+        return_leg=leg,
+        parameters=tuple(parameters),
+    )
+
+
+#: the planned return keeps this much more than the margin, for the autopilot's tracking: PX4
+#: reaches a return waypoint within its acceptance radius (CORNER_ACCEPTANCE_M) and turns
+#: from there
+RETURN_ALLOWANCE_M = CORNER_ACCEPTANCE_M
+
+
+def _plan_return(
+    scenario: Scenario,
+    route: PlannedRoute,
+    world: World,
+    progress: ProgressFn | None,
+    should_stop: Callable[[], bool] | None,
+) -> PlannedReturn:
+    """The return planned keeping :data:`RETURN_ALLOWANCE_M` more than the margin, or (when
+    the goal or the start is too close to something for that) the margin itself; the
+    route's clearance is measured in ``world`` either way."""
+    site = scenario.site
+    b = site.bounds
+    wide = World.build(
+        site.obstacles,
+        bounds_xyz=(b.x_m, b.y_m, b.z_m),
+        margin_m=site.safety_margin_m + RETURN_ALLOWANCE_M,
+        ground=site.ground,
+    )
+    ends = np.vstack([route.waypoints_enu[-1], route.waypoints_enu[0]])
+    if wide.segments_free(ends, ends).all():
+        planned = plan_return(
+            scenario, route, world=wide, progress=progress, should_stop=should_stop
+        )
+        if planned.route is not None and planned.route.return_enu is not None:
+            measured = with_return(scenario, route, planned.route.return_enu, world)
+            return replace(planned, route=measured)
+        if planned.interrupted:
+            return planned
+    return plan_return(scenario, route, world=world, progress=progress, should_stop=should_stop)
+
+
+#: the corner of a planned return is checked with this many segments fanning out from it
+CORNER_FAN = 16
+
+
+def corner_stops(world: World, route: PlannedRoute) -> tuple[int, ...]:
+    """The rows of ``route``'s planned return (0: the goal) whose corner the autopilot may
+    not cut. Both firmwares cut a corner inside the triangle of the previous waypoint, the
+    corner and the next one (ArduPilot's S-curve blends the two legs, PX4 turns once within
+    its acceptance radius, a little outside): a corner whose triangle keeps the margin and
+    :data:`RETURN_ALLOWANCE_M` more (its far side and :data:`CORNER_FAN` segments from the
+    corner to it, :meth:`World.segments_free`) may be cut; the others are flown to a stop."""
+    back = route.return_enu
+    assert back is not None
+    line = np.vstack([route.waypoints_enu[-2:-1], back])  # the leg into the goal, the return
+    stops = []
+    k = np.linspace(0.0, 1.0, CORNER_FAN + 1)[:, None]
+    for row in range(len(back) - 1):  # the last row is followed by the landing: a stop
+        a, b, c = line[row], line[row + 1], line[row + 2]
+        chord = a + k * (c - a)
+        p0 = np.vstack([a[None, :], np.repeat(b[None, :], len(chord), axis=0)])
+        p1 = np.vstack([c[None, :], chord])
+        if not world.segments_free(p0, p1, world.margin_m + RETURN_ALLOWANCE_M).all():
+            stops.append(row)
+    return tuple(stops)
+
+
+#: mission ends whose flown line ends with a landing descent
+LANDING = ("land", "return")
