@@ -22,6 +22,9 @@ from above: a return above the ceiling leaves the volume. The terrain's ceiling 
 cell (the route's highest height above the ground) is not a wall a return must clear, so the
 proof uses the world without it (:func:`floor_world`).
 
+PX4 ends its climb within ``NAV_MC_ALT_RAD`` (0.8 m) of the return altitude and flies home
+from there, so its leg home is checked that much lower.
+
 What is left out (docs/way-home.md): the braking distance before the climb (the return
 starts where the vehicle stops, up to v²/2a further along the track), ArduPilot's S-curve
 corner between the climb and the leg home, rally points (none are planned), and terrain
@@ -67,6 +70,7 @@ __all__ = [
     "return_samples",
     "rtl_parameter",
     "sample_step_m",
+    "unsafe_returns",
     "way_home",
 ]
 
@@ -145,6 +149,8 @@ class RtlProof:
     samples: int
     step_m: float
     margin_m: float
+    #: the least whole metre at or above the safe altitude found safe (what to set)
+    setting_m: float | None = None
     blocked: tuple[tuple[float, float, float], str, float] | None = None
     default_blocked: tuple[tuple[float, float, float], str, float] | None = None
     evaluations: int = 0
@@ -166,6 +172,7 @@ class RtlProof:
         return {
             "rtl_safe_altitude_m": self.safe_altitude_m,
             "rtl_ceiling_m": self.ceiling_m,
+            "rtl_setting_m": self.setting_m,
             "rtl_default_altitude_m": self.default_altitude_m,
             "rtl_default_safe": self.default_safe,
             "rtl_samples": self.samples,
@@ -202,6 +209,23 @@ def return_samples(flight: Flight, step_m: float) -> tuple[NDArray[np.float64], 
     pieces.append(p[end : end + 1])
     grounded.append(np.array([end > last]))
     return np.vstack(pieces), np.concatenate(grounded)
+
+
+def unsafe_returns(
+    world: World,
+    flight: Flight,
+    *,
+    home_enu: tuple[float, float, float],
+    autopilot: Autopilot,
+    altitude_m: float,
+    step_m: float | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """The samples of ``flight`` (:func:`return_samples`) and which of their returns at RTL
+    altitude ``altitude_m`` fail to keep the margin (the test :func:`prove_rtl` bisects)."""
+    step = sample_step_m(flight.length_m) if step_m is None else float(step_m)
+    points, grounded = return_samples(flight, step)
+    returns = _Returns(world, points, grounded, home_enu, firmware_rtl(autopilot))
+    return points, returns.at(altitude_m, None).unsafe
 
 
 def prove_rtl(
@@ -257,6 +281,7 @@ def prove_rtl(
     if low.safe:
         return RtlProof(
             safe_altitude_m=floor,
+            setting_m=float(math.ceil(floor - 1e-9)),
             evaluations=checker.evaluations,
             **common,  # type: ignore[arg-type]
         )
@@ -278,11 +303,19 @@ def prove_rtl(
         else:
             lo, still = mid, still[check.unsafe]
     safe = math.ceil(hi / RESOLUTION_M - 1e-9) * RESOLUTION_M
-    final = checker.at(safe, np.flatnonzero(low.unsafe))
+    unsafe_low = np.flatnonzero(low.unsafe)
+    final = checker.at(safe, unsafe_low)
     if not final.safe:  # pragma: no cover - monotonicity holds (tests/test_way_home.py)
         raise AssertionError(f"the return at {safe} m is not safe after the bisection")
+    # the whole metre to advise: the one just below the bisection's answer when that is
+    # safe too (the answer lies up to RESOLUTION_M above the exact lowest), else the next
+    whole = float(math.ceil(safe - 1e-9))
+    below = whole - 1.0
+    if safe - below <= RESOLUTION_M + 1e-9 and checker.at(below, unsafe_low).safe:
+        whole = below
     return RtlProof(
         safe_altitude_m=round(safe, 2),
+        setting_m=whole,
         evaluations=checker.evaluations,
         **common,  # type: ignore[arg-type]
     )
@@ -339,6 +372,12 @@ class _Returns:
         hx, hy, hz = (float(v) for v in self.home)
         lim = replace(self.limits, rtl_altitude_m=float(altitude_m))
         top_z = hz + return_altitude_m(lim, self.distance_m[idx], p[:, 2] - hz)
+        if lim.is_px4:
+            # PX4 ends its climb once within NAV_MC_ALT_RAD of the return altitude and flies
+            # home from there: the leg home may be that much lower
+            top_z = np.where(
+                top_z > p[:, 2], np.maximum(p[:, 2], top_z - lim.altitude_acceptance_m), top_z
+            )
         top = p.copy()
         top[:, 2] = top_z
         home = np.column_stack([np.full(len(p), hx), np.full(len(p), hy), top_z])
@@ -571,11 +610,10 @@ def _failsafe_advice(autopilot: Autopilot) -> str:
 
 
 def _rtl_value(proof: RtlProof) -> float:
-    """The least RTL parameter value (firmware unit) at the safe altitude, rounded up to a
-    whole metre."""
+    """The least RTL parameter value (firmware unit) proven safe, in whole metres."""
     spec = proof.parameter
-    assert proof.safe_altitude_m is not None
-    return math.ceil(proof.safe_altitude_m - 1e-9) * spec.per_m
+    assert proof.setting_m is not None
+    return proof.setting_m * spec.per_m
 
 
 def rtl_parameter(proof: RtlProof) -> VehicleParameter | None:

@@ -335,8 +335,7 @@ class ParameterError(LinkError):
         message = "; ".join(r.describe() for r in failed)
         if done:
             message += " (" + ", ".join(r.describe() for r in done) + ")"
-        names = ", ".join(r.name for r in failed)
-        super().__init__(message, step=f"set parameters: {names}")
+        super().__init__(message, step="set parameters")
 
 
 #: the clock a client reads: seconds, monotonic
