@@ -322,3 +322,18 @@ def test_plan_writes_the_parameters_it_prints(tmp_path: Path) -> None:
                                              "FENCE_ALT_MAX"}  # fmt: skip
     assert written["FENCE_ALT_MAX"].value == 250.0  # paper-env1's ceiling
     assert written["RTL_ALT"].at_least == reported["RTL_ALT"]["at_least"]
+
+
+def test_the_plan_files_parameters_are_checked_and_dropped_with_a_note_elsewhere(
+    tmp_path: Path, plan_with_parameters: Path
+) -> None:
+    doc = json.loads(plan_with_parameters.read_text())
+    doc["parameters"]["items"][0]["value"] = "high"
+    bad = tmp_path / "bad.plan"
+    bad.write_text(json.dumps(doc))
+    result = run("validate", str(bad))
+    assert result.exit_code == 2
+    assert "parameters.items[0].value: must be a number" in result.stderr
+    result = run("convert", str(plan_with_parameters), str(tmp_path / "m.waypoints"))
+    assert result.exit_code == 0, result.output
+    assert "holds no vehicle parameters (RTL_ALT, FENCE_ALT_MAX); left out" in result.stderr

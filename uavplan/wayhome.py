@@ -535,6 +535,13 @@ class WayHome:
         proof = self.proof
         if proof is not None:
             out.append(_proof_line(proof))
+        if self.failure and not self.interrupted:
+            out.append(f"way home: the return could not be planned: {self.failure}")
+        elif proof is not None and not proof.proven and not self.planned_return:
+            out.append(
+                "way home: a failsafe return would not keep the margin; mission.end: return "
+                "plans the way home into the mission"
+            )
         if self.planned_return:
             why = (
                 "no RTL altitude brings it home safely, so the mission"
