@@ -408,3 +408,21 @@ def test_the_simulated_vehicle_reports_a_breach_of_the_fences_ceiling(
         driver.run_until(lambda d=driver: d.vehicle.flight.position[2] > top - 1.0, 60, 0.01)
         texts = [m.text for m in driver.heard if isinstance(m, StatusText)]
         assert ("Fence: above the ceiling (25 m)" in texts) is breached, texts
+
+
+def test_end_return_plans_the_way_home_even_where_rtl_would_be_safe(tmp_path: Path) -> None:
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(SCENARIO.replace("AUTOPILOT", "px4").replace("end: rtl", "end: return"))
+    out, report = tmp_path / "s.plan", tmp_path / "s.json"
+    result = CliRunner().invoke(main, ["plan", str(scenario), "-o", str(out), "--report",
+                                       str(report)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    way = json.loads(report.read_text())["way_home"]
+    assert way["planned_return"] is True and way["return_replaces_rtl"] is False
+    assert way["rtl_safe_altitude_m"] is not None  # failsafe returns proven all the same
+    plan = load_mission(str(out))
+    commands = [item.command for item in plan.items]
+    assert MavCmd.DO_LAND_START in commands and commands[-1] == MavCmd.NAV_LAND
+    assert "RTL_TYPE" not in {p.name for p in plan.parameters}  # a direct return is safe
+    track = simulate(plan)
+    assert track.ended == "landed" and math.hypot(track.x_m[-1], track.y_m[-1]) < 0.5
