@@ -14,7 +14,7 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
 * scenario (the YAML reader and the checked scenario values): vocabulary and sources;
-* wiring (planning, flight, wayhome, reroute, bench, render): everything but the application
+* wiring (planning, flight, wayhome/, reroute, bench, render): everything but the application
   and CLI;
 * app (the use cases): everything but the CLI;
 * cli: thin; nothing imports it.
@@ -63,7 +63,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "wiring": (
         "planning.py",
         "flight.py",
-        "wayhome.py",
+        "wayhome/*.py",
         "bench/*.py",
         "render.py",
         "reroute.py",

@@ -4,7 +4,7 @@ PX4 and ArduPilot Copter both return by climbing where they are to a return alti
 straight home at it and descending there. That altitude depends on the RTL parameters, the
 distance from home and the altitude the return starts from; :func:`return_altitude_m` is that
 rule, for one point or many at once. The flight model (:mod:`.model`) flies its returns at
-it, and the proof of the way home (:mod:`uavplan.wayhome`) checks returns from every point of
+it, and the proof of the way home (:mod:`uavplan.wayhome.proof`) checks returns from every point of
 a route at it, so the two cannot disagree.
 
 - **ArduPilot Copter** (``ModeRTL::compute_return_target``, ArduCopter/mode_rtl.cpp): at least
