@@ -362,7 +362,7 @@ BAD = [
     ("spsa-ratios-not-summing-to-1", BASE + "planner: {spsa: {producer_ratio: 0.5}}\n",
      "planner.spsa.scrounger_ratio", "producer_ratio + scrounger_ratio must be 1"),
     ("unknown-mission-end", BASE + "mission: {end: loiter}\n", "mission.end",
-     "must be one of rtl, land, none"),
+     "must be one of rtl, land, none, return"),
     ("unknown-autopilot", BASE + "mission: {autopilot: betaflight}\n", "mission.autopilot",
      "must be one of px4, ardupilot"),
     ("vehicle-speed-string", BASE + "vehicle: {cruise_speed: fast}\n", "vehicle.cruise_speed",

@@ -59,10 +59,29 @@ GC_GEN0_THRESHOLD = 20_000
 EXIT_INTERRUPTED = 130
 
 
+class _EarlyCtrlC:
+    """SIGINT before a command installs its own handler (:func:`uavplan.cli.common.
+    interruptible`): raised as Python's own handler does, and remembered. Some compiled code
+    that runs while the command line loads swallows any exception raised in Python it calls
+    (a C-level ``hasattr`` clears whatever it meets, a KeyboardInterrupt too): a Ctrl-C that
+    lands there would be lost and the command run to its end. The command's handler reads
+    :attr:`seen` when it takes over and ends the command as interrupted."""
+
+    seen = False
+
+    def __call__(self, _signum: int, _frame: object) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+
 def run() -> None:
     """Run the ``uavplan`` command line on ``sys.argv``."""
     try:
         try:
+            import signal
+
+            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                signal.signal(signal.SIGINT, _EarlyCtrlC())
             gc.disable()
             gc.set_threshold(GC_GEN0_THRESHOLD, *gc.get_threshold()[1:])
             atexit.register(gc.freeze)

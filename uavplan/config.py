@@ -777,9 +777,10 @@ def iter_fields(cls: type) -> Iterator[tuple[str, str, Any, str]]:
 # ---------------------------------------------------------------------------------------------
 # Mission flavour (a scenario's mission.autopilot; the mission layer re-exports it)
 
-#: how a mission ends: return to launch, land at the goal, or nothing (hover at the goal)
-EndAction = Literal["rtl", "land", "none"]
-END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none")
+#: how a mission ends: return to launch, land at the goal, nothing (hover at the goal), or
+#: fly a planned return home and land there
+EndAction = Literal["rtl", "land", "none", "return"]
+END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none", "return")
 #: mission.altitude: waypoint altitudes relative to home (MAV_FRAME_GLOBAL_RELATIVE_ALT), AMSL
 #: (MAV_FRAME_GLOBAL) or above the ground beneath (MAV_FRAME_GLOBAL_TERRAIN_ALT)
 ALTITUDE_MODES: tuple[str, ...] = ("relative", "amsl", "terrain")

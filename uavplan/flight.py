@@ -392,7 +392,8 @@ def check_track(
     )
     first, last = flight.airborne
     # sorted and unique without np.union1d (np.unique imports numpy.ma: tests/test_startup)
-    kept = np.sort(np.concatenate((thin_polyline(flight.points_enu), [first, last])))
+    ends = np.array([first, last], dtype=np.int64)
+    kept: np.ndarray = np.sort(np.concatenate((thin_polyline(flight.points_enu), ends)))
     kept = kept[np.concatenate(([True], kept[1:] != kept[:-1]))].astype(np.int64)
     kept = kept[kept < len(flight.points_enu)]
     if len(kept):

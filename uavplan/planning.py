@@ -494,6 +494,98 @@ def plan_route(
     )
 
 
+#: the planned return draws from its own random stream: the seed's, spawned with this key,
+#: so that planning it leaves the outbound route exactly as a plan without it
+RETURN_STREAM = 27
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedReturn:
+    """The return planned from the goal to the point above home: the route with it
+    (``route.return_enu`` set, ``route.flown_enu`` flying it and landing at home), the leg,
+    or why there is none (``failure``)."""
+
+    route: PlannedRoute | None
+    leg: Leg | None = None
+    failure: LegFailure | None = None
+
+    @property
+    def interrupted(self) -> bool:
+        return self.failure is not None and self.failure.reason is RouteFailure.INTERRUPTED
+
+
+def plan_return(
+    scenario: Scenario,
+    route: PlannedRoute,
+    *,
+    world: World | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> PlannedReturn:
+    """Plan the way home of ``route``: one leg from its goal to the start (above home, at the
+    start's height) with ``scenario``'s planner, in its own random stream (the seed with
+    :data:`RETURN_STREAM`); the route that flies it (``end="return"``). ``should_stop`` is
+    polled as in :func:`plan_route`."""
+    cfg = scenario.planner
+    world = world or build_world(scenario)
+    planner = make_planner(cfg.algorithm, cfg)
+    post = cfg.post
+    if not planner_entry(cfg.algorithm).postprocess:
+        post = replace(post, refine=False, tighten=False, select="best")
+    goal = tuple(float(v) for v in route.waypoints_enu[-1])
+    start = tuple(float(v) for v in route.waypoints_enu[0])
+    a: _Point = (goal[0], goal[1], goal[2])
+    b: _Point = (start[0], start[1], start[2])
+    smoothing = cfg.fitness_smoothing(cfg.algorithm)
+
+    def make_problem() -> PathProblem:
+        return PathProblem.build(world, a, b, scenario.grid, cfg.energy).with_fitness_smoothing(
+            smoothing
+        )
+
+    termination = Termination(
+        cfg.search.iterations,
+        stall_iterations=cfg.search.stall_iterations,
+        should_stop=should_stop,
+        restart_stall_iterations=cfg.search.restart_stall_iterations,
+    )
+    rng = np.random.default_rng([cfg.search.seed, RETURN_STREAM])
+    leg = _plan_leg(scenario, world, make_problem, planner, post, rng, termination, progress)
+    if isinstance(leg, _Unplanned):
+        return PlannedReturn(None, failure=LegFailure(0, 1, leg.reason, leg.message))
+    return PlannedReturn(with_return(scenario, route, leg.waypoints_enu, world), leg)
+
+
+def with_return(
+    scenario: Scenario, route: PlannedRoute, return_enu: np.ndarray, world: World | None = None
+) -> PlannedRoute:
+    """``route`` ending with the planned return ``return_enu`` (the goal first, the point
+    above home last) and the landing at home: its flown line and clearance remade."""
+    world = world or build_world(scenario)
+    back = np.asarray(return_enu, dtype=np.float64)
+    ground = scenario.site.ground
+    under = None if ground is None else ground.z_at(back)
+    home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
+    flown = flown_polyline(
+        route.waypoints_enu,
+        takeoff_altitude_m=route.takeoff_altitude_m,
+        end="return",
+        ground_z_m=(home_z, home_z),
+        takeoff=scenario.mission.takeoff,
+        return_enu=back,
+    )
+    flight = Flight.from_polyline(flown, from_ground=scenario.mission.takeoff, to_ground=True)
+    return replace(
+        route,
+        flown_enu=flown,
+        min_clearance_m=_min_clearance(world, flight),
+        inside_bounds=route.inside_bounds and bool(world.points_inside_bounds(back).all()),
+        end="return",
+        return_enu=back,
+        return_ground_z_m=under,
+    )
+
+
 def grid_note(scenario: Scenario) -> str:
     """What the user should know of a grid fitted to a large flight volume."""
     from uavplan.scenario.size import DEFAULT_GRID
@@ -732,15 +824,21 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
     """The mission items for ``route`` with ``scenario``'s mission and vehicle settings."""
     from uavplan.mission.builder import build_mission
 
+    end = "return" if route.return_enu is not None else scenario.mission.end
+    if end == "return" and route.return_enu is None:
+        end = "none"  # a return not (yet) planned: the mission ends at the goal
     return build_mission(
         route.waypoints_enu,
         route.frame,
         autopilot=scenario.mission.autopilot,
-        end=cast(EndAction, scenario.mission.end),
+        end=cast(EndAction, end),
         takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
         cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
         ground_z_m=route.waypoint_ground_z_m,
         altitude=scenario.mission.altitude,
+        return_enu=route.return_enu,
+        return_ground_z_m=route.return_ground_z_m,
+        return_stops=route.return_stops,
     )
 
 

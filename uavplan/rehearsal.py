@@ -375,6 +375,19 @@ def plan_safe_as_flown(
     return replace(result, notes=(*result.notes, *notes), flight=flight)
 
 
+def refresh_flight(scenario: Scenario, result: RouteResult) -> RouteResult:
+    """``result`` with its predicted flight flown again (its route changed after
+    :func:`plan_safe_as_flown`: a planned return added by the way home), keeping how much
+    wider the margin was planned. A result without a prediction is returned as it is."""
+    before = result.flight
+    if before is None or result.route is None:
+        return result
+    site = CheckSite.of_scenario(scenario)
+    rehearsal = rehearse(mission_for(scenario, result.route), site, **conditions_of(scenario))
+    flight = rehearsal.prediction(margin_pad_m=before.margin_pad_m, gave_up=before.gave_up)
+    return replace(result, flight=flight)
+
+
 def reroute_safe_as_flown(
     source: MissionPlan,
     result: RerouteResult,

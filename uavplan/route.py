@@ -50,6 +50,7 @@ def flown_polyline(
     ground_z_m: tuple[float, float] = (0.0, 0.0),
     takeoff: bool = True,
     follow: Follow | None = None,
+    return_enu: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """The polyline the vehicle flies for these waypoints, ``(n, 3)`` ENU metres.
 
@@ -59,9 +60,11 @@ def flown_polyline(
     flies to the start's height if that differs, then straight from waypoint to waypoint;
     with ``end="land"`` it descends vertically at the goal to the ground there
     (``ground_z_m[1]``). The RTL leg home is the autopilot's and not part of the line.
-    Without ``takeoff`` the line begins in the air at the start (a stretch of a longer
-    flight). With ``follow`` every leg into a waypoint is flown as it says (terrain-frame
-    waypoints: over the ground) instead of straight.
+    With ``end="return"`` and ``return_enu`` (the planned return's waypoints, the goal first
+    and the point above home last) the line flies them and descends vertically to home
+    (``ground_z_m[0]``). Without ``takeoff`` the line begins in the air at the start (a
+    stretch of a longer flight). With ``follow`` every leg into a waypoint is flown as it says
+    (terrain-frame waypoints: over the ground) instead of straight.
     """
     w = np.asarray(waypoints_enu, dtype=np.float64)
     sx, sy, sz = (float(v) for v in w[0])
@@ -79,6 +82,10 @@ def flown_polyline(
     if end == "land":
         gx, gy, _ = (float(v) for v in w[-1])
         rows.append(np.array([[gx, gy, landing_z]]))
+    elif end == "return" and return_enu is not None:
+        back = np.asarray(return_enu, dtype=np.float64).reshape(-1, 3)
+        hx, hy, _ = (float(v) for v in back[-1])
+        rows.extend([back, np.array([[hx, hy, home_z]])])
     return drop_repeats(np.vstack(rows))
 
 
@@ -134,6 +141,14 @@ class PlannedRoute:
     waypoint_ground_z_m: NDArray[np.float64] | None = None
     #: with terrain: the z of the datum in metres AMSL (the frame's origin altitude)
     datum_amsl_m: float | None = None
+    #: ``end="return"``: the planned return's waypoints (r, 3), the goal first and the point
+    #: above home last (its landing descends from there); ``flown_enu`` flies them
+    return_enu: NDArray[np.float64] | None = None
+    #: with terrain: the ground's z under each return waypoint
+    return_ground_z_m: NDArray[np.float64] | None = None
+    #: rows of ``return_enu`` (0: the goal) the vehicle must fly to a stop instead of
+    #: cutting the corner there (the corner's shortcut would not keep the margin)
+    return_stops: tuple[int, ...] = ()
 
     #: clearance may fall short of the margin by this much (floating point, not rounding:
     #: planning keeps a 2 cm pad so files that round positions still keep the margin)

@@ -57,6 +57,12 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
                 f"{Path(request.output).suffix} holds no geofence or rally points; left out"
             )
             plan = replace(plan, fence=GeoFence(), rally=())
+    if suffix != ".plan" and plan.parameters:
+        names = ", ".join(p.name for p in plan.parameters)
+        notes.append(
+            f"{Path(request.output).suffix} holds no vehicle parameters ({names}); left out"
+        )
+        plan = replace(plan, parameters=())
     extras = None
     if request.scenario is not None:
         if out_format.dumps_extras is None:

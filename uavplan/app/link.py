@@ -26,6 +26,7 @@ from uavplan.mission.items import Autopilot, MissionPlan, MissionType
 
 if TYPE_CHECKING:
     from uavplan.mavlink.link import VehicleLink
+    from uavplan.mavlink.parameters import ParamResult
     from uavplan.mavlink.protocol import MissionClient
     from uavplan.mavlink.transfer import PlanTransferReport
 
@@ -92,11 +93,13 @@ def _counts(mission: int, fence: int | None, rally: int | None, home: bool) -> s
 @dataclass(frozen=True)
 class UploadRequest:
     """``uavplan upload MISSION``: the mission file (with a .plan's fence and rally points);
-    ``verify``: read every plan type back and compare it item for item."""
+    ``verify``: read every plan type back and compare it item for item; ``set_params``:
+    first make the vehicle hold the parameters the .plan says the mission relies on."""
 
     mission: str
     link: LinkOptions
     verify: bool = True
+    set_params: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,6 +107,8 @@ class UploadOutcome:
     plan: MissionPlan
     report: PlanTransferReport
     vehicle: str
+    #: what ``--set-params`` did to each parameter (empty without it)
+    parameters: tuple[ParamResult, ...] = ()
 
     def summary(self) -> str:
         counts = self.report.item_counts
@@ -113,6 +118,15 @@ class UploadOutcome:
         what = _counts(mission, counts.get(MissionType.FENCE), counts.get(MissionType.RALLY), home)
         return f"uploaded {what} to {self.vehicle}; {checked} ({self.report.elapsed_s:.2f} s)"
 
+    def parameter_summary(self) -> str | None:
+        """``parameters: RTL_ALT 1500 → 4500, FENCE_ENABLE 1 (kept)`` (None without any)."""
+        if not self.parameters:
+            return None
+        changed = sum(1 for r in self.parameters if r.old != r.new)
+        return f"parameters ({changed} changed, read back): " + ", ".join(
+            r.describe() for r in self.parameters
+        )
+
 
 def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
     """Read the mission file, check that it fits the wire, connect and upload it."""
@@ -121,7 +135,14 @@ def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
 
     plan = load_mission(request.mission)
     check_plan_fits_wire(plan, file=request.mission)
+    if request.set_params and not plan.parameters:
+        raise InputError(
+            "--set-params: the file names no parameters the mission relies on (a .plan "
+            "written by uavplan plan holds them)",
+            file=request.mission,
+        )
     with _connect(request.link) as link:
+        parameters = _set_parameters(link, plan, request) if request.set_params else ()
         try:
             report = upload_plan(
                 _client(link, request.link),
@@ -136,7 +157,36 @@ def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
         finally:
             if feedback.progress is not None:
                 feedback.progress.close()
-        return UploadOutcome(plan, report, _vehicle(link))
+        return UploadOutcome(plan, report, _vehicle(link), parameters)
+
+
+def _set_parameters(
+    link: VehicleLink, plan: MissionPlan, request: UploadRequest
+) -> tuple[ParamResult, ...]:
+    """Make the vehicle hold ``plan``'s parameters (read, set, read back), before the
+    mission that relies on them goes up; a parameter it does not end up holding is a
+    :class:`~uavplan.mavlink.parameters.ParameterError` (exit 4) naming it."""
+    from uavplan.mavlink.parameters import (
+        ParamClient,
+        ParameterError,
+        ParamRequest,
+        ParamTimeouts,
+    )
+
+    vehicle = link.vehicle.autopilot
+    if plan.autopilot not in (vehicle, Autopilot.GENERIC):
+        raise InputError(
+            f"--set-params: the parameters are {plan.autopilot.label}'s and the vehicle is "
+            f"{vehicle.label}: plan the mission for it (plan --autopilot {vehicle.label})",
+            file=request.mission,
+        )
+    client = ParamClient(link, ParamTimeouts(request.link.timeout_s, request.link.retries))
+    results = client.apply(
+        [ParamRequest(p.name, p.value, p.at_least, p.at_most) for p in plan.parameters]
+    )
+    if not all(r.ok for r in results):
+        raise ParameterError(results)
+    return tuple(results)
 
 
 # ---------------------------------------------------------------------------------------------

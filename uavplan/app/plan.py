@@ -24,13 +24,14 @@ from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
-from uavplan.rehearsal import plan_safe_as_flown
+from uavplan.rehearsal import plan_safe_as_flown, refresh_flight
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
     from uavplan.sim.simulate import FlownTrack
+    from uavplan.wayhome import WayHome
 
 
 class InputKind(enum.Enum):
@@ -77,10 +78,12 @@ class PlanOutcome:
     elapsed_s: float = math.nan
     #: the flight's time, energy and battery (docs/energy.md)
     estimate: FlightEstimate | None = None
+    #: how the route gets home (the RTL proof, a planned return, the parameters)
+    way: WayHome | None = None
 
     @property
     def interrupted(self) -> bool:
-        return self.result.interrupted
+        return self.result.interrupted or (self.way is not None and self.way.interrupted)
 
     def summary(self) -> str:
         """One line: the mission, the route (its length: the planned path from the start to
@@ -159,18 +162,27 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             result = _search(scn, feedback)
             if result.collision_free:  # and the track the flight model predicts keeps it too
                 result = plan_safe_as_flown(scn, result, should_stop=feedback.should_stop)
-        if result.interrupted:
-            return PlanOutcome(scn, result, request.output)
+            way = None if result.route is None else _way_home(scn, result.route, request, feedback)
+        if result.interrupted or (way is not None and way.interrupted):
+            return PlanOutcome(scn, result, request.output, way=way)
         route = require_route(scn, result)
+        if way is not None and way.route is not route:
+            # the route as flown with its planned return: the flight model flies that mission
+            route = way.route
+            result = refresh_flight(scn, replace(result, route=route))
         flown = None if result.flight is None else result.flight.flown
         estimate = flight_estimate(scn, route, request.reserve_pct, feedback, flown)
         mission, built = _mission(scn, route, request, feedback)
+        if way is not None:
+            mission = replace(mission, parameters=way.parameters)
         summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
         mission_out.write_text(
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
         )
         if report_out is not None:
             report = {**result.report(scn), **estimate.report_fields()}
+            if way is not None:
+                report.update(way.report())
             report_out.write_text(json.dumps(report, indent=2) + "\n")
         if plot_out is not None:
             # matplotlib (and the fence's outlines) load only for a picture
@@ -188,7 +200,16 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     if built is not None:
         for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
             feedback.say(line)
-    return PlanOutcome(scn, result, request.output, mission, time.perf_counter() - t0, estimate)
+    if way is not None:
+        for line in way.lines():
+            feedback.say(line)
+        if way.parameters and not _holds_parameters(request.output):
+            feedback.say(
+                f"note: a {Path(request.output).suffix} file holds no parameters: set them by hand"
+            )
+    return PlanOutcome(
+        scn, result, request.output, mission, time.perf_counter() - t0, estimate=estimate, way=way
+    )
 
 
 def flight_estimate(
@@ -212,6 +233,42 @@ def flight_estimate(
     if warning is not None:
         feedback.warn(warning)
     return estimate
+
+
+def _holds_parameters(output: str) -> bool:
+    """Does the mission file keep the parameters the mission relies on? (A .plan does.)"""
+    return Path(output).suffix.lower() == ".plan"
+
+
+def _way_home(
+    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
+) -> WayHome:
+    """The way home of ``route`` (:func:`uavplan.wayhome.way_home`): a return planned with
+    the feedback's progress bar and Ctrl-C flag when the mission needs one."""
+    from uavplan.wayhome import way_home
+
+    bar = feedback.progress
+    started = False
+
+    def progress(iteration: int, total: int, best: float) -> None:
+        nonlocal started
+        assert bar is not None
+        if not started:  # only when a return is planned
+            bar.start(f"{scn.planner.algorithm} {scn.name}: the way home")
+            started = True
+        bar(iteration, total, best)
+
+    try:
+        return way_home(
+            scn,
+            route,
+            fence=request.fence,
+            progress=None if bar is None else progress,
+            should_stop=feedback.should_stop,
+        )
+    finally:
+        if bar is not None and started:
+            bar.close()
 
 
 def _search(scn: Scenario, feedback: Feedback) -> RouteResult:

@@ -187,6 +187,11 @@ def interruptible() -> Iterator[Interrupts]:
         return
     previous = signal.signal(signal.SIGINT, gate.on_sigint)
     try:
+        if getattr(previous, "seen", False):
+            # a Ctrl-C came while the command line loaded and was lost on the way (the
+            # entry point's handler remembers it: uavplan.__main__._EarlyCtrlC)
+            gate.hit.set()
+            raise KeyboardInterrupt
         yield gate
     except (KeyboardInterrupt, Exception) as exc:
         # after a Ctrl-C, whatever the command ends with is the interrupt (a library that

@@ -117,6 +117,12 @@ def _link(
 @click.argument("mission", type=click.Path(dir_okay=False))
 @_link_options
 @click.option("--no-verify", is_flag=True, help="Skip the read-back comparison.")
+@click.option(
+    "--set-params",
+    is_flag=True,
+    help="First set the vehicle parameters the .plan says the mission relies on (RTL "
+    "altitude, fence ceiling, fence on: written by plan), each read back; prints old → new.",
+)
 @handle_errors
 def upload_cmd(
     mission: str,
@@ -129,6 +135,7 @@ def upload_cmd(
     source_component: int | None,
     quiet: bool,
     no_verify: bool,
+    set_params: bool,
 ) -> None:
     """Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).
 
@@ -140,9 +147,13 @@ def upload_cmd(
         source_component,
     )  # fmt: skip
     with interruptible() as interrupts:
-        outcome = upload(UploadRequest(mission, link, not no_verify), feedback(quiet, interrupts))
+        request = UploadRequest(mission, link, not no_verify, set_params)
+        outcome = upload(request, feedback(quiet, interrupts))
         for note in outcome.report.notes:
             click.echo(f"note: {note}", err=True)
+        params = outcome.parameter_summary()
+        if params is not None:
+            click.echo(params)
         click.echo(outcome.summary())
 
 

@@ -264,8 +264,9 @@ class FenceBuild:
             )
         if self.ceiling_m is not None:
             notes.append(
-                f"a .plan fence has no altitude: set the autopilot's maximum altitude to "
-                f"{self.ceiling_m:g} m (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX)"
+                f"a .plan fence has no altitude: its ceiling, {self.ceiling_m:g} m, is the "
+                "autopilot's maximum altitude (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX), "
+                "which upload --set-params sets"
             )
         return notes
 

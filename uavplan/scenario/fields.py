@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from uavplan.config import (
     ALTITUDE_MODES,
+    END_ACTIONS,
     FITNESS_MODES,
     PLANNER_KEYS,
     PLANNERS,
@@ -304,7 +305,7 @@ def mission(chk: Checker, raw: Any) -> MissionConfig:
         )
     end = MissionConfig.end
     if "end" in raw:
-        end = chk.string(raw["end"], "mission.end", ("rtl", "land", "none"))
+        end = chk.string(raw["end"], "mission.end", END_ACTIONS)
     altitude = MissionConfig.altitude
     if "altitude" in raw:
         altitude = chk.string(raw["altitude"], "mission.altitude", ALTITUDE_MODES)

@@ -64,7 +64,7 @@ class VehicleConfig:
 class MissionConfig:
     autopilot: Autopilot = Autopilot.ARDUPILOT
     spacing_m: float = 60.0
-    end: str = "rtl"  # rtl | land | none
+    end: str = "rtl"  # rtl | land | none | return
     #: waypoint altitudes: relative (above home, MAV_FRAME_GLOBAL_RELATIVE_ALT), amsl
     #: (MAV_FRAME_GLOBAL) or terrain (above the ground beneath, MAV_FRAME_GLOBAL_TERRAIN_ALT)
     altitude: str = "relative"

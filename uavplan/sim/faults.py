@@ -62,6 +62,9 @@ class Faults:
     fails with this reason (``"Need Position Estimate"``): SYS_STATUS reports the pre-arm
     check unhealthy, and arming is refused with the reason in the firmware's words
     (ArduPilot ``PreArm: <reason>``, PX4 ``Preflight Fail: <reason>``).
+
+    Parameters: ``refuse_param_set`` names parameters the vehicle will not write (as a
+    read-only one): a PARAM_SET of one is answered with the value it keeps.
     """
 
     drop_rate: float = 0.0
@@ -77,6 +80,7 @@ class Faults:
     ignore_requests: bool = False
     link_lost_after_s: float | None = None
     prearm_failure: str | None = None
+    refuse_param_set: frozenset[str] = frozenset()
     seed: int | None = 0
 
     def __post_init__(self) -> None:

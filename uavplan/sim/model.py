@@ -60,6 +60,7 @@ from uavplan.sim.kinematics import (
     unit,
 )
 from uavplan.sim.params import FlightLimits, Parameters, flight_limits
+from uavplan.sim.rtl import return_altitude_m
 
 __all__ = [
     "DEFAULT_DT_S",
@@ -75,8 +76,6 @@ DEFAULT_DT_S = 0.1
 #: PX4 takes off to at least MIS_TAKEOFF_ALT when a mission starts on the ground with a
 #: waypoint (navigator/mission_params: 2.5 m)
 PX4_MIS_TAKEOFF_ALT_M = 2.5
-#: ArduPilot's lowest return altitude (ArduCopter/config.h RTL_ALT_MIN, 30 cm)
-ARDUPILOT_RTL_ALT_MIN_M = 0.3
 #: speeds below this count as standing still
 _STILL_M_S = 0.01
 _TOUCHDOWN_M = 0.01
@@ -87,6 +86,7 @@ _DO_JUMP = int(MavCmd.DO_JUMP)
 _DO_CHANGE_SPEED = int(MavCmd.DO_CHANGE_SPEED)
 _NAV_LOITER_TIME = 19
 _NAV_LOITER_UNLIM = int(MavCmd.NAV_LOITER_UNLIM)
+_DO_LAND_START = int(MavCmd.DO_LAND_START)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -187,6 +187,7 @@ class EventKind(enum.Enum):
     MISSION_COMPLETE = "mission_complete"  # no more items
     RTL = "rtl"  # a return to launch began (PX4 switches to its RTL mode)
     NO_HEADWAY = "no_headway"  # the wind stops the vehicle: it cannot hold the track
+    FENCE_BREACH = "fence_breach"  # above the enabled altitude fence's ceiling
 
 
 @dataclass(frozen=True)
@@ -676,6 +677,9 @@ class FlightModel:
         self._events: list[FlightEvent] = []
         self._stuck_since: float | None = None
         self._taking_off = False
+        #: the running task flies the mission (a return may continue it: PX4 RTL_TYPE 2)
+        self._mission_task = False
+        self._above_fence = False
 
     # -- state ----------------------------------------------------------------------------
     @property
@@ -732,14 +736,29 @@ class FlightModel:
         start = first if seq is None else max(first, seq)
         self.mission_complete = False
         self._set_task(self._fly_mission(start))
+        self._mission_task = True
 
     def hold(self) -> None:
         """Stop where the vehicle can and hold there (PX4 Hold, ArduPilot LOITER)."""
         self._set_task(self._hold_task())
 
     def rtl(self) -> None:
-        """Return to launch as the flavour does."""
-        self._set_task(self._rtl_task())
+        """Return to launch as the flavour does (PX4 with RTL_TYPE 2 during a mission that
+        has a landing: the rest of the mission, see :meth:`_rtl_task`)."""
+        resume = self.current_seq if self._mission_task and not self.mission_complete else None
+        self._set_task(self._rtl_task(resume))
+
+    def landing_sequence(self) -> int | None:
+        """Where the mission's landing begins: its first DO_LAND_START, else (PX4, a
+        multicopter) its first NAV_LAND; None without either."""
+        for item in self.mission:
+            if item.command == _DO_LAND_START:
+                return item.seq
+        if self.autopilot == Autopilot.PX4:
+            for item in self.mission:
+                if item.command == MavCmd.NAV_LAND:
+                    return item.seq
+        return None
 
     def land(self) -> None:
         """Land where the vehicle is."""
@@ -764,6 +783,7 @@ class FlightModel:
 
     def _set_task(self, task: Task | None) -> None:
         old, self._task = self._task, task
+        self._mission_task = False
         if old is not None:
             old.close()  # its clean-up runs now, before the new task's first step
 
@@ -778,7 +798,20 @@ class FlightModel:
                 self._task = None
         self.t_s += self.dt_s
         self._watch_headway()
+        self._watch_fence()
         return self._events
+
+    def _watch_fence(self) -> None:
+        """A FENCE_BREACH event when the vehicle rises above the enabled altitude fence
+        (once per excursion; the model reports it and flies on)."""
+        ceiling = self.limits.fence_ceiling_m
+        above = (
+            ceiling is not None
+            and self._motion.pos[2] - self.ground_at(0.0, 0.0) > ceiling + _TOUCHDOWN_M
+        )
+        if above and not self._above_fence:
+            self._emit(EventKind.FENCE_BREACH, self.current_seq)
+        self._above_fence = above
 
     def _emit(self, kind: EventKind, seq: int | None = None) -> None:
         self._events.append(FlightEvent(kind, self.t_s + self.dt_s, seq))
@@ -949,8 +982,21 @@ class FlightModel:
             return
         yield from self._descend_and_land()
 
-    def _rtl_task(self) -> Task:
+    def _rtl_task(self, resume_seq: int | None = None) -> Task:
+        """The flavour's return; ``resume_seq``: the mission item being flown when the
+        return began in a mission. PX4 with RTL_TYPE 2 and a mission landing then flies the
+        rest of the mission to its landing (navigator's mission-path return, "fast-forward":
+        here the items as they are, DO commands included)."""
         if self.landed:
+            return
+        if (
+            self.autopilot == Autopilot.PX4
+            and self.limits.rtl_type == 2
+            and resume_seq is not None
+            and self.landing_sequence() is not None
+        ):
+            self._mission_task = True
+            yield from self._fly_mission(resume_seq)
             return
         if self.autopilot == Autopilot.ARDUPILOT:
             yield from self._rtl_ardupilot()
@@ -965,10 +1011,7 @@ class FlightModel:
         lim = self.limits
         yield from self._brake()
         x, y, z = self._motion.pos
-        min_alt = max(ARDUPILOT_RTL_ALT_MIN_M, z + lim.rtl_climb_min_m)
-        target = max(lim.rtl_altitude_m, min_alt)
-        if lim.rtl_cone >= 0.5:
-            target = min(target, max(math.hypot(x, y) * lim.rtl_cone, min_alt))
+        target = float(return_altitude_m(lim, math.hypot(x, y), z))
         home_ground = self.ground_at(0.0, 0.0)
         saved = self._speed_xy
         yield from self._goto((x, y, target), None)
@@ -990,17 +1033,7 @@ class FlightModel:
         yield from self._brake()
         x, y, z = self._motion.pos
         home_z = self.ground_at(0.0, 0.0)
-        d = math.hypot(x, y)
-        ret = home_z + lim.rtl_altitude_m
-        if lim.rtl_cone > 0.0:
-            if d <= lim.acceptance_radius_m:
-                ret = home_z + 2.0 * d
-            else:
-                if d <= lim.rtl_min_dist_m:
-                    half = math.radians(min(89.0, max(1.0, lim.rtl_cone)))
-                    ret = min(home_z + d / math.tan(half), ret)
-                ret = max(ret, home_z + 2.0 * lim.acceptance_radius_m)
-        ret = max(ret, z)
+        ret = home_z + float(return_altitude_m(lim, math.hypot(x, y), z - home_z))
         if ret > z + lim.altitude_acceptance_m:
             yield from self._climb_to(ret)
         saved = self._speed_xy

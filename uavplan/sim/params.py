@@ -26,6 +26,8 @@ from uavplan.config import Autopilot
 
 __all__ = [
     "ARDUPILOT_PARAMS",
+    "FENCE_TYPE_ALT_MAX",
+    "FENCE_TYPE_POLYGON",
     "PX4_PARAMS",
     "FlightLimits",
     "ParamSpec",
@@ -49,11 +51,20 @@ _PX4_REF = "https://docs.px4.io/main/en/advanced_config/parameter_reference.html
 _PX4_NAV = _PX4 + "navigator/navigator_params.yaml"
 _PX4_RTL = _PX4 + "navigator/rtl_params.yaml"
 _PX4_ARM = _PX4_REF + "COM_ARM_MIS_REQ"
+_AP_FENCE = _AP + "libraries/AC_Fence/AC_Fence.cpp"
+_PX4_GEOFENCE = _PX4 + "navigator/geofence_params.yaml"
+
+
+#: ArduPilot FENCE_TYPE bit of the maximum-altitude fence (AC_Fence.h AC_FENCE_TYPE_ALT_MAX)
+FENCE_TYPE_ALT_MAX = 1
+#: ArduPilot FENCE_TYPE bit of the fence items uploaded (AC_FENCE_TYPE_POLYGON)
+FENCE_TYPE_POLYGON = 4
 
 
 class ParamType(enum.IntEnum):
     """MAV_PARAM_TYPE of a parameter on the wire."""
 
+    INT8 = 2
     INT16 = 4
     INT32 = 6
     REAL32 = 9
@@ -226,6 +237,45 @@ ARDUPILOT_PARAMS: tuple[ParamSpec, ...] = (
         10000.0,
         ParamType.INT16,
     ),
+    ParamSpec(
+        "FENCE_ENABLE",
+        0.0,
+        "",
+        "1: the fence is enabled (its ceiling caps the return altitude, a breach is reported)",
+        _AP_FENCE,
+        0.0,
+        1.0,
+        ParamType.INT8,
+    ),
+    ParamSpec(
+        "FENCE_TYPE",
+        7.0,
+        "",
+        "fences enabled (bitmask): 1 maximum altitude, 2 circle around home, 4 polygons and "
+        "circles uploaded, 8 minimum altitude",
+        _AP_FENCE,
+        0.0,
+        15.0,
+        ParamType.INT8,
+    ),
+    ParamSpec(
+        "FENCE_ALT_MAX",
+        100.0,
+        "m",
+        "the fence's ceiling above home",
+        _AP_FENCE,
+        10.0,
+        1000.0,
+    ),
+    ParamSpec(
+        "FENCE_MARGIN",
+        2.0,
+        "m",
+        "distance kept from the fence: the return flies at most FENCE_ALT_MAX less this",
+        _AP_FENCE,
+        1.0,
+        10.0,
+    ),
 )
 
 PX4_PARAMS: tuple[ParamSpec, ...] = (
@@ -396,6 +446,37 @@ PX4_PARAMS: tuple[ParamSpec, ...] = (
         1.0,
         ParamType.INT32,
     ),
+    ParamSpec(
+        "RTL_TYPE",
+        0.0,
+        "",
+        "return type: 0 home directly; 2 in a mission with a landing, fly the mission on to "
+        "its landing (1 and 3: not modelled, flown as 0)",
+        _PX4_RTL,
+        0.0,
+        3.0,
+        ParamType.INT32,
+    ),
+    ParamSpec(
+        "GF_ACTION",
+        2.0,
+        "",
+        "geofence action: 0 none (no fence), 1 warning, 2 hold, 3 return, 4 terminate, 5 land "
+        "(the model reports a breach, it does not act on it)",
+        _PX4_GEOFENCE,
+        0.0,
+        5.0,
+        ParamType.INT32,
+    ),
+    ParamSpec(
+        "GF_MAX_VER_DIST",
+        0.0,
+        "m",
+        "the fence's ceiling above home; 0: none",
+        _PX4_GEOFENCE,
+        0.0,
+        10000.0,
+    ),
 )
 
 _TABLES: dict[Autopilot, tuple[ParamSpec, ...]] = {
@@ -522,6 +603,12 @@ class FlightLimits:
     rtl_cone: float
     rtl_min_dist_m: float
     corner_gain: float
+    #: the fence's ceiling above home when an altitude fence is enabled (None: none)
+    fence_ceiling_m: float | None = None
+    #: ArduPilot's FENCE_MARGIN: its return flies at most the ceiling less this
+    fence_margin_m: float = 0.0
+    #: PX4's RTL_TYPE (ArduPilot: 0)
+    rtl_type: int = 0
 
     @property
     def is_px4(self) -> bool:
@@ -567,6 +654,12 @@ def flight_limits(params: Parameters) -> FlightLimits:
             rtl_cone=p["RTL_CONE_SLOPE"],
             rtl_min_dist_m=0.0,
             corner_gain=1.0,
+            fence_ceiling_m=(
+                p["FENCE_ALT_MAX"]
+                if p["FENCE_ENABLE"] >= 1 and int(p["FENCE_TYPE"]) & FENCE_TYPE_ALT_MAX
+                else None
+            ),
+            fence_margin_m=p["FENCE_MARGIN"],
         )
     if params.autopilot == Autopilot.PX4:
         return FlightLimits(
@@ -597,6 +690,10 @@ def flight_limits(params: Parameters) -> FlightLimits:
             rtl_cone=p["RTL_CONE_ANG"],
             rtl_min_dist_m=p["RTL_MIN_DIST"],
             corner_gain=p["MPC_XY_TRAJ_P"],
+            fence_ceiling_m=(
+                p["GF_MAX_VER_DIST"] if p["GF_ACTION"] >= 1 and p["GF_MAX_VER_DIST"] > 0.0 else None
+            ),
+            rtl_type=int(p["RTL_TYPE"]),
         )
     raise ValueError(f"no flight model for autopilot {params.autopilot.label}")
 

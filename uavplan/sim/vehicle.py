@@ -365,6 +365,11 @@ class SimVehicle:
                     self._disarm()  # ArduPilot disarms once the landing is complete
             elif event.kind is EventKind.NO_HEADWAY:
                 out.append(self._say(Severity.WARNING, "Wind: cannot hold the track"))
+            elif event.kind is EventKind.FENCE_BREACH:
+                ceiling = self.flight.limits.fence_ceiling_m
+                out.append(
+                    self._say(Severity.CRITICAL, f"Fence: above the ceiling ({ceiling:g} m)")
+                )
         return out
 
     # -- dispatch -------------------------------------------------------------------------
@@ -864,6 +869,14 @@ class SimVehicle:
             value = float(struct.unpack("<i", struct.pack("<f", value))[0])
         if not math.isfinite(value):
             return []  # ArduPilot ignores NaN / inf; PX4's reply would repeat garbage
+        if spec.name in self.faults.refuse_param_set:
+            # a parameter the vehicle will not write (read-only): ArduPilot's GCS_Param.cpp
+            # handle_param_set says so and sends the value it keeps; PX4 (our model) only
+            # sends the value it keeps
+            out: list[Message] = []
+            if self.autopilot == Autopilot.ARDUPILOT:
+                out.append(self._say(Severity.WARNING, f"Param write denied ({spec.name})"))
+            return [*out, self._param_value(spec)]
         self.params = self.params.with_values({spec.name: value}, checked=False)
         self.flight.set_params(self.params)
         return [self._param_value(spec)]
