@@ -75,6 +75,30 @@ def test_validate_render_and_reroute_report_the_same_clearance(tmp_path: Path) -
     assert checked.min_clearance_m == json.loads(report.read_text())["min_clearance_m"]
 
 
+def test_simulate_and_render_report_the_same_clearance_of_the_flown_track(
+    tmp_path: Path,
+) -> None:
+    """``simulate`` checks the track it flies by the one check; ``render --track`` draws that
+    track file and measures it by the same check: the same clearance, to the centimetre
+    printed (the file holds the samples rounded, so not to the bit)."""
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(SCENARIO, encoding="utf-8")
+    planned, track = tmp_path / "p.plan", tmp_path / "t.csv"
+    run("plan", str(scenario), "-o", str(planned), "-q")
+    flown = re.compile(r"min clearance (\d+\.\d\d) m from")
+    simulated = flown.findall(
+        run("simulate", str(planned), "--scenario", str(scenario), "--track", str(track))
+    )
+    drawn = re.findall(
+        r"flown track t\.csv: min clearance (\d+\.\d\d) m",
+        run("render", str(scenario), "--track", str(track), "-o", str(tmp_path / "t.png")),
+    )
+    assert len(simulated) == 1 and drawn == simulated
+    # the track is not the straight legs: validate measures those, and the flight rounds them
+    straight = CLEARANCE.findall(run("validate", str(planned), "--scenario", str(scenario)))
+    assert straight and straight != simulated
+
+
 def test_a_flight_too_close_is_refused_with_the_obstacle_named(tmp_path: Path) -> None:
     """Any flown line can be checked, not only a mission file's."""
     scenario = tmp_path / "s.yaml"

@@ -37,7 +37,8 @@ ended, a Ctrl-C while the interpreter shuts down ends the process at once with t
 exit status (no traceback from an exit handler). A parent that started the process with
 SIGINT ignored keeps it ignored (Python then installs no handler, and neither does this).
 Before :func:`run` the interpreter is starting (its ``site`` module, the editable install's
-import hook): a Ctrl-C there is the interpreter's, a traceback or the signal's default action.
+import hook): a Ctrl-C there is the interpreter's, a traceback, the signal's default action,
+or, in a callback of the import system's locks, "Exception ignored" and the command runs on.
 """
 
 import atexit
