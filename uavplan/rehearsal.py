@@ -345,7 +345,7 @@ def plan_safe_as_flown(
         assert check is not None
         if check.ok:
             break
-        grown = _grown_pad(pad, check)
+        grown = grown_pad(pad, check)
         if attempt == MAX_REPLANS:
             gave_up = f"planned {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
             break
@@ -414,7 +414,7 @@ def reroute_safe_as_flown(
         assert check is not None
         if check.ok:
             break
-        grown = _grown_pad(pad, check)
+        grown = grown_pad(pad, check)
         if attempt == MAX_REPLANS:
             gave_up = f"rerouted {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
             break
@@ -450,7 +450,7 @@ def padded_scenario(scenario: Scenario, pad_m: float) -> Scenario:
     return replace(scenario, safety_margin_m=scenario.safety_margin_m + pad_m, bounds=lowered)
 
 
-def _grown_pad(pad: float, check: TrackCheck) -> float:
+def grown_pad(pad: float, check: TrackCheck) -> float:
     """The next planning pad: the last one plus what the track lacked, plus
     :data:`PAD_STEP_M` (:data:`VOLUME_PAD_M` when the track left the flight volume)."""
     lack = VOLUME_PAD_M if check.outside is not None else check.margin_m - check.min_clearance_m

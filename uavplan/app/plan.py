@@ -24,7 +24,7 @@ from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
-from uavplan.rehearsal import plan_safe_as_flown, refresh_flight
+from uavplan.rehearsal import MAX_REPLANS, grown_pad, plan_safe_as_flown, refresh_flight
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
@@ -168,8 +168,10 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         route = require_route(scn, result)
         if way is not None and way.route is not route:
             # the route as flown with its planned return: the flight model flies that mission
-            route = way.route
-            result = refresh_flight(scn, replace(result, route=route))
+            way, result = _return_safe_as_flown(scn, result, way, request, feedback)
+            if result.interrupted or way.interrupted:
+                return PlanOutcome(scn, result, request.output, way=way)
+            route = require_route(scn, result)
         flown = None if result.flight is None else result.flight.flown
         estimate = flight_estimate(scn, route, request.reserve_pct, feedback, flown)
         mission, built = _mission(scn, route, request, feedback)
@@ -241,7 +243,11 @@ def _holds_parameters(output: str) -> bool:
 
 
 def _way_home(
-    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
+    scn: Scenario,
+    route: PlannedRoute,
+    request: PlanRequest,
+    feedback: Feedback,
+    allowance_m: float = 0.0,
 ) -> WayHome:
     """The way home of ``route`` (:func:`uavplan.wayhome.way_home`): a return planned with
     the feedback's progress bar and Ctrl-C flag when the mission needs one."""
@@ -265,10 +271,38 @@ def _way_home(
             fence=request.fence,
             progress=None if bar is None else progress,
             should_stop=feedback.should_stop,
+            allowance_m=allowance_m,
         )
     finally:
         if bar is not None and started:
             bar.close()
+
+
+def _return_safe_as_flown(
+    scn: Scenario, result: RouteResult, way: WayHome, request: PlanRequest, feedback: Feedback
+) -> tuple[WayHome, RouteResult]:
+    """The planned return (``way``) flown with the route by the flight model; where the
+    autopilot's flight of it comes closer than the margin (it cuts the return's corners as
+    it cuts the route's), the return is planned again keeping what it lacked more, up to
+    :data:`~uavplan.rehearsal.MAX_REPLANS` times. The result's flight is that mission's."""
+    route = result.route
+    assert route is not None
+    allowance = 0.0
+    refreshed = refresh_flight(scn, replace(result, route=way.route))
+    for _ in range(MAX_REPLANS):
+        flight = refreshed.flight
+        if flight is None or flight.check.ok:
+            break
+        allowance = grown_pad(allowance, flight.check)
+        again = _way_home(scn, route, request, feedback, allowance)
+        if again.interrupted or again.route is route:
+            return again, result
+        note = f"the planned return as flown: {flight.check.problem()}; planned again keeping "
+        note += f"{allowance:.2f} m more"
+        way = again
+        refreshed = refresh_flight(scn, replace(result, route=way.route))
+        refreshed = replace(refreshed, notes=(*refreshed.notes, note))
+    return way, refreshed
 
 
 def _search(scn: Scenario, feedback: Feedback) -> RouteResult:

@@ -286,11 +286,15 @@ def way_home(
     fence: bool = False,
     progress: ProgressFn | None = None,
     should_stop: Callable[[], bool] | None = None,
+    allowance_m: float = 0.0,
 ) -> WayHome:
     """The way home of ``route`` planned for ``scenario``: the proof of the autopilot's return
     from every point (:func:`prove_rtl`), a planned return where the mission ends with one
     (``end: return``) or where no RTL altitude is safe (``end: rtl``), and the parameters
-    the mission relies on (the RTL altitude; with ``fence``, the fence's ceiling)."""
+    the mission relies on (the RTL altitude; with ``fence``, the fence's ceiling).
+    ``allowance_m``: a planned return keeps this much more than :data:`RETURN_ALLOWANCE_M`
+    beyond the margin (where the flight model found the autopilot's flight of the return
+    closer than the margin, the caller plans it again with more)."""
     autopilot = scenario.mission.autopilot
     end = scenario.mission.end
     if autopilot not in RTL_PARAMETERS:
@@ -323,7 +327,9 @@ def way_home(
     switched = False
     leg = None
     if end == "return" or (end == "rtl" and proof is not None and not proof.proven):
-        planned = _plan_return(scenario, route, world, progress, should_stop)
+        planned = _plan_return(
+            scenario, route, world, progress, should_stop, RETURN_ALLOWANCE_M + allowance_m
+        )
         if planned.route is None:
             assert planned.failure is not None
             return WayHome(
@@ -373,16 +379,17 @@ def _plan_return(
     world: World,
     progress: ProgressFn | None,
     should_stop: Callable[[], bool] | None,
+    allowance_m: float,
 ) -> PlannedReturn:
-    """The return planned keeping :data:`RETURN_ALLOWANCE_M` more than the margin, or (when
-    the goal or the start is too close to something for that) the margin itself; the
-    route's clearance is measured in ``world`` either way."""
+    """The return planned keeping ``allowance_m`` more than the margin, or (when the goal or
+    the start is too close to something for that) the margin itself; the route's clearance
+    is measured in ``world`` either way."""
     site = scenario.site
     b = site.bounds
     wide = World.build(
         site.obstacles,
         bounds_xyz=(b.x_m, b.y_m, b.z_m),
-        margin_m=site.safety_margin_m + RETURN_ALLOWANCE_M,
+        margin_m=site.safety_margin_m + allowance_m,
         ground=site.ground,
     )
     ends = np.vstack([route.waypoints_enu[-1], route.waypoints_enu[0]])
