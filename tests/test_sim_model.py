@@ -6,6 +6,7 @@ through the wind triangle, DO_CHANGE_SPEED, hold times, each firmware's RTL; and
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -297,6 +298,194 @@ def test_px4_rtl_climbs_to_rtl_return_alt_returns_descends_to_rtl_descend_alt_an
         params={"RTL_MIN_DIST": 50.0},
     )
     assert return_track(track, reached, 1)[:, 3].max() == pytest.approx(20.0, abs=0.85)
+
+
+# ---------------------------------------------------------------------------------------------
+# Terrain-frame legs (ArduPilot follows the ground: AC_WPNav with terrain_alt)
+
+#: ArduPilot's defaults, in SI units, as the firmware's parameter table gives them
+AP_SPEED, AP_ACCEL, AP_UP, AP_DOWN, AP_ACCEL_Z, TER_MARGIN = 10.0, 2.5, 2.5, 1.5, 1.0, 10.0
+Ground = Callable[[float, float], float]
+
+
+def bump(height: float, sigma: float, at: float = 500.0) -> Ground:
+    """A valley (``height`` < 0) or a ridge across the x axis, the ground's height above
+    home at (x, y): zero at home, a Gaussian of ``height`` at x = ``at``."""
+
+    def ground(x: float, y: float) -> float:
+        return height * math.exp(-((x - at) ** 2) / (2.0 * sigma * sigma))
+
+    return ground
+
+
+def slope(gradient: float, start: float = 200.0, run: float = 600.0) -> Ground:
+    """Flat, then a uniform slope of ``gradient`` (rise over run) for ``run`` m, then flat."""
+
+    def ground(x: float, y: float) -> float:
+        return gradient * min(max(x - start, 0.0), run)
+
+    return ground
+
+
+def fly_terrain(
+    autopilot: Autopilot,
+    ground: Ground,
+    waypoints: list[tuple[float, float, float]],
+    *,
+    terrain: bool = True,
+    params: dict[str, float] | None = None,
+) -> np.ndarray:
+    """Take off to 30 m, fly ``waypoints`` (x, y, height above the ground in a terrain
+    frame, else above home) over ``ground``. The track: t, x, y, z, vx, vy, vz per row."""
+    model = FlightModel(Parameters(autopilot, params or {}), dt_s=DT, ground_z=ground)
+    items: list[NavItem] = [NavItem(0, 16, (0.0, 0.0, 0.0))] if autopilot == AP else []
+    items.append(NavItem(len(items), int(MavCmd.NAV_TAKEOFF), (0.0, 0.0, 30.0)))
+    for x, y, h in waypoints:
+        if terrain:  # as nav_items places a terrain-frame item
+            items.append(NavItem(len(items), 16, (x, y, h + ground(x, y)), terrain_m=h))
+        else:
+            items.append(NavItem(len(items), 16, (x, y, h)))
+    model.set_mission(items)
+    model.start_mission()
+    rows = [(0.0, *model.position, *model.velocity)]
+    while not model.mission_complete and model.t_s < 3600:
+        model.step()
+        rows.append((model.t_s, *model.position, *model.velocity))
+    assert model.mission_complete, "the mission did not end"
+    return np.array(rows)
+
+
+def height_above(track: np.ndarray, ground: Ground) -> np.ndarray:
+    return track[:, 3] - np.array([ground(x, y) for x, y in track[:, 1:3]])
+
+
+def steepest(ground: Ground, x0: float = 0.0, x1: float = 1000.0) -> float:
+    """The ground's steepest gradient along the x axis, by finite differences."""
+    x = np.linspace(x0, x1, 20001)
+    z = np.array([ground(v, 0.0) for v in x])
+    return float(np.max(np.abs(np.diff(z) / np.diff(x))))
+
+
+@pytest.mark.parametrize(
+    ("height", "sigma"),
+    [(-80.0, 120.0), (80.0, 120.0), (120.0, 60.0)],
+    ids=["valley", "ridge", "steep-ridge"],
+)
+def test_ardupilot_follows_the_ground_on_terrain_frame_legs_within_the_bound(
+    height: float, sigma: float
+) -> None:
+    """Two terrain-frame legs across a valley or a ridge, the height above the ground going
+    from 30 m to 50 m along the second: the vehicle holds the height interpolated along the
+    legs within the bound docs/flight-model.md gives, WPNAV_TER_MARGIN plus the ground it
+    passes while it slows (gradient · v² / 2·WPNAV_ACCEL) plus a reversal of its climb
+    (v_z² / 2·WPNAV_ACCEL_Z). Flown straight between the items' altitudes (the model
+    before), it would be off by the whole valley or ridge."""
+    ground = bump(height, sigma)
+    track = fly_terrain(AP, ground, [(500.0, 0.0, 30.0), (1000.0, 0.0, 50.0)])
+    x = track[:, 1]
+    wanted = np.where(x <= 500.0, 30.0, 30.0 + 20.0 * (x - 500.0) / 500.0)
+    on_legs = (track[:, 0] > 1.0) & (x > 1.0)  # after the take-off
+    lag = height_above(track, ground)[on_legs] - wanted[on_legs]
+    bound = (
+        TER_MARGIN
+        + steepest(ground) * AP_SPEED**2 / (2.0 * AP_ACCEL)
+        + max(AP_UP, AP_DOWN) ** 2 / (2.0 * AP_ACCEL_Z)
+    )
+    assert np.max(np.abs(lag)) <= bound
+    assert abs(height) > bound  # a straight leg would break it
+    assert height_above(track, ground)[-1] == pytest.approx(50.0, abs=2.0)  # WPNAV_RADIUS
+
+
+def test_ardupilot_follows_gentle_ground_at_full_speed_within_half_the_margin() -> None:
+    """Where the ground rises and falls under the vehicle slower than it climbs and descends,
+    the vehicle does not slow down and stays within half of WPNAV_TER_MARGIN."""
+    ground = bump(-40.0, 200.0)
+    assert steepest(ground) * AP_SPEED < AP_DOWN
+    track = fly_terrain(AP, ground, [(1000.0, 0.0, 30.0)])
+    cruise = (track[:, 1] > 200.0) & (track[:, 1] < 800.0)
+    assert np.hypot(track[cruise, 4], track[cruise, 5]).min() == pytest.approx(AP_SPEED)
+    lag = height_above(track, ground)[track[:, 1] > 1.0] - 30.0
+    assert 0.5 < np.max(np.abs(lag)) <= TER_MARGIN / 2.0
+
+
+@pytest.mark.parametrize(
+    ("gradient", "margin"),
+    [(0.5, 10.0), (-0.5, 10.0), (1.0, 10.0), (0.5, 20.0)],
+    ids=["up", "down", "up-steep", "up-margin-20"],
+)
+def test_ardupilot_slows_along_the_leg_where_the_ground_outruns_its_climb(
+    gradient: float, margin: float
+) -> None:
+    """On a long slope the ground rises (falls) under the vehicle at gradient · speed. Where
+    that is faster than WPNAV_SPEED_UP (WPNAV_SPEED_DN), the lag behind the ground grows
+    past half of WPNAV_TER_MARGIN and AC_PosControl's pos_offset_z_scaler slows the vehicle
+    along the track until the climb keeps up: at speed v_z / |gradient|, the lag where the
+    scaler 1 − (lag − M/2) / (M/2) gives that share of WPNAV_SPEED."""
+    ground = slope(gradient)
+    track = fly_terrain(AP, ground, [(1000.0, 0.0, 30.0)], params={"WPNAV_TER_MARGIN": margin})
+    climb = AP_UP if gradient > 0 else AP_DOWN
+    share = climb / (abs(gradient) * AP_SPEED)
+    settled = (track[:, 1] > 550.0) & (track[:, 1] < 750.0)  # well up the slope
+    speed = np.hypot(track[settled, 4], track[settled, 5])
+    assert speed == pytest.approx(climb / abs(gradient), abs=0.01)
+    lag = 30.0 - height_above(track, ground)[settled]  # behind the ground: below it uphill
+    expected = margin / 2.0 * (2.0 - share)
+    assert np.abs(lag) == pytest.approx(expected, abs=0.01)
+    assert np.sign(lag).min() == np.sign(gradient)
+    # off the slope it speeds up again and takes up the lag
+    after = (track[:, 1] > 800.0) & (track[:, 1] < 980.0)
+    assert np.hypot(track[after, 4], track[after, 5]).max() > 1.5 * climb / abs(gradient)
+    assert np.abs(30.0 - height_above(track, ground)[track[:, 1] > 980.0]).max() < 2.0
+
+
+def test_a_relative_frame_leg_over_the_ground_flies_straight_as_before() -> None:
+    """A relative-frame leg (and a PX4 terrain-frame one: PX4 does not follow the ground)
+    flies the straight line between the items' altitudes, whatever the ground does, in the
+    time the flat leg takes."""
+    ground = bump(-80.0, 120.0)
+    home = ground(0.0, 0.0)  # the take-off climbs from the ground at home
+
+    def level(x: float, y: float) -> float:
+        return home
+
+    relative = fly_terrain(AP, ground, [(1000.0, 0.0, 30.0)], terrain=False)
+    assert np.array_equal(relative, fly_terrain(AP, level, [(1000.0, 0.0, 30.0)], terrain=False))
+    on_leg = relative[:, 1] > 1.0
+    line = home + 30.0 + (30.0 - (home + 30.0)) * relative[on_leg, 1] / 1000.0
+    assert np.abs(relative[on_leg, 3] - line).max() < 1e-6
+    # PX4: the item's altitude is the ground under it plus its height, flown straight
+    px4 = fly_terrain(PX4, ground, [(1000.0, 0.0, 30.0)])
+    on_leg = (px4[:, 1] > 100.0) & (px4[:, 1] < 900.0)
+    end_z = ground(1000.0, 0.0) + 30.0
+    assert np.abs(px4[on_leg, 3] - end_z).max() < 1.0
+    assert height_above(px4, ground)[on_leg].max() > 100.0  # over the valley: not followed
+
+
+def test_ardupilot_stops_at_a_waypoint_where_the_altitude_frame_changes() -> None:
+    """AC_WPNav::set_wp_destination_next blends a corner only into a leg of the same frame:
+    a relative-frame waypoint followed by a terrain-frame one is flown to a stop."""
+    ground = slope(0.0)
+    model = FlightModel(Parameters(AP), dt_s=DT, ground_z=ground)
+    items = [
+        NavItem(0, 16, (0.0, 0.0, 0.0)),
+        NavItem(1, int(MavCmd.NAV_TAKEOFF), (0.0, 0.0, 30.0)),
+        NavItem(2, 16, (300.0, 0.0, 30.0)),
+    ]
+    for terrain_m in (30.0, None):
+        third = NavItem(3, 16, (300.0, 300.0, 30.0), terrain_m=terrain_m)
+        model = FlightModel(Parameters(AP), dt_s=DT, ground_z=ground)
+        model.set_mission([*items, third])
+        model.start_mission()
+        slowest = math.inf
+        while not model.mission_complete and model.t_s < 600:
+            model.step()
+            if 250.0 < model.position[0] and model.position[1] < 50.0:
+                slowest = min(slowest, math.hypot(*model.velocity[:2]))
+        assert model.mission_complete
+        if terrain_m is None:
+            assert slowest > 1.0  # the corner is blended
+        else:
+            assert slowest < 0.05  # to a stop
 
 
 # ---------------------------------------------------------------------------------------------

@@ -180,23 +180,7 @@ def hillside(e: np.ndarray, n: np.ndarray) -> np.ndarray:
     return 520.0 + 0.08 * (e - e0) - 80.0 * np.exp(-((e - e0) ** 2) / (2 * 160.0**2))
 
 
-@pytest.mark.parametrize(
-    "altitude",
-    [
-        pytest.param(
-            f,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="the flight model flies an ArduPilot terrain-frame leg straight between "
-                "its ends' altitudes instead of following the ground, so the rehearsal finds the "
-                "rerouted plan 11.2 m from the ground (margin 12 m) over the valley",
-            ),
-        )
-        if f == "terrain"
-        else f
-        for f in FRAMES
-    ],
-)
+@pytest.mark.parametrize("altitude", FRAMES)
 def test_a_plan_rerouted_over_terrain_keeps_its_altitudes_and_the_margin(
     tmp_path: Path, altitude: str
 ) -> None:

@@ -22,6 +22,7 @@ __all__ = [
     "max_speed_in_waypoint",
     "norm",
     "scale",
+    "sqrt_controller",
     "sub",
     "unit",
 ]
@@ -123,6 +124,27 @@ def max_speed_in_waypoint(alpha_rad: float, accel: float, radius: float) -> floa
     if half >= math.pi / 2.0 - 1e-12:
         return math.inf
     return math.sqrt(max(0.0, accel * radius * math.tan(half)))
+
+
+def sqrt_controller(error: float, p: float, accel: float, dt: float) -> float:
+    """The rate that corrects ``error``: linear (gain ``p``) near zero, beyond
+    ``accel / p²`` the speed from which ``accel`` stops the error at zero, and never more
+    than the whole error in one step ``dt``: ArduPilot's ``sqrt_controller``
+    (AP_Math/control.cpp)."""
+    if accel <= 0.0:
+        rate = error * p
+    elif p <= 0.0:
+        rate = math.copysign(math.sqrt(2.0 * accel * abs(error)), error)
+    else:
+        linear = accel / (p * p)
+        if abs(error) > linear:
+            rate = math.copysign(math.sqrt(2.0 * accel * (abs(error) - linear / 2.0)), error)
+        else:
+            rate = error * p
+    if dt > 0.0:
+        bound = abs(error) / dt
+        rate = max(-bound, min(bound, rate))
+    return rate
 
 
 # ---------------------------------------------------------------------------------------------

@@ -26,6 +26,13 @@ Two guidance laws, one per flavour:
   counts as reached within its acceptance radius (param 2, else NAV_ACC_RAD) and
   NAV_MC_ALT_RAD of altitude, and the next one takes over from there.
 
+On a leg to a terrain-frame item ArduPilot flies above the ground (AC_WPNav with
+``terrain_alt``): the leg runs in heights above the ground, a vertical offset shaped within
+the climb and descent limits takes up the ground under the vehicle, and a lag of more than
+half of WPNAV_TER_MARGIN slows the vehicle along the track (``_ScurveTrack``,
+docs/flight-model.md "Terrain-frame legs"). PX4 flies such an item at the ground under it
+plus its height, on a straight leg.
+
 Both climb and descend at their own rates, take off vertically, land with the flavour's
 landing speeds, fly RTL as the firmware does (:meth:`FlightModel.rtl`), honour
 DO_CHANGE_SPEED, hold times and DO_JUMP, and keep their commanded speed through the air:
@@ -56,6 +63,7 @@ from uavplan.sim.kinematics import (
     max_speed_in_waypoint,
     norm,
     scale,
+    sqrt_controller,
     sub,
     unit,
 )
@@ -96,7 +104,11 @@ _DO_LAND_START = int(MavCmd.DO_LAND_START)
 @dataclass(frozen=True)
 class NavItem:
     """A mission item as the model flies it: ``seq`` as on the wire, position in ENU metres
-    in the frame at home (``None`` for items without one, or at lat/lon 0: "here")."""
+    in the frame at home (``None`` for items without one, or at lat/lon 0: "here").
+
+    ``terrain_m``: for an item in a terrain frame, its height above the ground (its
+    ``position`` z is that height over the ground beneath it); ArduPilot follows the ground
+    on the leg to it. ``None`` for the other frames."""
 
     seq: int
     command: int
@@ -105,6 +117,7 @@ class NavItem:
     param2: float = 0.0
     param3: float = 0.0
     param4: float = 0.0
+    terrain_m: float | None = None
 
     @property
     def is_nav(self) -> bool:
@@ -145,13 +158,15 @@ def nav_items(
     out: list[NavItem] = []
     for seq, item in enumerate(items):
         position: Vec | None = None
+        terrain_m: float | None = None
         if seq in where:
             x, y = where[seq]
             frame_id = canonical_frame(item.frame)
             if frame_id == MavFrame.GLOBAL:
                 z = item.z - home.alt_m
-            elif frame_id == MavFrame.GLOBAL_TERRAIN_ALT and ground_z is not None:
-                z = item.z + ground_z(x, y)
+            elif frame_id == MavFrame.GLOBAL_TERRAIN_ALT:
+                terrain_m = float(item.z)
+                z = item.z if ground_z is None else item.z + ground_z(x, y)
             else:
                 z = item.z
             position = (x, y, z)
@@ -167,6 +182,7 @@ def nav_items(
                 param2=item.param2 or 0.0,
                 param3=item.param3 or 0.0,
                 param4=item.param4 or 0.0,
+                terrain_m=terrain_m,
             )
         )
         if position is None and item.is_global and item.command == MavCmd.NAV_TAKEOFF:
@@ -366,12 +382,65 @@ class _Leg:
         self.profile = self._plan(self.length - s, v, speed_xy)
 
 
+class _TerrainOffset:
+    """AC_PosControl's vertical position offset (``update_pos_offset_z``): on a terrain-frame
+    leg it takes up the ground under the vehicle, as ``shape_pos_vel_accel`` does, through
+    a square-root controller (gain ½·PSC_JERK_Z / WPNAV_ACCEL_Z, half of WPNAV_ACCEL_Z),
+    within the climb and descent speeds and WPNAV_ACCEL_Z (the jerk's ramp left out, as
+    elsewhere in the model). Off terrain it brings itself back to zero. ``z`` is added to
+    the leg's altitude: the vehicle is where the leg puts it, ``z`` higher."""
+
+    def __init__(self, limits: FlightLimits) -> None:
+        self.limits = limits
+        self.z = 0.0
+        self.v = 0.0
+
+    @property
+    def active(self) -> bool:
+        return self.z != 0.0 or self.v != 0.0
+
+    def step(self, target: float, dt: float) -> None:
+        lim = self.limits
+        accel = lim.accel_up_m_s2
+        gain = 0.5 * lim.jerk_z_m_s3 / accel if accel > 0.0 else 0.0
+        want = sqrt_controller(target - self.z, gain, 0.5 * accel, dt)
+        want = max(-lim.speed_down_m_s, min(lim.speed_up_m_s, want))
+        dv = max(-accel * dt, min(accel * dt, want - self.v))
+        self.v += dv
+        self.z += self.v * dt
+        if target == 0.0 and abs(self.z) < 1e-6 and abs(self.v) < 1e-6:
+            self.z = self.v = 0.0  # settled: back to the plain leg
+
+
+def terrain_pace(lag_m: float, margin_m: float) -> float:
+    """The share of its speed the vehicle keeps along a terrain-frame leg when its altitude
+    is ``lag_m`` off the ground-following target: 1 up to half of WPNAV_TER_MARGIN, down to
+    0.01 at all of it (AC_PosControl::pos_offset_z_scaler); 1 without a margin."""
+    if margin_m <= 0.0:
+        return 1.0
+    half = 0.5 * margin_m
+    return max(0.01, min(1.0, 1.0 - (abs(lag_m) - half) / half))
+
+
 class _ScurveTrack(_Motion):
     """ArduPilot Copter's waypoint navigation (AC_WPNav, S-curves), kinematically: the
-    previous, current and next legs whose motions add up (see the module docstring)."""
+    previous, current and next legs whose motions add up (see the module docstring).
+
+    A leg to a terrain-frame item (``set_destination(..., terrain=True)``) is flown in the
+    frame above the ground, as AC_WPNav does with ``terrain_alt``: the legs' z are heights
+    above the ground (the origin turned into one on entering that frame), and the vehicle
+    flies at the leg's height plus :class:`_TerrainOffset`, which follows ``ground(x, y)``
+    under it. How far the offset lags the ground slows the legs' progress
+    (:func:`terrain_pace`, approached within WPNAV_ACCEL, ``advance_wp_target_along_track``'s
+    ``vel_scaler_dt``)."""
 
     def __init__(
-        self, start: Vec, limits: FlightLimits, speed_xy: float, wind: tuple[float, float]
+        self,
+        start: Vec,
+        limits: FlightLimits,
+        speed_xy: float,
+        wind: tuple[float, float],
+        ground: Callable[[float, float], float] | None = None,
     ) -> None:
         self.limits = limits
         self.wind = wind
@@ -386,9 +455,38 @@ class _ScurveTrack(_Motion):
         self.reached = True
         self.pos = start
         self.vel = (0.0, 0.0, 0.0)
+        self.ground = ground if ground is not None else (lambda x, y: 0.0)
+        self.terrain = False  # the legs are in the frame above the ground
+        self.offset = _TerrainOffset(limits)
+        self.pace = 1.0  # the share of the legs' speed flown (terrain_pace, shaped)
 
-    def set_destination(self, dest: Vec, next_dest: Vec | None) -> None:
-        """Fly to ``dest``; with ``next_dest`` it is a fast waypoint (the corner is blended)."""
+    def lag_m(self) -> float:
+        """How far the vehicle is above (+) or below the ground-following target."""
+        if not self.terrain:
+            return self.offset.z
+        return self.offset.z - self.ground(self.pos[0], self.pos[1])
+
+    def _in_frame(self, pos: Vec) -> Vec:
+        """The vehicle's position in the legs' frame."""
+        if not self.terrain:
+            return pos
+        return (pos[0], pos[1], pos[2] - self.ground(pos[0], pos[1]))
+
+    def set_destination(self, dest: Vec, next_dest: Vec | None, *, terrain: bool = False) -> None:
+        """Fly to ``dest``; with ``next_dest`` it is a fast waypoint (the corner is blended).
+        ``terrain``: ``dest`` and ``next_dest`` are heights above the ground (the next one
+        is in the same frame: the caller drops a next waypoint of the other frame, as
+        AC_WPNav::set_wp_destination_next does)."""
+        if terrain != self.terrain:
+            # AC_WPNav::set_wp_destination: the origin (the last destination) and the
+            # offset change frame by the ground under the vehicle; no leg carries over
+            g = self.ground(self.pos[0], self.pos[1])
+            shift = -g if terrain else g
+            self.dest = (self.dest[0], self.dest[1], self.dest[2] + shift)
+            self.offset.z -= shift
+            self.terrain = terrain
+            self.this = self.next = self.prev = None
+            self.fast = False
         if self.this is not None and self.fast and self.next is not None and self.next.dest == dest:
             new_this = self.next
         else:
@@ -437,6 +535,20 @@ class _ScurveTrack(_Motion):
         this = self.this
         if this is None:
             return
+        follow = self.terrain or self.offset.active or self.pace != 1.0
+        pace = 1.0
+        if follow:
+            # advance_wp_target_along_track: the pace from the lag before this step, then
+            # the offset shaped toward the ground under the vehicle (off terrain: to zero)
+            target = self.ground(self.pos[0], self.pos[1]) if self.terrain else 0.0
+            wanted = terrain_pace(self.offset.z - target, self.limits.terrain_margin_m)
+            rate = self.limits.accel_xy_m_s2 / max(self.speed_xy, 1e-9) * dt
+            self.pace = max(self.pace - rate, min(self.pace + rate, wanted))
+            if not self.terrain and self.pace > 1.0 - 1e-12:
+                self.pace = 1.0
+            self.offset.step(target, dt)
+            pace = self.pace
+            dt = dt * pace
         prev = self.prev
         if prev is not None:
             prev.advance(dt)
@@ -468,9 +580,16 @@ class _ScurveTrack(_Motion):
         if self.next_started and nxt is not None:
             pos = add(pos, nxt.from_origin())
             vel = add(vel, nxt.velocity())
+        if follow:
+            vel = scale(vel, pace)
+            pos = (pos[0], pos[1], pos[2] + self.offset.z)
+            vel = (vel[0], vel[1], vel[2] + self.offset.v)
         self.pos, self.vel = pos, vel
         if not self.reached and finished:
-            if self.fast or norm(sub(pos, self.dest)) <= self.limits.acceptance_radius_m:
+            if (
+                self.fast
+                or norm(sub(self._in_frame(pos), self.dest)) <= self.limits.acceptance_radius_m
+            ):
                 self.reached = True
 
 
@@ -868,7 +987,9 @@ class FlightModel:
         if isinstance(motion, _ScurveTrack):
             return motion
         yield from self._brake()
-        track = _ScurveTrack(self._motion.pos, self.limits, self._speed_xy, self.wind)
+        track = _ScurveTrack(
+            self._motion.pos, self.limits, self._speed_xy, self.wind, self.ground_at
+        )
         self._motion = track
         return track
 
@@ -882,11 +1003,19 @@ class FlightModel:
         self._motion = track
         return track
 
-    def _goto(self, dest: Vec, next_dest: Vec | None, acceptance_m: float | None = None) -> Task:
-        """Fly to ``dest`` (to the reached test); ``next_dest``: the corner to blend into."""
+    def _goto(
+        self,
+        dest: Vec,
+        next_dest: Vec | None,
+        acceptance_m: float | None = None,
+        *,
+        terrain: bool = False,
+    ) -> Task:
+        """Fly to ``dest`` (to the reached test); ``next_dest``: the corner to blend into.
+        ``terrain`` (ArduPilot): both are heights above the ground, followed on the way."""
         if self.autopilot == Autopilot.ARDUPILOT:
             track = yield from self._ap_track()
-            track.set_destination(dest, next_dest)
+            track.set_destination(dest, next_dest, terrain=terrain)
             yield from self._run(track, until=lambda: track.reached)
             return
         ptrack = self._px4_track()
@@ -1050,7 +1179,18 @@ class FlightModel:
         yield from self._wait(lim.rtl_loiter_s)
         yield from self._descend_and_land(at=(0.0, 0.0))
 
-    def _lookahead(self, seq: int) -> Vec | None:
+    def _leg_target(self, item: NavItem) -> tuple[Vec, bool]:
+        """Where the guidance flies to for ``item``: its position, or (ArduPilot, an item in a
+        terrain frame) its height above the ground, and whether it is that. PX4 does not
+        fly terrain-frame items as such (its navigator takes the altitude as it is; plan
+        warns): the item's position, the ground under it plus the height, as before."""
+        assert item.position is not None
+        if self.autopilot == Autopilot.ARDUPILOT and item.terrain_m is not None:
+            x, y, _ = item.position
+            return (x, y, item.terrain_m), True
+        return item.position, False
+
+    def _lookahead(self, seq: int) -> NavItem | None:
         """The next waypoint after the one at ``seq`` when the firmware blends the corner
         (ArduPilot: the next NAV command is a waypoint; PX4: the next position item), across
         DO commands; ``None`` when the vehicle stops at ``seq``."""
@@ -1066,7 +1206,7 @@ class FlightModel:
             if self.autopilot == Autopilot.ARDUPILOT and later.command != MavCmd.NAV_WAYPOINT:
                 return None
             if later.command in (MavCmd.NAV_WAYPOINT, _NAV_LOITER_TIME, _NAV_LOITER_UNLIM):
-                return later.position
+                return later if later.position is not None else None
             return None
         return None
 
@@ -1163,7 +1303,14 @@ class FlightModel:
             else:
                 return  # ArduPilot refuses AUTO on the ground without a take-off first
         acceptance = item.param2 if (item.param2 > 0.0 and self.limits.is_px4) else None
-        yield from self._goto(item.position, self._lookahead(item.seq), acceptance)
+        dest, terrain = self._leg_target(item)
+        later = self._lookahead(item.seq)
+        next_dest: Vec | None = None
+        if later is not None:
+            next_dest, next_terrain = self._leg_target(later)
+            if next_terrain != terrain:
+                next_dest = None  # AC_WPNav::set_wp_destination_next: frames must match
+        yield from self._goto(dest, next_dest, acceptance, terrain=terrain)
         if cmd == _NAV_LOITER_UNLIM:
             yield from self._forever()
         hold_s = item.param1 if cmd in (MavCmd.NAV_WAYPOINT, _NAV_LOITER_TIME) else 0.0

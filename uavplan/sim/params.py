@@ -52,6 +52,7 @@ _PX4_NAV = _PX4 + "navigator/navigator_params.yaml"
 _PX4_RTL = _PX4 + "navigator/rtl_params.yaml"
 _PX4_ARM = _PX4_REF + "COM_ARM_MIS_REQ"
 _AP_FENCE = _AP + "libraries/AC_Fence/AC_Fence.cpp"
+_AP_POSCONTROL = _AP + "libraries/AC_AttitudeControl/AC_PosControl.cpp"
 _PX4_GEOFENCE = _PX4 + "navigator/geofence_params.yaml"
 
 
@@ -146,6 +147,26 @@ ARDUPILOT_PARAMS: tuple[ParamSpec, ...] = (
         _AP_WPNAV,
         5.0,
         1000.0,
+    ),
+    ParamSpec(
+        "WPNAV_TER_MARGIN",
+        10.0,
+        "m",
+        "terrain-frame legs: from half of it the altitude's lag behind the terrain "
+        "slows the vehicle along the leg, to 1 % of its speed at all of it",
+        _AP_WPNAV,
+        0.1,
+        100.0,
+    ),
+    ParamSpec(
+        "PSC_JERK_Z",
+        5.0,
+        "m/s/s/s",
+        "terrain-frame legs: how fast the altitude takes up a change of the ground "
+        "(the vertical shaping's jerk: its gain, half of it over WPNAV_ACCEL_Z)",
+        _AP_POSCONTROL,
+        5.0,
+        50.0,
     ),
     ParamSpec(
         "RTL_ALT",
@@ -609,6 +630,12 @@ class FlightLimits:
     fence_margin_m: float = 0.0
     #: PX4's RTL_TYPE (ArduPilot: 0)
     rtl_type: int = 0
+    #: ArduPilot's WPNAV_TER_MARGIN (m): how far the altitude may lag the terrain on a
+    #: terrain-frame leg before the vehicle slows along it (from half of it); 0: PX4
+    terrain_margin_m: float = 0.0
+    #: ArduPilot's PSC_JERK_Z (m/s³): the jerk of the vertical shaping that takes up the
+    #: ground's changes on terrain-frame legs; 0: PX4
+    jerk_z_m_s3: float = 0.0
 
     @property
     def is_px4(self) -> bool:
@@ -660,6 +687,8 @@ def flight_limits(params: Parameters) -> FlightLimits:
                 else None
             ),
             fence_margin_m=p["FENCE_MARGIN"],
+            terrain_margin_m=p["WPNAV_TER_MARGIN"],
+            jerk_z_m_s3=p["PSC_JERK_Z"],
         )
     if params.autopilot == Autopilot.PX4:
         return FlightLimits(
