@@ -645,6 +645,10 @@ STREAMS = (
 )
 
 
+#: messages a landed mission's monitor waits for a position report before it ends anyway
+SETTLE_MESSAGES = 20
+
+
 class MonitorMachine(FlightMachine):
     """Follow the flight until it ends (:class:`MonitorEnd`).
 
@@ -667,6 +671,7 @@ class MonitorMachine(FlightMachine):
         super().__init__(state, target, timeouts)
         self.last_seq = last_seq
         self.lands = lands
+        self._settling = 0
 
     def start(self, now: float) -> list[Message]:
         self.deadline = now + self.timeouts.link_s
@@ -683,6 +688,11 @@ class MonitorMachine(FlightMachine):
         if self.last_seq in s.reached:
             return True
         at_end = s.current_seq >= self.last_seq
+        if at_end and self.lands and (s.landed_state == LandedState.ON_GROUND or not s.armed):
+            # down on the last item of a mission that ends on the ground: that item is the
+            # landing (or the return that lands), and it is done; the vehicle's word that the
+            # mission is complete may come after its disarm (ArduPilot disarms on touchdown)
+            return s.flew
         return at_end and s.mode is not None and s.mode.kind in (ModeKind.RETURN, ModeKind.LAND)
 
     def handle(self, message: Message, now: float) -> list[Message]:
@@ -692,7 +702,11 @@ class MonitorMachine(FlightMachine):
             return []
         down = s.landed_state == LandedState.ON_GROUND or not s.armed
         if self.lands and self.mission_done and down:
-            self.finished = MonitorEnd.COMPLETE
+            # done once a position report shows where it came down (the track's last sample,
+            # which the take-off-to-touchdown time reads), or a few messages on without one
+            self._settling += 1
+            if isinstance(message, GlobalPositionInt) or self._settling > SETTLE_MESSAGES:
+                self.finished = MonitorEnd.COMPLETE
         elif not self.lands and self.mission_done:
             self.finished = MonitorEnd.COMPLETE_IN_AIR if not down else MonitorEnd.COMPLETE
         elif not s.armed and down:
