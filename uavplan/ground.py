@@ -46,6 +46,9 @@ TWIST_TOL_M = 0.25
 MAX_FIELD_CELLS = 1_000_000
 #: and cuts a DEM quad into at most this many sub-quads per side
 MAX_SUBDIVISION = 12
+#: lattice cells the field's construction computes together (its interpolation, slopes and
+#: fit take some ten temporary arrays a cell: over a million cells, 240 MB at once)
+BLOCK_CELLS = 32_768
 #: the kernels' metadata vector's length (kernels.h FIELD_META)
 FIELD_META = 16
 #: a leg flown over the ground (a terrain-frame leg) is checked as the polyline through
@@ -134,10 +137,13 @@ class HeightField:
         off = float(np.max(np.hypot(*np.moveaxis(centres_xy - mid, -1, 0)))) if mid.size else 0.0
         warp = off * _steepest(fxy, fz)
         lattice, slack, per_m = _fit_lattice(fxy)
-        corners = np.stack([fz[:-1, :-1], fz[:-1, 1:], fz[1:, :-1], fz[1:, 1:]], axis=-1)
-        cell = np.stack(
-            [corners.max(axis=-1), corners.min(axis=-1), _cell_slopes(fxy, fz)], axis=-1
-        )
+        # each cell's highest and lowest corner and steepest triangle, filled in place (the
+        # four corners stacked and the three columns stacked held 100 MB over a large field)
+        z00, z01, z10, z11 = fz[:-1, :-1], fz[:-1, 1:], fz[1:, :-1], fz[1:, 1:]
+        cell = np.empty((*z00.shape, 3))
+        np.maximum(np.maximum(z00, z01), np.maximum(z10, z11), out=cell[..., 0])
+        np.minimum(np.minimum(z00, z01), np.minimum(z10, z11), out=cell[..., 1])
+        cell[..., 2] = _cell_slopes(fxy, fz)
         return cls(
             xy=np.ascontiguousarray(fxy),
             z=np.ascontiguousarray(fz),
@@ -472,13 +478,20 @@ def _bilinear_grid(values: Any, rows: Any, cols: Any) -> Any:
     nrows, ncols = values.shape
     i0 = np.clip(np.floor(rows).astype(np.int64), 0, nrows - 2)
     j0 = np.clip(np.floor(cols).astype(np.int64), 0, ncols - 2)
-    tv = (rows - i0)[:, None]
     tu = (cols - j0)[None, :]
-    a = values[i0[:, None], j0[None, :]]
-    b = values[i0[:, None], j0[None, :] + 1]
-    c = values[i0[:, None] + 1, j0[None, :]]
-    d = values[i0[:, None] + 1, j0[None, :] + 1]
-    return a * (1 - tu) * (1 - tv) + b * tu * (1 - tv) + c * (1 - tu) * tv + d * tu * tv
+    out = np.empty((len(rows), len(cols)))
+    step = max(1, BLOCK_CELLS // max(len(cols), 1))  # a block of rows at a time
+    for r0 in range(0, len(rows), step):
+        i = i0[r0 : r0 + step, None]
+        tv = (rows[r0 : r0 + step] - i0[r0 : r0 + step])[:, None]
+        a = values[i, j0[None, :]]
+        b = values[i, j0[None, :] + 1]
+        c = values[i + 1, j0[None, :]]
+        d = values[i + 1, j0[None, :] + 1]
+        out[r0 : r0 + step] = (
+            a * (1 - tu) * (1 - tv) + b * tu * (1 - tv) + c * (1 - tu) * tv + d * tu * tv
+        )
+    return out
 
 
 def _steepest(xy: Any, z: Any) -> float:
@@ -488,49 +501,69 @@ def _steepest(xy: Any, z: Any) -> float:
     import numpy as np
 
     steep = 0.0
-    for axis in (0, 1):
-        if z.shape[axis] > 1:
-            run = np.hypot(*np.moveaxis(np.diff(xy, axis=axis), -1, 0))
-            steep = max(steep, float(np.max(np.abs(np.diff(z, axis=axis)) / run)))
+    step = max(2, BLOCK_CELLS // max(z.shape[1], 1))  # a block of rows at a time
+    for r0 in range(0, max(z.shape[0] - 1, 1), step - 1):
+        bxy, bz = xy[r0 : r0 + step], z[r0 : r0 + step]  # rows r0 .. r0 + step - 1
+        for axis in (0, 1):
+            if bz.shape[axis] > 1:
+                run = np.hypot(*np.moveaxis(np.diff(bxy, axis=axis), -1, 0))
+                steep = max(steep, float(np.max(np.abs(np.diff(bz, axis=axis)) / run)))
     return math.sqrt(2.0) * steep
 
 
 def _cell_slopes(xy: Any, z: Any) -> Any:
-    """The steepest slope of the four triangles of each cell (both diagonals)."""
+    """The steepest slope of the four triangles of each cell (both diagonals), computed a
+    block of rows at a time (the same arithmetic, cell by cell)."""
     import numpy as np
 
-    p = np.concatenate([xy, z[..., None]], axis=-1)
-    p00, p01, p10, p11 = p[:-1, :-1], p[:-1, 1:], p[1:, :-1], p[1:, 1:]
-    steep = np.zeros((z.shape[0] - 1, z.shape[1] - 1))
-    for a, b, c in ((p00, p01, p11), (p00, p11, p10), (p00, p01, p10), (p01, p11, p10)):
-        n = np.cross(b - a, c - a)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g = np.hypot(n[..., 0], n[..., 1]) / np.abs(n[..., 2])
-        steep = np.fmax(steep, g)
+    rows, cols = z.shape[0] - 1, z.shape[1] - 1
+    steep = np.zeros((rows, cols))
+    step = max(1, BLOCK_CELLS // max(cols, 1))
+    for r0 in range(0, rows, step):
+        r1 = min(rows, r0 + step)
+        p = np.concatenate([xy[r0 : r1 + 1], z[r0 : r1 + 1, :, None]], axis=-1)
+        p00, p01, p10, p11 = p[:-1, :-1], p[:-1, 1:], p[1:, :-1], p[1:, 1:]
+        out = steep[r0:r1]
+        for a, b, c in ((p00, p01, p11), (p00, p11, p10), (p00, p01, p10), (p01, p11, p10)):
+            n = np.cross(b - a, c - a)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                g = np.hypot(n[..., 0], n[..., 1]) / np.abs(n[..., 2])
+            np.fmax(out, g, out=out)
     return steep
 
 
 def _fit_lattice(xy: Any) -> tuple[Any, float, float]:
     """The affine map from the frame to lattice (column, row) coordinates fitted to the
     lattice points ``xy`` ``(nr, nc, 2)``, the largest per-axis distance of a point from where
-    it maps, and the map's largest singular value (lattice units per metre)."""
+    it maps, and the map's largest singular value (lattice units per metre). The distances
+    are measured a block of rows at a time (a million points at once held 100 MB)."""
     import numpy as np
 
     nr, nc = xy.shape[:2]
-    rows, cols = np.meshgrid(np.arange(nr, dtype=np.float64), np.arange(nc, dtype=np.float64),
-                             indexing="ij")  # fmt: skip
-    a = np.column_stack([np.ones(nr * nc), xy[..., 0].ravel(), xy[..., 1].ravel()])
     # centred for a well-conditioned fit; a lattice of millions of points is subsampled
-    step = max(1, int(math.sqrt(nr * nc / 250_000)))
+    step = max(1, math.ceil(math.sqrt(nr * nc / 250_000)))
     sub = np.zeros((nr, nc), dtype=bool)
     sub[::step, ::step] = True
     sub[-1, :] = sub[:, -1] = True
-    m = sub.ravel()
-    target = np.column_stack([cols.ravel(), rows.ravel()])
-    coef, *_ = np.linalg.lstsq(a[m], target[m], rcond=None)
+    rows, cols = np.nonzero(sub)  # row-major, as the lattice's ravel
+    a = np.column_stack([np.ones(rows.size), xy[rows, cols, 0], xy[rows, cols, 1]])
+    target = np.column_stack([cols.astype(np.float64), rows.astype(np.float64)])
+    coef, *_ = np.linalg.lstsq(a, target, rcond=None)
     lattice = np.array([coef[0, 0], coef[1, 0], coef[2, 0], coef[0, 1], coef[1, 1], coef[2, 1]])
-    mapped = a @ coef
-    slack = float(np.max(np.abs(mapped - target)))
+    slack = 0.0
+    block = max(1, BLOCK_CELLS // max(nc, 1))
+    col_index = np.arange(nc, dtype=np.float64)
+    for r0 in range(0, nr, block):
+        part = xy[r0 : r0 + block]
+        n = part.shape[0] * nc
+        a = np.column_stack([np.ones(n), part[..., 0].ravel(), part[..., 1].ravel()])
+        mapped = a @ coef
+        row_index = np.repeat(np.arange(r0, r0 + part.shape[0], dtype=np.float64), nc)
+        err = np.maximum(
+            np.abs(mapped[:, 0] - np.tile(col_index, part.shape[0])),
+            np.abs(mapped[:, 1] - row_index),
+        )
+        slack = max(slack, float(err.max()))
     per_m = float(np.linalg.svd(coef[1:, :].T, compute_uv=False)[0])
     return lattice, slack, per_m
 

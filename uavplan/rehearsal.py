@@ -46,6 +46,7 @@ __all__ = [
     "MAX_REPLANS",
     "CheckSite",
     "Rehearsal",
+    "max_deviation_m",
     "plan_safe_as_flown",
     "rehearse",
     "reroute_safe_as_flown",
@@ -291,15 +292,59 @@ def rehearse(
         start = int(hits[0]) if hits.size else None
     end = len(track) if start is None else start + 1
     planned = flown.planned_polyline_enu()
-    deviation = distance_to_polyline(flown.enu_m[:end], planned) if end else np.zeros(1)
+    deviation = max_deviation_m(flown.enu_m[:end], planned)
     if site is None:
-        return Rehearsal(flown, track, float(deviation.max()), start)
+        return Rehearsal(flown, track, deviation, start)
     check = site.check(track.until(end), lands=start is None)
     return_check = None
     if start is not None and len(track) - start >= 2:
         back = _after(track, start)
         return_check = site.check(back, takes_off=False, lands=flown.ended == "landed")
-    return Rehearsal(flown, track, float(deviation.max()), start, check, return_check)
+    return Rehearsal(flown, track, deviation, start, check, return_check)
+
+
+#: track points measured together by :func:`max_deviation_m` (about 30 s of flight)
+DEVIATION_CHUNK = 256
+
+
+def max_deviation_m(points: np.ndarray, polyline: np.ndarray) -> float:
+    """The largest distance of ``points`` ``(n, 3)`` from the polyline ``(m, 3)``: the
+    maximum of :func:`~uavplan.sim.simulate.distance_to_polyline`, the same value, in memory
+    and time that grow with n (0.0 for no points).
+
+    That function measures every point against every segment at once, n × (m − 1) triples of
+    floats: 2 GB for a 50 km flight. Here the points go in runs of :data:`DEVIATION_CHUNK`
+    consecutive ones (a track's run spans a few hundred metres), and a run is measured only
+    against the segments that can hold its points' nearest: a segment whose bounding box is
+    farther from the run's box than some segment's endpoint is from the farthest corner of
+    that box (a bound on every point's distance) is skipped. The rest are measured by
+    ``distance_to_polyline`` itself, each run of consecutive segments as one polyline."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    line = np.asarray(polyline, dtype=np.float64).reshape(-1, 3)
+    if len(p) == 0:
+        return 0.0
+    if len(line) <= 2:
+        return float(distance_to_polyline(p, line).max())
+    a, b = line[:-1], line[1:]
+    seg_lo, seg_hi = np.minimum(a, b), np.maximum(a, b)
+    worst = 0.0
+    for i in range(0, len(p), DEVIATION_CHUNK):
+        run = p[i : i + DEVIATION_CHUNK]
+        lo, hi = run.min(axis=0), run.max(axis=0)
+        # every point of the run is within `bound` of segment s's first endpoint ...
+        bound = np.sqrt((np.maximum(np.abs(a - lo), np.abs(a - hi)) ** 2).sum(axis=1)).min()
+        # ... and at least `gap` from any point of segment s
+        gap = np.sqrt((np.maximum(0.0, np.maximum(seg_lo - hi, lo - seg_hi)) ** 2).sum(axis=1))
+        near = np.flatnonzero(gap <= bound * (1.0 + 1e-9) + 1e-9)
+        # consecutive candidate segments [first, last] form one polyline line[first:last + 2]
+        breaks = np.flatnonzero(np.diff(near) > 1)
+        firsts = np.concatenate([near[:1], near[breaks + 1]])
+        lasts = np.concatenate([near[breaks], near[-1:]])
+        d = np.full(len(run), np.inf)
+        for first, last in zip(firsts, lasts, strict=True):
+            np.minimum(d, distance_to_polyline(run, line[first : last + 2]), out=d)
+        worst = max(worst, float(d.max()))
+    return worst
 
 
 def _after(track: Track, start: int) -> Track:

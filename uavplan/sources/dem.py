@@ -51,6 +51,8 @@ if TYPE_CHECKING:
     from uavplan.geo import EnuFrame
 
 _FEET_UNITS = ("ft", "foot", "feet", "us survey foot", "ft_us")
+#: points of a coverage check (:meth:`Terrain.check_covers`) projected together
+COVER_BLOCK_POINTS = 65_536
 
 
 class TerrainError(InputError):
@@ -239,8 +241,25 @@ class Terrain:
         ny = max(2, math.ceil((y1 - y0) / step) + 1)
         if nx * ny > 4_000_000:  # very large area: the border and a coarse interior suffice
             nx, ny = min(nx, 2000), min(ny, 2000)
-        gx, gy = np.meshgrid(np.linspace(x0, x1, nx), np.linspace(y0, y1, ny))
-        self.height_m(np.column_stack((gx.ravel(), gy.ravel())))
+        xs, ys = np.linspace(x0, x1, nx), np.linspace(y0, y1, ny)
+        # a block of rows at a time (the projection's temporaries for a few million points
+        # took hundreds of MB); the message counts every point, as one call would
+        rows = max(1, COVER_BLOCK_POINTS // nx)
+        first: NDArray[np.float64] | None = None
+        bad = 0
+        for r0 in range(0, ny, rows):
+            gx, gy = np.meshgrid(xs, ys[r0 : r0 + rows])
+            points = np.column_stack((gx.ravel(), gy.ravel()))
+            missing = ~self.covers(points)
+            if first is None and missing.any():
+                first = points[np.argmax(missing)]
+            bad += int(missing.sum())
+        if first is not None:
+            raise TerrainError(
+                f"the DEM does not cover ENU point ({first[0]:.1f}, {first[1]:.1f}) m "
+                f"({bad} of {nx * ny} points outside it or on nodata)",
+                file=self.source,
+            )
 
     @cached_property
     def _posts_enu(self) -> NDArray[np.float64]:
