@@ -169,8 +169,28 @@ def test_the_monitor_ends_when_the_mission_is_complete_and_the_vehicle_down() ->
     machine.on_message(heartbeat(PX4, ModeKind.RETURN, armed=True), 0.5)
     assert machine.finished is None  # the mission's last item, but still flying home
     machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.6)
+    assert machine.finished is None  # down: it waits for the report of where it came down
+    machine.on_message(_position(0.0, 0.0), 0.7)
     assert machine.finished is MonitorEnd.COMPLETE
-    assert [s.relative_alt_m for s in state.take_samples()] == [30.0]
+    assert [s.relative_alt_m for s in state.take_samples()] == [30.0, 0.0]
+
+
+def test_a_vehicle_down_on_the_last_item_of_a_landing_mission_has_completed_it() -> None:
+    """ArduPilot disarms on touchdown at the final NAV_LAND; its word that the mission is
+    complete may come after the disarm: that is the end of the mission, not an early
+    landing. Down on an earlier item still is one."""
+    for current, end in ((9, MonitorEnd.COMPLETE), (8, MonitorEnd.LANDED_EARLY)):
+        state = VehicleState(AP)
+        machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True)
+        machine.start(0.0)
+        state.recording = True
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 0.1)
+        machine.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.2)
+        machine.on_message(_position(10.0, 30.0), 0.3)
+        machine.on_message(MissionCurrent(current, 10, MissionState.ACTIVE), 0.4)
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.5)
+        machine.on_message(_position(0.0, 0.0), 0.6)
+        assert machine.finished is end
 
 
 def test_the_monitor_reports_silence_as_a_lost_link_and_an_early_landing() -> None:

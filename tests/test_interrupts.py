@@ -39,6 +39,22 @@ ATTEMPTS = 20
 pytestmark = pytest.mark.timeout(600)
 
 
+@pytest.fixture(autouse=True)
+def sigint_not_ignored() -> Any:
+    """The programs these tests start get SIGINT as a terminal gives it. A suite run as a
+    shell's background job (``pytest &`` without job control) has SIGINT ignored, and a
+    child inherits that: uavplan then, as documented, keeps it ignored (it is not the
+    user's Ctrl-C), and the tests that send it would wait for the whole run."""
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        yield
+        return
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def env() -> dict[str, str]:
     out = {**os.environ, "PYTHONUNBUFFERED": "1"}
     out.pop("UAVPLAN_DEBUG", None)
