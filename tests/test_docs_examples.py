@@ -21,7 +21,10 @@ A document says in an HTML comment before a block (or table) what the test canno
   document's commands run (a file an example names).
 
 A marker with a command prefix in backticks (``<!-- docs-test: skip `uavplan fly` (...) -->``)
-applies only to the block's commands starting with it. Every other command must exit 0.
+applies only to the block's commands starting with it. Every other command must exit 0, and
+in a transcript (``$ command`` and what it printed) every line shown after a command must
+still be printed by it, its numbers aside (they are masked: times vary, and a figure's
+freshness is tools/docs_figures.py's business); ``...`` stands for lines left out.
 
 MAVLink: ``uavplan mock-vehicle`` (``&`` or not) starts in the background and serves the
 document's later commands; ``kill %N`` stops it. A command whose ``--conn`` no such vehicle
@@ -403,11 +406,21 @@ class DocRunner:
             first = next((ln.strip() for ln in output.splitlines() if ln.strip()), "")
             if not first.startswith(ex.shown[0]):
                 problem = f"printed {first!r}, the document shows {ex.shown[0]!r}"
+        else:
+            printed = {_shape(ln) for ln in output.splitlines()}
+            stale = [ln for ln in ex.shown if _shape(ln) not in printed]
+            if stale:
+                problem = f"the document shows a line it no longer prints: {stale[0]!r}"
         return Outcome(ex, command, done.returncode, output, problem)
 
     def close(self) -> None:
         for job in [*(job for job, _ in self.jobs), *self.helpers]:
             _stop(job)
+
+
+def _shape(line: str) -> str:
+    """A printed line with its numbers masked: what a transcript must still match."""
+    return re.sub(r"-?\d+(?:[.,]\d+)*", "#", line.strip())
 
 
 def _stop(job: subprocess.Popen[bytes]) -> None:
@@ -493,6 +506,12 @@ uavplan fly a.plan --conn udp:127.0.0.1:14540
 $ uavplan validate missing.yaml
 error: something else
 ```
+
+```
+$ uavplan validate missions/paper-env1.yaml
+...
+missions/paper-env1.yaml: a line uavplan never printed, 12 m
+```
 """
 
 
@@ -506,18 +525,21 @@ def test_a_broken_example_fails(tmp_path: Path) -> None:
         ("plan", None, 0),
         ("fly", "needs PX4 SITL", 0),
         ("validate", None, 2),
+        ("validate", None, 0),
     ]
     work = tmp_path / "work"
     work.mkdir()
     outcomes = list(run_document(found, work))
-    assert [o.problem is None for o in outcomes] == [True, False, False]
+    assert [o.problem is None for o in outcomes] == [True, False, False, False]
     assert outcomes[1].code == 2
     assert "the document shows 'error: something else'" in (outcomes[2].problem or "")
+    assert "no longer prints" in (outcomes[3].problem or "")
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--run", action="store_true", help="also run them, as the test does")
+    parser.add_argument("--show", action="store_true", help="with --run: print every output")
     parser.add_argument("docs", nargs="*", help="only these (README.md, docs/flying.md, ...)")
     args = parser.parse_args()
     bad = 0
@@ -535,6 +557,7 @@ def main() -> int:
                     began = now
                     if o.problem:
                         bad += 1
+                    if o.problem or args.show:
                         print(o.output[-1500:])
     return 1 if bad else 0
 
