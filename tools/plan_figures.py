@@ -111,7 +111,7 @@ def main() -> int:
                 f"{max(runtimes):.2f} s, "
                 + ("the same length and clearance every time" if same else "routes differ")
             )
-    iterations = [int(r["iterations"]) for r in rows if isinstance(r.get("iterations"), int)]
+    iterations = [n for r in rows if isinstance(n := r.get("iterations"), int)]
     if iterations:
         print(f"\niterations: {min(iterations)}-{max(iterations)} over {len(iterations)} plans")
     load_after = os.getloadavg()[0]
