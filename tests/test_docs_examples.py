@@ -49,6 +49,7 @@ import argparse
 import json
 import os
 import re
+import select
 import shlex
 import signal
 import socket
@@ -354,9 +355,10 @@ class DocRunner:
                 args += ["--autopilot", autopilot, "--home", ",".join(str(v) for v in home)]
                 break
         args += ["--speedup", SPEEDUP]
-        self.helpers.append(self._start(shlex.join(args)))
+        helper = self._start(shlex.join(args))
+        self.helpers.append(helper)
         self.served.add(int(m["port"]))
-        time.sleep(1.0)  # its socket bound before the command's first message
+        _serving(helper)
 
     def run(self, ex: Example) -> Outcome:
         command = self.rewrite(ex.command)
@@ -377,8 +379,7 @@ class DocRunner:
             self.jobs.append((job, port))
             if port is not None:
                 self.served.add(port)
-            time.sleep(1.5)
-            if job.poll() is not None:
+            if not _serving(job):
                 return Outcome(
                     ex, command, job.returncode, _read(job), "the vehicle did not keep running"
                 )
@@ -416,6 +417,16 @@ class DocRunner:
     def close(self) -> None:
         for job in [*(job for job, _ in self.jobs), *self.helpers]:
             _stop(job)
+
+
+def _serving(job: subprocess.Popen[bytes], timeout: float = 60.0) -> bool:
+    """Wait until a started vehicle says it is serving (its first line); False if it ended."""
+    assert job.stdout is not None
+    ready, _, _ = select.select([job.stdout], [], [], timeout)
+    if not ready:
+        return job.poll() is None
+    line = job.stdout.readline()
+    return bool(line) and job.poll() is None
 
 
 def _shape(line: str) -> str:
