@@ -48,7 +48,9 @@ LOAD = re.compile(r"load (?:average )?\d+(?:\.\d+)?(?:\s*[-–]\s*\d+(?:\.\d+)?)
 COMMAND = re.compile(r"`((?:python3? |uavplan |nice )[^`]+)`")
 #: tables of settings, not of measurements (their header says so)
 SETTINGS = re.compile(
-    r"\b(?:default|parameter|constant|key|source|published|regime|symptom|part|example)\b|mode_rtl", re.I
+    r"\b(?:default|parameter|constant|key|source|published|regime|symptom|part|example)\b"
+    r"|mode_rtl",
+    re.I,
 )
 #: a source line stands by a table this many lines away at most
 NEAR = 4
