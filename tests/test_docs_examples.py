@@ -38,9 +38,10 @@ longer) so that a flight of minutes takes seconds (``fly`` reports simulated tim
 ``python tests/test_docs_examples.py`` prints, per document, the commands this test runs and
 those it skips, with the reason (``--run`` also runs them, as the test does).
 
-Slow (``UAVPLAN_SLOW=1``): README's ``uavplan bench ... --runs 10`` (30 planning runs, about
-20 s of CPU). The default run takes about 60 s on the 2-core build machine, most of it the
-three simulated flights and the plans of the larger scenarios.
+Slow (``UAVPLAN_SLOW=1``): README's ``uavplan bench ... --runs 10`` (30 planning runs of all
+1000 iterations: 40 s on the 2-core build machine at load 4.5). The default run costs about
+52 s of CPU (56 commands, each a fresh ``uavplan`` process; the four simulated flights take
+5-8 s each at speedup 100): 2 min of wall time at load 6-8 on the shared 2-core machine.
 """
 
 from __future__ import annotations
