@@ -40,8 +40,9 @@ those it skips, with the reason (``--run`` also runs them, as the test does).
 
 Slow (``UAVPLAN_SLOW=1``): README's ``uavplan bench ... --runs 10`` (30 planning runs of all
 1000 iterations: 40 s on the 2-core build machine at load 4.5). The default run costs about
-52 s of CPU (56 commands, each a fresh ``uavplan`` process; the four simulated flights take
-5-8 s each at speedup 100): 2 min of wall time at load 6-8 on the shared 2-core machine.
+62 s of CPU (56 commands, each a fresh ``uavplan`` process; the four simulated flights take
+5-8 s each at speedup 100): 69 s of wall time at load 0.7 on the shared 2-core machine, 2 min
+at load 6-8.
 """
 
 from __future__ import annotations
