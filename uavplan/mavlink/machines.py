@@ -736,8 +736,10 @@ class DownloadMachine(Machine):
         #: floor of the item re-request interval, raised when the vehicle ends the download
         #: (see above and :meth:`_learn_from_end`)
         self.late_floor_s = 0.0
-        #: ends by the vehicle that did not show how late a request was
-        self.unexplained_ends = 0
+        #: ends by the vehicle whose error ACK was lost (they cannot be read)
+        self.silent_ends = 0
+        #: the fastest round trip of this download
+        self.fastest_s: float | None = None
         #: this attempt: when we first requested each seq, the seqs requested again, and
         #: when the last item came
         self.first_asked: dict[int, float] = {}
@@ -761,6 +763,11 @@ class DownloadMachine(Machine):
     def _request(self) -> MissionRequest:
         return MissionRequest(*self.target, self.seq, int(self.mission_type), int_form=True)
 
+    def _sample(self, round_trip_s: float) -> None:
+        self.rtt.add(round_trip_s)
+        if self.fastest_s is None or round_trip_s < self.fastest_s:
+            self.fastest_s = round_trip_s
+
     def _base_interval(self) -> float:
         """The item re-request interval before any back-off: the round trip's, or the floor."""
         t = self.timeouts
@@ -776,46 +783,44 @@ class DownloadMachine(Machine):
         """The vehicle ended the download on a request it did not expect (PX4 refuses any
         seq but its next one and the one it just sent): a late copy of one of our requests.
 
-        - An end whose timing shows how late that request was (:meth:`_end_lateness`) sets
-          the floor a quarter above that lateness: re-requests sent sooner are the
+        - An end whose error ACK shows how late that request was (:meth:`_end_lateness`)
+          sets the floor a quarter above that lateness: re-requests sent sooner are the
           duplicates that end downloads.
-        - Any other end leaves the interval as it is: a copy the link held back and
-          released right behind our next request, which no wait prevents. From the third
-          such end in one download on, each doubles the floor (the ends keep coming: their
-          lateness hides from us).
+        - An end whose ACK shows a copy the link held back and released behind our next
+          request, which no wait prevents, leaves the interval as it is.
+        - An end whose ACK was lost cannot be read. From the third such end in one download
+          on, each doubles the floor (the lateness hides from us).
 
         Never beyond ``item_s``, QGroundControl's fixed interval."""
         t = self.timeouts
+        if self.suspect is None:
+            self.silent_ends += 1
+            if self.silent_ends > 2:
+                self.late_floor_s = min(t.item_s, 2.0 * self._base_interval())
+            return
         late_s = self._end_lateness()
         if late_s > 0.0:
             self.late_floor_s = min(t.item_s, max(self.late_floor_s, 1.25 * late_s))
-            return
-        self.unexplained_ends += 1
-        if self.unexplained_ends > 2:
-            self.late_floor_s = min(t.item_s, 2.0 * self._base_interval())
 
     def _end_lateness(self) -> float:
-        """How late the request that ended the download was, if the end shows it (else 0).
+        """How late the request that ended the download was, as its error ACK shows (0 if
+        it shows none).
 
-        - An error ACK that came less than a round trip after the last item answers no
-          request we sent after that item: the vehicle refused something that reached it
-          right behind our request for that item, as a copy the link held back and
-          released with it does. No wait would have prevented that.
+        - An ACK that came right behind the last item (within two of the download's fastest
+          round trips: sooner than an answer to anything we sent after that item) was sent
+          with it: the vehicle refused something that reached it right behind our request
+          for that item, as a copy the link held back and released with it does.
         - Otherwise the request the vehicle refused is one we sent twice, its first copy
           late: the vehicle had moved past its seq. Of the seqs we asked twice, the latest
           gives the least lateness that explains the end: from our first request for it to
-          the error ACK (or, if the ACK was lost, to our first request for the item the
-          vehicle no longer answered).
+          the error ACK.
         """
         twice = [k for k in self.asked_again if k < self.seq]
         if not twice:
             return 0.0
-        ended = self.first_asked[self.seq]
-        if self.suspect is not None:
-            if self.seq > 0 and self.suspect_at - self.item_at < (self.rtt.srtt_s or 0.0):
-                return 0.0
-            ended = self.suspect_at
-        return max(0.0, ended - self.first_asked[max(twice)])
+        if self.suspect_at - self.item_at < 2.0 * (self.fastest_s or 0.0):
+            return 0.0
+        return max(0.0, self.suspect_at - self.first_asked[max(twice)])
 
     def _ask_item(self, seq: int, now: float) -> None:
         self.state = "WAIT_ITEM"
@@ -829,13 +834,15 @@ class DownloadMachine(Machine):
         self.deadline = now + self._item_interval()
 
     def _may_restart(self) -> bool:
-        """Within the retry budget. An attempt that got further than every one before it
-        does not spend the budget: on a link that ends downloads at random places (late
-        copies of requests), the reach of the attempts grows while the interval is learnt;
-        a vehicle that refuses at the same item every time is given up on after ``retries``
-        restarts, and one that lets each attempt go one item further after at most as many
-        restarts as the plan has items."""
-        return self.futile_restarts < self.timeouts.retries or self.seq > self.furthest
+        """Within the restart budget: ``2 x retries`` restarts after attempts that got no
+        further than an earlier one. An attempt that got further than every one before it
+        is free. A link that ends PX4 downloads at random places (a held-back or late copy
+        of a request, several per 200-item read-back on the lossy+flip link) makes most
+        attempts end short of the furthest; a vehicle that refuses at the same item every
+        time is given up on after ``1 + 2 x retries`` restarts, one that lets each attempt
+        go one item further after at most as many restarts as the plan has items."""
+        budget = 2 * self.timeouts.retries
+        return self.futile_restarts < budget or self.seq > self.furthest
 
     def _restart(self, now: float, result: MissionResult | int) -> None:
         """The vehicle ended the download: start over, or give up with its reason."""
@@ -944,7 +951,7 @@ class DownloadMachine(Machine):
         assert schedule is not None
         if isinstance(message, MissionCount):
             if schedule.sends == 1 and self.restarts == 0:
-                self.rtt.add(now - self.list_sent_at)
+                self._sample(now - self.list_sent_at)
             self.count = message.count
             if self.count == 0:
                 self._send(self._ack(MissionResult.ACCEPTED))
@@ -974,7 +981,7 @@ class DownloadMachine(Machine):
                 self.counters.ignored += 1  # duplicate or stale item
                 return
             if self.sends == 1:
-                self.rtt.add(now - self.first_sent)
+                self._sample(now - self.first_sent)
             try:
                 item = item_from_wire(message)
             except ValueError as err:
