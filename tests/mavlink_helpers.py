@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 
 from uavplan.mavlink.link import VehicleLink
-from uavplan.mavlink.mock_vehicle import MockConfig, MockVehicle
 from uavplan.mavlink.protocol import MissionClient, ProtocolTimeouts
 from uavplan.mission.items import (
     Autopilot,
@@ -30,6 +29,8 @@ from uavplan.mission.items import (
     MissionPlan,
     RallyPoint,
 )
+from uavplan.sim.mock import MockVehicle
+from uavplan.sim.vehicle import VehicleConfig
 
 #: timeouts for tests whose point is not the timing: short enough to fail fast
 FAST = ProtocolTimeouts.scaled(0.3, retries=3)
@@ -191,7 +192,7 @@ def for_autopilot(plan: MissionPlan, autopilot: Autopilot) -> MissionPlan:
 
 @contextlib.contextmanager
 def running_mock(
-    config: MockConfig | None = None, *, conn: str = "udpin:127.0.0.1:0"
+    config: VehicleConfig | None = None, *, conn: str = "udpin:127.0.0.1:0"
 ) -> Iterator[MockVehicle]:
     """A mock vehicle serving in a background thread; stopped and closed on exit."""
     vehicle = MockVehicle(conn, config)

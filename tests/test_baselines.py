@@ -60,7 +60,7 @@ def _problem(tmp_path_factory: pytest.TempPathFactory, text: str) -> PathProblem
     scn = load_scenario(path)
     cfg = scn.planner
     world = build_world(scn)
-    return PathProblem.build(world, scn.start_m, scn.goal_m, cfg.grid, cfg.energy)
+    return PathProblem.build(world, scn.start_m, scn.goal_m, scn.grid, cfg.energy)
 
 
 @pytest.fixture(scope="module")
@@ -85,7 +85,8 @@ def _initial_best(problem: PathProblem, seed: int) -> float:
 
 
 def test_every_paper_algorithm_is_registered() -> None:
-    assert set(available()) == {"spsa", "ssa", *BASELINES}
+    # and SPSA's numpy formulation (the compiled step's reference), so this suite runs it too
+    assert set(available()) == {"spsa", "ssa", *BASELINES, "spsa_numpy"}
 
 
 # --- contract suite over every planner ------------------------------------------------------
@@ -281,9 +282,7 @@ def test_baselines_improve_on_their_initial_population(name: str) -> None:
     does in 1000 — too slow for a unit test; the bench measures it."""
     scn = load_scenario(MISSIONS / "paper-env1.yaml")
     world = build_world(scn)
-    problem = PathProblem.build(
-        world, scn.start_m, scn.goal_m, scn.planner.grid, scn.planner.energy
-    )
+    problem = PathProblem.build(world, scn.start_m, scn.goal_m, scn.grid, scn.planner.energy)
     search = SearchParams(population=12, iterations=60, seed=4, fitness_smoothing=0)
     planner = make_planner(name, search)
     res = planner.solve(problem, np.random.default_rng(4))

@@ -4,10 +4,12 @@ geometry primitives, the cell grid, the random streams, the energy, and that a w
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -16,6 +18,7 @@ from uavplan import _ckernels, _geom
 from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
 from uavplan.path import energy
 from uavplan.planners import _kernels as K
+from uavplan.planners.proposal import Draw
 from uavplan.world import World
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -140,7 +143,7 @@ def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
         bounds_xyz=BOUNDS,
         margin_m=5.0,
     )
-    assert w.kernel_args[7][3] > 1  # a cell grid is in use
+    assert w.kernel_args.gmeta[3] > 1  # a cell grid is in use
     p0 = rng.uniform((-280, -280, 1), (280, 280, 100), (600, 3))
     p1 = np.vstack([rng.uniform((-280, -280, 1), (280, 280, 100), (300, 3)),
                     p0[300:] + rng.normal(0.0, 15.0, (300, 3))])  # fmt: skip
@@ -214,6 +217,63 @@ def test_points_clearance_is_the_minimum_over_pieces() -> None:
         assert which[i] == int(np.argmin(each))
 
 
+STRUCTURES = {
+    "world": _geom.KernelWorld,
+    "reach": K.Reach,
+    "energy": energy.EnergyArgs,
+    "cache": K.EnergyCache,
+    "setup": K.StepSetup,
+    "draws": K.StepDraws,
+}
+
+
+@pytest.mark.parametrize("name", sorted(STRUCTURES))
+def test_every_named_structure_has_the_fields_the_kernels_read(name: str) -> None:
+    """The kernels read their structures by field name (``_ckernels.FIELDS``, the tables of
+    uavplan/_csrc/args.c); the Python class of each has exactly those fields."""
+    read = {field for field, _kind, _ndim, _writable in _ckernels.FIELDS[name]}
+    cls = STRUCTURES[name]
+    fields = cls._fields if issubclass(cls, tuple) else [f.name for f in dataclasses.fields(cls)]
+    assert read == set(fields)
+    assert set(_ckernels.FIELDS) == set(STRUCTURES)
+
+
+def test_the_world_is_read_by_name_not_by_position() -> None:
+    """Any object with the world's fields will do, in any order; no tuple slot is read."""
+    w = sample_world()
+    names = [f.name for f in dataclasses.fields(_geom.KernelWorld)]
+    shuffled = SimpleNamespace(**{n: getattr(w.kernel_args, n) for n in reversed(names)})
+    rng = np.random.default_rng(2)
+    p0, p1 = rng.uniform(-200.0, 200.0, (2, 30, 3)) * [1.0, 1.0, 0.3] + [0.0, 0.0, 60.0]
+    out = np.empty(30, np.bool_)
+    _ckernels.segments_free(p0, p1, shuffled, 5.0, out)
+    assert np.array_equal(out, _geom.segments_free(p0, p1, w.kernel_args, 5.0))
+    assert 0 < out.sum() < 30
+
+
+def test_structures_bring_arrays_to_the_kernels_dtypes_but_never_copy_an_output() -> None:
+    w = sample_world()
+    world = dataclasses.replace(w.kernel_args, zlim=[0.0, 150.0])  # a list: converted once
+    assert world.zlim.dtype == np.float64 and world.zlim.flags.c_contiguous
+    cache = K.new_energy_cache(4, 8)
+    with pytest.raises(TypeError, match=r"cache\.values"):  # a copy would lose the kernel's writes
+        K.EnergyCache(cache.filled, cache.values.astype(np.float32), cache.paths)
+    with pytest.raises(TypeError, match=r"cache\.filled"):
+        K.EnergyCache(cache.filled[::2], cache.values, cache.paths)
+
+
+def test_the_constants_are_the_kernels_own() -> None:
+    """Read from the module, never written down twice (kernels.h is their one place)."""
+    assert (K.SPSA_START_END, K.SPSA_LITERAL, K.SPSA_POP_INDEX, K.SPSA_ESCAPE,
+            K.SPSA_OSCILLATE) == (1, 2, 4, 8, 16)  # fmt: skip
+    assert [int(d) for d in Draw] == [K.DRAW_NONE, K.DRAW_UNIFORM, K.DRAW_SYMMETRIC,
+                                      K.DRAW_NORMAL] == [0, 1, 2, 3]  # fmt: skip
+    assert K.new_memo().size == 1 << _ckernels.MEMO_BITS
+    assert K.STEP_THREADS_MAX == _ckernels.STEP_MAX_THREADS >= K.STEP_THREADS_AUTO_MAX
+    assert K.SPSA_EPS == 1e-50 and _geom.DIST_TOL_M == 1e-7
+    assert K.HAVE_THREADS == bool(_ckernels.HAVE_THREADS)
+
+
 def test_wrong_arrays_raise_clear_errors_not_crashes() -> None:
     w = sample_world()
     p = np.zeros((3, 3), dtype=np.float32)
@@ -226,6 +286,10 @@ def test_wrong_arrays_raise_clear_errors_not_crashes() -> None:
         _geom.point_piece_dist(0.0, 0.0, 0.0, 99, w.poly_xy, w.poly_n, w.poly_h, w.circ)
     with pytest.raises(TypeError, match="world"):
         _ckernels.segment_free(0.0, 0.0, 0.0, 1.0, 1.0, 1.0, (w.poly_xy,), 1.0)
+    with pytest.raises(TypeError, match="poly_n"):  # a field missing: named in the message
+        _ckernels.segment_free(
+            0.0, 0.0, 0.0, 1.0, 1.0, 1.0, SimpleNamespace(poly_xy=w.poly_xy), 1.0
+        )
 
 
 # -- random streams ----------------------------------------------------------------------------

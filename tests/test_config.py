@@ -251,7 +251,8 @@ def test_resolved_config_echoes_everything_a_run_needs(tmp_path: Path, algorithm
     assert p["algorithm"] == algorithm
     assert p["search"]["fitness_smoothing"] == (2 if algorithm == "spsa" else 0)
     assert set(p["search"]) == {f.name for f in dataclasses.fields(SearchParams)}
-    assert p["grid"] == {"dx": 20.0, "dy": 20.0, "dz": 10.0}
+    assert p["grid"] == {"dx": 20.0, "dy": 20.0, "dz": 10.0}  # the grid the run used
+    assert p["grid_fitted"] is True  # the scenario sets none: fitted (here the default)
     assert p["margin_pad_m"] == config.MARGIN_PAD_M
     assert set(p["post"]) >= {"simplify", "sample_step_m", "select"}
     assert p["postprocess"] is (algorithm == "spsa")
@@ -264,8 +265,10 @@ def test_resolved_config_echoes_everything_a_run_needs(tmp_path: Path, algorithm
     assert doc["safety_margin_m"] == 10.0
     assert doc["mission"] == {"autopilot": "ardupilot", "spacing_m": 60.0, "end": "rtl"}
     assert doc["start"] == [0.0, 0.0, 30.0]
-    # the planner part alone
-    assert resolved_config(scn.planner, algorithm) == {"planner": p}
+    # the planner part alone: without a scenario no flight volume to fit a grid to
+    alone = {**p, "grid": None}
+    del alone["grid_fitted"]
+    assert resolved_config(scn.planner, algorithm) == {"planner": alone}
 
 
 def test_resolved_config_rebuilds_the_same_planner_config(tmp_path: Path) -> None:
@@ -292,7 +295,10 @@ def test_table_lists_the_paper_algorithms() -> None:
     assert list(PLANNERS)[:6] == ["spsa", "ssa", "pso", "gwo", "de", "cso"]
     assert config.paper_algorithms() == ("spsa", "ssa", "pso", "gwo", "de", "cso")
     assert PLANNERS["spsa"].postprocess and PLANNERS["spsa"].fitness_smoothing == 2
-    assert not any(e.postprocess for n, e in PLANNERS.items() if n != "spsa")
+    # SPSA's numpy formulation is SPSA: the same search, the same post-processing
+    assert not any(e.postprocess for n, e in PLANNERS.items() if n not in ("spsa", "spsa_numpy"))
+    numpy_spsa = PLANNERS["spsa_numpy"]
+    assert numpy_spsa.postprocess and numpy_spsa.fitness_smoothing == 2 and not numpy_spsa.paper
 
 
 @pytest.mark.parametrize("name", ["grid", "options", "Bad", "with-dash", ""])

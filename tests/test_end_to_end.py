@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from terrain_helpers import flown_samples, raw_ground
 
 from uavplan.cli import main
 from uavplan.geo import EnuFrame
@@ -53,7 +54,7 @@ def independent_clearance(scenario, points: np.ndarray) -> np.ndarray:
     """Distance from each point (n, 3) to the nearest obstacle solid (ground to height)."""
     px, py, pz = points[:, 0], points[:, 1], points[:, 2]
     best = np.full(len(points), np.inf)
-    for obs in scenario.obstacles:
+    for obs in scenario.site.obstacles:  # standing on the ground over terrain
         if isinstance(obs, CylinderObstacle):
             dh = np.maximum(np.hypot(px - obs.center_m[0], py - obs.center_m[1]) - obs.radius_m, 0)
         else:
@@ -78,7 +79,7 @@ def independent_ground(scenario, frame: EnuFrame):
     cols = np.arange(z.shape[1]) + 0.5
     rows = np.arange(z.shape[0]) + 0.5
     interp = RegularGridInterpolator((rows, cols), z, method="linear")
-    datum = scenario.origin.alt_m
+    datum = scenario.site.origin.alt_m
 
     def ground_z(xy: np.ndarray) -> np.ndarray:
         xy = np.atleast_2d(xy)
@@ -111,22 +112,28 @@ def test_bundled_mission_flies_clear_of_every_obstacle(mission: Path, tmp_path: 
     plan = load_mission(out)
     assert plan.autopilot == scenario.mission.autopilot
     assert plan.items[0].command == MavCmd.NAV_TAKEOFF
-    frame = EnuFrame.at(scenario.origin)
-    ground_z = None if scenario.ground is None else independent_ground(scenario, frame)
+    site = scenario.site  # where the planner flies it (over a DEM: z above the datum)
+    frame = EnuFrame.at(site.origin)
+    ground_z = None if site.ground is None else independent_ground(scenario, frame)
     flown = mission_polyline_enu(plan, frame, ground_z)
     # the flown path starts on the ground at the start and reaches the goal
-    home_z = 0.0 if ground_z is None else float(ground_z(np.array([scenario.start_m[:2]]))[0])
-    assert np.allclose(flown[0], [*scenario.start_m[:2], home_z], atol=0.02)
-    assert np.min(np.linalg.norm(flown - np.array(scenario.goal_m), axis=1)) < 0.05
+    home_z = 0.0 if ground_z is None else float(ground_z(np.array([site.start_m[:2]]))[0])
+    assert np.allclose(flown[0], [*site.start_m[:2], home_z], atol=0.02)
+    assert np.min(np.linalg.norm(flown - np.array(site.goal_m), axis=1)) < 0.05
     clearance = independent_clearance(scenario, densify(flown, SAMPLE_M))
     assert clearance.min() >= scenario.safety_margin_m - SAMPLE_M / 2 - 0.02
     if ground_z is not None:
-        # over terrain the straight legs (not the climb from home) keep the margin above the
-        # DEM's surface, evaluated by scipy from the raw posts
-        legs = densify(flown[2:], SAMPLE_M)
-        agl = legs[:, 2] - ground_z(legs[:, :2])
+        # over terrain the legs in the air, as the autopilot flies them (terrain-frame legs
+        # over the ground: the flight rebuilt by the tests' own code), keep the margin above
+        # the DEM's surface, evaluated by scipy from the raw posts, and from the obstacles
+        amsl = raw_ground(scenario.terrain_file, frame)
+        samples, air = flown_samples(plan, frame, amsl, SAMPLE_M)
+        agl = samples[air, 2] - amsl(samples[air, :2])
         assert agl.min() >= scenario.safety_margin_m - 0.02
-        clearance = np.minimum(clearance.min(), agl.min())
+        in_site = samples[air] - np.array([0.0, 0.0, site.origin.alt_m])
+        obstacles = independent_clearance(scenario, in_site).min()
+        assert obstacles >= scenario.safety_margin_m - SAMPLE_M / 2 - 0.02
+        clearance = np.minimum(min(clearance.min(), obstacles), agl.min())
     # the report agrees with the independent check and has the SPEC's keys
     rep = json.loads(report.read_text())
     for key in (
@@ -146,7 +153,7 @@ def test_bundled_mission_flies_clear_of_every_obstacle(mission: Path, tmp_path: 
     assert rep["collision_free"] is True
     if ground_z is None:
         assert rep["min_clearance_m"] == pytest.approx(clearance.min(), abs=SAMPLE_M)
-    else:  # measured from the terrain's conservative solids: never more than the truth
+    else:  # measured exactly (a distance, not a height): never more than the truth
         assert rep["min_clearance_m"] <= float(np.min(clearance)) + SAMPLE_M
     assert len(rep["convergence"]) == rep["iterations"]
     assert set(rep["energy_terms"]) == {"path", "turning", "climb"}
@@ -206,15 +213,21 @@ def test_plan_exits_3_when_the_goal_is_walled_in(tmp_path: Path) -> None:
 
 def test_a_route_at_the_margin_still_keeps_it_after_file_rounding(tmp_path: Path) -> None:
     """Routes touch the margin; planning keeps 2 cm spare so the 8-decimal .waypoints file
-    (and MAVLink's 1e-7 degrees) still keep it when checked against the scenario."""
+    (and MAVLink's 1e-7 degrees) still keep it when checked against the scenario. (``plan``
+    itself now widens the margin until the flown track keeps it, so the route at the margin
+    comes from the planner's wiring and is written as ``plan`` writes it.)"""
+    from uavplan.app.feedback import PlannerOptions
+    from uavplan.mission.io import save_mission
+    from uavplan.planning import mission_for, plan_route
+
     mission = ROOT / "missions" / "paper-env2.yaml"
+    scenario = PlannerOptions(iterations=150).apply(load_scenario(mission))
+    route = plan_route(scenario).route
+    assert route is not None
     for ext in ("waypoints", "plan"):
         out = tmp_path / f"m.{ext}"
         runner = CliRunner()
-        result = runner.invoke(
-            main, ["plan", str(mission), "-o", str(out), "--iterations", "150", "--quiet"]
-        )
-        assert result.exit_code == 0, result.output
+        save_mission(mission_for(scenario, route), out)
         check = runner.invoke(main, ["validate", str(out), "--scenario", str(mission)])
         assert check.exit_code == 0, check.output
         assert "min clearance 10.0" in check.output

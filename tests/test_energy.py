@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -14,6 +15,7 @@ from scipy.interpolate import CubicSpline
 from uavplan.config import EnergyWeights
 from uavplan.path.energy import (
     N_SUB,
+    EnergyArgs,
     column_spline,
     energy_bounds,
     energy_of,
@@ -267,9 +269,9 @@ def test_population_energy_matches_energy_of_column_spline(
 # --- the lower bound greedy selection uses (energy_bounds) -----------------------------------
 
 
-def energy_tuple(d, rng, *, dx, dy, dz, n_sub, weights, smooth, straight):
-    """An energy tuple as PathProblem.energy_args builds it: straight columns, or a curved
-    guide (origins along a random bend, unit normals)."""
+def energy_args(d, rng, *, dx, dy, dz, n_sub, weights, smooth, straight):
+    """The energy's arguments as PathProblem.energy_args builds them: straight columns, or a
+    curved guide (origins along a random bend, unit normals)."""
     if straight:
         cols = straight_cols(d - 1, dx)
     else:
@@ -279,10 +281,7 @@ def energy_tuple(d, rng, *, dx, dy, dz, n_sub, weights, smooth, straight):
     start_yz = np.array([rng.uniform(-20.0, 20.0), rng.uniform(0.0, 100.0)])
     goal_yz = np.array([rng.uniform(-20.0, 20.0), rng.uniform(0.0, 100.0)])
     k0, k1, mu0, k2 = weights
-    return (
-        start_yz, goal_yz, np.ascontiguousarray(cols), dx, dy, dz, n_sub, k0, k1, mu0, k2,
-        smooth, straight,
-    )  # fmt: skip
+    return EnergyArgs(start_yz, goal_yz, cols, dx, dy, dz, n_sub, k0, k1, mu0, k2, smooth, straight)
 
 
 @settings(max_examples=80, deadline=None)
@@ -304,7 +303,7 @@ def test_energy_bound_never_exceeds_the_energy(
     must never reject a candidate whose energy is lower. Smoothed knots, curved guides and
     every sub-sampling included."""
     rng = np.random.default_rng(seed)
-    energy = energy_tuple(
+    energy = energy_args(
         d, rng, dx=dx, dy=dy, dz=dz, n_sub=n_sub, weights=weights, smooth=smooth,
         straight=straight,
     )  # fmt: skip
@@ -317,11 +316,11 @@ def test_energy_bound_never_exceeds_the_energy(
 
 def test_energy_bound_is_tight_on_a_straight_path_and_absent_for_negative_weights() -> None:
     rng = np.random.default_rng(3)
-    energy = energy_tuple(
+    energy = energy_args(
         10, rng, dx=20.0, dy=20.0, dz=10.0, n_sub=3, weights=(1.0, 1.0, 1.0, 1.0), smooth=2,
         straight=True,
     )  # fmt: skip
-    start_yz, goal_yz = energy[0], energy[1]
+    start_yz, goal_yz = energy.start_yz, energy.goal_yz
     t = np.arange(1, 10) / 10.0
     nodes = np.stack(
         [(start_yz[0] + (goal_yz[0] - start_yz[0]) * t) / 20.0,
@@ -330,5 +329,5 @@ def test_energy_bound_is_tight_on_a_straight_path_and_absent_for_negative_weight
     bound, exact = energy_bounds(nodes, energy)[0], energy_of(nodes, energy)[0]
     assert bound == pytest.approx(exact, rel=1e-9)
     assert bound > 200.0
-    negative = (*energy[:7], 1.0, -1.0, 1.0, 1.0, *energy[11:])
+    negative = dataclasses.replace(energy, k0=1.0, k1=-1.0, mu0=1.0, k2=1.0)
     assert energy_bounds(nodes, negative)[0] == -1.0

@@ -12,12 +12,16 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from uavplan import scenario as S
+from uavplan import geometry2d
 from uavplan.errors import ScenarioError
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
+from uavplan.scenario import checker, clearance, fields
+from uavplan.scenario import yamlfile as Y
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,7 +43,7 @@ def same(a: Any, b: Any) -> bool:
 
 def full(text: str) -> Any:
     try:
-        return S._load_full(text, "x.yaml", "scenario")
+        return Y.load_full(text, "x.yaml", "scenario")
     except ScenarioError as err:
         return ("error", str(err))
 
@@ -48,7 +52,7 @@ def read(text: str, tmp_path: Path) -> Any:
     path = tmp_path / "x.yaml"
     path.write_text(text, encoding="utf-8")
     try:
-        return S._read_yaml(path, "scenario")
+        return Y.read_yaml(path, "scenario")
     except ScenarioError as err:
         return ("error", str(err).replace(str(path), "x.yaml"))
 
@@ -148,11 +152,11 @@ def document(draw: Any) -> str:
 @settings(max_examples=120, deadline=None, suppress_health_check=list(HealthCheck))
 @given(document())
 def test_fast_lists_equal_the_full_loader(text: str) -> None:
-    S._FAST_MIN_ITEMS, saved = 1, S._FAST_MIN_ITEMS  # exercise it on short lists too
+    Y.FAST_MIN_ITEMS, saved = 1, Y.FAST_MIN_ITEMS  # exercise it on short lists too
     try:
-        fast = S._load_fast(text, "x.yaml")
+        fast = Y.load_fast(text, "x.yaml")
     finally:
-        S._FAST_MIN_ITEMS = saved
+        Y.FAST_MIN_ITEMS = saved
     reference = full(text)
     if fast is not None:
         assert same(fast, reference), (text, fast, reference)
@@ -164,7 +168,7 @@ def test_generated_lists_take_the_fast_path() -> None:
         f"  - {{type: box, center: [{k}, {k}.5], size: [1, 2], height: 3}}" for k in range(20)
     )
     text = f"name: a\nobstacles:\n{items}\nvia:\n- [1, 2, 3]\n"
-    fast = S._load_fast(text, "x.yaml")
+    fast = Y.load_fast(text, "x.yaml")
     assert fast is not None and same(fast, full(text))
     assert fast["obstacles"][3] == {"type": "box", "center": [3, 3.5], "size": [1, 2], "height": 3}
 
@@ -172,13 +176,13 @@ def test_generated_lists_take_the_fast_path() -> None:
 def test_a_short_document_does_not_compile_the_fast_patterns() -> None:
     """Fewer "- " than a fast list needs: declined before the patterns are compiled; the
     shortest qualifying list still takes the fast path."""
-    items = [f"- [{k}, 1]" for k in range(S._FAST_MIN_ITEMS)]
-    S._fast_patterns.cache_clear()
+    items = [f"- [{k}, 1]" for k in range(Y.FAST_MIN_ITEMS)]
+    Y.fast_patterns.cache_clear()
     short = "via:\n" + "\n".join(items[:-1]) + "\n"
-    assert S._load_fast(short, "x.yaml") is None
-    assert S._fast_patterns.cache_info().currsize == 0
+    assert Y.load_fast(short, "x.yaml") is None
+    assert Y.fast_patterns.cache_info().currsize == 0
     text = "via:\n" + "\n".join(items) + "\n"
-    fast = S._load_fast(text, "x.yaml")
+    fast = Y.load_fast(text, "x.yaml")
     assert fast is not None and same(fast, full(text))
 
 
@@ -206,7 +210,7 @@ def test_bundled_files_agree() -> None:
     taken = 0
     for path in files:
         text = path.read_text(encoding="utf-8")
-        fast = S._load_fast(text, str(path))
+        fast = Y.load_fast(text, str(path))
         if fast is not None:
             taken += 1
             assert same(fast, full(text)), path
@@ -260,10 +264,10 @@ def raw_obstacle(draw: Any) -> Any:
 @settings(max_examples=800, deadline=None)
 @given(raw_obstacle())
 def test_fast_obstacles_equal_the_checker(raw: Any) -> None:
-    fast = S._obstacle_fast(raw)
-    chk = S._Checker("x.yaml")
+    fast = fields.obstacle_fast(raw)
+    chk = checker.Checker("x.yaml")
     try:
-        reference = S._obstacle(chk, raw, "obstacles[0]")
+        reference = fields.obstacle(chk, raw, "obstacles[0]")
     except ScenarioError:
         assert fast is None
         return
@@ -276,10 +280,10 @@ def test_plain_obstacles_take_the_fast_path() -> None:
     box = {"type": "box", "center": [1, 2.5], "size": [3, 4], "height": 5, "yaw": 10}
     cyl = {"type": "cylinder", "center": [0, 0], "radius": 2, "height": 9.5}
     prism = {"type": "prism", "polygon": [[0, 0], [0, 4], [4, 4], [4, 0], [0, 0]], "height": 3}
-    chk = S._Checker("x.yaml")
+    chk = checker.Checker("x.yaml")
     for raw in (box, cyl, prism):
-        fast = S._obstacle_fast(raw)
-        assert fast is not None and fast == S._obstacle(chk, raw, "obstacles[0]")
+        fast = fields.obstacle_fast(raw)
+        assert fast is not None and fast == fields.obstacle(chk, raw, "obstacles[0]")
 
 
 def _reference_self_intersects(poly: list[tuple[float, float]]) -> bool:
@@ -308,19 +312,18 @@ def test_polygon_checks_match_the_plain_definitions(pts: list[tuple[int, int]]) 
     area = 0.5 * sum(
         poly[i][0] * poly[(i + 1) % n][1] - poly[(i + 1) % n][0] * poly[i][1] for i in range(n)
     )
-    assert S._signed_area(poly) == area
-    assert S._self_intersects_small(poly) == _reference_self_intersects(poly)
+    assert geometry2d.signed_area(poly) == area
+    assert geometry2d.self_intersects(poly, touching=False) == _reference_self_intersects(poly)
+    ring = np.asarray(poly)  # the array path gives the same answer as the plain loop
+    assert geometry2d.self_intersects(ring, touching=False) == _reference_self_intersects(poly)
 
 
-def test_plain_python_clearances_match_the_numpy_ones() -> None:
-    """Small scenarios are checked without numpy (`validate` starts faster); the distances
-    are the numpy footprints' own, obstacle by obstacle."""
-    import numpy as np
-
-    from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
-
-    rng = np.random.default_rng(5)
+def test_the_plain_python_cull_never_hides_a_close_obstacle() -> None:
+    """Small scenarios are checked without numpy (`validate` starts faster) when every
+    obstacle's bounding box is far enough; the cull must never call a point clear that an
+    obstacle is closer to than the reach, and otherwise the exact distance decides."""
     obstacles: list[Any] = []
+    rng = np.random.default_rng(5)
     for k in range(40):
         x, y, h = rng.uniform(-300, 300), rng.uniform(-300, 300), rng.uniform(5, 100)
         if k % 3 == 0:
@@ -331,13 +334,40 @@ def test_plain_python_clearances_match_the_numpy_ones() -> None:
         else:
             ring = ((x, y), (x + 30, y), (x + 30, y + 10), (x + 10, y + 10), (x + 10, y + 40))
             obstacles.append(PrismObstacle((*ring, (x, y + 40)), h))
-    fp = S._Footprints(obstacles)
+    fp = clearance.Footprints(obstacles)
+    culled = 0
     for _ in range(300):
         p = (rng.uniform(-350, 350), rng.uniform(-350, 350), rng.uniform(1, 150))
-        ref = fp.horizontal(p[:2])
-        mine = [S._horizontal_small(o, p[0], p[1]) for o in obstacles]
-        assert np.allclose(mine, ref, rtol=0, atol=1e-9)
-        dist, index = S._point_clearance(obstacles, p)
-        full = np.hypot(ref, np.maximum(p[2] - fp.heights, 0.0))
-        assert dist == pytest.approx(float(full.min()), abs=1e-9)
-        assert full[index] == pytest.approx(float(full.min()), abs=1e-9)
+        exact = np.hypot(fp.horizontal(p[:2]), np.maximum(p[2] - fp.heights, 0.0))
+        reach = float(rng.uniform(1, 60))
+        dist, index = clearance.point_clearance(obstacles, p, within_m=reach)
+        if index < 0:
+            culled += 1
+            assert float(exact.min()) >= reach
+        else:
+            assert dist == pytest.approx(float(exact.min()), abs=1e-12)
+        column, c_index = clearance.column_clearance(obstacles, p[:2], within_m=reach)
+        if c_index < 0:
+            assert float(fp.horizontal(p[:2]).min()) >= reach
+        else:
+            assert column == pytest.approx(float(fp.horizontal(p[:2]).min()), abs=1e-12)
+    assert culled > 0  # the cull does decide some points
+
+
+def test_footprint_distances_match_the_world() -> None:
+    """The one footprint-distance routine agrees with an independent one (geometry2d's
+    per-polygon distance, and circles by hand)."""
+    rng = np.random.default_rng(7)
+    obstacles: list[Any] = [
+        BoxObstacle((10.0, 20.0), (30.0, 12.0), 40.0, 33.0),
+        CylinderObstacle((-50.0, 5.0), 9.0, 10.0),
+        PrismObstacle(((0.0, -80.0), (40.0, -80.0), (40.0, -60.0), (20.0, -70.0)), 15.0),
+    ]
+    fp = clearance.Footprints(obstacles)
+    for _ in range(200):
+        xy = rng.uniform(-120, 120, 2)
+        got = fp.horizontal(xy)
+        box = geometry2d.points_polygon_distance(xy, obstacles[0].footprint())[0]
+        cyl = max(float(np.hypot(*(xy - (-50.0, 5.0)))) - 9.0, 0.0)
+        prism = geometry2d.points_polygon_distance(xy, obstacles[2].polygon_m)[0]
+        assert np.allclose(got, [box, cyl, prism], rtol=0, atol=1e-9)

@@ -184,8 +184,9 @@ def test_zones_by_hand() -> None:
     assert fence.circles[0].radius_m == pytest.approx(30.0)
     assert z[2].polygon_enu is not None
     assert built.item_count == 4 + 4 + len(z[2].polygon_enu) + 1
-    assert "obstacles 1 flown over" in built.summary()
-    assert any("obstacles 2" in note for note in built.notes())
+    assert "1 obstacle flown over (the route at least 10.0 m above its top)" in built.summary()
+    shrunk = f"1 fenced obstacle: its zone reaches {z[2].offset_m:.1f} m beyond the footprint"
+    assert any(shrunk in note for note in built.notes())
 
 
 def test_fence_vertices_are_the_enu_zones_in_wgs84_clockwise() -> None:
@@ -227,7 +228,9 @@ def test_the_item_budget_keeps_the_zones_nearest_the_route() -> None:
     assert kept == [0, 1, 2]  # nearest three: 40, 50, 60 m from the route (minus half size)
     assert built.with_status(ZoneStatus.OVER_LIMIT) == list(range(3, 10))
     assert built.item_count == 16
-    assert "3-9 left out (over the 16-item limit)" in built.summary()
+    summary = built.summary()
+    assert "3 exclusion zones (3 polygons, up to 50.0 m from the route)" in summary
+    assert "7 obstacles left out (over the 16-item limit; the nearest 60.0 m from" in summary
 
 
 def test_forty_obstacles_still_fit_px4s_fence_storage() -> None:
@@ -297,8 +300,149 @@ def test_fence_is_capped_at_63_items_for_px4_before_1_15() -> None:
     assert built.item_count == 60 <= 63
     # the farthest zones first to go: odd boxes are 100 m farther; the last of them is dropped
     assert built.with_status(ZoneStatus.OVER_LIMIT) == [13]
-    assert "left out (over the 63-item limit)" in built.summary()
+    assert "1 obstacle left out (over the 63-item limit;" in built.summary()
     assert "60 of at most 63 fence items" in built.summary()
+
+
+def _random_footprints(rng: np.random.Generator, n: int, span: float) -> list[Footprint]:
+    """Boxes (rotated), L-shaped prisms, triangles and circles scattered over ``span``."""
+    out: list[Footprint] = []
+    for i in range(n):
+        cx, cy = rng.uniform(-span, span, 2)
+        kind = i % 4
+        if kind == 0:
+            out.append(circle(i, cx, cy, rng.uniform(1, 20), 30))
+        elif kind == 1:
+            out.append(box(i, cx, cy, *rng.uniform(2, 40, 2), 30, yaw=rng.uniform(-90, 90)))
+        elif kind == 2:
+            w, d = rng.uniform(5, 40, 2)
+            ring = [(0, 0), (w, 0), (w, d / 2), (w / 2, d / 2), (w / 2, d), (0, d)]
+            out.append(Footprint(i, "prism", 30, ring_enu=tuple((cx + x, cy + y) for x, y in ring)))
+        else:
+            tri = rng.uniform(-25, 25, (3, 2)) + np.array([cx, cy])
+            u, v = tri[1] - tri[0], tri[2] - tri[0]
+            if abs(u[0] * v[1] - u[1] * v[0]) < 1.0:
+                tri[2] += (10.0, 10.0)
+            out.append(Footprint(i, "prism", 30, ring_enu=tuple(map(tuple, tri))))
+    return out
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_route=st.integers(1, 30))
+def test_route_distances_of_all_footprints_at_once_equal_them_one_by_one(
+    seed: int, n_route: int
+) -> None:
+    """The vectorised distances (pruned to the segments that can be nearest) are the
+    per-footprint ones: polygon by polygon with every segment, circles by their centre."""
+    from uavplan.geometry2d import (
+        point_segment_distance,
+        polyline_segments,
+        segments_polygon_distance,
+    )
+    from uavplan.mission.fence import route_distances
+
+    rng = np.random.default_rng(seed)
+    footprints = _random_footprints(rng, 60, 400.0)
+    route = np.column_stack([rng.uniform(-450, 450, (n_route, 2)), np.full(n_route, 30.0)])
+    seg_a, seg_b = polyline_segments(route)
+    got = route_distances(footprints, seg_a, seg_b)
+    for fp, d in zip(footprints, got, strict=True):
+        if fp.is_circle:
+            c = np.asarray(fp.center_enu)[None]
+            want = max(float(point_segment_distance(c, seg_a, seg_b).min()) - fp.radius_m, 0.0)
+        else:
+            want = float(segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
+        assert d == pytest.approx(want, abs=1e-9)
+
+
+def _fence_built_zone_by_zone(
+    footprints: list[Footprint], route: np.ndarray, margin: float, max_items: int
+) -> list[tuple[ZoneStatus, int]]:
+    """The fence's decisions as they were made before zones were built lazily: every zone
+    built, then the nearest first while the item budget holds them (the oracle)."""
+    from uavplan.geometry2d import (
+        point_segment_distance,
+        polyline_segments,
+        segments_polygon_distance,
+    )
+    from uavplan.mission import fence as F
+
+    seg_a, seg_b = polyline_segments(route)
+    samples = F.densify(route, F.SAMPLE_STEP_M)
+    zones = []
+    for fp in footprints:
+        if fp.is_circle:
+            c = np.asarray(fp.center_enu)[None]
+            d = max(float(point_segment_distance(c, seg_a, seg_b).min()) - fp.radius_m, 0.0)
+        else:
+            d = float(segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
+        if d < margin - F.DISTANCE_TOL_M:
+            low = F._height_above_top(fp, samples, margin)
+            status = ZoneStatus.FLOWN_OVER if low >= -F.DISTANCE_TOL_M else ZoneStatus.TOO_CLOSE
+            zones.append(F.ObstacleZone(fp.index, status, d))
+        else:
+            zones.append(F._zone(fp, d, seg_a, seg_b, margin, F.ROUTE_GAP_M))
+    budget = max_items - 4
+    out = [(z.status, z.item_count) for z in zones]
+    for z in sorted(
+        (z for z in zones if z.status is ZoneStatus.EXCLUDED),
+        key=lambda z: (z.route_distance_m, z.index),
+    ):
+        if z.item_count <= budget:
+            budget -= z.item_count
+        else:
+            out[z.index] = (ZoneStatus.OVER_LIMIT, 0)
+    return out
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), max_items=st.sampled_from([8, 20, 63, 200]))
+def test_lazily_built_zones_decide_as_building_every_zone_does(seed: int, max_items: int) -> None:
+    """Zones are built nearest first only while the budget could hold them; the statuses
+    and the fence are those of building every zone and then choosing (the old way)."""
+    rng = np.random.default_rng(seed)
+    footprints = _random_footprints(rng, 80, 500.0)
+    route = np.array([[-480.0, -20.0, 0.0], [-480.0, -20.0, 40.0], [0.0, 30.0, 40.0],
+                      [480.0, -10.0, 40.0]])  # fmt: skip
+    margin = float(rng.choice([1.0, 5.0, 10.0]))
+    built = build_geofence(
+        footprints, route, FRAME, bounds_xy_m=((-600, 600), (-600, 600)), margin_m=margin,
+        max_items=max_items,
+    )  # fmt: skip
+    want = _fence_built_zone_by_zone(footprints, route, margin, max_items)
+    assert [z.status for z in built.zones] == [s for s, _ in want]
+    fenced = [z.item_count for z in built.zones if z.status is ZoneStatus.EXCLUDED]
+    assert fenced == [n for s, n in want if s is ZoneStatus.EXCLUDED]
+
+
+def test_a_district_fence_summary_gives_counts_and_sizes_not_obstacle_lists() -> None:
+    """5,000 buildings on a street grid: the summary is one short line of counts and
+    distances, whatever the map's size (it used to list every obstacle index)."""
+    footprints = [
+        box(k, (k % 71 - 35) * 40.0, (k // 71 - 35) * 40.0, 20, 20, 10 + 60 * (k % 5 == 0))
+        for k in range(5000)
+    ]
+    route = np.array([[-1380.0, -1380.0, 0.0], [-1380.0, -1380.0, 40.0], [1380, 1380, 40.0]])
+    built = build_geofence(
+        footprints, route, FRAME, bounds_xy_m=((-1500, 1500), (-1500, 1500)), margin_m=5.0
+    )
+    summary = built.summary()
+    assert len(summary) < 400, summary
+    counts = {s: len(built.with_status(s)) for s in ZoneStatus}
+    assert sum(counts.values()) == 5000
+    assert counts[ZoneStatus.OVER_LIMIT] > 4000 and counts[ZoneStatus.FLOWN_OVER] > 0
+    assert f"{counts[ZoneStatus.OVER_LIMIT]:,} obstacles left out" in summary
+    assert f"{counts[ZoneStatus.FLOWN_OVER]:,} obstacles flown over" in summary
+    assert f"{counts[ZoneStatus.TOO_CLOSE]:,} obstacles too close" in summary
+    assert f"{counts[ZoneStatus.EXCLUDED]} exclusion zones" in summary
+    assert built.item_count <= DEFAULT_MAX_ITEMS
+    # the sizes: how far the fenced and the nearest left-out obstacles are from the route
+    fenced = [z.route_distance_m for z in built.zones if z.status is ZoneStatus.EXCLUDED]
+    left = [z.route_distance_m for z in built.zones if z.status is ZoneStatus.OVER_LIMIT]
+    assert f"up to {max(fenced):.1f} m from the route" in summary
+    assert f"the nearest {min(left):.1f} m from the route" in summary
+    for note in built.notes():
+        assert len(note) < 300
 
 
 def test_fence_takes_obstacle_values_or_footprints_alike() -> None:
@@ -477,13 +621,13 @@ def test_the_fence_round_trips_through_the_mock_vehicle(
 ) -> None:
     from mavlink_helpers import client_conn, running_mock
 
-    from uavplan.mavlink.mock_vehicle import MockConfig
+    from uavplan.sim.vehicle import VehicleConfig
 
     _, plan_path, _ = fenced_plan
     plan = load_mission(plan_path)
     runner = CliRunner()
     back_path = tmp_path / "back.plan"
-    with running_mock(MockConfig(autopilot=autopilot, home=plan.home)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=autopilot, home=plan.home)) as vehicle:
         conn = client_conn(vehicle)
         result = runner.invoke(main, ["upload", str(plan_path), "--conn", conn])
         assert result.exit_code == 0, result.output

@@ -52,8 +52,8 @@ from click.testing import CliRunner, Result
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import uavplan.cli.link_cmd as link_cmd
-import uavplan.cli.plan_cmd as plan_cmd
+import uavplan.app.check as app_check
+import uavplan.app.link as app_link
 from uavplan.cli import main
 from uavplan.errors import LinkError, MissionFileError
 from uavplan.geo import EnuFrame, GeoPoint
@@ -484,19 +484,19 @@ def fuzz_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, Path]
     upload connection that fails before it opens anything."""
     scenario = tmp_path / "scenario.yaml"
     scenario.write_text(SCENARIO_YAML, encoding="utf-8")
-    loaded = plan_cmd._load_scenario(str(scenario))
+    loaded = app_check.load_scenario(str(scenario))
 
     def cached_scenario(path: str) -> Any:
         # the scenario is the same file every time; only the mission file is fuzzed
         return loaded if path == str(scenario) else _original_load(path)
 
-    _original_load = plan_cmd._load_scenario
-    monkeypatch.setattr(plan_cmd, "_load_scenario", cached_scenario)
+    _original_load = app_check.load_scenario
+    monkeypatch.setattr(app_check, "load_scenario", cached_scenario)
 
     def no_connect(*_args: Any, **_kwargs: Any) -> Any:
         raise LinkError(STOPPED, step="connect")
 
-    monkeypatch.setattr(link_cmd, "_connect", no_connect)
+    monkeypatch.setattr(app_link, "_connect", no_connect)
     monkeypatch.setattr(os, "fsync", lambda _fd: None)
     out = tmp_path / "out"
     out.mkdir()

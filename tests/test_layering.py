@@ -1,20 +1,27 @@
-"""The dependency rules of the architecture (STYLE.md), checked on the source.
+"""The dependency rules of the architecture (STYLE.md, docs/architecture.md), checked on the
+source.
 
 Every module of the package belongs to one layer; a layer may import only the layers listed
 for it in :data:`ALLOWED`. Every import counts: module level, inside functions and under
 ``if TYPE_CHECKING:`` alike (a type-only import still couples the layers). From the bottom:
 
-* vocabulary — errors, geo (EnuFrame, GeoPoint), obstacles, route (PlannedRoute), config
-  (parameters and the planner table), geometry2d, fileio: imports nothing above it;
+* vocabulary — errors, geo (EnuFrame, GeoPoint), obstacles, ground (the terrain's solids),
+  route (PlannedRoute), outcome (how a search ended, why a route failed), config (parameters
+  and the planner table), geometry2d, fileio: imports nothing above it;
 * world (+ the _geom kernels) → path → planners: know nothing of files, missions or MAVLink;
 * mission (items, builder, files, fence, exports): knows nothing of optimisers or MAVLink;
 * mavlink: the mission vocabulary only; pymavlink lives in one module of it;
+* sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
-* scenario (the YAML reader): vocabulary and sources;
-* wiring (planning, bench, render): everything but the CLI;
+* scenario (the YAML reader and the checked scenario values): vocabulary and sources;
+* wiring (planning, flight, estimate, wayhome/, reroute, bench, render): everything but
+  the application and CLI;
+* app (the use cases): everything but the CLI;
 * cli: thin; nothing imports it.
 
-``test_the_checker_catches_an_upward_import`` shows the check can fail.
+Two more rules: no CLI command module imports another (the shared support, ``cli/common.py``
+and ``cli/options.py``, is imported by commands and imports no command), and the modules
+import each other without a cycle. Each rule has a test of the test that shows it can fail.
 """
 
 from __future__ import annotations
@@ -36,23 +43,39 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "errors.py",
         "geo.py",
         "obstacles.py",
+        "ground.py",
         "route.py",
+        "outcome.py",
         "config.py",
         "geometry2d.py",
         "fileio.py",
+        "vehicle/*.py",
+        "limits.py",
     ),
     "world": ("world.py", "_geom.py"),
     "path": ("path/*.py",),
     "planners": ("planners/*.py", "warmup.py"),
     "mission": ("mission/*.py",),
     "mavlink": ("mavlink/*.py",),
+    "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
-    "scenario": ("scenario.py",),
-    "wiring": ("planning.py", "bench/*.py", "render.py", "reroute.py"),
+    "scenario": ("scenario/*.py",),
+    "wiring": (
+        "planning.py",
+        "flight.py",
+        "wayhome/*.py",
+        "estimate.py",
+        "bench/*.py",
+        "render.py",
+        "reroute.py",
+        "airspace.py",
+        "rehearsal.py",
+    ),
+    "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),
 }
 
-_BELOW_WIRING = {"vocabulary", "world", "path", "planners", "mission", "mavlink", "sources"}
+_BELOW_WIRING = {"vocabulary", "world", "path", "planners", "mission", "mavlink", "sim", "sources"}
 
 #: layer → the layers its modules may import
 ALLOWED: dict[str, set[str]] = {
@@ -62,11 +85,16 @@ ALLOWED: dict[str, set[str]] = {
     "planners": {"vocabulary", "world", "path", "planners"},
     "mission": {"vocabulary", "mission"},
     "mavlink": {"vocabulary", "mission", "mavlink"},
+    "sim": {"vocabulary", "mission", "mavlink", "sim"},
     "sources": {"vocabulary", "sources"},
     "scenario": {"vocabulary", "sources", "scenario"},
     "wiring": _BELOW_WIRING | {"scenario", "wiring"},
-    "cli": _BELOW_WIRING | {"scenario", "wiring", "cli"},
+    "app": _BELOW_WIRING | {"scenario", "wiring", "app"},
+    "cli": _BELOW_WIRING | {"scenario", "wiring", "app", "cli"},
 }
+
+#: the CLI's shared support: commands import it, it imports no command
+CLI_SUPPORT = ("__init__.py", "common.py", "options.py")
 
 #: third-party modules allowed only in these files (relative to the package)
 CONFINED = {"pymavlink": ("mavlink/connection.py",)}
@@ -143,6 +171,61 @@ def violations(root: Path) -> list[str]:
     return found
 
 
+def command_imports(root: Path) -> list[str]:
+    """Every import of a CLI command module by a module under ``cli/``: a command importing
+    another command, or the shared support (:data:`CLI_SUPPORT`) importing one."""
+    cli = root / "cli"
+    commands = {
+        module_name(path, root) for path in cli.glob("*.py") if path.name not in CLI_SUPPORT
+    }
+    found = []
+    for path in sorted(cli.glob("*.py")):
+        for name in sorted(imports_of(path, root) & commands):
+            if name != module_name(path, root):
+                found.append(f"cli/{path.name} imports {name}")
+    return found
+
+
+def import_cycles(root: Path) -> list[list[str]]:
+    """The import cycles among the package's modules (every import counts, as above): each
+    strongly connected component of more than one module, sorted."""
+    paths = {module_name(p, root): p for p in root.rglob("*.py") if "__pycache__" not in p.parts}
+    graph = {
+        m: sorted(i for i in imports_of(p, root) if i in paths and i != m) for m, p in paths.items()
+    }
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles: list[list[str]] = []
+
+    def visit(v: str) -> None:  # Tarjan's algorithm
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for module in sorted(graph):
+        if module not in index:
+            visit(module)
+    return sorted(cycles)
+
+
 def test_every_import_follows_the_layers() -> None:
     assert violations(PKG) == []
 
@@ -184,3 +267,50 @@ def test_import_uavplan_is_light() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_no_command_imports_another() -> None:
+    assert command_imports(PKG) == []
+
+
+def test_the_checker_catches_a_command_importing_a_command(tmp_path: Path) -> None:
+    """A test of the test: in a copy of the package, a command imports another inside a
+    function (as render took plan's helpers) and the shared support imports a command."""
+    root = tmp_path / "uavplan"
+    shutil.copytree(PKG, root, ignore=shutil.ignore_patterns("__pycache__"))
+    render = root / "cli" / "render_cmd.py"
+    render.write_text(
+        render.read_text(encoding="utf-8")
+        + "\n\ndef _late():\n    from uavplan.cli.plan_cmd import plan_command\n",
+        encoding="utf-8",
+    )
+    common = root / "cli" / "common.py"
+    common.write_text(
+        common.read_text(encoding="utf-8") + "\n\nfrom uavplan.cli import check_cmd\n",
+        encoding="utf-8",
+    )
+    assert command_imports(root) == [
+        "cli/common.py imports uavplan.cli.check_cmd",
+        "cli/render_cmd.py imports uavplan.cli.plan_cmd",
+    ]
+    assert violations(root) == []  # the layers alone would not see it
+
+
+def test_no_import_cycle() -> None:
+    assert import_cycles(PKG) == []
+
+
+def test_the_checker_catches_an_import_cycle(tmp_path: Path) -> None:
+    """A test of the test: in a copy of the package, the scenario's loader imports its values
+    inside a function, which import the loader: a cycle within one layer, which the layer
+    rules allow and this check must catch."""
+    root = tmp_path / "uavplan"
+    shutil.copytree(PKG, root, ignore=shutil.ignore_patterns("__pycache__"))
+    load = root / "scenario" / "load.py"
+    load.write_text(
+        load.read_text(encoding="utf-8")
+        + "\n\ndef _late():\n    from uavplan.scenario.values import Scenario\n",
+        encoding="utf-8",
+    )
+    assert import_cycles(root) == [["uavplan.scenario.load", "uavplan.scenario.values"]]
+    assert violations(root) == []

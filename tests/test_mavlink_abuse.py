@@ -39,7 +39,6 @@ from uavplan.mavlink.messages import (
     MissionResult,
     Received,
 )
-from uavplan.mavlink.mock_vehicle import MockConfig, MockVehicle
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import (
@@ -52,6 +51,8 @@ from uavplan.mission.items import (
     MissionType,
     RallyPoint,
 )
+from uavplan.sim.mock import MockVehicle
+from uavplan.sim.vehicle import VehicleConfig
 
 pytestmark = pytest.mark.timeout(60)
 AUTOPILOTS = [Autopilot.PX4, Autopilot.ARDUPILOT]
@@ -135,7 +136,7 @@ def _gcs(
 def test_mock_keeps_serving_through_hostile_packets(autopilot: Autopilot) -> None:
     old = synthetic_mission(6, seed=401, autopilot=autopilot)
     new = synthetic_mission(9, seed=402, autopilot=autopilot)
-    with running_mock(MockConfig(autopilot=autopilot)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=autopilot)) as vehicle:
         vehicle.preload(MissionType.MISSION, plan_wire_items(old, MissionType.MISSION, autopilot))
         stored_before = vehicle.wire_items(MissionType.MISSION)
         host, port = vehicle.address

@@ -15,7 +15,6 @@ import socket
 import pytest
 from mavlink_helpers import FAST
 
-from uavplan.mavlink.chaos import invariant_problem, run_upload
 from uavplan.mavlink.connection import MavlinkConnection
 from uavplan.mavlink.faultproxy import (
     MISSION_MESSAGE_IDS,
@@ -25,6 +24,7 @@ from uavplan.mavlink.faultproxy import (
 )
 from uavplan.mavlink.messages import Heartbeat, MissionCount
 from uavplan.mission.items import Autopilot
+from uavplan.sim.chaos import invariant_problem, run_upload
 
 RUNS = int(os.environ.get("UAVPLAN_CHAOS_RUNS", "1"))
 N_ITEMS = int(os.environ.get("UAVPLAN_CHAOS_ITEMS", "100"))

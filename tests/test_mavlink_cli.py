@@ -15,15 +15,11 @@ from mavlink_helpers import client_conn, running_mock, synthetic_mission
 
 from uavplan.cli import main
 from uavplan.mavlink.messages import MissionResult
-from uavplan.mavlink.mock_vehicle import (
-    MISSION_PROTOCOL_MESSAGES,
-    LinkFaults,
-    MissionFaults,
-    MockConfig,
-)
 from uavplan.mavlink.transfer import compare_items, plan_wire_items
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType, items_equal
+from uavplan.sim.faults import MISSION_PROTOCOL_MESSAGES, Faults
+from uavplan.sim.vehicle import VehicleConfig
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -60,12 +56,76 @@ def test_upload_waypoints_to_ardupilot_with_mavsdk_url(tmp_path: Path) -> None:
     plan = synthetic_mission(30, seed=92, autopilot=Autopilot.ARDUPILOT)
     path = tmp_path / "mission.waypoints"
     save_mission(plan, path)
-    with running_mock(MockConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         url = client_conn(vehicle).replace("udpout:", "udpout://")
         result = run("upload", str(path), "--conn", url, "--no-verify", "--target-system", "1")
         assert result.exit_code == 0, result.output
         assert "not verified" in result.stdout
         assert len(vehicle.items(MissionType.MISSION)) == len(plan.items) + 1
+
+
+def test_upload_and_download_count_an_ardupilot_mission_the_same_way(tmp_path: Path) -> None:
+    """ArduPilot keeps home as mission item 0: upload used to count it (41 items) and
+    download not (40) for the same mission. Both now count the plan's items and name the
+    home."""
+    plan = synthetic_mission(30, seed=94, autopilot=Autopilot.ARDUPILOT)
+    path = tmp_path / "mission.waypoints"
+    save_mission(plan, path)
+    n = len(load_mission(path).items)
+    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+        up = run("upload", str(path), "--conn", client_conn(vehicle))
+        back = tmp_path / "back.waypoints"
+        down = run("download", "--conn", client_conn(vehicle), "-o", str(back))
+        stored = len(vehicle.items(MissionType.MISSION))
+    assert up.exit_code == 0 and down.exit_code == 0, up.output + down.output
+    assert stored == n + 1  # the home on the vehicle
+    home = "(and home, ArduPilot's mission item 0)"
+    assert f"uploaded {n} mission items {home} to system 1" in up.stdout
+    assert f"downloaded {n} mission items {home} from system 1" in down.stdout
+    assert len(load_mission(back).items) == n
+
+
+def test_a_download_that_fails_leaves_no_file(tmp_path: Path) -> None:
+    out = tmp_path / "onboard.plan"
+    with running_mock(VehicleConfig(send_heartbeats=False)) as vehicle:
+        result = run(
+            "download", "--conn", client_conn(vehicle), "-o", str(out), "--heartbeat-timeout",
+            "0.3",
+        )  # fmt: skip
+    assert result.exit_code == 4, result.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_download_into_a_missing_folder_is_exit_2_before_connecting(tmp_path: Path) -> None:
+    """The output is checked first: no vehicle is needed to be told."""
+    result = run("download", "--conn", "udpout:127.0.0.1:9", "-o", str(tmp_path / "no" / "x.plan"))
+    assert result.exit_code == 2, result.output
+    assert "does not exist" in result.stderr and "HEARTBEAT" not in result.stderr
+
+
+@pytest.mark.parametrize("command", ["upload", "convert", "mock-vehicle"])
+@pytest.mark.parametrize("suffix", [".geojson", ".kml", ".xyz"])
+def test_mission_readers_list_only_the_formats_they_read(
+    tmp_path: Path, command: str, suffix: str
+) -> None:
+    """upload, convert and mock-vehicle --mission listed .geojson and .kml among the files
+    to give them, then refused those: a map export is written, not read."""
+    source = tmp_path / f"m{suffix}"
+    source.write_text("{}")
+    args = {
+        "upload": ["upload", str(source), "--conn", "udpout:127.0.0.1:9"],
+        "convert": ["convert", str(source), str(tmp_path / "o.plan")],
+        "mock-vehicle": ["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--mission", str(source)],
+    }[command]
+    result = run(*args)
+    assert result.exit_code == 2, result.output
+    line = result.stderr.strip()
+    assert line.startswith(f"error: {source}") and len(line.splitlines()) == 1
+    listed = line.rsplit("one of ", 1)[1]
+    assert ".plan" in listed and ".waypoints" in listed
+    assert ".geojson" not in listed and ".kml" not in listed
+    if suffix != ".xyz":
+        assert "map export" in line
 
 
 @pytest.mark.parametrize("suffix", [".plan", ".waypoints"])
@@ -74,7 +134,7 @@ def test_download_into_a_file(suffix: str, tmp_path: Path) -> None:
         33, seed=93, autopilot=Autopilot.ARDUPILOT, with_fence=True, with_rally=True
     )
     out = tmp_path / f"back{suffix}"
-    with running_mock(MockConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         for mission_type in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
             vehicle.preload(mission_type, plan_wire_items(plan, mission_type, Autopilot.ARDUPILOT))
         result = run("download", "--conn", client_conn(vehicle), "-o", str(out))
@@ -104,7 +164,7 @@ def test_clear_all(plan_file: tuple[Path, MissionPlan]) -> None:
 
 def test_no_heartbeat_exits_4_with_one_clear_line(plan_file: tuple[Path, MissionPlan]) -> None:
     path, _ = plan_file
-    with running_mock(MockConfig(send_heartbeats=False)) as vehicle:
+    with running_mock(VehicleConfig(send_heartbeats=False)) as vehicle:
         result = run(
             "upload", str(path), "--conn", client_conn(vehicle), "--heartbeat-timeout", "0.5"
         )
@@ -117,7 +177,7 @@ def test_total_loss_exits_4_in_bounded_time_naming_the_step(
     plan_file: tuple[Path, MissionPlan],
 ) -> None:
     path, _ = plan_file
-    config = MockConfig(link_faults=LinkFaults(drop_rate=1.0, only=MISSION_PROTOCOL_MESSAGES))
+    config = VehicleConfig(faults=Faults(drop_rate=1.0, only=MISSION_PROTOCOL_MESSAGES))
     with running_mock(config) as vehicle:
         result = run(
             "upload",
@@ -137,8 +197,8 @@ def test_rejected_item_exits_4_naming_the_item_and_result(
     plan_file: tuple[Path, MissionPlan],
 ) -> None:
     path, _ = plan_file
-    faults = MissionFaults(reject_at_seq=5, reject_result=MissionResult.INVALID_PARAM4)
-    with running_mock(MockConfig(mission_faults=faults)) as vehicle:
+    faults = Faults(reject_at_seq=5, reject_result=MissionResult.INVALID_PARAM4)
+    with running_mock(VehicleConfig(faults=faults)) as vehicle:
         result = run("upload", str(path), "--conn", client_conn(vehicle))
     assert result.exit_code == 4
     line = result.stderr.strip()
@@ -154,6 +214,14 @@ def test_rejected_item_exits_4_naming_the_item_and_result(
         (["download", "--conn", "udpout:127.0.0.1:9", "-o", "{tmp}/x.xyz"], "unknown mission"),
         (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--loss", "1.5"], "1.5"),
         (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--home", "47,8"], "LAT,LON,ALT"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--wind", "3"], "E,N"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "NOPE=1"], "'NOPE'"),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "WPNAV_SPEED"], "NAME=VALUE"),
+        (
+            ["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--param", "MPC_XY_CRUISE=99"],
+            "maximum",
+        ),
+        (["mock-vehicle", "--conn", "udpin:127.0.0.1:0", "--speedup", "0"], "--speedup"),
     ],
 )
 def test_bad_input_exits_2(
@@ -170,9 +238,9 @@ def test_bad_input_exits_2(
 def test_progress_is_drawn_per_phase_on_a_terminal(
     plan_file: tuple[Path, MissionPlan], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import uavplan.cli.link_cmd as link_cmd
+    import uavplan.cli.common as common
 
-    monkeypatch.setattr(link_cmd, "show_progress", lambda quiet: not quiet)
+    monkeypatch.setattr(common, "show_progress", lambda quiet: not quiet)
     path, _ = plan_file
     with running_mock() as vehicle:
         loud = run("upload", str(path), "--conn", client_conn(vehicle))

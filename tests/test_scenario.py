@@ -208,7 +208,8 @@ def test_defaults(tmp_path: Path) -> None:
     assert scn.planner.search == SearchParams(
         population=30, iterations=1000, seed=1, t_max=10, init_half_window=10.0
     )
-    assert scn.planner.grid == GridSpec(20.0, 20.0, 10.0)
+    assert scn.planner.grid is None  # not set: fitted to the flight volume
+    assert scn.grid == GridSpec(20.0, 20.0, 10.0) and not scn.grid_coarsened  # a small one
     assert scn.planner.energy == EnergyWeights(1.0, 1.0, 1.0, 1.0)
     assert scn.planner.spsa == SpsaParams()
     assert scn.planner.post == PostParams()
@@ -351,7 +352,7 @@ BAD = [
      "obstacles", "must be a list"),
     ("obstacle-is-null", BASE + "  - null\n", "obstacles[1]", "must be a mapping"),
     ("unknown-algorithm", BASE + "planner: {algorithm: astar}\n", "planner.algorithm",
-     "unknown algorithm 'astar' (available: spsa, ssa, pso, gwo, de, cso)"),
+     "unknown algorithm 'astar' (available: spsa, ssa, pso, gwo, de, cso, spsa_numpy)"),
     ("float-population", BASE + "planner: {population: 30.5}\n", "planner.population",
      "must be an integer"),
     ("unknown-planner-key", BASE + "planner: {swarm: 3}\n", "planner.swarm", "unknown key"),
@@ -361,7 +362,7 @@ BAD = [
     ("spsa-ratios-not-summing-to-1", BASE + "planner: {spsa: {producer_ratio: 0.5}}\n",
      "planner.spsa.scrounger_ratio", "producer_ratio + scrounger_ratio must be 1"),
     ("unknown-mission-end", BASE + "mission: {end: loiter}\n", "mission.end",
-     "must be one of rtl, land, none"),
+     "must be one of rtl, land, none, return"),
     ("unknown-autopilot", BASE + "mission: {autopilot: betaflight}\n", "mission.autopilot",
      "must be one of px4, ardupilot"),
     ("vehicle-speed-string", BASE + "vehicle: {cruise_speed: fast}\n", "vehicle.cruise_speed",
@@ -737,21 +738,21 @@ def test_plain_numpy_clearances_match_the_world(tmp_path: Path) -> None:
     """The validation's exact distances (no compiled kernels) agree with the world's."""
     import numpy as np
 
-    from uavplan.scenario import _column_clearance, _point_clearance
+    from uavplan.scenario.clearance import column_clearance, point_clearance
 
     scn = load_scenario(write(tmp_path, "full.yaml", FULL))
     world = build_world(scn)
     rng = np.random.default_rng(3)
     for _ in range(200):
         p = (rng.uniform(-100, 2100), rng.uniform(-700, 700), rng.uniform(1, 260))
-        dist, index = _point_clearance(scn.obstacles, p)
+        dist, index = point_clearance(scn.obstacles, p)
         ref, ref_index = world.nearest_obstacle(p)
         if ref > 0:
             assert dist == pytest.approx(ref, abs=1e-6)
             assert index == ref_index
         else:
             assert dist == 0.0
-        column, _ = _column_clearance(scn.obstacles, p[:2])
+        column, _ = column_clearance(scn.obstacles, p[:2])
         ground = np.array([[p[0], p[1], 0.0]])
         top = np.array([p])
         ref_col, _ = world.segments_clearance(ground, top)
@@ -778,3 +779,63 @@ def test_large_polygons_are_checked_and_capped(tmp_path: Path) -> None:
     assert_rejected(
         write(tmp_path, "big.yaml", prism(ring(1002))), "obstacles[1].polygon", "at most 1000"
     )
+
+
+# --- no unchecked scenario (issue 25) ---------------------------------------------------------
+
+
+def _plain(**changes: object) -> Scenario:
+    values: dict[str, object] = {
+        "name": "made",
+        "origin": GeoPoint(47.0, 8.0, 400.0),
+        "bounds": Bounds((0.0, 1000.0), (-500.0, 500.0), (0.0, 200.0)),
+        "start_m": (0.0, 0.0, 30.0),
+        "goal_m": (1000.0, 0.0, 40.0),
+        "obstacles": (CylinderObstacle((500.0, 0.0), 40.0, 100.0),),
+        "source": "made-in-code",
+    }
+    values.update(changes)
+    return Scenario(**values)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("changes", "key", "reason"),
+    [
+        ({"start_m": (500.0, 10.0, 30.0)}, "start", "is inside obstacles[0]"),
+        ({"goal_m": (1200.0, 0.0, 40.0)}, "goal", "outside the bounds"),
+        ({"via_m": ((0.5, 0.0, 40.0),)}, "via[0]", "at least 1 m away"),
+        ({"start_m": (545.0, 0.0, 130.0)}, "start", "take-off climb above [545.0, 0.0]"),
+        ({"safety_margin_m": -1.0}, "safety_margin", "within [0, 10000] m"),
+        ({"bounds": Bounds((0.0, 1000.0), (-500.0, 500.0), (-5.0, 200.0))}, "bounds.z", "below"),
+        ({"origin": GeoPoint(89.95, 8.0)}, "origin.lat", "too close to a pole"),
+    ],
+)
+def test_a_scenario_made_in_code_is_checked_like_a_file(
+    changes: dict[str, object], key: str, reason: str
+) -> None:
+    with pytest.raises(ScenarioError) as info:
+        _plain(**changes)
+    assert info.value.file == "made-in-code" and info.value.key == key
+    assert reason in info.value.reason
+
+
+def test_a_copy_is_checked_too() -> None:
+    from dataclasses import replace
+
+    scn = _plain()
+    with pytest.raises(ScenarioError, match=r"start: .* is inside obstacles\[0\]"):
+        replace(scn, start_m=(505.0, 0.0, 60.0))
+    with pytest.raises(ScenarioError, match=r"planner\.grid: the scenario is too large"):
+        scn.with_planner(grid=GridSpec(dx_m=1.0, dy_m=1.0, dz_m=1.0))
+
+
+def test_a_stretch_that_begins_in_the_air_has_no_take_off_climb() -> None:
+    """A stretch of a user's flight (the rerouting plans those) starts at a position in the
+    air: above a low obstacle is fine for it, not for a scenario that takes off there."""
+    from dataclasses import replace
+
+    above = {"start_m": (505.0, 0.0, 130.0)}
+    with pytest.raises(ScenarioError, match="take-off climb"):
+        _plain(**above)
+    airborne = replace(MissionConfig(), takeoff=False, end="none")
+    assert _plain(**above, mission=airborne).start_m == (505.0, 0.0, 130.0)

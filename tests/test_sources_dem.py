@@ -148,7 +148,7 @@ def test_scenario_terrain_key_is_checked_to_cover_the_bounds(
 
     # a DEM that covers the bounds is read and the scenario moved onto it
     scn = load_scenario(scenario(800, slope_dem.name))
-    assert scn.ground is not None and scn.terrain_file is not None
+    assert scn.site.ground is not None and scn.terrain_file is not None
     path = scenario(1500, slope_dem.name)
     with pytest.raises(
         ScenarioError, match=r"scn.yaml: terrain: slope.tif: the DEM does not cover"

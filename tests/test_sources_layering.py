@@ -9,7 +9,13 @@ import sys
 from pathlib import Path
 
 PKG = Path(__file__).resolve().parent.parent / "uavplan"
-ALLOWED = ("uavplan.errors", "uavplan.geo", "uavplan.obstacles", "uavplan.sources")
+ALLOWED = (
+    "uavplan.errors",
+    "uavplan.geo",
+    "uavplan.limits",
+    "uavplan.obstacles",
+    "uavplan.sources",
+)
 HEAVY = ("osmium", "pyogrio", "rasterio", "shapely")
 
 

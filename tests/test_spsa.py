@@ -14,11 +14,12 @@ import pytest
 
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
+from uavplan.outcome import SearchEnd
 from uavplan.path import post
 from uavplan.path.energy import energy_terms
 from uavplan.path.post import refine, resample_waypoints, simplify, smooth_route, tighten
 from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, PlanStatus
+from uavplan.planners.base import PathProblem
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.sparrow import SparrowPlanner, SsaPlanner, oscillate
 from uavplan.world import World
@@ -91,7 +92,7 @@ def test_walled_in_goal_deadlocks_and_reports_no_path() -> None:
     )
     problem = PathProblem.build(world, (0.0, 0.0, 30.0), (420.0, 0.0, 30.0), GRID, W)
     result = SparrowPlanner(SearchParams(population=6, iterations=5)).solve(problem)
-    assert result.status is PlanStatus.NO_PATH
+    assert result.termination is SearchEnd.NO_PATH and not result.solved
     assert result.deadlocks > 0
     assert "deadlocked" in result.message
 

@@ -1,4 +1,5 @@
-"""The compiled SPSA / SSA iteration against its numpy formulation (tests/spsa_reference.py).
+"""The compiled SPSA / SSA iteration against its numpy formulation
+(uavplan/planners/sparrow_numpy.py, the planner ``spsa_numpy``).
 
 The product's step (:meth:`SparrowPlanner.step`) draws its random numbers from the Generator
 and runs the whole iteration in the C kernel; the reference computes every update rule with
@@ -10,17 +11,21 @@ curved (guide-path) frame.
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
-from spsa_reference import ReferenceSparrow
+from click.testing import CliRunner
 
+from uavplan.cli import main
 from uavplan.config import EnergyWeights, GridSpec, SearchParams, SpsaParams
 from uavplan.obstacles import BoxObstacle, CylinderObstacle
 from uavplan.planners import _kernels as K
-from uavplan.planners.base import PathProblem, Termination
+from uavplan.planners.base import PathProblem, Population, Termination
 from uavplan.planners.sparrow import SparrowPlanner
+from uavplan.planners.sparrow_numpy import NumpySparrowPlanner as ReferenceSparrow
 from uavplan.world import World
 
 GRID = GridSpec(20.0, 20.0, 10.0)
@@ -111,11 +116,12 @@ def test_recalled_fitness_is_the_computed_fitness(slots: int) -> None:
 
 
 def test_energy_cache_size() -> None:
-    filled, values, paths = K.new_energy_cache(99)
-    assert filled.shape == values.shape == (1024,) and paths.shape == (1024, 198)
-    big = K.new_energy_cache(2499)[2]  # a 50 km route: 2 MiB of stored paths at most
+    cache = K.new_energy_cache(99)
+    assert cache.filled.shape == cache.values.shape == (1024,)
+    assert cache.paths.shape == (1024, 198)
+    big = K.new_energy_cache(2499).paths  # a 50 km route: 2 MiB of stored paths at most
     assert big.shape[0] & (big.shape[0] - 1) == 0 and big.nbytes <= K.ENERGY_CACHE_BYTES
-    assert K.new_energy_cache(5, 0)[0].size == 0
+    assert K.new_energy_cache(5, 0).filled.size == 0
     with pytest.raises(ValueError):
         K.new_energy_cache(5, 3)
 
@@ -175,15 +181,27 @@ def test_the_step_gives_the_same_run_on_any_number_of_threads(variant: str) -> N
 
 
 def test_step_threads_follows_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(K, "HAVE_THREADS", True)
     monkeypatch.setenv("UAVPLAN_THREADS", "1")
     assert K.step_threads() == 1
     monkeypatch.setenv("UAVPLAN_THREADS", "3")
     assert K.step_threads() == 3
+    assert K.step_threads_note() == "SPSA step threads: 3"
     monkeypatch.setenv("UAVPLAN_THREADS", "500")
     assert K.step_threads() == K.STEP_THREADS_MAX
     for junk in ("", "0", "-2", "two"):
         monkeypatch.setenv("UAVPLAN_THREADS", junk)
         assert 1 <= K.step_threads() <= K.STEP_THREADS_AUTO_MAX
+
+
+def test_a_build_without_threads_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A build without helper threads (MSVC, MinGW: ``_ckernels.HAVE_THREADS`` is 0) runs
+    the step on one thread whatever is asked, and the reports say why."""
+    monkeypatch.setattr(K, "HAVE_THREADS", False)
+    for asked in ("4", ""):
+        monkeypatch.setenv("UAVPLAN_THREADS", asked)
+        assert K.step_threads() == 1
+        assert "no helper threads" in K.step_threads_note()
 
 
 def _threaded_run(threads: int) -> np.ndarray:
@@ -228,3 +246,58 @@ def test_two_python_threads_plan_at_once() -> None:
         w.join(timeout=60)
     assert not any(w.is_alive() for w in workers)
     assert len(results) == 2 and all(np.array_equal(r, expected) for r in results)
+
+
+def test_the_numpy_planner_plans_the_compiled_planners_route(tmp_path: Path) -> None:
+    """``--algorithm spsa_numpy`` takes SPSA's numpy formulation through the whole pipeline
+    (search, post-processing, mission): the mission is the compiled planner's, item for item,
+    with the same energy; only the count of fitness evaluations may be lower for the compiled
+    step (it recalls fitness values instead of recomputing them)."""
+    missions = Path(__file__).resolve().parent.parent / "missions"
+    runs = {}
+    for algorithm in ("spsa", "spsa_numpy"):
+        route, report = tmp_path / f"{algorithm}.plan", tmp_path / f"{algorithm}.json"
+        args = ["plan", str(missions / "paper-env1.yaml"), "-o", str(route), "--algorithm",
+                algorithm, "--iterations", "30", "--population", "12", "--seed", "4",
+                "--report", str(report), "-q"]  # fmt: skip
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+        items = json.loads(route.read_text())["mission"]["items"]
+        runs[algorithm] = (items, json.loads(report.read_text()))
+    (items, fast), (items_numpy, slow) = runs["spsa"], runs["spsa_numpy"]
+    assert slow["algorithm"] == "spsa_numpy" and len(items) > 2
+    assert items == items_numpy
+    for key in ("energy", "energy_terms", "length_m", "iterations", "termination", "convergence"):
+        assert fast[key] == slow[key], key
+    assert fast["evaluations"] <= slow["evaluations"]
+
+
+def test_the_step_checks_what_it_is_given() -> None:
+    """The step reads its setup and draws by field name and checks every array: a wrong dtype,
+    shape or a missing field is an error naming it, never a crash or a silent copy."""
+    problem = _problem(False)
+    planner = SparrowPlanner(SearchParams(population=8, iterations=2, seed=1))
+    rng = np.random.default_rng(1)
+    x, _ok, _dead = problem.initial_population(8, planner.search, rng)
+    pop = Population(x, problem.fitness(x), 0, 2)
+    planner.setup(problem, pop, rng)
+    planner.step(problem, pop, rng)
+    setup: K.StepSetup = pop.state["step_setup"]
+    n_prod, n_near, _n_danger, _flags = pop.state["sizes"]
+    seeds = K.stream_seeds(rng, 8)
+    signs = np.ones((n_near, x.shape[1], 2))
+    good = K.StepDraws(0.3, np.full(n_prod, 0.5), signs, np.arange(1), seeds, seeds)
+    counts = np.zeros(3, np.int64)
+    fixed = pop.state["osc_fixed"]
+    K.spsa_step(pop.x, pop.f, fixed, counts, setup, good)
+    assert counts[0] > 0
+    with pytest.raises(TypeError, match=r"draws\.pdraw"):
+        bad = good._replace(pdraw=good.pdraw.astype(np.float32))
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, bad)
+    with pytest.raises(ValueError, match=r"draws\.pdraw"):
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, good._replace(pdraw=good.pdraw[:, None]))
+    with pytest.raises(TypeError, match=r"draws\.aware"):
+        bad = good._replace(aware=np.arange(1, dtype=np.int32))
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, bad)
+    with pytest.raises(TypeError, match="warn"):
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, setup)  # type: ignore[arg-type]

@@ -10,8 +10,8 @@ import numpy as np
 from click.testing import CliRunner
 
 from uavplan import bench
+from uavplan.app.feedback import PlannerOptions
 from uavplan.cli import main
-from uavplan.cli.plan_cmd import overridden
 from uavplan.config import DEFAULT_RESTART_STALL_ITERATIONS, DEFAULT_STALL_ITERATIONS, SearchParams
 from uavplan.planners.base import SwarmPlanner, Termination
 from uavplan.planning import build_problem, make_planner, plan_route
@@ -109,7 +109,7 @@ def test_a_run_stops_once_the_best_stalls(tmp_path: Path) -> None:
 
 def test_iterations_on_the_command_line_force_m(tmp_path: Path) -> None:
     scn = load_scenario(write(tmp_path))
-    forced = overridden(scn, None, None, 60, None)
+    forced = PlannerOptions(iterations=60).apply(scn)
     assert forced.planner.search.iterations == 60
     assert forced.planner.search.stall_iterations is None
     report = tmp_path / "r.json"

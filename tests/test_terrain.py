@@ -7,6 +7,7 @@ known surface is evaluated analytically at the file's lat/lon through a pyproj U
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ rasterio = pytest.importorskip("rasterio")
 from click.testing import CliRunner  # noqa: E402
 from pyproj import Transformer  # noqa: E402
 from rasterio.transform import from_origin  # noqa: E402
+from terrain_helpers import independent_ground_check  # noqa: E402
 
 from uavplan.cli import main  # noqa: E402
 from uavplan.errors import ScenarioError  # noqa: E402
@@ -24,6 +26,7 @@ from uavplan.geo import EnuFrame  # noqa: E402
 from uavplan.mission.builder import build_mission, mission_polyline_enu  # noqa: E402
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot, MavFrame  # noqa: E402
+from uavplan.obstacles import Bounds  # noqa: E402
 from uavplan.planning import build_world  # noqa: E402
 from uavplan.route import densify  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
@@ -122,25 +125,49 @@ def hill_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
 
 def test_heights_are_above_the_ground_beneath(slope_dem: Path, tmp_path: Path) -> None:
     scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
-    assert scn.ground is not None
-    datum = scn.origin.alt_m
-    frame = EnuFrame.at(scn.origin)
-    for point, above in ((scn.start_m, 30.0), (scn.goal_m, 30.0)):
+    # the scenario keeps the file's values: heights above the ground, the file's origin
+    assert scn.start_m == (-600.0, -500.0, 30.0) and scn.obstacles[0].height_m == 40.0
+    assert scn.origin.alt_m == 0.0 and scn.bounds.z_m == (0.0, 150.0)
+    # where the planner flies it: on the ground, z above a datum below the lowest ground
+    site = scn.site
+    assert site.ground is not None
+    datum = site.origin.alt_m
+    frame = EnuFrame.at(site.origin)
+    for point, above in ((site.start_m, 30.0), (site.goal_m, 30.0)):
         lat, lon, _ = frame.to_geodetic(np.array([[point[0], point[1], 0.0]]))
         assert point[2] + datum == pytest.approx(ground_amsl(lat, lon)[0] + above, abs=0.01)
     # the box stands on the ground at its centre: its top is 40 m above that ground
     lat, lon, _ = frame.to_geodetic(np.array([[0.0, 0.0, 0.0]]))
-    assert scn.obstacles[0].height_m + datum == pytest.approx(
+    assert site.obstacles[0].height_m + datum == pytest.approx(
         ground_amsl(lat, lon)[0] + 40, abs=0.01
     )
     # bounds: from below the lowest ground to the highest ground + the ceiling
-    assert scn.bounds.z_m[0] == 0.0
-    assert scn.ground.ceiling_agl_m == 150.0
+    assert site.bounds.z_m[0] == 0.0
+    assert site.ground.ceiling_agl_m == 150.0
 
 
-def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
-    """Random rough terrain: every point of the bilinear surface lies inside the world's ground
-    solids (clearance 0), and 1 m above the highest post of its quad it is outside them."""
+def test_a_copy_with_another_margin_gets_its_own_ground(slope_dem: Path, tmp_path: Path) -> None:
+    """The ground's solids are built for the margin when the site is made: a scenario copied
+    with another margin (or floor) cannot keep the old solids."""
+    scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
+    wider = replace(scn, safety_margin_m=20.0)
+    g12, g20 = scn.site.ground, wider.site.ground
+    assert g12 is not None and g20 is not None and g12 is not g20
+    assert g20.roof_m - g12.roof_m == pytest.approx(8.0)  # the ceiling's solid: margin above
+    raised = replace(scn, bounds=Bounds(scn.bounds.x_m, scn.bounds.y_m, (14.0, 150.0)))
+    g14 = raised.site.ground
+    assert g14 is not None
+    assert g14.lift_m - g12.lift_m == pytest.approx(14.0 - 12.0)  # the floor, above the margin
+    assert build_world(wider).margin_m == 20.0
+
+
+def test_the_exact_ground_is_the_dem_surface(tmp_path: Path) -> None:
+    """Random rough terrain: every point of the DEM's bilinear surface (scipy, not the
+    product's DEM code) is in the ground (clearance 0), and above it the world's distance to
+    the ground is the distance to that surface (brute force over it, sampled every 0.5 m):
+    never more, and less by at most the field's stated twist gap."""
+    from scipy.interpolate import RegularGridInterpolator
+
     rng = np.random.default_rng(5)
     e, n = posts()
     z = slope(e, n) + rng.uniform(-15, 15, e.shape)
@@ -154,15 +181,34 @@ def test_ground_solids_contain_the_dem_surface(tmp_path: Path) -> None:
         )
     )
     world = build_world(scn)
-    assert scn.ground is not None
+    ground = scn.site.ground
+    assert ground is not None
+    frame = EnuFrame.at(scn.site.origin)
+    datum = scn.site.origin.alt_m
+    interp = RegularGridInterpolator((n[::-1, 0], e[0]), z[::-1], method="linear")
+
+    def bilinear_z(xy: np.ndarray) -> np.ndarray:
+        lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
+        ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+        return np.asarray(interp(np.column_stack([nn, ee]))) - datum
+
     xy = rng.uniform(-480, 480, (400, 2))
-    surface = scn.ground.z_at(xy)
+    surface = bilinear_z(xy)
     dist, owner = world.points_clearance(np.column_stack([xy, surface]))
     assert np.all(dist == 0.0) and np.all(owner == GROUND)
-    # and the solids are not a blanket far above the ground: within the DEM's local relief
-    above = np.column_stack([xy, surface + 31.0])  # posts vary by ±15 m around the plane
-    dist, _ = world.points_clearance(above)
-    assert np.all(dist > 0.0)
+    # 1.5 to 12 m above the surface: the distance to it, by brute force around the point
+    gap = ground.field.twist_gap_m + ground.field.warp_m
+    gx, gy = np.meshgrid(np.arange(-14.0, 14.01, 0.5), np.arange(-14.0, 14.01, 0.5))
+    disc = np.column_stack([gx.ravel(), gy.ravel()])
+    for p, h in zip(xy[:60], rng.uniform(1.5, 12.0, 60), strict=True):
+        point = np.array([p[0], p[1], bilinear_z(p[None, :])[0] + h])
+        around = disc + p
+        brute = np.min(np.linalg.norm(
+            np.column_stack([around, bilinear_z(around)]) - point, axis=1
+        ))  # fmt: skip
+        d, _ = world.points_clearance(point[None, :])
+        assert d[0] <= brute + 0.05  # never farther than the surface (0.5 m sampling)
+        assert d[0] >= brute - gap - 0.05
 
 
 def test_route_point_within_the_margin_of_the_terrain_is_a_clear_error(
@@ -202,18 +248,18 @@ def test_mission_over_a_hill_keeps_the_margin(
     # independent check: the straight legs the vehicle flies, from the file's items, against
     # the DEM's surface computed by scipy (not the product's DEM code), every metre
     scn = load_scenario(path)
-    frame = EnuFrame.at(scn.origin)
-    datum = scn.origin.alt_m
+    frame = EnuFrame.at(scn.site.origin)
+    datum = scn.site.origin.alt_m
 
     def known_ground_z(xy: np.ndarray) -> np.ndarray:
         lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
         return hill_amsl(lat, lon) - datum
 
     flown = mission_polyline_enu(plan, frame, known_ground_z)
-    # the climb from home and the landing descent touch the ground by design: check the legs
-    samples = densify(flown[2:-1], 1.0)
-    agl = samples[:, 2] - known_ground_z(samples[:, :2])
-    assert agl.min() >= 12.0 - 0.05, f"{agl.min():.2f} m above the ground"
+    # the legs as flown (terrain-frame ones over the ground), rebuilt by the tests' own code;
+    # the climb from home and the landing descent touch the ground by design
+    low, _ = independent_ground_check(out, hill_dem, frame)
+    assert low >= 12.0 - 0.05, f"{low:.2f} m above the ground"
     # the hill is in the way: the route had to climb over or go round it
     straight = np.linspace(flown[2], flown[-2], 200)
     assert np.min(straight[:, 2] - known_ground_z(straight[:, :2])) < 0.0
@@ -224,10 +270,10 @@ def test_mission_over_a_hill_keeps_the_margin(
 def test_altitude_modes_describe_the_same_flight(slope_dem: Path, tmp_path: Path) -> None:
     """The three altitude frames of one route read back to the same ENU polyline (< 1 cm)."""
     scn = load_scenario(scenario_file(tmp_path, slope_dem.name, SLOPE_BODY))
-    assert scn.ground is not None
-    frame = EnuFrame.at(scn.origin)
+    assert scn.site.ground is not None
+    frame = EnuFrame.at(scn.site.origin)
     waypoints = np.array([[-600, -500, 0.0], [0, 300, 0.0], [600, 500, 0.0]])
-    under = scn.ground.z_at(waypoints)
+    under = scn.site.ground.z_at(waypoints)
     waypoints[:, 2] = under + np.array([30.0, 80.0, 45.0])
     lines = []
     for altitude in ("relative", "amsl", "terrain"):
@@ -240,7 +286,7 @@ def test_altitude_modes_describe_the_same_flight(slope_dem: Path, tmp_path: Path
             ground_z_m=under,
             altitude=altitude,
         )
-        lines.append(mission_polyline_enu(plan, frame, scn.ground.z_at))
+        lines.append(mission_polyline_enu(plan, frame, scn.site.ground.z_at))
     for line in lines[1:]:
         assert line.shape == lines[0].shape
         assert np.max(np.abs(line - lines[0])) < 0.01
@@ -255,6 +301,9 @@ def test_terrain_altitude_with_px4_warns(slope_dem: Path, tmp_path: Path) -> Non
     result = CliRunner().invoke(main, ["plan", str(path), "-o", str(tmp_path / "m.plan")])
     assert result.exit_code == 0, result.output
     assert "warning: mission.altitude terrain" in result.output
+    frame = EnuFrame.at(load_scenario(path).site.origin)
+    low, _ = independent_ground_check(tmp_path / "m.plan", slope_dem, frame)
+    assert low >= 12.0 - 0.05
 
 
 def valley(e: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -281,8 +330,8 @@ def test_route_stays_under_the_ceiling_above_the_ground(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["plan", str(path), "-o", str(out), "-q"])
     assert result.exit_code == 0, result.output
     scn = load_scenario(path)
-    frame = EnuFrame.at(scn.origin)
-    datum = scn.origin.alt_m
+    frame = EnuFrame.at(scn.site.origin)
+    datum = scn.site.origin.alt_m
     interp = RegularGridInterpolator((n[::-1, 0], e[0]), valley(e, n)[::-1], method="linear")
 
     def ground_z(xy: np.ndarray) -> np.ndarray:

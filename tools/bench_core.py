@@ -77,11 +77,11 @@ def main() -> int:
             print(f"{path.stem:<22} {mode:<8} {r['min']:7.3f} {r['median']:9.3f} "
                   f"{r['iterations']:6.0f} {r['evaluations']:7.0f} {r['fitness']:11.4f}",
                   flush=True)  # fmt: skip
-    from uavplan.planners._kernels import step_threads
+    from uavplan.planners._kernels import step_threads_note
 
     print(
         f"seconds of SwarmPlanner.solve, {args.repeat} runs each (seeded: same result each); "
-        f"SPSA step threads: {step_threads()}"
+        f"{step_threads_note()}"
     )
     return 0
 

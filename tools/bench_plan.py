@@ -9,18 +9,28 @@ Each scenario is planned in a fresh interpreter that times its phases:
 * ``build``: the world and the path problem;
 * ``search``: the planner (and the guide search where it runs);
 * ``post``: post-processing into waypoints (``runtime_s`` minus the search);
+* ``cpu``: the CPU time of search and post together, every thread of the process counted
+  (``time.process_time``): the planner core's cost on a shared machine, where wall time is
+  noisy;
 * ``write``: building the mission and writing the .plan (pyproj, which it needs, is imported
   on a thread during the search, as ``uavplan plan`` does: with a second core that import
   costs the write nothing, on one core it is paid inside ``search`` instead);
 
-then, apart, the whole ``uavplan plan SCENARIO -o x.plan -q`` process: wall time and peak
-resident memory (``os.wait4`` of that child). ``E`` is the final energy (seed 1, the
-scenario's settings: the default early stop), ``ref`` the ratio to the A* + line-of-sight
-reference (``--no-reference`` skips the A*). Medians over ``--repeat`` runs.
+* ``fence`` (with ``--fence``): building the geofence (:func:`uavplan.planning.fence_for`);
+
+then, apart, the whole ``uavplan plan SCENARIO -o x.plan -q`` process (``--fence`` too with
+``--fence``): wall time and peak resident memory (``os.wait4`` of that child). ``core CPU``
+is the CPU time of the process while it planned (search and post-processing, every thread:
+with two step threads it can exceed the wall time), the number to compare on a machine
+whose load changes; ``load`` the 1-minute load average when the row was measured. ``E`` is
+the final energy (seed 1, the scenario's settings: the default early stop), ``ref`` the
+ratio to the A* + line-of-sight reference on the same grid (``--no-reference`` skips the
+A*). Medians over ``--repeat`` runs.
 
     python tools/bench_plan.py                                  # the bundled scenarios
     python tools/bench_plan.py missions/paper-env1.yaml --repeat 5
     python tools/bench_plan.py --iterations 1000 missions/paper-env*.yaml   # fixed M
+    python tools/bench_plan.py --fence district.yaml       # tools/make_district.py's district
     taskset -c 0 python tools/bench_plan.py missions/paper-env*.yaml      # one core (issue 13)
     UAVPLAN_THREADS=1 python tools/bench_plan.py missions/paper-env*.yaml # SPSA on one thread
 """
@@ -39,7 +49,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
-PHASES = ("import", "load", "kernels", "build", "search", "post", "write")
+PHASES = ("import", "load", "kernels", "build", "search", "post", "write", "fence", "core_cpu")
 
 #: the child: runs one plan phase by phase and prints one JSON line
 CHILD = r"""
@@ -56,28 +66,38 @@ from uavplan.geo import import_in_background
 t1 = time.perf_counter()
 import_in_background()  # as `uavplan plan` does: pyproj loads during the search
 path, out, iterations, reference = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4] == "1"
+fence = sys.argv[5] == "1"
 scn = load_scenario(path)
 if iterations:
-    from uavplan.cli.plan_cmd import overridden
-    scn = overridden(scn, None, None, iterations, None)
+    from uavplan.app.feedback import PlannerOptions
+
+    scn = PlannerOptions(iterations=iterations).apply(scn)
 t2 = time.perf_counter()
 warm_up()
 t3 = time.perf_counter()
 world = planning.build_world(scn)
 problem = planning.build_problem(scn, world) if not scn.via_m else None
 t4 = time.perf_counter()
+c4 = time.process_time()
 res = planning.plan_route(scn, world=world, problem=problem)
+c5 = time.process_time()
 t5 = time.perf_counter()
 search = sum(leg.planner.runtime_s + leg.guide_s for leg in res.legs) or res.planner.runtime_s
 row = {"import": t1 - t0, "load": t2 - t1, "kernels": t3 - t2, "build": t4 - t3,
-       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status.value,
+       "search": search, "post": max(res.runtime_s - search, 0.0), "status": res.status,
+       "core_cpu": c5 - c4, "grid": list(vars(scn.grid).values()),
        "energy": res.energy, "iterations": int(sum(l.planner.iterations for l in res.legs)),
        "obstacles": len(scn.obstacles), "length_m": res.length_m, "notes": list(res.notes),
        "message": res.message}
 if res.ok:
     mission = planning.mission_for(scn, res.route)
+    if fence:
+        t6 = time.perf_counter()
+        mission, built = planning.fence_for(scn, res.route, mission)
+        row["fence"] = time.perf_counter() - t6
+        row["fence_summary"] = built.summary()
     save_mission(mission, out, extras=planning.export_extras(scn, res.route, {}))
-row["write"] = time.perf_counter() - t5
+row["write"] = time.perf_counter() - t5 - row.get("fence", 0.0)
 if reference and res.ok:
     t6 = time.perf_counter()
     total = planning.reference_energy(scn, world)
@@ -102,18 +122,24 @@ def run_child(args: list[str], env: dict[str, str] | None = None) -> tuple[float
     return wall, usage.ru_maxrss / 1024.0, out
 
 
-def phases(path: Path, iterations: int, reference: bool) -> dict[str, Any]:
+def phases(path: Path, iterations: int, reference: bool, fence: bool = False) -> dict[str, Any]:
+    # as `uavplan plan` runs (its entry point keeps numpy's OpenBLAS on one thread, whose
+    # idle helper threads would otherwise spin and count in the CPU column)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
     with tempfile.TemporaryDirectory() as tmp:
         args = [sys.executable, "-c", CHILD, str(path), str(Path(tmp) / "m.plan")]
-        _, _, out = run_child([*args, str(iterations), "1" if reference else "0"])
+        flags = ["1" if reference else "0", "1" if fence else "0"]
+        _, _, out = run_child([*args, str(iterations), *flags], env)
     return json.loads(out.strip().splitlines()[-1])
 
 
-def whole_process(path: Path, iterations: int) -> tuple[float, float, int]:
-    """(wall s, peak RSS MiB, exit code) of ``uavplan plan PATH -o x.plan -q``."""
+def whole_process(path: Path, iterations: int, fence: bool = False) -> tuple[float, float, int]:
+    """(wall s, peak RSS MiB, exit code) of ``uavplan plan PATH -o x.plan -q`` (and
+    ``--fence``)."""
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "uavplan", "plan", str(path), "-o", str(Path(tmp) / "x.plan")]
         cmd += ["-q", *(["--iterations", str(iterations)] if iterations else [])]
+        cmd += ["--fence"] if fence else []
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         assert proc.stderr is not None
@@ -122,16 +148,20 @@ def whole_process(path: Path, iterations: int) -> tuple[float, float, int]:
         return time.perf_counter() - t0, usage.ru_maxrss / 1024.0, os.waitstatus_to_exitcode(status)
 
 
-def measure(path: Path, repeat: int, iterations: int, reference: bool) -> dict[str, Any]:
+def measure(
+    path: Path, repeat: int, iterations: int, reference: bool, fence: bool = False
+) -> dict[str, Any]:
     """Median phases over ``repeat`` children (the reference once), then ``repeat`` whole
-    processes."""
-    rows = [phases(path, iterations, reference and k == 0) for k in range(repeat)]
+    processes; ``load`` the 1-minute load average before the first."""
+    load = os.getloadavg()[0]
+    rows = [phases(path, iterations, reference and k == 0, fence) for k in range(repeat)]
     out: dict[str, Any] = {
         p: statistics.median(r.get(p, float("nan")) for r in rows) for p in PHASES
     }
     first = rows[0]
     out.update({k: first[k] for k in first if k not in PHASES})
-    procs = [whole_process(path, iterations) for _ in range(repeat)]
+    out["loadavg"] = load
+    procs = [whole_process(path, iterations, fence) for _ in range(repeat)]
     out["process_s"] = statistics.median(p[0] for p in procs)
     out["rss_mib"] = max(p[1] for p in procs)
     out["exit"] = procs[0][2]
@@ -142,17 +172,17 @@ def measure(path: Path, repeat: int, iterations: int, reference: bool) -> dict[s
 
 HEADER = (
     f"{'scenario':<22} {'obst':>6} {'import':>6} {'load':>6} {'kernels':>7} {'build':>6} "
-    f"{'search':>6} {'post':>6} {'write':>6} {'process':>7} {'RSS MiB':>7} {'iter':>5} "
-    f"{'E':>9} {'ref':>6}"
+    f"{'search':>6} {'post':>6} {'coreCPU':>7} {'write':>6} {'fence':>6} {'process':>7} "
+    f"{'RSS MiB':>7} {'iter':>5} {'E':>9} {'ref':>6} {'loadavg':>7}"
 )
 
 
 def format_row(name: str, r: dict[str, Any]) -> str:
     return (
         f"{name:<22} {r['obstacles']:>6} {r['import']:6.2f} {r['load']:6.2f} {r['kernels']:7.2f} "
-        f"{r['build']:6.2f} {r['search']:6.2f} {r['post']:6.2f} {r['write']:6.2f} "
-        f"{r['process_s']:7.2f} {r['rss_mib']:7.0f} {r['iterations']:>5} {r['energy']:9.1f} "
-        f"{r['ratio']:6.3f}"
+        f"{r['build']:6.2f} {r['search']:6.2f} {r['post']:6.2f} {r['core_cpu']:7.2f} "
+        f"{r['write']:6.2f} {r['fence']:6.2f} {r['process_s']:7.2f} {r['rss_mib']:7.0f} "
+        f"{r['iterations']:>5} {r['energy']:9.1f} {r['ratio']:6.3f} {r['loadavg']:7.2f}"
     )
 
 
@@ -166,20 +196,26 @@ def main() -> int:
         "--iterations", type=int, default=0, help="force M iterations (default: early stop)"
     )
     ap.add_argument("--no-reference", action="store_true", help="skip the A* reference")
+    ap.add_argument("--fence", action="store_true", help="plan with --fence (a 'fence' phase)")
     args = ap.parse_args()
     print(HEADER)
     print("-" * len(HEADER))
+    summaries = []
     for path in args.scenarios:
-        r = measure(path, args.repeat, args.iterations, not args.no_reference)
+        r = measure(path, args.repeat, args.iterations, not args.no_reference, args.fence)
         print(format_row(path.stem, r), flush=True)
+        if r.get("fence_summary"):
+            summaries.append(f"{path.stem}: {r['fence_summary']}")
     print(
         "seconds; medians of the phases in one process (search includes the guide search), "
-        "'process' = the whole `uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / "
-        "(A* + line of sight)"
+        "coreCPU = CPU seconds of search + post (all threads), 'process' = the whole "
+        "`uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / (A* + line of sight); "
+        "loadavg = 1-minute load average"
     )
-    from uavplan.planners._kernels import step_threads
+    print(*summaries, sep="\n")
+    from uavplan.planners._kernels import step_threads_note
 
-    print(f"SPSA step threads: {step_threads()} (UAVPLAN_THREADS, or the CPUs available, <= 2)")
+    print(f"{step_threads_note()} (UAVPLAN_THREADS, or the CPUs available, <= 2)")
     return 0
 
 

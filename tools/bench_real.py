@@ -90,7 +90,8 @@ def measure(name: str, scn: Scenario, load_s: float, seeds: int) -> dict:
     return {
         "scenario": name,
         "obstacles": len(scn.obstacles),
-        "ground": 0 if scn.ground is None else len(scn.ground.tops_m),
+        # the terrain's height field: its cells (each quad of posts cut s x s)
+        "ground": 0 if scn.site.ground is None else int(scn.site.ground.field.cell[..., 0].size),
         "load_s": load_s,
         "world_s": world_s,
         "core_s": statistics.median(core),

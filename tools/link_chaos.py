@@ -3,7 +3,7 @@
 
 Each run starts a fresh mock vehicle holding an old mission, puts a
 :class:`uavplan.mavlink.faultproxy.FaultProxy` in front of it and uploads a new mission
-with read-back verification, as ``uavplan upload`` does (see :mod:`uavplan.mavlink.chaos`).
+with read-back verification, as ``uavplan upload`` does (see :mod:`uavplan.sim.chaos`).
 Cases:
 
 - ``lossy``: 20 % loss each way, 5 % duplicates, 5 % reordering, on every packet;
@@ -33,10 +33,10 @@ import statistics
 import sys
 from dataclasses import dataclass, field
 
-from uavplan.mavlink.chaos import RunResult, invariant_problem, run_upload, time_bound_s
 from uavplan.mavlink.faultproxy import MISSION_MESSAGE_IDS, ProxyFaults
 from uavplan.mavlink.protocol import ProtocolTimeouts
 from uavplan.mission.items import Autopilot
+from uavplan.sim.chaos import RunResult, invariant_problem, run_upload, time_bound_s
 
 N_ITEMS = 200
 

@@ -15,6 +15,8 @@ nothing here knows about files, YAML or MAVLink.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -27,10 +29,11 @@ except ImportError as exc:  # pragma: no cover - a source tree that was never bu
         "with the system's C compiler"
     ) from exc
 
-GOLD = 0.6180339887498949
-#: distances are resolved to this many metres
-DIST_TOL_M = 1e-7
-FAR = 1e300
+#: the golden-section search's ratio, the distance tolerance (m) and "no piece near": the
+#: kernels' own constants, read from the module
+GOLD: float = _c.GOLD
+DIST_TOL_M: float = _c.DIST_TOL_M
+FAR: float = _c.FAR
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -41,20 +44,56 @@ def _i64(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
-class KernelWorld(tuple):
-    """A world tuple whose arrays are already C-contiguous and of the kernels' dtype (what
-    :func:`world_arrays` returns), so it is not checked again on every call."""
+def kernel_fields(value: Any, structure: str) -> None:
+    """Check a named structure the kernels read (``_ckernels.FIELDS[structure]``: its fields,
+    their kinds and dimensions, whether the kernels write them) and bring every array it
+    reads to the kernels' dtype, C-contiguous (no copy when it already is). For the
+    ``__post_init__`` of a frozen dataclass. An array the kernels write must already be so
+    (a copy would take the kernels' results away): TypeError when it is not."""
+    for name, kind, ndim, writable in _c.FIELDS[structure]:
+        if ndim == 0:
+            continue
+        a = getattr(value, name)
+        ok = isinstance(a, np.ndarray) and a.dtype == np.dtype(kind) and a.flags.c_contiguous
+        if writable:
+            if not (ok and a.flags.writeable):
+                raise TypeError(f"{structure}.{name}: a writable C-contiguous {kind} array")
+        elif not ok:
+            object.__setattr__(value, name, np.ascontiguousarray(a, dtype=kind))
 
-    __slots__ = ()
 
+@dataclass(frozen=True, slots=True, eq=False)
+class KernelWorld:
+    """The world as the kernels read it (:attr:`uavplan.world.World.kernel_args`), by name.
 
-def world_arrays(W: tuple) -> tuple:
-    """The world tuple with every array C-contiguous and of the kernels' dtype (no copy when
-    it already is: the arrays :class:`uavplan.world.World` builds are)."""
-    if type(W) is KernelWorld:
-        return W
-    kinds = (_f64, _i64, _f64, _f64, _f64, _f64, _f64, _f64, _i64, _i64, _i64)
-    return KernelWorld(kind(a) for kind, a in zip(kinds, W, strict=False))
+    Pieces: ``poly_xy`` (npoly, vmax, 2) convex CCW polygons, ``poly_n`` (npoly,) their vertex
+    counts, ``poly_h`` (npoly,) heights (negative: a ceiling piece from −h up), ``circ``
+    (ncirc, 4) circles (x, y, r, h), ``box`` (npieces, 5) every piece's (xmin, xmax, ymin,
+    ymax, zmax); bounds: half-planes ``hp`` (nhp, 3) and ``zlim`` (2,); the cell grid of
+    :func:`build_cells`: ``gmeta``, ``cell_start``, ``cell_items``, ``piece_cells``; the
+    terrain's height field (:class:`uavplan.ground.HeightField`): ``hf_xy`` (nr, nc, 2),
+    ``hf_z`` (nr, nc), ``hf_cell`` (nr − 1, nc − 1, 2), ``hf_meta`` (``FIELD_META``,): empty
+    arrays over flat ground. Arrays are brought to the kernels' dtypes once, here
+    (:func:`kernel_fields`)."""
+
+    poly_xy: np.ndarray
+    poly_n: np.ndarray
+    poly_h: np.ndarray
+    circ: np.ndarray
+    box: np.ndarray
+    hp: np.ndarray
+    zlim: np.ndarray
+    gmeta: np.ndarray
+    cell_start: np.ndarray
+    cell_items: np.ndarray
+    piece_cells: np.ndarray
+    hf_xy: np.ndarray
+    hf_z: np.ndarray
+    hf_cell: np.ndarray
+    hf_meta: np.ndarray
+
+    def __post_init__(self) -> None:
+        kernel_fields(self, "world")
 
 
 def point_polygon_dist2d(px: float, py: float, verts: np.ndarray, n: int) -> float:
@@ -107,27 +146,27 @@ def seg_piece_dist(
 
 
 def segment_free(
-    ax: float, ay: float, az: float, bx: float, by: float, bz: float, W: tuple, margin: float
+    ax: float, ay: float, az: float, bx: float, by: float, bz: float, W: KernelWorld, margin: float
 ) -> bool:
     """True when segment a→b lies inside the bounds and keeps ``margin`` from every piece.
 
-    ``W`` is the world tuple (see :class:`uavplan.world.World`). The bounds are convex:
+    ``W``: the world (:attr:`uavplan.world.World.kernel_args`). The bounds are convex:
     half-planes ``hp[i, 0]·x + hp[i, 1]·y <= hp[i, 2]`` and ``zlim[0] <= z <= zlim[1]``, so
     checking both endpoints suffices. Pieces are found through a uniform grid of cells; a
     piece spanning several cells is tested once (in the first cell it shares with the
     segment's box).
     """
     return _c.segment_free(
-        float(ax), float(ay), float(az), float(bx), float(by), float(bz), world_arrays(W),
+        float(ax), float(ay), float(az), float(bx), float(by), float(bz), W,
         float(margin),
     )  # fmt: skip
 
 
-def segments_free(p0: np.ndarray, p1: np.ndarray, W: tuple, margin: float) -> np.ndarray:
+def segments_free(p0: np.ndarray, p1: np.ndarray, W: KernelWorld, margin: float) -> np.ndarray:
     """Batch of :func:`segment_free`; ``p0``, ``p1``: (n, 3)."""
     p0 = _f64(p0)
     out = np.empty(p0.shape[0], dtype=np.bool_)
-    _c.segments_free(p0, _f64(p1), world_arrays(W), float(margin), out)
+    _c.segments_free(p0, _f64(p1), W, float(margin), out)
     return out
 
 
@@ -136,7 +175,7 @@ def largest_free_fraction(
     step: np.ndarray,
     a: np.ndarray,
     b: np.ndarray,
-    W: tuple,
+    W: KernelWorld,
     margin: float,
     bisections: int,
 ) -> float:
@@ -144,37 +183,43 @@ def largest_free_fraction(
     else ``bisections`` halvings of [0, 1] that keep the free end."""
     return float(
         _c.largest_free_fraction(
-            _f64(p), _f64(step), _f64(a), _f64(b), world_arrays(W), float(margin), int(bisections)
+            _f64(p), _f64(step), _f64(a), _f64(b), W, float(margin), int(bisections)
         )
     )
 
 
-def farthest_visible(p: np.ndarray, W: tuple, margin: float) -> np.ndarray:
+def farthest_visible(p: np.ndarray, W: KernelWorld, margin: float) -> np.ndarray:
     """Indices of the greedy farthest-reachable chain through the polyline ``p`` (n, 3):
     from each kept node the last later node whose segment is free (the next one when none
     is), starting at 0 and ending at n − 1."""
     p = _f64(p)
     keep = np.empty(max(p.shape[0], 1), dtype=np.int64)
-    count = _c.farthest_visible(p, world_arrays(W), float(margin), keep)
+    count = _c.farthest_visible(p, W, float(margin), keep)
     return keep[:count].copy()
 
 
-def points_clearance(p: np.ndarray, W: tuple) -> tuple[np.ndarray, np.ndarray]:
+def points_clearance(p: np.ndarray, W: KernelWorld) -> tuple[np.ndarray, np.ndarray]:
     """Exact distance from each point (n, 3) to the nearest piece, and that piece's index."""
     p = _f64(p)
     dist = np.full(p.shape[0], np.inf)
     which = np.full(p.shape[0], -1, dtype=np.int64)
-    _c.points_clearance(p, world_arrays(W[:5]), dist, which)
+    _c.points_clearance(p, W, dist, which)
     return dist, which
 
 
-def segments_clearance(p0: np.ndarray, p1: np.ndarray, W: tuple) -> tuple[np.ndarray, np.ndarray]:
+def segments_clearance(
+    p0: np.ndarray, p1: np.ndarray, W: KernelWorld
+) -> tuple[np.ndarray, np.ndarray]:
     """Exact minimum distance from each segment p0[i]→p1[i] to the nearest piece."""
     p0 = _f64(p0)
     dist = np.full(p0.shape[0], np.inf)
     which = np.full(p0.shape[0], -1, dtype=np.int64)
-    _c.segments_clearance(p0, _f64(p1), world_arrays(W[:5]), dist, which)
+    _c.segments_clearance(p0, _f64(p1), W, dist, which)
     return dist, which
+
+
+#: at most about this many cells in a world's lookup grid (8 bytes each, plus the items)
+MAX_GRID_CELLS = 4_000_000
 
 
 def build_cells(
@@ -192,6 +237,10 @@ def build_cells(
     y0 = float(box[:, 2].min()) - pad
     x1 = float(box[:, 1].max()) + pad
     y1 = float(box[:, 3].max()) + pad
+    # pieces scattered over a wide area (obstacles far outside the flight volume, a fence
+    # polygon thousands of km long) would need billions of cells: coarser cells instead,
+    # which only makes a query test more pieces
+    cell = max(cell, math.sqrt((x1 - x0) * (y1 - y0) / MAX_GRID_CELLS))
     nx = math.floor((x1 - x0) / cell) + 1
     ny = math.floor((y1 - y0) / cell) + 1
     piece_cells = np.empty((npieces, 4), np.int64)

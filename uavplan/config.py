@@ -30,7 +30,7 @@ import math
 import reprlib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 from uavplan.errors import InputError
 
@@ -302,6 +302,12 @@ class EnergyWeights:
     k1: float = _num(1.0, lo=0, hi=1e6, doc="turning scale")
     mu0: float = _num(1.0, lo=0, hi=1e6, doc="turning-angle coefficient")
     k2: float = _num(1.0, lo=0, hi=1e6, doc="per metre climbed or descended")
+
+
+#: the search fitness: ``paper`` (eq. 1-2 with :class:`EnergyWeights`, the default and the
+#: paper's protocol) or ``physical`` (the power model's watt-hours, wind included:
+#: docs/energy.md "The physical fitness")
+FITNESS_MODES: tuple[str, ...] = ("paper", "physical")
 
 
 @dataclass(frozen=True)
@@ -631,6 +637,14 @@ for _entry in (
         "chicken swarm optimisation (Meng et al. 2014)",
         paper=True,
     ),
+    PlannerEntry(
+        "spsa_numpy",
+        "uavplan.planners.sparrow_numpy:NumpySparrowPlanner",
+        SpsaParams,
+        "SPSA's iteration in numpy: slow but readable, the compiled step's reference (same route)",
+        fitness_smoothing=2,
+        postprocess=True,
+    ),
 ):
     register(_entry)
 
@@ -676,14 +690,21 @@ class PlannerConfig:
     """Everything a planner run is configured with: the algorithm, the shared search values,
     the grid, the energy weights, the post-processing and each planner's own section
     (``sections[name]``, validated parameter objects; a planner without one uses its
-    defaults, see :meth:`params_for`)."""
+    defaults, see :meth:`params_for`). ``grid`` None: the grid is fitted to the flight
+    volume (:attr:`uavplan.scenario.Scenario.grid`, docs/scenario-format.md "Limits")."""
 
     algorithm: str = "spsa"
     search: SearchParams = field(default_factory=SearchParams)
-    grid: GridSpec = field(default_factory=GridSpec)
+    grid: GridSpec | None = None
     energy: EnergyWeights = field(default_factory=EnergyWeights)
     post: PostParams = field(default_factory=PostParams)
     sections: Mapping[str, Any] = field(default_factory=dict)
+    #: the search fitness, one of :data:`FITNESS_MODES` (``planner: {energy: physical}``)
+    fitness: str = "paper"
+
+    def __post_init__(self) -> None:
+        if self.fitness not in FITNESS_MODES:
+            raise ConfigError(f"must be one of {', '.join(FITNESS_MODES)}", key="energy")
 
     def params_for(self, name: str | None = None) -> Any:
         """Planner ``name``'s parameters (default: the configured algorithm's): its section
@@ -738,8 +759,9 @@ def resolved_planner(cfg: PlannerConfig, algorithm: str | None = None) -> dict[s
         "search": search,
         "fitness_smoothing_default": entry.fitness_smoothing,
         "params": None if params is None else as_dict(params),
-        "grid": as_dict(cfg.grid),
+        "grid": None if cfg.grid is None else as_dict(cfg.grid),
         "energy": as_dict(cfg.energy),
+        "fitness": cfg.fitness,
         "post": as_dict(cfg.post),
         "postprocess": entry.postprocess,
         "margin_pad_m": MARGIN_PAD_M,
@@ -754,6 +776,14 @@ def iter_fields(cls: type) -> Iterator[tuple[str, str, Any, str]]:
 
 # ---------------------------------------------------------------------------------------------
 # Mission flavour (a scenario's mission.autopilot; the mission layer re-exports it)
+
+#: how a mission ends: return to launch, land at the goal, nothing (hover at the goal), or
+#: fly a planned return home and land there
+EndAction = Literal["rtl", "land", "none", "return"]
+END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none", "return")
+#: mission.altitude: waypoint altitudes relative to home (MAV_FRAME_GLOBAL_RELATIVE_ALT), AMSL
+#: (MAV_FRAME_GLOBAL) or above the ground beneath (MAV_FRAME_GLOBAL_TERRAIN_ALT)
+ALTITUDE_MODES: tuple[str, ...] = ("relative", "amsl", "terrain")
 
 
 class Autopilot(enum.Enum):

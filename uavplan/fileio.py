@@ -66,7 +66,7 @@ def check_writable(path: str | os.PathLike[str]) -> None:
     except FileNotFoundError:
         info = None
     except OSError as err:
-        raise _error(err, shown) from None
+        raise output_error(err, shown) from None
     if info is not None and stat.S_ISDIR(info.st_mode):
         raise OutputFileError("is a folder, not a file", file=shown)
     try:
@@ -75,18 +75,60 @@ def check_writable(path: str | os.PathLike[str]) -> None:
         reason = f"cannot write: folder {str(folder)!r} does not exist"
         raise OutputFileError(reason, file=shown) from None
     except OSError as err:
-        raise _error(err, shown) from None
+        raise output_error(err, shown) from None
     if not stat.S_ISDIR(folder_info.st_mode):
         raise OutputFileError(f"cannot write: {str(folder)!r} is not a folder", file=shown)
     if len(os.fsencode(target.name)) > _name_max(folder):
         raise OutputFileError("cannot write: the file name is too long", file=shown)
     try:
-        fd, temp = _create_temp(folder, target.name)
+        fd, temp = create_temp(folder, target.name)
     except OSError as err:
-        raise _error(err, shown) from None
+        raise output_error(err, shown) from None
     os.close(fd)
     with contextlib.suppress(OSError):
         os.unlink(temp)
+
+
+def check_folder(path: str | os.PathLike[str]) -> bool:
+    """Raise :class:`OutputFileError` (exit 2) unless files can be written into the folder
+    ``path``: it is a folder that takes a new file, or it does not exist and its parent is a
+    folder that takes a new entry (a real probe, as :func:`check_writable`). Returns whether
+    the folder exists."""
+    shown = os.fspath(path)
+    if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
+        shown = shown.decode(errors="replace")
+    if not shown:
+        raise OutputFileError("empty folder name", file="''")
+    if "\x00" in shown:
+        raise OutputFileError("the folder name contains a NUL byte", file=repr(shown))
+    target = Path(shown)
+    try:
+        info = os.stat(target)
+    except FileNotFoundError:
+        info = None
+    except OSError as err:
+        raise output_error(err, shown) from None
+    if info is not None and not stat.S_ISDIR(info.st_mode):
+        raise OutputFileError("is a file, not a folder", file=shown)
+    probe_in = target if info is not None else target.parent
+    if info is None:
+        try:
+            parent = os.stat(probe_in)
+        except FileNotFoundError:
+            reason = f"cannot write: folder {str(probe_in)!r} does not exist"
+            raise OutputFileError(reason, file=shown) from None
+        except OSError as err:
+            raise output_error(err, shown) from None
+        if not stat.S_ISDIR(parent.st_mode):
+            raise OutputFileError(f"cannot write: {str(probe_in)!r} is not a folder", file=shown)
+    try:
+        fd, temp = create_temp(probe_in, target.name or "out")
+    except OSError as err:
+        raise output_error(err, shown) from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(temp)
+    return info is not None
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
@@ -108,15 +150,15 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     except FileNotFoundError:
         st_mode = None
     except OSError as err:
-        raise _error(err, shown) from None
+        raise output_error(err, shown) from None
     if st_mode is not None and stat.S_ISDIR(st_mode):
         raise OutputFileError("is a folder, not a file", file=shown)
     mode = None if st_mode is None else stat.S_IMODE(st_mode)
 
     try:
-        fd, temp = _create_temp(directory, target.name)
+        fd, temp = create_temp(directory, target.name)
     except OSError as err:
-        raise _error(err, shown) from None
+        raise output_error(err, shown) from None
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
@@ -129,9 +171,9 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
         with contextlib.suppress(OSError):
             os.unlink(temp)
         if isinstance(exc, OSError) and not isinstance(exc, OutputFileError):
-            raise _error(exc, shown) from None
+            raise output_error(exc, shown) from None
         raise
-    _fsync_directory(directory)
+    fsync_directory(directory)
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str, *, encoding: str = "utf-8") -> None:
@@ -139,11 +181,14 @@ def atomic_write_text(path: str | os.PathLike[str], text: str, *, encoding: str 
     atomic_write_bytes(path, text.encode(encoding))
 
 
-def _error(err: OSError, shown: str) -> OutputFileError:
+def output_error(err: OSError, shown: str) -> OutputFileError:
     """The user's view of an OSError met while writing ``shown`` (never a temp file's name)."""
     if err.errno == errno.ENOENT:
         folder = str(Path(shown).parent)
-        reason = f"cannot write: folder {folder!r} does not exist"
+        if os.path.isdir(folder):  # a folder that takes no new file (/proc, a vanished mount)
+            reason = f"cannot write: no file can be made in folder {folder!r}"
+        else:
+            reason = f"cannot write: folder {folder!r} does not exist"
     elif err.errno == errno.ENOTDIR:
         reason = f"cannot write: {str(Path(shown).parent)!r} is not a folder"
     else:
@@ -158,12 +203,13 @@ def _name_max(folder: Path) -> int:
         return 255
 
 
-def _create_temp(directory: Path, name: str) -> tuple[int, Path]:
-    """Create and open a new hidden temporary file next to the target (O_EXCL, 0o666 & ~umask)."""
+def create_temp(directory: Path, name: str, suffix: str = ".tmp") -> tuple[int, Path]:
+    """Create and open a new hidden file ``.NAME.XXXXXXXX.tmp`` in ``directory`` (O_EXCL,
+    0o666 & ~umask): the temporary of a target called ``name`` there."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     stem = name[:_TEMP_NAME_CHARS]
     for _ in range(_TEMP_ATTEMPTS):
-        temp = directory / f".{stem}.{secrets.token_hex(4)}.tmp"
+        temp = directory / f".{stem}.{secrets.token_hex(4)}{suffix}"
         try:
             return os.open(temp, flags, 0o666), temp
         except FileExistsError:
@@ -171,7 +217,7 @@ def _create_temp(directory: Path, name: str) -> tuple[int, Path]:
     raise FileExistsError(errno.EEXIST, f"could not create a temporary file in {directory}")
 
 
-def _fsync_directory(directory: Path) -> None:
+def fsync_directory(directory: Path) -> None:
     """Make the rename durable (POSIX); a no-op where directories cannot be opened."""
     try:
         fd = os.open(directory, os.O_RDONLY)

@@ -45,19 +45,14 @@ def import_in_background(module: str = "pyproj") -> threading.Thread | None:
 
     if module in sys.modules:
         return None
-    # An import is Python code that holds the GIL; by default a thread that wants it back
-    # (the search, between two calls of its compiled step) waits up to 5 ms for each handover.
-    # While the import runs, hand over every 0.1 ms instead.
-    interval = sys.getswitchinterval()
-    sys.setswitchinterval(min(interval, 1e-4))
+    # An import is Python code that holds the GIL: the entry point (uavplan.__main__) lowers
+    # the thread switch interval so the search gets it back sooner; nothing is changed here.
 
     def run() -> None:
         try:
             __import__(module)
         except Exception:  # reported by the import that needs it
             pass
-        finally:
-            sys.setswitchinterval(interval)
 
     thread = threading.Thread(target=run, name=f"import {module}", daemon=True)
     thread.start()
@@ -171,7 +166,9 @@ class EnuFrame:
         """ENU points ``(n, 3)`` → ``(lat_deg, lon_deg, alt_m)``, each of shape ``(n,)``.
 
         ``alt_m`` is in the origin altitude's reference (AMSL for a scenario origin);
-        longitudes are in [-180, 180].
+        longitudes are in [-180, 180]. The origin itself, ``(0, 0, 0)``, is the frame's
+        origin exactly (through ECEF it comes back a few ulps off: a home at the origin was
+        written as 47.397742000000015).
         """
         import numpy as np
 
@@ -179,11 +176,14 @@ class EnuFrame:
         lon_deg, lat_deg, alt_m = self._transformer.transform(
             ecef[:, 0], ecef[:, 1], ecef[:, 2], direction="INVERSE"
         )
-        return (
-            np.asarray(lat_deg, dtype=np.float64).reshape(-1),
-            np.asarray(lon_deg, dtype=np.float64).reshape(-1),
-            np.asarray(alt_m, dtype=np.float64).reshape(-1),
-        )
+        lat = np.array(lat_deg, dtype=np.float64).reshape(-1)
+        lon = np.array(lon_deg, dtype=np.float64).reshape(-1)
+        alt = np.array(alt_m, dtype=np.float64).reshape(-1)
+        at_origin = ~np.asarray(points_enu, dtype=np.float64).reshape(-1, 3).any(axis=1)
+        if at_origin.any():
+            o = self.origin
+            lat[at_origin], lon[at_origin], alt[at_origin] = o.lat_deg, o.lon_deg, o.alt_m
+        return lat, lon, alt
 
     def to_enu(
         self, lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike

@@ -10,20 +10,22 @@ file I/O and knows nothing of MAVLink.
 
 from __future__ import annotations
 
-import enum
 import itertools
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from uavplan.config import PostParams, planner_entry
+from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
+from uavplan.flight import Flight, FlightPrediction, flight_clearance
 from uavplan.geo import EnuFrame
-from uavplan.obstacles import Ground
-from uavplan.path.energy import energy_terms
+from uavplan.ground import Ground
+from uavplan.obstacles import Obstacle
+from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
+from uavplan.path.energy import PhysicalFitness, energy_terms
 from uavplan.path.frame import PathFrame
 from uavplan.path.post import (
     dedupe,
@@ -35,8 +37,8 @@ from uavplan.path.post import (
 )
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.registry import make_planner
-from uavplan.route import EndAction, PlannedRoute, densify, flown_polyline
-from uavplan.scenario import Scenario, resolved_config
+from uavplan.route import PlannedRoute, densify, flown_polyline
+from uavplan.scenario import Scenario, Site, Surroundings, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
 
@@ -48,10 +50,7 @@ if TYPE_CHECKING:
     from uavplan.render import Scene
 
 
-class RouteStatus(enum.Enum):
-    OK = "ok"
-    NO_PATH = "no_path"
-    INTERRUPTED = "interrupted"
+_Point = tuple[float, float, float]
 
 
 @dataclass
@@ -59,10 +58,10 @@ class RouteResult:
     """A planning run: the planner's record and, when it found one, the planned route.
 
     ``energy`` is E (eq. 1) of the final smoothed path; ``runtime_s`` covers the planner and
-    the post-processing, no start-up or I/O.
+    the post-processing, no start-up or I/O. ``failure`` says which leg failed and why (None:
+    the route was planned).
     """
 
-    status: RouteStatus
     algorithm: str
     seed: int
     planner: PlannerResult
@@ -71,17 +70,34 @@ class RouteResult:
     energy: float = math.inf
     energy_terms: tuple[float, float, float] = (math.inf, math.inf, math.inf)
     runtime_s: float = 0.0
-    message: str = ""
+    failure: LegFailure | None = None
     #: what the user should know about how the route was found (guide frame, fallback)
     notes: tuple[str, ...] = ()
     #: seconds of ``runtime_s`` spent in the global (guide) search; 0 when it did not run
     guide_s: float = 0.0
     #: the legs between consecutive route points (one without via points)
     legs: tuple[Leg, ...] = ()
+    #: the flight the model predicts for the route's mission (uavplan.rehearsal), if rehearsed
+    flight: FlightPrediction | None = None
 
     @property
     def ok(self) -> bool:
-        return self.status is RouteStatus.OK
+        return self.failure is None
+
+    @property
+    def interrupted(self) -> bool:
+        """Did a Ctrl-C (``should_stop``) end the planning?"""
+        return self.failure is not None and self.failure.reason is RouteFailure.INTERRUPTED
+
+    @property
+    def status(self) -> str:
+        """The report's ``status``: ``ok``, ``no_path`` or ``interrupted``."""
+        return "ok" if self.failure is None else self.failure.reason.status
+
+    @property
+    def message(self) -> str:
+        """Why there is no route (the failed leg's message), or ``""``."""
+        return "" if self.failure is None else self.failure.message
 
     @property
     def collision_free(self) -> bool:
@@ -116,7 +132,7 @@ class RouteResult:
             "scenario": scenario.name,
             "algorithm": self.algorithm,
             "seed": self.seed,
-            "status": self.status.value,
+            "status": self.status,
             "energy": self.energy,
             "energy_terms": {"path": path, "turning": turning, "climb": climb},
             "search_fitness": pr.best_fitness,
@@ -138,10 +154,20 @@ class RouteResult:
             "notes": list(self.notes),
             "guide_s": self.guide_s,
             "legs": [leg.summary() for leg in self.legs],
+            **self._flight_entries(),
             "config": {
                 **resolved_config(scenario, self.algorithm),
                 "post_applied": vars(self.post),
             },
+        }
+
+    def _flight_entries(self) -> dict[str, Any]:
+        """``flight_time_s`` and ``flight`` (the predicted flight) when it was rehearsed."""
+        if self.flight is None:
+            return {}
+        return {
+            "flight_time_s": round(self.flight.flight_time_s, 1),
+            "flight": self.flight.summary(),
         }
 
 
@@ -149,14 +175,17 @@ class RouteResult:
 # Adapters: a Scenario's pieces for the layers
 
 
-def build_world(scenario: Scenario) -> World:
-    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`."""
-    b = scenario.bounds
+def build_world(scenario: Scenario | Site) -> World:
+    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`, where
+    the planner flies it (:attr:`Scenario.site`: over a DEM, the ground's solids built for
+    this margin are pieces of the world too)."""
+    site = scenario.site if isinstance(scenario, Scenario) else scenario
+    b = site.bounds
     return World.build(
-        scenario.obstacles,
+        site.obstacles,
         bounds_xyz=(b.x_m, b.y_m, b.z_m),
-        margin_m=scenario.safety_margin_m,
-        ground=scenario.ground,
+        margin_m=site.safety_margin_m,
+        ground=site.ground,
     )
 
 
@@ -164,18 +193,41 @@ def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem
     """The path-frame problem of ``scenario`` (reusable across runs and algorithms; each run
     sets its own fitness smoothing)."""
     cfg = scenario.planner
+    site = scenario.site
     return PathProblem.build(
         world or build_world(scenario),
-        scenario.start_m,
-        scenario.goal_m,
-        cfg.grid,
+        site.start_m,
+        site.goal_m,
+        scenario.grid,
         cfg.energy,
+        physical=physical_fitness(scenario),
     )
 
 
-def enu_frame(scenario: Scenario) -> EnuFrame:
-    """The scenario's local ENU frame (one per scenario; its transformer is cached)."""
-    return _frames.setdefault(scenario.origin, EnuFrame.at(scenario.origin))
+def physical_fitness(scenario: Scenario) -> PhysicalFitness | None:
+    """The physical fitness of ``scenario`` (``planner: {energy: physical}``): its vehicle and
+    wind, the mission's speed and the autopilot's climb and descent rates, as the flight
+    estimate flies the route (:func:`uavplan.estimate.mission_limits`). None: the paper's."""
+    if scenario.planner.fitness != "physical":
+        return None
+    from uavplan.estimate import mission_limits
+
+    limits = mission_limits(scenario.mission.autopilot, scenario.vehicle.cruise_speed_m_s)
+    return PhysicalFitness(
+        profile=scenario.vehicle.profile,
+        wind=scenario.wind,
+        speed_m_s=limits.speed_xy_m_s,
+        climb_rate_m_s=limits.speed_up_m_s,
+        descent_rate_m_s=limits.speed_down_m_s,
+        datum_amsl_m=scenario.site.origin.alt_m,
+    )
+
+
+def enu_frame(scenario: Scenario | Site) -> EnuFrame:
+    """The local ENU frame the scenario is planned in (at its site's origin: over terrain at
+    the datum); one per origin, its transformer cached."""
+    origin = (scenario.site if isinstance(scenario, Scenario) else scenario).origin
+    return _frames.setdefault(origin, EnuFrame.at(origin))
 
 
 _frames: dict[Any, EnuFrame] = {}
@@ -194,9 +246,9 @@ def reference_route(
     from uavplan.planners.astar import astar
 
     world = world or build_world(scenario)
-    start = scenario.start_m if start_m is None else start_m
-    goal = scenario.goal_m if goal_m is None else goal_m
-    frame = PathFrame.build(start, goal, scenario.planner.grid)
+    start = scenario.site.start_m if start_m is None else start_m
+    goal = scenario.site.goal_m if goal_m is None else goal_m
+    frame = PathFrame.build(start, goal, scenario.grid)
     world_pf = world.in_frame(frame.origin_xy, frame.heading_rad)
     return astar(world_pf, frame, scenario.planner.energy)
 
@@ -220,9 +272,17 @@ def _best_simplified(
     problem: PathProblem, population: np.ndarray, nodes_pf: np.ndarray, vertices: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Among the distinct final individuals (and the best one), the one whose simplified
-    polyline has the lowest energy: (its column polyline, its simplified vertices)."""
-    w = problem.energy
-    best = (sum(energy_terms(vertices, w)), nodes_pf, vertices)
+    polyline has the lowest energy (the problem's fitness: eq. 1-2, or the physical
+    watt-hours): (its column polyline, its simplified vertices)."""
+    w, physical = problem.energy, problem.physical
+    heading = problem.frame.heading_rad
+
+    def energy_of(v: np.ndarray) -> float:
+        if physical is not None:
+            return physical.polyline_wh(v, heading)
+        return sum(energy_terms(v, w))
+
+    best = (energy_of(vertices), nodes_pf, vertices)
     # the distinct individuals in np.unique(rows, axis=0)'s order (lexicographic), without
     # np.unique, which imports numpy.ma (about 20 ms of every plan)
     rows = population.reshape(population.shape[0], -1)
@@ -232,7 +292,7 @@ def _best_simplified(
     for nodes in rows[distinct]:
         pts = problem.node_points(nodes.reshape(-1, 2))
         v = pts[simplify(pts, problem.world)]
-        e = sum(energy_terms(v, w))
+        e = energy_of(v)
         if e < best[0]:
             best = (e, pts, v)
     return best[1], best[2]
@@ -278,16 +338,20 @@ class Leg:
         }
 
 
-class _LegFailed(Exception):
-    def __init__(self, status: RouteStatus, planner: PlannerResult, message: str, guide_s: float):
-        super().__init__(message)
-        self.status, self.planner, self.message, self.guide_s = status, planner, message, guide_s
+@dataclass(frozen=True, eq=False)
+class _Unplanned:
+    """A leg with no route: why (``reason``, ``message``), and what the search did."""
+
+    reason: RouteFailure
+    message: str
+    planner: PlannerResult
+    guide_s: float
 
 
 def route_points(scenario: Scenario) -> list[tuple[float, float, float]]:
-    """Start, the via points in order, goal: the points the route passes through exactly."""
-    via = getattr(scenario, "via_m", ()) or ()
-    return [scenario.start_m, *(tuple(v) for v in via), scenario.goal_m]
+    """Start, the via points in order, goal: the points the route passes through exactly
+    (where the planner flies them: :attr:`Scenario.site`)."""
+    return scenario.site.route_points()
 
 
 def plan_route(
@@ -303,7 +367,8 @@ def plan_route(
     :meth:`Scenario.with_planner`): one leg per pair of consecutive route points (start, via
     points, goal), in one world and one random stream. ``world``/``problem`` may be passed to
     reuse them (``problem`` only for a single leg); ``should_stop`` is polled every
-    iteration (a Ctrl-C flag): the run then ends as ``RouteStatus.INTERRUPTED``.
+    iteration (a Ctrl-C flag): the run then ends with ``RouteFailure.INTERRUPTED`` (a value:
+    nothing is raised).
     ``threads``: threads the planner may use (None: its default; the route is the same on
     any number)."""
     cfg = scenario.planner
@@ -321,6 +386,7 @@ def plan_route(
         post = replace(post, refine=False, tighten=False, select="best")
     points = route_points(scenario)
     n_legs = len(points) - 1
+    physical = physical_fitness(scenario)
 
     warm_up()  # compilation is not planning time
     t0 = time.perf_counter()
@@ -333,11 +399,17 @@ def plan_route(
     )
     legs: list[Leg] = []
     for i in range(n_legs):
-        if problem is not None and n_legs == 1:
-            leg_problem = problem
-        else:
-            leg_problem = PathProblem.build(world, points[i], points[i + 1], cfg.grid, cfg.energy)
-        leg_problem = leg_problem.with_fitness_smoothing(smoothing)
+
+        def leg_problem(
+            a: _Point = points[i],
+            b: _Point = points[i + 1],
+            given: PathProblem | None = problem if n_legs == 1 else None,
+        ) -> PathProblem:
+            # built where it is used, so only the leg holds it (and can let it go)
+            if given is None:
+                given = PathProblem.build(world, a, b, scenario.grid, cfg.energy, 0, physical)
+            return given.with_fitness_smoothing(smoothing)
+
         leg_progress = None
         if progress is not None:
             done, total = i * cfg.search.iterations, n_legs * cfg.search.iterations
@@ -345,31 +417,52 @@ def plan_route(
             def leg_progress(it: int, _n: int, best: float, done: int = done, total: int = total):
                 progress(done + it, total, best)
 
-        try:
-            legs.append(
-                _plan_leg(scenario, world, leg_problem, planner, post, rng, termination,
-                          leg_progress)
-            )  # fmt: skip
-        except _LegFailed as failed:
-            where = f"leg {i + 1} of {n_legs}: " if n_legs > 1 else ""
+        leg = _plan_leg(scenario, world, leg_problem, planner, post, rng, termination,
+                        leg_progress)  # fmt: skip
+        if isinstance(leg, _Unplanned):
             return RouteResult(
-                failed.status, cfg.algorithm, cfg.search.seed, failed.planner, post,
-                runtime_s=time.perf_counter() - t0, message=where + failed.message,
-                guide_s=failed.guide_s,
+                cfg.algorithm, cfg.search.seed, leg.planner, post,
+                runtime_s=time.perf_counter() - t0, guide_s=leg.guide_s,
+                failure=LegFailure(i, n_legs, leg.reason, leg.message),
             )  # fmt: skip
+        legs.append(leg)
     runtime = time.perf_counter() - t0
 
     waypoints_enu = np.vstack([legs[0].waypoints_enu, *(leg.waypoints_enu[1:] for leg in legs[1:])])
     path_enu = np.vstack([legs[0].path_enu, *(leg.path_enu[1:] for leg in legs[1:])])
     takeoff = scenario.vehicle.takeoff_altitude_m
     end = cast(EndAction, scenario.mission.end)
-    ground = scenario.ground
+    site = scenario.site
+    ground = site.ground
+    follow = None
+    notes = [n for leg in legs for n in leg.notes]
+    if ground is not None and scenario.mission.altitude == "terrain":
+        follow = ground.follow
+        waypoints_enu, added = over_ground(waypoints_enu, world, follow)
+        if added:
+            notes.append(
+                f"terrain: {added} waypoint{'s' * (added > 1)} added where a terrain-frame leg, "
+                "flown over the ground, would have come closer than the margin"
+            )
     under = None if ground is None else ground.z_at(waypoints_enu)
     ends = (0.0, 0.0) if under is None else (float(under[0]), float(under[-1]))
-    flown = flown_polyline(waypoints_enu, takeoff_altitude_m=takeoff, end=end, ground_z_m=ends)
-    notes = [n for leg in legs for n in leg.notes]
+    flown = flown_polyline(
+        waypoints_enu,
+        takeoff_altitude_m=takeoff,
+        end=end,
+        ground_z_m=ends,
+        takeoff=scenario.mission.takeoff,
+        follow=follow,
+    )
+    flight = Flight.from_polyline(
+        flown, from_ground=scenario.mission.takeoff, to_ground=end == "land"
+    )
+    if scenario.grid_coarsened:
+        notes.append(grid_note(scenario))
     if ground is not None:
-        notes += _terrain_notes(ground, waypoints_enu)
+        first, last = flight.airborne
+        over = flight.points_enu[first : last + 1] if follow is not None else waypoints_enu
+        notes += _terrain_notes(ground, over, dense=follow is not None)
     route = PlannedRoute(
         frame=enu_frame(scenario),
         waypoints_enu=waypoints_enu,
@@ -377,7 +470,7 @@ def plan_route(
         vertices_enu=np.vstack([legs[0].vertices_enu, *(g.vertices_enu[1:] for g in legs[1:])]),
         raw_path_enu=np.vstack([legs[0].raw_path_enu, *(g.raw_path_enu[1:] for g in legs[1:])]),
         flown_enu=flown,
-        min_clearance_m=flown_clearance(world, flown, waypoints_enu),
+        min_clearance_m=_min_clearance(world, flight),
         safety_margin_m=scenario.safety_margin_m,
         inside_bounds=bool(world.points_inside_bounds(waypoints_enu).all()),
         takeoff_altitude_m=takeoff,
@@ -387,7 +480,6 @@ def plan_route(
     )
     terms = tuple(float(sum(leg.energy_terms[k] for leg in legs)) for k in range(3))
     return RouteResult(
-        RouteStatus.OK,
         cfg.algorithm,
         cfg.search.seed,
         legs[0].planner,
@@ -402,38 +494,174 @@ def plan_route(
     )
 
 
-def flown_clearance(world: World, flown: np.ndarray, waypoints: np.ndarray) -> float:
-    """Clearance of the flown polyline: from everything between the first and the last
-    waypoint; the take-off climb and the landing descent, which start or end on the ground,
-    from the obstacles only (over flat ground that is all the world holds)."""
-    if not world.has_ground:
-        return world.polyline_clearance(flown)
-    first = int(np.argmin(np.linalg.norm(flown - waypoints[0], axis=1)))
-    last = len(flown) - 1 - int(np.argmin(np.linalg.norm(flown[::-1] - waypoints[-1], axis=1)))
-    legs = world.polyline_clearance(flown[first : last + 1])
-    climbs = world.without_ground().polyline_clearance(flown)
-    return min(legs, climbs)
+#: the planned return draws from its own random stream: the seed's, spawned with this key,
+#: so that planning it leaves the outbound route exactly as a plan without it
+RETURN_STREAM = 27
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedReturn:
+    """The return planned from the goal to the point above home: the route with it
+    (``route.return_enu`` set, ``route.flown_enu`` flying it and landing at home), the leg,
+    or why there is none (``failure``)."""
+
+    route: PlannedRoute | None
+    leg: Leg | None = None
+    failure: LegFailure | None = None
+
+    @property
+    def interrupted(self) -> bool:
+        return self.failure is not None and self.failure.reason is RouteFailure.INTERRUPTED
+
+
+def plan_return(
+    scenario: Scenario,
+    route: PlannedRoute,
+    *,
+    world: World | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> PlannedReturn:
+    """Plan the way home of ``route``: one leg from its goal to the start (above home, at the
+    start's height) with ``scenario``'s planner, in its own random stream (the seed with
+    :data:`RETURN_STREAM`); the route that flies it (``end="return"``). ``should_stop`` is
+    polled as in :func:`plan_route`."""
+    cfg = scenario.planner
+    world = world or build_world(scenario)
+    planner = make_planner(cfg.algorithm, cfg)
+    post = cfg.post
+    if not planner_entry(cfg.algorithm).postprocess:
+        post = replace(post, refine=False, tighten=False, select="best")
+    goal = tuple(float(v) for v in route.waypoints_enu[-1])
+    start = tuple(float(v) for v in route.waypoints_enu[0])
+    a: _Point = (goal[0], goal[1], goal[2])
+    b: _Point = (start[0], start[1], start[2])
+    smoothing = cfg.fitness_smoothing(cfg.algorithm)
+
+    def make_problem() -> PathProblem:
+        return PathProblem.build(world, a, b, scenario.grid, cfg.energy).with_fitness_smoothing(
+            smoothing
+        )
+
+    termination = Termination(
+        cfg.search.iterations,
+        stall_iterations=cfg.search.stall_iterations,
+        should_stop=should_stop,
+        restart_stall_iterations=cfg.search.restart_stall_iterations,
+    )
+    rng = np.random.default_rng([cfg.search.seed, RETURN_STREAM])
+    leg = _plan_leg(scenario, world, make_problem, planner, post, rng, termination, progress)
+    if isinstance(leg, _Unplanned):
+        return PlannedReturn(None, failure=LegFailure(0, 1, leg.reason, leg.message))
+    return PlannedReturn(with_return(scenario, route, leg.waypoints_enu, world), leg)
+
+
+def with_return(
+    scenario: Scenario, route: PlannedRoute, return_enu: np.ndarray, world: World | None = None
+) -> PlannedRoute:
+    """``route`` ending with the planned return ``return_enu`` (the goal first, the point
+    above home last) and the landing at home: its flown line and clearance remade."""
+    world = world or build_world(scenario)
+    back = np.asarray(return_enu, dtype=np.float64)
+    ground = scenario.site.ground
+    under = None if ground is None else ground.z_at(back)
+    home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
+    flown = flown_polyline(
+        route.waypoints_enu,
+        takeoff_altitude_m=route.takeoff_altitude_m,
+        end="return",
+        ground_z_m=(home_z, home_z),
+        takeoff=scenario.mission.takeoff,
+        return_enu=back,
+    )
+    flight = Flight.from_polyline(flown, from_ground=scenario.mission.takeoff, to_ground=True)
+    return replace(
+        route,
+        flown_enu=flown,
+        min_clearance_m=_min_clearance(world, flight),
+        inside_bounds=route.inside_bounds and bool(world.points_inside_bounds(back).all()),
+        end="return",
+        return_enu=back,
+        return_ground_z_m=under,
+    )
+
+
+def grid_note(scenario: Scenario) -> str:
+    """What the user should know of a grid fitted to a large flight volume."""
+    from uavplan.scenario.size import DEFAULT_GRID
+
+    g, d = scenario.grid, DEFAULT_GRID
+    return (
+        f"grid fitted to the flight volume: {g.dx_m:g} × {g.dy_m:g} × {g.dz_m:g} m (the "
+        f"default {d.dx_m:g} × {d.dy_m:g} × {d.dz_m:g} m is for smaller volumes; set "
+        "planner.grid to choose one)"
+    )
+
+
+def _min_clearance(world: World, flight: Flight) -> float:
+    """Clearance of the flown line (:func:`uavplan.flight.flight_clearance`: the take-off
+    climb and the landing descent from the obstacles only)."""
+    dist, _, _ = flight_clearance(world, flight)
+    return float(dist.min()) if dist.size else math.inf
 
 
 #: the flown legs are sampled this finely (m) for the check against the DEM's own surface
 TERRAIN_SAMPLE_M = 2.0
+#: a terrain-frame leg is split at most this many times over (each time where it comes
+#: closest) before it is left as it is (and the route's clearance says so)
+MAX_OVER_GROUND_SPLITS = 24
 
 
-def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
+def over_ground(
+    waypoints_enu: np.ndarray, world: World, follow: Callable[[np.ndarray, np.ndarray], np.ndarray]
+) -> tuple[np.ndarray, int]:
+    """Waypoints for a mission whose legs are flown over the ground (terrain-frame altitudes:
+    ArduPilot holds the height above the terrain, going linearly from one waypoint's to the
+    next, instead of the straight leg the planner checked). Each leg is flown as ``follow``
+    says and measured; where it comes closer than the margin (+ the planning pad) or leaves
+    the volume, a waypoint is added on the planned straight leg where it comes closest, and
+    the two halves are measured again, until every leg keeps the margin (split at most
+    :data:`MAX_OVER_GROUND_SPLITS` times). Returns the waypoints and how many were added."""
+    need = world.margin_m + MARGIN_PAD_M
+    w = [np.asarray(p, dtype=np.float64) for p in waypoints_enu]
+    out = [w[0]]
+    added = 0
+    pending = [(a, b, 0) for a, b in itertools.pairwise(w)][::-1]
+    while pending:
+        a, b, depth = pending.pop()
+        line = np.vstack([a[None, :], follow(a, b)])
+        free = world.segments_free(line[:-1], line[1:], need)  # the bounds too
+        if free.all() or depth >= MAX_OVER_GROUND_SPLITS:
+            out.append(b)
+            continue
+        dist, _ = world.segments_clearance(line[:-1], line[1:])
+        worst = int(np.argmin(dist)) if dist.min() < need else int(np.argmin(free))
+        run = float(np.hypot(*(b[:2] - a[:2])))
+        t = float(np.hypot(*(line[worst, :2] - a[:2]))) / run if run > 0 else 0.5
+        t = min(max(t, 0.05), 0.95)
+        mid = a + t * (b - a)
+        added += 1
+        pending.append((mid, b, depth + 1))
+        pending.append((a, mid, depth + 1))
+    return np.array(out), added
+
+
+def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray, *, dense: bool = False) -> list[str]:
     """What the user should know about the route over the terrain: its lowest height above
-    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground)."""
-    samples = densify(waypoints_enu, TERRAIN_SAMPLE_M)
+    the DEM surface, and any stretch above the ceiling (bounds.z max above the ground).
+    ``dense``: the points are a flown line sampled finely already (legs over the ground)."""
+    samples = waypoints_enu if dense else densify(waypoints_enu, TERRAIN_SAMPLE_M)
     agl = samples[:, 2] - ground.z_at(samples)
     notes = [f"terrain: the route flies {agl.min():.1f} to {agl.max():.1f} m above the DEM surface"]
     over = agl > ground.ceiling_agl_m + 1e-6
     if np.any(over):
         worst = int(np.argmax(agl))
+        step = np.hypot(*np.diff(samples[:, :2], axis=0).T)
+        stretch = float(step[over[1:] | over[:-1]].sum())
         notes.append(
             f"terrain: the route rises to {agl[worst]:.0f} m above the ground at "
             f"({samples[worst, 0]:.0f}, {samples[worst, 1]:.0f}), above the ceiling "
-            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over "
-            f"{TERRAIN_SAMPLE_M * int(over.sum()):.0f} m: the planner's ceiling is flat at the "
-            "highest ground plus bounds.z max"
+            f"(bounds.z max {ground.ceiling_agl_m:g} m above the ground) over {stretch:.0f} m"
         )
     return notes
 
@@ -441,33 +669,38 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray) -> list[str]:
 def _plan_leg(
     scenario: Scenario,
     world: World,
-    problem: PathProblem,
+    make_problem: Callable[[], PathProblem],
     planner: Any,
     post: PostParams,
     rng: np.random.Generator,
     termination: Termination,
     progress: ProgressFn | None,
-) -> Leg:
+) -> Leg | _Unplanned:
     """Search one leg (straight frame first, a guide frame when that cannot hold a path,
-    the grid route when the swarm still fails) and post-process it into waypoints."""
+    the grid route when the swarm still fails) and post-process it into waypoints; or why
+    there is none. ``make_problem`` builds the leg's path problem (the caller keeps no
+    reference: when the straight frame fails, its node table and memo are let go before the
+    global search and the guide frame build their own)."""
     cfg = scenario.planner
+    problem = make_problem()
     res = planner.solve(problem, rng, progress, termination)
     notes: list[str] = []
     guide_s = 0.0
     route_pf: np.ndarray | None = None
     if not res.solved:
         # the straight start→goal columns cannot hold a path: search the whole volume
-        from uavplan.planners.guide import find_guide, guided_problem
+        from uavplan.planners.guide import GuideSpace, find_guide, problem_along
 
-        guide = find_guide(problem)
+        space = GuideSpace.of(problem)
+        del problem  # its node table and memo: tens of MB on a large volume
+        guide = find_guide(space)
         guide_s = guide.runtime_s
-        if not guide.found:
-            raise _LegFailed(RouteStatus.NO_PATH, res, guide.message, guide_s)
+        if guide.failure is not None:
+            return _Unplanned(guide.failure, guide.message, res, guide_s)
         assert guide.route_pf is not None
-        guided = guided_problem(problem, guide)
-        res = planner.solve(guided, rng, progress, termination)
+        problem = make_problem() if guide.is_straight else problem_along(space, guide)
+        res = planner.solve(problem, rng, progress, termination)
         if res.solved:
-            problem = guided
             notes.append(
                 f"planned along a guide route from a grid search ({len(guide.route_pf)} "
                 "vertices): the straight start→goal columns could not hold a path"
@@ -478,8 +711,8 @@ def _plan_leg(
                 f"{cfg.algorithm} found no path even along the guide; flying the grid search's "
                 "route (shortened, smoothed and clearance-checked)"
             )
-    if res.termination == "interrupted":
-        raise _LegFailed(RouteStatus.INTERRUPTED, res, "interrupted", guide_s)
+    if res.termination is SearchEnd.INTERRUPTED:
+        return _Unplanned(RouteFailure.INTERRUPTED, "interrupted", res, guide_s)
     wpf = problem.world
     if route_pf is None:
         nodes_pf = problem.node_points(res.best_nodes)
@@ -490,9 +723,9 @@ def _plan_leg(
                 nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
     else:
         nodes_pf = vertices = route_pf
-    if post.refine:
-        vertices = refine(vertices, wpf, cfg.energy)
-    elif post.tighten or route_pf is not None:
+    if post.refine and problem.physical is None:
+        vertices = refine(vertices, wpf, cfg.energy)  # a pattern search on eq. 1-2
+    elif post.tighten or post.refine or route_pf is not None:
         vertices = tighten(vertices, wpf)
     smoothed = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
     waypoints_pf = resample_waypoints(smoothed, wpf, scenario.mission.spacing_m)
@@ -530,10 +763,11 @@ def fence_for(
     bounds (at most ``max_items`` fence items, default PX4's 63), and how it was built."""
     from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
 
+    site = scenario.site
     built = geofence_for_route(
         route,
-        scenario.obstacles,
-        scenario.bounds,
+        site.obstacles,
+        site.bounds,
         max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
     )
     return replace(mission, fence=built.fence), built
@@ -543,21 +777,46 @@ def export_extras(
     scenario: Scenario,
     route: PlannedRoute | None = None,
     properties: Mapping[str, Any] | None = None,
+    plan: MissionPlan | None = None,
 ) -> ExportExtras:
     """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
-    and margin, and with a just-planned ``route`` its smoothed path and flown line."""
+    and margin, and with a just-planned ``route`` its smoothed path and flown line. Over
+    terrain: altitudes AMSL, the obstacles' heights above the ground, and (with the mission
+    ``plan`` of a file) its flight as the autopilot flies it over the ground."""
     from uavplan.mission.export import ExportExtras
 
+    site = scenario.site
+    ground = site.ground
+    terrain: dict[str, Any] = {}
+    if ground is not None:
+        frame = enu_frame(site)
+        datum = ground.datum_amsl_m
+
+        def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+            return np.asarray(ground.z_at(frame.to_enu_xy(lat, lon))) + datum
+
+        terrain = {
+            "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
+            "ground_amsl_m": ground_amsl,
+        }
     if route is not None:
         return ExportExtras.for_route(
-            route, scenario.obstacles, name=scenario.name, properties=properties
+            route, site.obstacles, name=scenario.name, properties=properties, **terrain
         )
+    flown = None
+    if ground is not None and plan is not None:  # the one reading of a mission over terrain
+        from uavplan.flight import flight_of_mission
+
+        flown = flight_of_mission(plan, enu_frame(site), ground.z_at, ground.follow).points_enu
     return ExportExtras(
-        frame=enu_frame(scenario),
-        obstacles=scenario.obstacles,
+        frame=enu_frame(site),
+        obstacles=site.obstacles,
+        flown_enu=flown,
         name=scenario.name,
         safety_margin_m=scenario.safety_margin_m,
         properties=dict(properties or {}),
+        datum_amsl_m=site.datum_amsl_m,
+        **terrain,
     )
 
 
@@ -565,36 +824,65 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
     """The mission items for ``route`` with ``scenario``'s mission and vehicle settings."""
     from uavplan.mission.builder import build_mission
 
+    end = "return" if route.return_enu is not None else scenario.mission.end
+    if end == "return" and route.return_enu is None:
+        end = "none"  # a return not (yet) planned: the mission ends at the goal
     return build_mission(
         route.waypoints_enu,
         route.frame,
         autopilot=scenario.mission.autopilot,
-        end=cast(EndAction, scenario.mission.end),
+        end=cast(EndAction, end),
         takeoff_altitude_m=scenario.vehicle.takeoff_altitude_m,
         cruise_speed_m_s=scenario.vehicle.cruise_speed_m_s,
         ground_z_m=route.waypoint_ground_z_m,
         altitude=scenario.mission.altitude,
+        return_enu=route.return_enu,
+        return_ground_z_m=route.return_ground_z_m,
+        return_stops=route.return_stops,
     )
 
 
 def scene_for(scenario: Scenario) -> Scene:
     """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
+    return _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
+
+
+def _scene(name: str, site: Site, margin_m: float, written: Sequence[Obstacle]) -> Scene:
+    """``written``: the obstacles as the file gives them (over terrain, their heights above
+    the ground, which the picture's colour bar shows)."""
     from uavplan.render import Scene
 
-    sx, sy, sz = (float(v) for v in scenario.start_m)
-    gx, gy, gz = (float(v) for v in scenario.goal_m)
+    sx, sy, sz = (float(v) for v in site.start_m)
+    gx, gy, gz = (float(v) for v in site.goal_m)
     terrain = None
-    if scenario.ground is not None:
-        (x0, x1), (y0, y1) = scenario.bounds.x_m, scenario.bounds.y_m
+    if site.ground is not None:
+        (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
         xs, ys = np.linspace(x0, x1, 80), np.linspace(y0, y1, 80)
         grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-        terrain = (xs, ys, scenario.ground.z_at(grid).reshape(len(ys), len(xs)))
+        terrain = (xs, ys, site.ground.z_at(grid).reshape(len(ys), len(xs)))
     return Scene(
-        name=scenario.name,
-        bounds=scenario.bounds,
-        obstacles=scenario.obstacles,
-        safety_margin_m=scenario.safety_margin_m,
+        name=name,
+        bounds=site.bounds,
+        obstacles=site.obstacles,
+        safety_margin_m=margin_m,
         start_enu=(sx, sy, sz),
         goal_enu=(gx, gy, gz),
         terrain=terrain,
+        via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
+        datum_amsl_m=site.datum_amsl_m,
+        heights_agl_m=None if site.ground is None else tuple(float(o.height_m) for o in written),
     )
+
+
+def scene_around(around: Surroundings) -> Scene:
+    """The picture's scene of a scenario file whose route points are not valid (``render
+    --no-plan``): its obstacles, bounds and terrain, and the points where the file puts them."""
+    from uavplan.scenario.site import flat_site, terrain_site
+
+    assert around.start_m is not None and around.goal_m is not None
+    args = (around.origin, around.bounds, around.start_m, around.goal_m, around.via_m)
+    if around.terrain is None:
+        site = flat_site(*args, around.obstacles, around.safety_margin_m)
+    else:
+        site = terrain_site(*args, around.obstacles, around.safety_margin_m, around.terrain)
+    return _scene(around.name, site, around.safety_margin_m, around.obstacles)

@@ -21,6 +21,7 @@ importing this module costs nothing and needs no display.
 from __future__ import annotations
 
 import inspect
+import io
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.fileio import atomic_write_bytes
 from uavplan.geo import EnuFrame
 from uavplan.geometry2d import round_offset_outline
 from uavplan.mission.builder import mission_polyline_enu
@@ -59,10 +61,12 @@ _COLORS = {
     "flown": "#ff7f0e",
     "start": "#2ca02c",
     "goal": "#d62728",
+    "via": "#17becf",
     "margin": "#444444",
     "fence_exclusion": "#d62728",
     "fence_inclusion": "#2ca02c",
     "bounds": "#777777",
+    "track": "#e377c2",
 }
 _OBSTACLE_CMAP = "Greys"
 _LIGHT_XY = np.array([-0.55, -0.83])  # walls facing south-west are lit
@@ -86,6 +90,14 @@ class Scene:
     goal_enu: tuple[float, float, float]
     #: the ground over the bounds, ``(x (nx,), y (ny,), z (ny, nx))``, or None (flat, z = 0)
     terrain: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
+    #: the route's via points ``(x, y, z)`` in order (the scenario's ``via``)
+    via_enu: tuple[tuple[float, float, float], ...] = ()
+    #: over terrain: z is metres above this altitude AMSL (the site's datum); the picture
+    #: labels heights AMSL, never in the datum
+    datum_amsl_m: float | None = None
+    #: over terrain: each obstacle's height above the ground it stands on (the scenario's
+    #: own values), by obstacle index: what the colours and the colour bar show
+    heights_agl_m: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -93,6 +105,12 @@ class Scene:
     @property
     def footprints(self) -> tuple[Footprint, ...]:
         return footprints_of(self.obstacles)
+
+    def shown_height(self, fp: Footprint) -> float:
+        """The height an obstacle is coloured by: above the ground it stands on."""
+        if self.heights_agl_m is not None and 0 <= fp.index < len(self.heights_agl_m):
+            return float(self.heights_agl_m[fp.index])
+        return float(fp.height_m)
 
 
 @dataclass(frozen=True)
@@ -110,7 +128,8 @@ class RouteLayers:
 
     ``raw_path_enu``: the planner's best node polyline; ``smoothed_path_enu``: the final
     smooth curve; ``flown_enu``: the polyline the autopilot flies through the mission items;
-    ``waypoints_enu``: the mission's positions (marked along the flown route).
+    ``waypoints_enu``: the mission's positions (marked along the flown route);
+    ``track_enu``: a flown (or simulated) track, sample by sample.
     """
 
     raw_path_enu: NDArray[np.float64] | None = None
@@ -118,15 +137,22 @@ class RouteLayers:
     flown_enu: NDArray[np.float64] | None = None
     waypoints_enu: NDArray[np.float64] | None = None
     fence: tuple[FenceOutline, ...] = field(default_factory=tuple)
+    track_enu: NDArray[np.float64] | None = None
 
     @classmethod
-    def from_mission(cls, plan: MissionPlan, frame: EnuFrame) -> RouteLayers:
-        """The route a mission flies (and its geofence), in ``frame``.
+    def from_mission(
+        cls, plan: MissionPlan, frame: EnuFrame, flown_enu: NDArray[np.float64] | None = None
+    ) -> RouteLayers:
+        """The route a mission flies (and its geofence), in ``frame``: ``flown_enu`` when
+        the caller has it (over terrain it comes with the ground), else the items read over
+        flat ground (:func:`~uavplan.mission.builder.mission_polyline_enu`).
 
         Raises ``ValueError`` if an item's altitude cannot be placed (AMSL without a home).
         """
-        flown = mission_polyline_enu(plan, frame)
-        waypoints = flown[1:] if plan.home is not None else flown
+        items = mission_polyline_enu(plan, frame)
+        flown = items if flown_enu is None else flown_enu
+        waypoints = _on_waypoints(flown, items)
+        waypoints = waypoints[1:] if plan.home is not None else waypoints
         return cls(flown_enu=flown, waypoints_enu=waypoints, fence=_fence_outlines(plan, frame))
 
     @classmethod
@@ -138,9 +164,18 @@ class RouteLayers:
             raw_path_enu=route.raw_path_enu,
             smoothed_path_enu=route.path_enu,
             flown_enu=route.flown_enu,
-            waypoints_enu=route.flown_enu[1:],
+            waypoints_enu=_on_waypoints(route.flown_enu, route.waypoints_enu)[1:],
             fence=() if fence is None else _build_outlines(fence),
         )
+
+
+def _on_waypoints(flown: NDArray[np.float64], waypoints: NDArray[np.float64]) -> Any:
+    """The points of a flown line that stand over a waypoint (a leg flown over the ground,
+    sampled densely, is marked at its ends only; a line of straight legs at every point)."""
+    if len(flown) <= len(waypoints) + 3:
+        return flown
+    d = np.min(np.linalg.norm(flown[:, None, :2] - waypoints[None, :, :2], axis=2), axis=1)
+    return flown[d < 0.01]
 
 
 def _build_outlines(fence: FenceBuild) -> tuple[FenceOutline, ...]:
@@ -182,9 +217,49 @@ def render_scene(
     """Draw ``scene`` (and ``layers``) into the PNG file ``output``, exactly
     ``width_px`` × ``height_px`` pixels.
 
-    Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi, ``OSError``
-    if the file cannot be written.
+    Raises ``ValueError`` for a size below 200 × 150 px or a non-positive dpi,
+    :class:`~uavplan.fileio.OutputFileError` (an ``OSError``) if the file cannot be written;
+    the file is written atomically.
     """
+    png = render_png(
+        scene, layers, width_px=width_px, height_px=height_px, dpi=dpi, title=title,
+        subtitle=subtitle,
+    )  # fmt: skip
+    atomic_write_bytes(output, png)
+
+
+def render_png(
+    scene: Scene,
+    layers: RouteLayers | None = None,
+    *,
+    width_px: int = DEFAULT_WIDTH_PX,
+    height_px: int = DEFAULT_HEIGHT_PX,
+    dpi: int = DEFAULT_DPI,
+    title: str | None = None,
+    subtitle: str | None = None,
+) -> bytes:
+    """The PNG file :func:`render_scene` writes, as bytes (a command writes it with its
+    other outputs, :mod:`uavplan.app.outputs`)."""
+    fig = draw_scene(
+        scene, layers, width_px=width_px, height_px=height_px, dpi=dpi, title=title,
+        subtitle=subtitle,
+    )  # fmt: skip
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format="png")
+    return buf.getvalue()
+
+
+def draw_scene(
+    scene: Scene,
+    layers: RouteLayers | None = None,
+    *,
+    width_px: int = DEFAULT_WIDTH_PX,
+    height_px: int = DEFAULT_HEIGHT_PX,
+    dpi: int = DEFAULT_DPI,
+    title: str | None = None,
+    subtitle: str | None = None,
+) -> Any:
+    """The matplotlib Figure :func:`render_scene` saves (see there)."""
     if width_px < 200 or height_px < 150:
         raise ValueError(f"picture size must be at least 200x150 px, got {width_px}x{height_px}")
     if dpi <= 0:
@@ -194,7 +269,7 @@ def render_scene(
 
     layers = layers or RouteLayers()
     footprints = scene.footprints
-    heights = [fp.height_m for fp in footprints] or [1.0]
+    heights = [scene.shown_height(fp) for fp in footprints] or [1.0]
     shade = _HeightShade(min(heights), max(heights))
 
     fig = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
@@ -206,7 +281,10 @@ def render_scene(
     side_by_side = width_px / height_px >= 1.5
     columns = 5 if side_by_side else 3
     rows = -(-len(_legend_handles(scene, layers, scale)) // columns)
-    footer = ((22 + 20 * rows) * px) / height_px
+    # under the top view: its tick labels (8 pt) and x label (9 pt) with their pads, then
+    # the legend's rows
+    labels_px = ((8.0 + 9.0) * scale + 12.0) * dpi / 72.0
+    footer = ((22 + 20 * rows) * px + labels_px) / height_px
     if side_by_side:
         grid = fig.add_gridspec(
             1,
@@ -227,7 +305,7 @@ def render_scene(
             height_ratios=(1.4, 1.0),
             left=0.08,
             right=0.95,
-            bottom=footer + 0.03,
+            bottom=footer,
             top=1.0 - header,
             hspace=0.15,
         )
@@ -243,7 +321,11 @@ def render_scene(
     mappable = _draw_top(ax2d, scene, footprints, layers, shade, scale)
     # the colour bar rides on the top view (whatever its aspect leaves of the panel)
     bar = fig.colorbar(mappable, cax=ax2d.inset_axes((1.03, 0.0, 0.03, 1.0)))
-    bar.set_label("obstacle height (m)", fontsize=9 * scale)
+    over_terrain = scene.datum_amsl_m is not None
+    bar.set_label(
+        "obstacle height above the ground (m)" if over_terrain else "obstacle height (m)",
+        fontsize=9 * scale,
+    )
     bar.ax.tick_params(labelsize=8 * scale)
 
     handles = _legend_handles(scene, layers, scale)
@@ -272,7 +354,7 @@ def render_scene(
             va="top",
             fontsize=10 * scale,
         )
-    fig.savefig(os.fspath(output), dpi=dpi, format="png")
+    return fig
 
 
 _TERRAIN_CMAP = "gist_earth"
@@ -336,7 +418,7 @@ def _draw_3d(
     for fp in footprints:
         ring = _outline(fp)
         h = min(fp.height_m, ceiling)  # drawn up to the top of the box, coloured by height
-        base = np.asarray(shade(fp.height_m)[:3])
+        base = np.asarray(shade(scene.shown_height(fp))[:3])
         nxt = np.roll(ring, -1, axis=0)
         side = nxt - ring
         # outward normals of the walls, lit from the south-west
@@ -389,8 +471,14 @@ def _draw_3d(
     fs = 8 * scale
     ax.set_xlabel("x east (m)", fontsize=fs, labelpad=2)
     ax.set_ylabel("y north (m)", fontsize=fs, labelpad=2)
-    zlabel = "z up (m)" if stretch < 1.05 else f"z up (m, ×{stretch:.1f})"
+    zlabel = "z up (m" if scene.datum_amsl_m is None else "altitude (m AMSL"
+    zlabel += ")" if stretch < 1.05 else f", ×{stretch:.1f})"
     ax.set_zlabel(zlabel, fontsize=fs, labelpad=2)
+    if scene.datum_amsl_m is not None:  # heights in the datum frame, labelled AMSL
+        from matplotlib.ticker import FuncFormatter
+
+        datum = scene.datum_amsl_m
+        ax.zaxis.set_major_formatter(FuncFormatter(lambda z, _: f"{z + datum:.0f}"))
     ax.tick_params(labelsize=7 * scale, pad=0)
 
 
@@ -410,8 +498,9 @@ def _draw_top(
     if scene.terrain is not None:
         gx, gy, gz = scene.terrain
         ax.contourf(gx, gy, gz, levels=16, cmap=_TERRAIN_CMAP, alpha=0.45, zorder=-1)
+        datum = scene.datum_amsl_m or 0.0
         lines = ax.contour(gx, gy, gz, levels=8, colors="0.45", linewidths=0.4 * scale, zorder=-1)
-        ax.clabel(lines, fontsize=6 * scale, fmt="%.0f")
+        ax.clabel(lines, fontsize=6 * scale, fmt=lambda z: f"{z + datum:.0f}")  # m AMSL
     ax.add_patch(
         Rectangle(
             (x0, y0),
@@ -429,7 +518,7 @@ def _draw_top(
         ax.add_collection(
             PolyCollection(
                 [_outline(fp) for fp in footprints],
-                facecolors=[shade(fp.height_m) for fp in footprints],
+                facecolors=[shade(scene.shown_height(fp)) for fp in footprints],
                 edgecolors="#222222",
                 linewidths=0.5 * scale,
                 zorder=2,
@@ -519,10 +608,36 @@ def _draw_paths(ax: Any, layers: RouteLayers, scale: float, *, three_d: bool) ->
         p = layers.waypoints_enu[:, :dims].T
         extra = {"depthshade": False} if three_d else {}
         ax.scatter(*p, s=9 * scale, color=_COLORS["flown"], zorder=8, **common, **extra)
+    if layers.track_enu is not None and len(layers.track_enu):
+        p = layers.track_enu[:, :dims].T
+        ax.plot(*p, "--", color=_COLORS["track"], lw=1.0 * lw, zorder=8.5, **common)
 
 
 def _start_goal(ax: Any, scene: Scene, scale: float, *, three_d: bool) -> None:
     size = 90 * scale
+    for number, point in enumerate(scene.via_enu, start=1):
+        coords = point if three_d else point[:2]
+        kwargs_via: dict[str, Any] = {"depthshade": False} if three_d else {}
+        ax.scatter(
+            *[[c] for c in coords],
+            marker="D",
+            s=size * 0.55,
+            color=_COLORS["via"],
+            edgecolors="black",
+            linewidths=0.6,
+            zorder=9,
+            clip_on=not three_d,
+            **kwargs_via,
+        )
+        if not three_d:  # numbered in the top view: the order the route takes them
+            ax.annotate(
+                str(number),
+                point[:2],
+                xytext=(5 * scale, 5 * scale),
+                textcoords="offset points",
+                fontsize=8 * scale,
+                zorder=10,
+            )
     for point, marker, key in ((scene.start_enu, "^", "start"), (scene.goal_enu, "*", "goal")):
         coords = point if three_d else point[:2]
         kwargs: dict[str, Any] = {"depthshade": False} if three_d else {}
@@ -546,6 +661,11 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
     lw = 1.0 * scale
     handles: list[Any] = [
         Patch(fc="#9a9a9a", ec="#222222", label="obstacle"),
+        *(
+            [Line2D([], [], color="0.45", lw=0.6, label="ground contours (m AMSL)")]
+            if scene.terrain is not None
+            else []
+        ),
         Line2D(
             [],
             [],
@@ -582,6 +702,10 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
                 label="mission waypoints (flown route)",
             )
         )
+    if layers.track_enu is not None:
+        handles.append(
+            Line2D([], [], ls="--", color=_COLORS["track"], lw=1.0 * lw, label="flown track")
+        )
     if any(not z.inclusion for z in layers.fence):
         handles.append(
             Line2D(
@@ -616,6 +740,19 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
             label="start",
         )
     )
+    if scene.via_enu:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker="D",
+                color=_COLORS["via"],
+                mec="black",
+                markersize=6,
+                label="via point (in order)",
+            )
+        )
     handles.append(
         Line2D(
             [],
@@ -634,7 +771,7 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
 def route_subtitle(route: PlannedRoute, *, algorithm: str, seed: int, energy: float) -> str:
     """One line describing a planned route (algorithm, seed, length, energy, clearance)."""
     return (
-        f"{algorithm}, seed {seed}: {route.length_m:.0f} m, "
+        f"{algorithm}, seed {seed}: {route.length_m:.0f} m from start to goal, "
         f"energy {energy:.1f}, min clearance {route.min_clearance_m:.2f} m "
         f"(margin {route.safety_margin_m:g} m)"
     )

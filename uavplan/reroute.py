@@ -25,33 +25,47 @@ How the plan is read (docs/reroute.md tells the user the same):
   are the union's bounding box and the part of that box outside the union becomes prisms.
   The route keeps the safety margin from the inclusion fence's edge too.
 * Without an inclusion fence the flight volume is the bounding box of home, the positions and
-  the exclusion zones grown by :data:`VOLUME_PAD_M` plus the margin, with a ceiling
-  :data:`VOLUME_PAD_M` above the highest position (a ``--scenario``'s own bounds, when one is
-  given). Fence obstacles stand :data:`VOLUME_PAD_M` above the ceiling.
+  the exclusion zones grown by ``VOLUME_PAD_M`` plus the margin, with a ceiling
+  ``VOLUME_PAD_M`` above the highest position (a ``--scenario``'s own bounds, when one is
+  given). Fence obstacles stand ``VOLUME_PAD_M`` above the ceiling (:mod:`uavplan.airspace`).
+* Over a scenario with terrain: the plan read as the autopilot flies it over the DEM, the
+  planned waypoints in the frame of the item they lead to, terrain-frame legs flown over the
+  ground (:func:`reroute_plan`).
 * DO_JUMP is refused: a loop's legs cannot be rerouted without guessing.
 
 Errors the user can cause raise :class:`~uavplan.errors.InputError` (exit 2); a leg that no
-route can fly raises :class:`~uavplan.errors.NoPathError` (exit 3) with the planner's
-message. This module is wiring: it knows the mission model, the scenario values and the
-planning adapters, and nothing of the CLI.
+route can fly raises :class:`~uavplan.errors.NoPathError` (exit 3) naming the two positions
+of the failed leg (the planner's :class:`~uavplan.outcome.LegFailure` says which) and why. A
+Ctrl-C is a value: the result says it was interrupted. Every stretch of legs is planned as a
+checked :class:`~uavplan.scenario.Scenario` that begins in the air (no take-off climb of its
+own) and ends without a landing: the plan's own take-off, landing and straight segments are
+checked here. The flown line of the result is checked by :func:`uavplan.flight.check_flight`,
+as ``validate`` checks a mission. This module is wiring: it knows the mission model, the
+scenario values and the planning adapters, and nothing of the CLI.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.airspace import (
+    Airspace,
+    build_airspace,
+    check_volume,
+    held_bounds,
+    stretch_obstacles,
+)
 from uavplan.errors import InputError, NoPathError
+from uavplan.flight import Flight, FlightCheck, FlightPrediction, check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
-from uavplan.geometry2d import orient_ccw, polygon_problem
-from uavplan.mission.builder import mission_polyline_enu
+from uavplan.ground import Ground
 from uavplan.mission.items import (
     MavCmd,
     MavFrame,
@@ -59,16 +73,12 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
-from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.planners.base import ProgressFn
-from uavplan.planning import RouteResult, RouteStatus, build_world, plan_route
-from uavplan.route import EndAction, keeps_margin
-from uavplan.scenario import MissionConfig, PlannerConfig, Scenario
-from uavplan.world import World
+from uavplan.planning import RouteResult, over_ground, plan_route
+from uavplan.route import EndAction, Follow, keeps_margin
+from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, Surroundings, VehicleConfig
+from uavplan.world import CEILING, World
 
-#: the flight volume's pad: around home, the positions and the zones (plus the safety margin)
-#: and above the highest position; fence obstacles stand this much above the ceiling
-VOLUME_PAD_M = 50.0
 #: the safety margin when no scenario gives one (the scenario format's default)
 DEFAULT_MARGIN_M = 10.0
 #: consecutive positions closer than this horizontally are joined by a straight segment
@@ -77,8 +87,6 @@ MIN_LEG_M = 1.0
 #: a straight leg is kept when it clears the margin by this much (a file rounds positions to
 #: about a centimetre; the planner keeps the same pad)
 CLEARANCE_PAD_M = 0.02
-#: a circle of the fence becomes a polygon with this many vertices on the circle (inclusion)
-CIRCLE_SEGMENTS = 64
 #: MAV_CMD values below this are NAV commands (the vehicle flies to their position)
 _FIRST_NON_NAV_COMMAND = 100
 _RELATIVE_FRAMES = frozenset({int(MavFrame.GLOBAL_RELATIVE_ALT)})
@@ -125,16 +133,32 @@ class UserRoute:
 
 @dataclass
 class RerouteResult:
-    """The rerouted plan and how it was made."""
+    """The rerouted plan and how it was made (``interrupted``: a Ctrl-C ended the planning;
+    ``plan`` is then the user's, unchanged)."""
 
     plan: MissionPlan
-    scenario: Scenario  # the flight volume, obstacles and settings the legs were planned in
-    routes: tuple[RouteResult, ...]  # one planning run per chain of legs
+    name: str
+    safety_margin_m: float
+    end: EndAction
+    #: one planning run per stretch of consecutive legs, with the scenario it planned
+    runs: tuple[tuple[Scenario, RouteResult], ...]
     inserted: int  # planned NAV_WAYPOINTs added
     min_clearance_m: float  # of the whole flown line (take-off to landing)
     flown_enu: NDArray[np.float64]  # that line, ENU metres (home on the ground first)
     notes: tuple[str, ...] = ()
     obstacle_names: tuple[str, ...] = field(default_factory=tuple)
+    interrupted: bool = False
+    #: where it was planned (None when interrupted): the airspace and its ENU frame
+    airspace: Airspace | None = None
+    frame: EnuFrame | None = None
+    #: the user's positions in flight order (ENU metres)
+    positions_enu: tuple[tuple[float, float, float], ...] = ()
+    #: the flight the model predicts for the plan (uavplan.rehearsal), if rehearsed
+    flight: FlightPrediction | None = None
+
+    @property
+    def routes(self) -> tuple[RouteResult, ...]:
+        return tuple(r for _, r in self.runs)
 
     @property
     def energy(self) -> float:
@@ -155,7 +179,7 @@ class RerouteResult:
         """A JSON-able summary: totals, the legs of every planning run, the notes."""
         return {
             "input": "qgc-plan",
-            "scenario": self.scenario.name,
+            "scenario": self.name,
             "items_in": len(self.plan.items) - self.inserted,
             "items_out": len(self.plan.items),
             "inserted_waypoints": self.inserted,
@@ -163,11 +187,19 @@ class RerouteResult:
             "length_m": self.length_m,
             "runtime_s": self.runtime_s,
             "min_clearance_m": self.min_clearance_m,
-            "safety_margin_m": self.scenario.safety_margin_m,
-            "collision_free": keeps_margin(self.min_clearance_m, self.scenario.safety_margin_m),
-            "end": self.scenario.mission.end,
+            "safety_margin_m": self.safety_margin_m,
+            "collision_free": keeps_margin(self.min_clearance_m, self.safety_margin_m),
+            "end": self.end,
             "notes": list(self.notes),
-            "runs": [r.report(self.scenario) for r in self.routes],
+            "runs": [r.report(scn) for scn, r in self.runs],
+            **(
+                {}
+                if self.flight is None
+                else {
+                    "flight_time_s": round(self.flight.flight_time_s, 1),
+                    "flight": self.flight.summary(),
+                }
+            ),
         }
 
 
@@ -175,8 +207,14 @@ class RerouteResult:
 # Reading the route
 
 
-def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = None) -> UserRoute:
+def read_user_route(
+    plan: MissionPlan, frame: EnuFrame, *, file: str | None = None, ground: Ground | None = None
+) -> UserRoute:
     """The plan's positions in flight order (ENU in ``frame``) and its end action.
+
+    Over ``ground`` (a scenario's terrain; ``frame`` its site's, z above its datum) the plan
+    is read as the autopilot flies it: home on the ground there, relative altitudes above
+    home, AMSL ones through the datum, terrain-frame ones above the ground beneath the item.
 
     Raises :class:`InputError` for what cannot be rerouted without guessing: DO_JUMP, no
     planned home, positions after the landing or the RTL, a position on or below the ground.
@@ -213,7 +251,9 @@ def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = No
         if not positional:
             continue
         frame_id = canonical_frame(item.frame)
-        if frame_id in _RELATIVE_FRAMES:
+        if ground is not None:
+            z = math.inf  # placed over the ground beneath it below, where its x, y are known
+        elif frame_id in _RELATIVE_FRAMES:
             z = item.alt_m
         elif frame_id in _TERRAIN_FRAMES:
             z, terrain = item.alt_m, True
@@ -244,6 +284,7 @@ def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = No
     lon = [plan.home.lon_deg, *(it.lon_deg for _, it, _ in raw)]
     xy = frame.to_enu_xy(lat, lon)
     home_xy = (float(xy[0, 0]), float(xy[0, 1]))
+    home_z = 0.0 if ground is None else float(ground.z_at(np.array([home_xy]))[0])
     positions: list[UserPosition] = []
     for (index, item, z), (x, y) in zip(raw, xy[1:], strict=True):
         what = f"mission item {index + 1} ({command_name(item.command)})"
@@ -257,6 +298,8 @@ def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = No
             if (item.x, item.y) == (0.0, 0.0):
                 px, py = prev[0], prev[1]  # lands where the vehicle is
             pz = prev[2]  # flies there at its height, then descends
+        elif ground is not None:
+            pz = _over_ground(item, (px, py), ground, home_z, what, file)
         positions.append(UserPosition(index, (px, py, pz), what))
     if len(positions) < 2 or all(
         math.hypot(p.point_m[0] - positions[0].point_m[0], p.point_m[1] - positions[0].point_m[1])
@@ -276,138 +319,31 @@ def read_user_route(plan: MissionPlan, frame: EnuFrame, *, file: str | None = No
     return UserRoute(tuple(positions), end, has_takeoff, tuple(notes))
 
 
-# ---------------------------------------------------------------------------------------------
-# The flight volume and the obstacles
-
-
-@dataclass(frozen=True)
-class Airspace:
-    """Bounds and obstacles (with a name for each, for messages) of a reroute."""
-
-    bounds: Bounds
-    obstacles: tuple[Obstacle, ...]
-    names: tuple[str, ...]
-    inclusion: Any  # the shapely union of the inclusion zones in ENU, or None
-
-
-def _ring_xy(frame: EnuFrame, vertices: Sequence[tuple[float, float]]) -> NDArray[np.float64]:
-    lat = [v[0] for v in vertices]
-    lon = [v[1] for v in vertices]
-    return frame.to_enu_xy(lat, lon)
-
-
-def build_airspace(
-    plan: MissionPlan,
-    route: UserRoute,
-    frame: EnuFrame,
-    *,
-    margin_m: float,
-    base: Scenario | None = None,
-    file: str | None = None,
-) -> Airspace:
-    """The flight volume and obstacles for ``plan`` (see the module doc)."""
-    import shapely
-
-    fence = plan.fence
-    exclusion_rings: list[tuple[NDArray[np.float64], str]] = []
-    exclusion_circles: list[tuple[tuple[float, float], float, str]] = []
-    inclusion_shapes: list[Any] = []
-    n_poly = n_circ = 0
-    for i, poly in enumerate(fence.polygons):
-        ring = _ring_xy(frame, poly.vertices)
-        kind = "inclusion" if poly.inclusion else "exclusion"
-        problem = polygon_problem(ring)
-        if problem is not None:
-            raise InputError(f"{kind} polygon {i + 1} of the geofence: {problem}", file=file)
-        if poly.inclusion:
-            inclusion_shapes.append(shapely.Polygon(ring))
-        else:
-            n_poly += 1
-            exclusion_rings.append((orient_ccw(ring), f"exclusion polygon {n_poly} of the fence"))
-    for circle in fence.circles:
-        c = _ring_xy(frame, [circle.center])[0]
-        center = (float(c[0]), float(c[1]))
-        if circle.inclusion:
-            # vertices on the circle, chords inside it: the polygon lies inside the circle,
-            # so the outside we make into obstacles covers the true outside (conservative)
-            quad = CIRCLE_SEGMENTS // 4
-            inclusion_shapes.append(shapely.Point(center).buffer(circle.radius_m, quad_segs=quad))
-        else:
-            n_circ += 1
-            exclusion_circles.append(
-                (center, circle.radius_m, f"exclusion circle {n_circ} of the fence")
-            )
-    inclusion = shapely.union_all(inclusion_shapes) if inclusion_shapes else None
-
-    pts = np.array([p.point_m for p in route.positions])
-    top_m = float(pts[:, 2].max())
-    if base is not None:
-        z_hi = max(base.bounds.z_m[1], 0.0)
-        z_lo = base.bounds.z_m[0]
-    else:
-        z_hi, z_lo = top_m + VOLUME_PAD_M, 0.0
-    if inclusion is not None:
-        x0, y0, x1, y1 = (float(v) for v in inclusion.bounds)
-    elif base is not None:
-        (x0, x1), (y0, y1) = base.bounds.x_m, base.bounds.y_m
-    else:
-        home_xy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg]) if plan.home else None
-        xs = [*pts[:, 0]] + ([float(home_xy[0, 0])] if home_xy is not None else [])
-        ys = [*pts[:, 1]] + ([float(home_xy[0, 1])] if home_xy is not None else [])
-        for ring, _ in exclusion_rings:
-            xs.extend(ring[:, 0])
-            ys.extend(ring[:, 1])
-        for (cx, cy), r, _ in exclusion_circles:
-            xs.extend((cx - r, cx + r))
-            ys.extend((cy - r, cy + r))
-        pad = VOLUME_PAD_M + margin_m
-        x0, x1, y0, y1 = min(xs) - pad, max(xs) + pad, min(ys) - pad, max(ys) + pad
-    bounds = Bounds((x0, x1), (y0, y1), (z_lo, z_hi))
-    height_m = z_hi + VOLUME_PAD_M
-
-    obstacles: list[Obstacle] = []
-    names: list[str] = []
-    if base is not None:
-        obstacles.extend(base.obstacles)
-        source = base.source or base.name
-        names.extend(f"obstacles[{i}] of scenario {source}" for i in range(len(base.obstacles)))
-    for ring, name in exclusion_rings:
-        obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
-        names.append(name)
-    for center, radius, name in exclusion_circles:
-        obstacles.append(CylinderObstacle(center, radius, height_m))
-        names.append(name)
-    if inclusion is not None:
-        box = shapely.box(x0, y0, x1, y1)
-        for piece in _simple_pieces(box.difference(inclusion)):
-            ring = orient_ccw(np.asarray(piece.exterior.coords)[:-1])
-            obstacles.append(PrismObstacle(tuple((float(x), float(y)) for x, y in ring), height_m))
-            names.append("the area outside the inclusion fence")
-    return Airspace(bounds, tuple(obstacles), tuple(names), inclusion)
-
-
-def _simple_pieces(geometry: Any) -> list[Any]:
-    """Polygons without holes covering ``geometry`` (a box minus the inclusion zones): a
-    piece with a hole is split by a vertical line through the hole, until none is left."""
-    import shapely
-    from shapely.ops import split
-
-    todo = list(getattr(geometry, "geoms", [geometry]))
-    done: list[Any] = []
-    while todo:
-        piece = todo.pop()
-        if piece.geom_type != "Polygon" or piece.area < 1e-6:
-            if piece.geom_type in ("MultiPolygon", "GeometryCollection"):
-                todo.extend(piece.geoms)
-            continue
-        if not piece.interiors:
-            done.append(piece)
-            continue
-        hx = shapely.Polygon(piece.interiors[0]).representative_point().x
-        _, ymin, _, ymax = piece.bounds
-        cut = shapely.LineString([(hx, ymin - 1.0), (hx, ymax + 1.0)])
-        todo.extend(split(piece, cut).geoms)
-    return done
+def _over_ground(
+    item: MissionItem,
+    xy: tuple[float, float],
+    ground: Ground,
+    home_z: float,
+    what: str,
+    file: str | None,
+) -> float:
+    """An item's z over terrain (above the datum): relative above home (on the ground at
+    ``home_z``), AMSL as it is, terrain-frame above the ground beneath; above that ground."""
+    under = float(ground.z_at(np.array([xy]))[0])
+    frame_id = canonical_frame(item.frame)
+    if frame_id in _RELATIVE_FRAMES:
+        z = home_z + item.alt_m
+    elif frame_id in _TERRAIN_FRAMES:
+        z = under + item.alt_m
+    else:  # MAV_FRAME_GLOBAL (AMSL)
+        z = item.alt_m - ground.datum_amsl_m
+    if not z - under > 0.0:
+        raise InputError(
+            f"{what} at {z - under:.1f} m above the ground is not above it (over the "
+            "scenario's terrain)",
+            file=file,
+        )
+    return z
 
 
 # ---------------------------------------------------------------------------------------------
@@ -434,166 +370,292 @@ def _check_points(
                 file=file,
             )
         clearance, index = world.nearest_obstacle(p)
-        if index >= 0 and clearance < margin_m - 1e-9:
+        if index != -1 and clearance < margin_m - 1e-9:
             inside = "inside" if clearance <= 0 else f"{clearance:.1f} m from"
+            thing = _name(world, airspace, index, np.array(p), np.array(p))
             raise InputError(
-                f"{where} is {inside} {airspace.names[index]} (needs {margin_m:g} m safety margin)",
-                file=file,
+                f"{where} is {inside} {thing} (needs {margin_m:g} m safety margin)", file=file
             )
 
 
 def _straight_segments(
-    route: UserRoute, home_xy: tuple[float, float]
-) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str]]:
+    route: UserRoute, home_xy: tuple[float, float], ground: Ground | None = None
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str, bool]]:
     """The flown segments no planner touches: the take-off climb (or the approach from home
-    without a take-off), hops between positions closer than MIN_LEG_M and the landing."""
+    without a take-off), hops between positions closer than MIN_LEG_M and the landing; each
+    with whether it is in the air (the climb from home and the landing touch the ground, and
+    are measured against the obstacles only)."""
     pos = route.positions
+
+    def on_ground(xy: Any) -> float:
+        return 0.0 if ground is None else float(ground.z_at(np.array([xy[:2]]))[0])
+
     first = np.array(pos[0].point_m)
-    ground = np.array([home_xy[0], home_xy[1], 0.0])
+    home = np.array([home_xy[0], home_xy[1], on_ground(home_xy)])
     what = "take-off climb above home" if route.has_takeoff else "flight from home"
-    segments = [(ground, first, f"the {what} to {pos[0].what}")]
+    segments = [(home, first, f"the {what} to {pos[0].what}", False)]
     for a, b in itertools.pairwise(pos):
         pa, pb = np.array(a.point_m), np.array(b.point_m)
         if math.hypot(*(pb[:2] - pa[:2])) < MIN_LEG_M:
-            segments.append((pa, pb, f"the climb or descent from {a.what} to {b.what}"))
+            segments.append((pa, pb, f"the climb or descent from {a.what} to {b.what}", True))
     if route.end == "land":
         last = np.array(pos[-1].point_m)
-        segments.append((last, np.array([last[0], last[1], 0.0]), f"the landing of {pos[-1].what}"))
+        down = np.array([last[0], last[1], on_ground(last)])
+        segments.append((last, down, f"the landing of {pos[-1].what}", False))
     return segments
 
 
 def _check_segments(
-    segments: list[tuple[NDArray[np.float64], NDArray[np.float64], str]],
+    segments: list[tuple[NDArray[np.float64], NDArray[np.float64], str, bool]],
     airspace: Airspace,
     world: World,
     margin_m: float,
     file: str | None,
 ) -> None:
-    for a, b, what in segments:
+    for a, b, what, airborne in segments:
         if np.allclose(a, b):
             continue
-        dist, which = world.segments_clearance(a[None, :], b[None, :])
-        if which[0] >= 0 and dist[0] < margin_m - 1e-9:
+        measured = world if airborne else world.without_ground()
+        dist, which = measured.segments_clearance(a[None, :], b[None, :])
+        if which[0] != -1 and dist[0] < margin_m - 1e-9:
+            thing = _name(measured, airspace, int(which[0]), a, b)
             raise InputError(
-                f"{what} passes {max(float(dist[0]), 0.0):.1f} m from "
-                f"{airspace.names[int(which[0])]} (needs {margin_m:g} m safety margin)",
+                f"{what} passes {max(float(dist[0]), 0.0):.1f} m from {thing} (needs "
+                f"{margin_m:g} m safety margin)",
                 file=file,
             )
+
+
+def _name(
+    world: World, airspace: Airspace, index: int, a: NDArray[np.float64], b: NDArray[np.float64]
+) -> str:
+    """What obstacle ``index`` of the airspace is, or the terrain and where."""
+    if index >= 0:
+        return airspace.names[index]
+    _, kind, where = world.terrain_nearest(a[None, :], b[None, :])
+    x, y = (float(v) for v in where[0])
+    if kind[0] == CEILING:
+        return f"the ceiling (bounds.z max above the ground) over ({x:.0f}, {y:.0f})"
+    return f"the terrain at ({x:.0f}, {y:.0f})"
 
 
 # ---------------------------------------------------------------------------------------------
 # Rerouting
 
 
+@dataclass(frozen=True, eq=False)
+class PlanWorld:
+    """Where a plan is rerouted: its ENU frame (at home, or at the ``--scenario``'s site
+    origin: over terrain the datum), the airspace (the fence's zones and the scenario's
+    obstacles, the flight volume), the world built from it (with the scenario's ground), the
+    safety margin, and home's position in the frame."""
+
+    frame: EnuFrame
+    airspace: Airspace
+    world: World
+    margin_m: float
+    home_xy: tuple[float, float]
+    ground: Ground | None = None
+
+    def check(self, flight: Flight) -> FlightCheck:
+        """``flight`` (in :attr:`frame`) checked in this world, as the rerouting checks the
+        plan it writes (:func:`uavplan.flight.check_flight`)."""
+        names = self.airspace.names
+        return check_flight(self.world, flight, name_of=lambda i: names[i], margin_m=self.margin_m)
+
+    def flight_of(self, plan: MissionPlan) -> Flight:
+        """``plan`` as the autopilot flies it in this world (over the ground, if any)."""
+        if self.ground is None:
+            return flight_of_mission(plan, self.frame)
+        return flight_of_mission(plan, self.frame, self.ground.z_at, self.ground.follow)
+
+
+def _frame_of(
+    plan: MissionPlan, base: Scenario | Surroundings | None, file: str | None
+) -> tuple[EnuFrame, Ground | None]:
+    """The frame a plan is read in (over terrain the site's, z above its datum) and the
+    scenario's ground."""
+    if plan.home is None:
+        raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
+    if base is None:
+        home = plan.home
+        return EnuFrame.at(GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)), None
+    site = base.site
+    return EnuFrame.at(site.origin), site.ground
+
+
+def _plan_world(
+    plan: MissionPlan,
+    points_m: NDArray[np.float64],
+    frame: EnuFrame,
+    ground: Ground | None,
+    base: Scenario | Surroundings | None,
+    file: str | None,
+) -> PlanWorld:
+    assert plan.home is not None
+    margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
+    airspace = build_airspace(plan, points_m, frame, margin_m=margin_m, base=base, file=file)
+    check_volume(airspace.bounds, file)
+    b = airspace.bounds
+    world = World.build(
+        airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m, ground=ground
+    )
+    hxy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg])[0]
+    return PlanWorld(frame, airspace, world, margin_m, (float(hxy[0]), float(hxy[1])), ground)
+
+
+def fence_world(
+    plan: MissionPlan, *, base: Scenario | Surroundings | None = None, file: str | None = None
+) -> tuple[PlanWorld, Flight]:
+    """The world the rerouting of ``plan`` plans in (its geofence's zones as obstacles, and
+    ``base``'s), spanning the plan's whole flight, and that flight (as the autopilot flies the
+    items, :func:`uavplan.flight.flight_of_mission`): what ``validate`` and ``render`` check
+    and draw a rerouted plan against when no scenario is given. Raises InputError for a plan
+    without a planned home or without a position to fly."""
+    frame, ground = _frame_of(plan, base, file)
+    try:
+        if ground is None:
+            flight = flight_of_mission(plan, frame)
+        else:
+            flight = flight_of_mission(plan, frame, ground.z_at, ground.follow)
+    except ValueError as err:
+        raise InputError(str(err), file=file) from None
+    if len(flight.points_enu) < 2:
+        raise InputError("the mission has fewer than two positions to fly", file=file)
+    return _plan_world(plan, flight.points_enu, frame, ground, base, file), flight
+
+
 def reroute_plan(
     plan: MissionPlan,
     *,
-    base: Scenario | None = None,
+    base: Scenario | Surroundings | None = None,
     planner: PlannerConfig | None = None,
     name: str = "plan",
     file: str | None = None,
     progress: ProgressFn | None = None,
     should_stop: Callable[[], bool] | None = None,
+    margin_pad_m: float = 0.0,
 ) -> RerouteResult:
     """``plan`` with planned NAV_WAYPOINTs inserted between the user's positions so that the
     flown line keeps the safety margin from the fence's exclusion zones (and from ``base``'s
     obstacles, whose planner and mission settings are used; ``planner`` overrides the
-    planner settings). ``file`` labels messages.
+    planner settings). ``file`` labels messages (``name`` when there is none).
+    ``margin_pad_m``: the legs are planned (and judged straight) with the margin this much
+    wider, so that the track an autopilot flies through them keeps it
+    (:func:`uavplan.rehearsal.reroute_safe_as_flown`); over terrain the same ground serves,
+    so the ceiling comes down by the pad too.
 
     Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
-    :class:`NoPathError` (exit 3) when a leg has no route; ``KeyboardInterrupt`` when
-    ``should_stop`` ended the search.
+    :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
+    search the result says ``interrupted`` (and holds the plan unchanged).
     """
-    if plan.home is None:
-        raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
-    home = plan.home
-    origin = base.origin if base is not None else GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)
-    frame = EnuFrame.at(origin)
-    route = read_user_route(plan, frame, file=file)
-    margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
-    airspace = build_airspace(plan, route, frame, margin_m=margin_m, base=base, file=file)
-
-    points = [p.point_m for p in route.positions]
-    mission_cfg = base.mission if base is not None else MissionConfig()
-    mission_cfg = replace(mission_cfg, autopilot=plan.autopilot, end=route.end)
-    template = Scenario(
-        name=name,
-        origin=origin,
-        bounds=airspace.bounds,
-        start_m=points[0],
-        goal_m=points[-1],
-        obstacles=airspace.obstacles,
-        safety_margin_m=margin_m,
-        mission=mission_cfg,
-        source=file,
-    )
-    if base is not None:
-        template = replace(template, vehicle=replace(base.vehicle, takeoff_altitude_m=None))
-        template = replace(template, planner=base.planner)
-    if planner is not None:
-        template = replace(template, planner=planner)
-    world = build_world(template)
-    hxy = frame.to_enu_xy([home.lat_deg], [home.lon_deg])[0]
-    home_xy = (float(hxy[0]), float(hxy[1]))
+    frame, ground = _frame_of(plan, base, file)
+    origin = frame.origin
+    route = read_user_route(plan, frame, file=file, ground=ground)
+    points_m = np.array([p.point_m for p in route.positions])
+    pw = _plan_world(plan, points_m, frame, ground, base, file)
+    airspace, world, margin_m, home_xy = pw.airspace, pw.world, pw.margin_m, pw.home_xy
     if not airspace.bounds.contains((*home_xy, max(0.0, airspace.bounds.z_m[0]))):
         raise InputError(
             f"the planned home at [{home_xy[0]:.1f}, {home_xy[1]:.1f}] m is outside the flight "
             "volume" + (" of the scenario" if base is not None else ""),
             file=file,
         )
+    who = file or name
     _check_points(route, airspace, world, margin_m, file)
-    _check_segments(_straight_segments(route, home_xy), airspace, world, margin_m, file)
+    _check_segments(_straight_segments(route, home_xy, ground), airspace, world, margin_m, file)
+    plan_margin_m = margin_m + max(0.0, margin_pad_m)
+    plan_world = world
+    if plan_margin_m != margin_m:
+        b = airspace.bounds
+        plan_world = World.build(
+            airspace.obstacles,
+            bounds_xyz=(b.x_m, b.y_m, b.z_m),
+            margin_m=plan_margin_m,
+            ground=ground,
+        )
 
+    # a leg into a terrain-frame item is flown over the ground (ArduPilot): as drawn and as
+    # planned, it is measured so, and waypoints are added where it would come too close
+    over: dict[int, Follow] = {}
+    if ground is not None:
+        for k, pos in enumerate(route.positions):
+            if canonical_frame(plan.items[pos.item_index].frame) in _TERRAIN_FRAMES:
+                over[k] = ground.follow
     # one planning run (one world, one seed stream) per chain of consecutive legs that need
     # a route; a leg that keeps the margin as drawn stays straight (nothing is inserted)
+    points = [p.point_m for p in route.positions]
     chains: list[list[int]] = [[0]]
     straight = 0
     for k in range(1, len(points)):
-        a, b = points[k - 1], points[k]
-        if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
-            world, a, b, margin_m
+        a, b_ = points[k - 1], points[k]
+        if math.hypot(b_[0] - a[0], b_[1] - a[1]) < MIN_LEG_M or _clear_as_drawn(
+            plan_world, a, b_, plan_margin_m, over.get(k)
         ):
             straight += 1
             chains.append([k])
         else:
             chains[-1].append(k)
+    settings = _stretch_settings(plan, base, planner)
     insert_before: dict[int, NDArray[np.float64]] = {}  # item index → planned waypoints
-    runs: list[RouteResult] = []
+    runs: list[tuple[Scenario, RouteResult]] = []
     notes = list(route.notes)
+    lifted = stretch_obstacles(airspace.obstacles, ground)
     for chain in chains:
         if len(chain) < 2:
             continue
-        scn = replace(
-            template,
-            start_m=points[chain[0]],
-            goal_m=points[chain[-1]],
-            via_m=tuple(points[k] for k in chain[1:-1]),
-        )
-        result = plan_route(scn, progress=progress, world=world, should_stop=should_stop)
-        if result.status is RouteStatus.INTERRUPTED:
-            raise KeyboardInterrupt
-        if not result.ok:
-            # plan_route prefixes "leg i of n: " when the chain has several legs
-            found = re.match(r"leg (\d+) of \d+: ", result.message)
-            failed = int(found.group(1)) - 1 if found else 0
-            reason = result.message[found.end() :] if found else result.message
+
+        # a stretch of the user's flight: it begins in the air and ends without a landing;
+        # over terrain its points and obstacles as a scenario holds them (above the ground)
+        def held(point: tuple[float, float, float]) -> tuple[float, float, float]:
+            if ground is None:
+                return point
+            under = float(ground.z_at(np.array([point[:2]]))[0])
+            return (point[0], point[1], point[2] - under)
+
+        scn = Scenario(
+            name=name,
+            origin=origin if base is None or base.terrain is None else base.origin,
+            bounds=airspace.bounds if ground is None or base is None else held_bounds(
+                airspace.bounds, base.bounds
+            ),
+            start_m=held(points[chain[0]]),
+            goal_m=held(points[chain[-1]]),
+            via_m=tuple(held(points[k]) for k in chain[1:-1]),
+            obstacles=lifted,
+            safety_margin_m=plan_margin_m,
+            source=file,
+            terrain=None if base is None else base.terrain,
+            **settings,
+        )  # fmt: skip
+        result = plan_route(scn, progress=progress, world=plan_world, should_stop=should_stop)
+        if result.interrupted:
+            return RerouteResult(
+                plan, name, margin_m, route.end, tuple(runs), 0, math.nan,
+                np.empty((0, 3)), interrupted=True,
+            )  # fmt: skip
+        if result.failure is not None:
+            failed = result.failure.leg
             a_what = route.positions[chain[failed]].what
             b_what = route.positions[chain[failed + 1]].what
             raise NoPathError(
-                f"{name}: no collision-free route from {a_what} (start) to {b_what} (goal): "
-                f"{reason}"
+                f"{who}: no collision-free route from {a_what} (start) to {b_what} (goal): "
+                f"{result.failure.detail}"
             )
-        runs.append(result)
+        runs.append((scn, result))
         notes.extend(result.notes)
         for leg, k in zip(result.legs, chain[1:], strict=True):
-            insert_before[route.positions[k].item_index] = leg.waypoints_enu[1:-1]
+            waypoints = leg.waypoints_enu
+            if k in over:  # flown over the ground: keep the margin so, adding waypoints
+                waypoints, _ = over_ground(waypoints, plan_world, over[k])
+            insert_before[route.positions[k].item_index] = waypoints[1:-1]
 
     items: list[MissionItem] = []
     inserted = 0
     for index, item in enumerate(plan.items):
         planned = insert_before.get(index)
         if planned is not None and len(planned):
-            items.extend(_waypoints(frame, planned))
+            items.extend(_waypoints(frame, planned, item, ground, home_xy))
             inserted += len(planned)
         items.append(item)
     out = replace(plan, items=tuple(items))
@@ -603,77 +665,103 @@ def reroute_plan(
             "and stay straight"
         )
 
-    flown = mission_polyline_enu(out, frame)
-    clearance = _check_flown(flown, world, airspace, margin_m, name)
+    flight = pw.flight_of(out)
+    check = pw.check(flight)
+    problem = check.problem()
+    if problem is not None:
+        raise NoPathError(f"{who}: the rerouted flight: {problem}")
     notes.extend(_rtl_note(route, home_xy, world, airspace, margin_m))
     return RerouteResult(
         plan=out,
-        scenario=template,
-        routes=tuple(runs),
+        name=name,
+        safety_margin_m=margin_m,
+        end=route.end,
+        runs=tuple(runs),
         inserted=inserted,
-        min_clearance_m=clearance,
-        flown_enu=flown,
+        min_clearance_m=check.min_clearance_m,
+        flown_enu=flight.points_enu,
         notes=tuple(notes),
         obstacle_names=airspace.names,
+        airspace=airspace,
+        frame=frame,
+        positions_enu=tuple(p.point_m for p in route.positions),
     )
 
 
+def _stretch_settings(
+    plan: MissionPlan, base: Scenario | Surroundings | None, planner: PlannerConfig | None
+) -> dict[str, Any]:
+    """The vehicle, planner and mission settings every stretch is planned with: ``base``'s
+    (its take-off altitude unused), ``planner`` over them, the plan's autopilot; a stretch
+    begins in the air and ends without a landing."""
+    mission = base.mission if base is not None else MissionConfig()
+    # the altitude frames are the plan's own (legs flown over the ground: see reroute_plan)
+    mission = replace(
+        mission, autopilot=plan.autopilot, end="none", takeoff=False, altitude="relative"
+    )
+    vehicle = VehicleConfig() if base is None else replace(base.vehicle, takeoff_altitude_m=None)
+    cfg = planner if planner is not None else (base.planner if base is not None else None)
+    out: dict[str, Any] = {"mission": mission, "vehicle": vehicle}
+    if cfg is not None:
+        out["planner"] = cfg
+    return out
+
+
 def _clear_as_drawn(
-    world: World, a: tuple[float, float, float], b: tuple[float, float, float], margin_m: float
+    world: World,
+    a: tuple[float, float, float],
+    b: tuple[float, float, float],
+    margin_m: float,
+    follow: Follow | None = None,
 ) -> bool:
-    """Does the straight leg a→b stay inside the volume and keep the margin (plus the
-    planner's pad, so rounding in the file cannot take it below)?"""
-    pa, pb = np.array([a]), np.array([b])
-    if not world.points_inside_bounds(np.vstack([pa, pb])).all():
+    """Does the leg a→b (straight, or flown as ``follow`` says) stay inside the volume and
+    keep the margin (plus the planner's pad, so rounding in the file cannot take it below)?"""
+    pa, pb = np.array(a), np.array(b)
+    line = np.vstack([pa, pb]) if follow is None else np.vstack([pa, follow(pa, pb)])
+    if not world.points_inside_bounds(line).all():
         return False
-    dist, _ = world.segments_clearance(pa, pb)
-    return bool(dist[0] >= margin_m + CLEARANCE_PAD_M)
+    dist, _ = world.segments_clearance(line[:-1], line[1:])
+    return bool(dist.min() >= margin_m + CLEARANCE_PAD_M)
 
 
-def _waypoints(frame: EnuFrame, points_enu: NDArray[np.float64]) -> list[MissionItem]:
-    """Planned NAV_WAYPOINTs (relative altitude above home at the ground point below)."""
-    ground = np.array(points_enu, dtype=np.float64)
-    ground[:, 2] = 0.0
-    lat, lon, _ = frame.to_geodetic(ground)
+def _waypoints(
+    frame: EnuFrame,
+    points_enu: NDArray[np.float64],
+    before: MissionItem | None = None,
+    ground: Ground | None = None,
+    home_xy: tuple[float, float] = (0.0, 0.0),
+) -> list[MissionItem]:
+    """Planned NAV_WAYPOINTs. Over flat ground: relative altitudes above home at the ground
+    point below. Over terrain: in the frame of the item they lead to (``before``): above
+    home, AMSL or above the terrain beneath them, so the plan keeps its altitudes."""
+    flat = np.array(points_enu, dtype=np.float64)
+    flat[:, 2] = 0.0
+    lat, lon, _ = frame.to_geodetic(flat)
+    item_frame, alt = MavFrame.GLOBAL_RELATIVE_ALT, np.asarray(points_enu[:, 2], dtype=float)
+    if ground is not None and before is not None:
+        kind = canonical_frame(before.frame)
+        if kind in _TERRAIN_FRAMES:
+            item_frame = MavFrame.GLOBAL_TERRAIN_ALT
+            alt = alt - np.asarray(ground.z_at(points_enu[:, :2]))
+        elif kind in _RELATIVE_FRAMES:
+            alt = alt - float(ground.z_at(np.array([home_xy]))[0])
+        else:
+            item_frame = MavFrame.GLOBAL
+            alt = alt + ground.datum_amsl_m
     return [
         MissionItem(
             command=MavCmd.NAV_WAYPOINT,
-            frame=MavFrame.GLOBAL_RELATIVE_ALT,
+            frame=item_frame,
             param1=0.0,  # hold time s
             param2=0.0,  # acceptance radius: autopilot default
             param3=0.0,  # pass through
             param4=None,  # yaw: autopilot decides
             x=float(lat[i]),
             y=float(lon[i]),
-            z=float(points_enu[i, 2]),
+            z=float(alt[i]),
         )
         for i in range(len(points_enu))
     ]
-
-
-def _check_flown(
-    poly: NDArray[np.float64],
-    world: World,
-    airspace: Airspace,
-    margin_m: float,
-    name: str,
-) -> float:
-    """The clearance of the whole flown line ``poly`` of the output (as the project reads a
-    mission file), which must keep the margin inside the volume: else no route (exit 3)."""
-    lifted = poly.copy()  # the ground below the take-off and the landing are not "outside"
-    lifted[:, 2] = np.maximum(lifted[:, 2], world.zlim[0])
-    inside = world.points_inside_bounds(lifted, tol_m=0.05)
-    if not inside.all():
-        k = int(np.flatnonzero(~inside)[0])
-        raise NoPathError(f"{name}: point {k} of the rerouted flight leaves the flight volume")
-    dist, which = world.segments_clearance(poly[:-1], poly[1:])
-    worst = int(np.argmin(dist))
-    if not keeps_margin(float(dist[worst]), margin_m):
-        raise NoPathError(
-            f"{name}: the rerouted flight comes within {float(dist[worst]):.2f} m of "
-            f"{airspace.names[int(which[worst])]} (safety margin {margin_m:g} m)"
-        )
-    return float(dist.min())
 
 
 def _rtl_note(

@@ -13,19 +13,33 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.config import END_ACTIONS, EndAction
 from uavplan.geo import EnuFrame
 
-EndAction = Literal["rtl", "land", "none"]
-END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none")
+__all__ = [
+    "ALTITUDE_TOLERANCE_M",
+    "END_ACTIONS",
+    "EndAction",
+    "Follow",
+    "PlannedRoute",
+    "densify",
+    "drop_repeats",
+    "flown_polyline",
+    "keeps_margin",
+]
 
 #: an altitude difference below this is "the same altitude" (ArduPilot stores centimetres)
 ALTITUDE_TOLERANCE_M = 0.01
+
+#: how a leg into a waypoint is flown over the ground, when not straight: (a, b) → the flown
+#: points after a, b last (:meth:`uavplan.ground.Ground.follow` for terrain-frame legs)
+Follow = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 
 
 def flown_polyline(
@@ -34,6 +48,9 @@ def flown_polyline(
     takeoff_altitude_m: float | None = None,
     end: EndAction = "rtl",
     ground_z_m: tuple[float, float] = (0.0, 0.0),
+    takeoff: bool = True,
+    follow: Follow | None = None,
+    return_enu: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """The polyline the vehicle flies for these waypoints, ``(n, 3)`` ENU metres.
 
@@ -43,16 +60,32 @@ def flown_polyline(
     flies to the start's height if that differs, then straight from waypoint to waypoint;
     with ``end="land"`` it descends vertically at the goal to the ground there
     (``ground_z_m[1]``). The RTL leg home is the autopilot's and not part of the line.
+    With ``end="return"`` and ``return_enu`` (the planned return's waypoints, the goal first
+    and the point above home last) the line flies them and descends vertically to home
+    (``ground_z_m[0]``). Without ``takeoff`` the line begins in the air at the start (a
+    stretch of a longer flight). With ``follow`` every leg into a waypoint is flown as it says
+    (terrain-frame waypoints: over the ground) instead of straight.
     """
     w = np.asarray(waypoints_enu, dtype=np.float64)
     sx, sy, sz = (float(v) for v in w[0])
     home_z, landing_z = float(ground_z_m[0]), float(ground_z_m[1])
     takeoff_z = sz if takeoff_altitude_m is None else home_z + float(takeoff_altitude_m)
-    rows = [np.array([[sx, sy, home_z], [sx, sy, takeoff_z]])]
-    rows.append(w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M else w[1:])
+    rows = [np.array([[sx, sy, home_z], [sx, sy, takeoff_z]])] if takeoff else []
+    legs = w if abs(takeoff_z - sz) > ALTITUDE_TOLERANCE_M or not takeoff else w[1:]
+    if follow is None:
+        rows.append(legs)
+    else:
+        last = rows[-1][-1] if rows else None
+        for b in legs:
+            rows.append(b[None, :] if last is None else follow(last, b))
+            last = b
     if end == "land":
         gx, gy, _ = (float(v) for v in w[-1])
         rows.append(np.array([[gx, gy, landing_z]]))
+    elif end == "return" and return_enu is not None:
+        back = np.asarray(return_enu, dtype=np.float64).reshape(-1, 3)
+        hx, hy, _ = (float(v) for v in back[-1])
+        rows.extend([back, np.array([[hx, hy, home_z]])])
     return drop_repeats(np.vstack(rows))
 
 
@@ -108,6 +141,14 @@ class PlannedRoute:
     waypoint_ground_z_m: NDArray[np.float64] | None = None
     #: with terrain: the z of the datum in metres AMSL (the frame's origin altitude)
     datum_amsl_m: float | None = None
+    #: ``end="return"``: the planned return's waypoints (r, 3), the goal first and the point
+    #: above home last (its landing descends from there); ``flown_enu`` flies them
+    return_enu: NDArray[np.float64] | None = None
+    #: with terrain: the ground's z under each return waypoint
+    return_ground_z_m: NDArray[np.float64] | None = None
+    #: rows of ``return_enu`` (0: the goal) the vehicle must fly to a stop instead of
+    #: cutting the corner there (the corner's shortcut would not keep the margin)
+    return_stops: tuple[int, ...] = ()
 
     #: clearance may fall short of the margin by this much (floating point, not rounding:
     #: planning keeps a 2 cm pad so files that round positions still keep the margin)

@@ -1,4 +1,4 @@
-"""The world: obstacles as vertical solids, the flight bounds and the safety margin.
+"""The world: obstacles as vertical solids, the terrain, the flight bounds and the margin.
 
 Everything is in a local metric frame (ENU metres unless the world was moved into another
 frame with :meth:`World.in_frame`). The heavy lifting is in :mod:`uavplan._geom`; this module
@@ -7,24 +7,32 @@ builds the flat arrays those kernels read and offers vectorised, documented entr
 * :meth:`World.segments_free` — are these straight segments inside the bounds and at least
   ``margin`` from every obstacle? (batches of segments at once)
 * :meth:`World.points_clearance` / :meth:`World.segments_clearance` — exact distances.
+
+Over terrain the world carries the :class:`~uavplan.ground.Ground` (its height field) and the
+map from its own frame to the field's: every query above measures the ground and the ceiling
+over it exactly, in the kernels (``uavplan/_csrc/heightfield.c``).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
 from uavplan import _geom
 from uavplan.geometry2d import convex_pieces
-from uavplan.obstacles import BoxObstacle, CylinderObstacle, Ground, Obstacle, PrismObstacle
+from uavplan.ground import FIELD_META, Ground
+from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
-GROUND = -2  # owner of the pieces that hold the terrain (see World.build's ``ground``)
+GROUND = -2  # what the terrain's ground is, where an obstacle index would be
+CEILING = -3  # and the ceiling above it (bounds.z max above the ground)
 CEILING_TOP = 1e300  # bounding-box top of a ceiling piece (height −b: solid from b up)
+#: the kernels' empty height field (a world over flat ground)
+_NO_FIELD = (np.zeros((0, 0, 2)), np.zeros((0, 0)), np.zeros((0, 0, 2)), np.zeros(FIELD_META))
 
 
 def _cell_size(box: np.ndarray) -> float:
@@ -53,6 +61,8 @@ class World:
       ``circ`` (C, 4): circles (cx, cy, r, h); ``box`` (P + C, 5): piece bounding boxes
       (xmin, xmax, ymin, ymax, zmax); ``owner`` (P + C,): index of the obstacle of each piece;
       ``hp`` (m, 3): bounds half-planes a·x + b·y <= c; ``zlim`` (2,).
+      ``ground``: the terrain (None: flat ground at z = 0), and ``field_frame`` (ox, oy, c, s)
+      the map from this frame to the ground's (X = ox + c·x − s·y, Y = oy + s·x + c·y).
     """
 
     poly_xy: np.ndarray
@@ -66,6 +76,8 @@ class World:
     margin_m: float
     n_obstacles: int
     cells: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    ground: Ground | None = None
+    field_frame: tuple[float, float, float, float] = (0.0, 0.0, 1.0, 0.0)
 
     # -- construction ------------------------------------------------------------------
     @classmethod
@@ -78,9 +90,8 @@ class World:
         ground: Ground | None = None,
     ) -> World:
         """The world of ``obstacles`` (each from below the ground up to its height) inside
-        the bounds, keeping ``margin_m``; with ``ground``, its solids are pieces too (owner
-        :data:`GROUND`), so the margin holds from the terrain as from any obstacle, and its
-        ceiling pieces (if any) keep the route under ``ground.ceilings_m`` less the margin."""
+        the bounds, keeping ``margin_m``; with ``ground``, the margin holds from the terrain
+        (its height field) as from any obstacle, and from the ceiling over it."""
         polys: list[tuple[list[tuple[float, float]], float, int]] = []
         circles: list[tuple[float, float, float, float, int]] = []
         for i, obs in enumerate(obstacles):
@@ -100,19 +111,6 @@ class World:
             poly_n[k] = len(piece)
             poly_h[k] = h
             owner.append(i)
-        if ground is not None and len(ground.tops_m):
-            n_g = len(ground.tops_m)
-            g_xy = np.zeros((n_g, MAX_VERTS, 2))
-            g_xy[:, :4] = ground.prisms_xy
-            poly_xy = np.concatenate([poly_xy, g_xy])
-            poly_n = np.concatenate([poly_n, np.full(n_g, 4, dtype=np.int64)])
-            poly_h = np.concatenate([poly_h, np.asarray(ground.tops_m, dtype=float)])
-            owner.extend([GROUND] * n_g)
-            if ground.ceilings_m is not None:  # the same outlines, hanging from the sky
-                poly_xy = np.concatenate([poly_xy, g_xy])
-                poly_n = np.concatenate([poly_n, np.full(n_g, 4, dtype=np.int64)])
-                poly_h = np.concatenate([poly_h, -np.asarray(ground.ceilings_m, dtype=float)])
-                owner.extend([GROUND] * n_g)
         circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
         owner.extend(c[4] for c in circles)
         (x0, x1), (y0, y1), (z0, z1) = bounds_xyz
@@ -127,10 +125,14 @@ class World:
             np.array([z0, z1], dtype=float),
             float(margin_m),
             len(obstacles),
+            ground,
         )
 
     @classmethod
-    def _assemble(cls, poly_xy, poly_n, poly_h, circ, owner, hp, zlim, margin_m, n_obs) -> World:
+    def _assemble(
+        cls, poly_xy, poly_n, poly_h, circ, owner, hp, zlim, margin_m, n_obs, ground=None,
+        field_frame=(0.0, 0.0, 1.0, 0.0),
+    ) -> World:  # fmt: skip
         npoly = poly_n.shape[0]
         box = np.zeros((npoly + circ.shape[0], 5))
         if npoly:
@@ -156,6 +158,8 @@ class World:
             margin_m,
             n_obs,
             cells,
+            ground,
+            field_frame,
         )
 
     def in_frame(
@@ -198,46 +202,46 @@ class World:
             else np.array([max(self.zlim[0], floor_m), self.zlim[1]]),
             self.margin_m if margin_m is None else float(margin_m),
             self.n_obstacles,
+            self.ground,
+            _compose(self.field_frame, ox, oy, c, s),
         )
 
     @property
     def has_ground(self) -> bool:
-        return bool(np.any(self.owner == GROUND))
+        return self.ground is not None
 
     def without_ground(self) -> World:
-        """The same world without the terrain's pieces (e.g. for the take-off climb, which
-        starts on the ground)."""
-        if not self.has_ground:
-            return self
-        npoly = self.poly_n.shape[0]
-        keep = self.owner[:npoly] != GROUND
-        return World._assemble(
-            self.poly_xy[keep],
-            self.poly_n[keep],
-            self.poly_h[keep],
-            self.circ,
-            self.owner[self.owner != GROUND],
-            self.hp,
-            self.zlim,
-            self.margin_m,
-            self.n_obstacles,
-        )
+        """The same world without the terrain (e.g. for the take-off climb, which starts on
+        the ground)."""
+        return self if self.ground is None else replace(self, ground=None)
 
     # -- queries -----------------------------------------------------------------------
     @cached_property
-    def kernel_args(self) -> tuple:
-        """The world tuple ``W`` the kernels of :mod:`uavplan._geom` take (checked once)."""
-        return _geom.world_arrays(
-            (
-                self.poly_xy,
-                self.poly_n,
-                self.poly_h,
-                self.circ,
-                self.box,
-                self.hp,
-                self.zlim,
-                *self.cells,
-            )
+    def kernel_args(self) -> _geom.KernelWorld:
+        """The world as the kernels of :mod:`uavplan._geom` read it, by name (checked once)."""
+        gmeta, cell_start, cell_items, piece_cells = self.cells
+        hf_xy, hf_z, hf_cell, hf_meta = _NO_FIELD
+        if self.ground is not None:
+            ox, oy, c, s = self.field_frame
+            field = self.ground.field
+            hf_xy, hf_z, hf_cell = field.xy, field.z, field.cell
+            hf_meta = self.ground.kernel_meta((ox, oy), (c, s))
+        return _geom.KernelWorld(
+            poly_xy=self.poly_xy,
+            poly_n=self.poly_n,
+            poly_h=self.poly_h,
+            circ=self.circ,
+            box=self.box,
+            hp=self.hp,
+            zlim=self.zlim,
+            gmeta=gmeta,
+            cell_start=cell_start,
+            cell_items=cell_items,
+            piece_cells=piece_cells,
+            hf_xy=hf_xy,
+            hf_z=hf_z,
+            hf_cell=hf_cell,
+            hf_meta=hf_meta,
         )
 
     def segments_free(
@@ -289,12 +293,42 @@ class World:
         dist, piece = _geom.segments_clearance(p0, p1, self.kernel_args)
         return dist, self._owners(piece)
 
+    def segments_nearest(self, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact minimum distance (n,) from each segment to the nearest piece, and that piece
+        (−1: none; :meth:`owner_of` gives its obstacle)."""
+        p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
+        p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
+        return _geom.segments_clearance(p0, p1, self.kernel_args)
+
+    def owner_of(self, piece: np.ndarray) -> np.ndarray:
+        """The obstacle index of each piece index (−1 stays −1; the terrain's ground
+        :data:`GROUND`, its ceiling :data:`CEILING`)."""
+        return self._owners(np.asarray(piece))
+
+    def terrain_nearest(
+        self, p0: np.ndarray, p1: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per segment p0[i]→p1[i] (a point when equal): the exact distance to the nearer of
+        the terrain's solids (inf without terrain), which (:data:`GROUND`, :data:`CEILING`,
+        −1: none) and the closest point of its surface, (x, y) in the ground's frame (the
+        site's ENU frame)."""
+        p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
+        p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
+        n = p0.shape[0]
+        dist, kind, where = np.empty(n), np.empty(n, dtype=np.int64), np.empty((n, 2))
+        _geom._c.field_nearest(p0, p1, self.kernel_args, dist, kind, where)
+        return dist, np.where(kind == 0, GROUND, np.where(kind == 1, CEILING, -1)), where
+
     def _owners(self, piece: np.ndarray) -> np.ndarray:
-        """Obstacle index of each piece index (−1 stays −1: no obstacle at all; the terrain's
-        pieces give :data:`GROUND`)."""
-        if self.owner.size == 0:
-            return np.full(piece.shape, -1, dtype=np.int64)
-        return np.where(piece >= 0, self.owner[np.maximum(piece, 0)], -1)
+        """Obstacle index of each piece index (−1 stays −1: no obstacle at all; the
+        terrain's: :data:`GROUND`, :data:`CEILING`)."""
+        npieces = self.box.shape[0]
+        out = np.full(piece.shape, -1, dtype=np.int64)
+        if self.owner.size:
+            mine = (piece >= 0) & (piece < npieces)
+            out = np.where(mine, self.owner[np.clip(piece, 0, max(npieces - 1, 0))], out)
+        out = np.where(piece == npieces, GROUND, out)
+        return np.where(piece == npieces + 1, CEILING, out)
 
     def polyline_clearance(self, points: np.ndarray) -> float:
         """Smallest distance between the polyline through ``points`` (n, 3) and any obstacle."""
@@ -307,3 +341,12 @@ class World:
     def nearest_obstacle(self, point: Sequence[float]) -> tuple[float, int]:
         dist, idx = self.points_clearance(np.asarray(point, dtype=float).reshape(1, 3))
         return float(dist[0]), int(idx[0])
+
+
+def _compose(
+    frame: tuple[float, float, float, float], ox: float, oy: float, c: float, s: float
+) -> tuple[float, float, float, float]:
+    """The map to the field's frame from a frame whose origin is (ox, oy) and whose axes are
+    turned by (c, s) = (cos, sin) in the frame ``frame`` maps from."""
+    fx, fy, fc, fs = frame
+    return (fx + fc * ox - fs * oy, fy + fs * ox + fc * oy, fc * c - fs * s, fs * c + fc * s)

@@ -5,7 +5,8 @@ algorithm variant, seed) — run by :func:`run_jobs` serially, on local processe
 (``workers > 1``) or on a Dask distributed cluster (``dask=ADDRESS``), with the same result:
 one :class:`RunRecord` per job, in job order. :func:`summarise` aggregates them into the
 Table-2 statistics (mean / worst / best / std of the final energy), success rate and runtime;
-:func:`write_outputs` writes CSV, JSON, a Markdown table and convergence plots.
+:func:`write_outputs` writes CSV, JSON, a Markdown table and convergence plots (both in
+:mod:`uavplan.bench.report`, re-exported here).
 
 Each run goes through :func:`uavplan.planning.plan_route`, the same pipeline as
 ``uavplan plan``: every algorithm's best path goes through the same post-processing chain
@@ -30,18 +31,14 @@ one contribution switched off (``spsa-no-escape``, …, see :data:`ABLATIONS`).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import hashlib
-import io
-import json
 import math
 import pickle
 import re
 import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -59,11 +56,20 @@ from uavplan.config import (
     resolved_planner,
     user_keys,
 )
-from uavplan.fileio import atomic_write_bytes, atomic_write_text
 from uavplan.scenario import Scenario, check_limits
 from uavplan.scenario import resolved_config as scenario_config
 
 from .reference import ASTAR, OMPL_PLANNERS, REFERENCES, ompl_available
+from .report import RunRecord as RunRecord
+from .report import Summary as Summary
+from .report import _jsonable
+from .report import format_table as format_table
+from .report import format_tables as format_tables
+from .report import mean_convergence as mean_convergence
+from .report import output_files as output_files
+from .report import plot_convergence as plot_convergence
+from .report import summarise as summarise
+from .report import write_outputs as write_outputs
 
 #: SPSA's contributions (paper section 4), each as the change that switches it off:
 #: label suffix → (SpsaParams changes, PostParams changes). Contribution 1, the
@@ -286,78 +292,6 @@ class BenchJob:
     time_s: float | None = None
 
 
-@dataclass
-class RunRecord:
-    """The outcome of one run.
-
-    ``search_fitness``: the best fitness the search itself reached, on its own node path —
-    the paper's Table-2 protocol (for a reference row: E of its raw polyline);
-    ``route_energy``: E (eq. 1) of the route after the shared post-processing chain;
-    ``evaluations``: fitness evaluations (individuals scored); ``reach_checks`` /
-    ``exact_checks``: reachability checks and the exact segment tests among them;
-    ``termination``: why the search stopped (``iterations``, ``budget``, ...);
-    ``convergence``: the best fitness after each iteration."""
-
-    index: int
-    scenario: str
-    algorithm: str
-    seed: int
-    status: str
-    route_energy: float
-    search_fitness: float
-    collision_free: bool
-    min_clearance_m: float
-    length_m: float
-    runtime_s: float
-    iterations: int
-    deadlocks: int
-    evaluations: int = 0
-    reach_checks: int = 0
-    exact_checks: int = 0
-    termination: str = ""
-    message: str = ""
-    stats: dict[str, float] = field(default_factory=dict)  # the planner's counters
-    convergence: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0))
-
-    def row(self) -> dict[str, Any]:
-        """The record without its convergence curve (a CSV / JSON row)."""
-        d = dataclasses.asdict(self)
-        d.pop("convergence")
-        return d
-
-
-@dataclass(frozen=True)
-class Summary:
-    """Table-2 statistics of one (scenario, algorithm) over its runs, twice: ``search_*`` of
-    the raw search result (the paper's protocol) and ``route_*`` of the post-processed route's
-    energy. Statistics are over the runs that returned a path; ``*_std`` is the sample
-    standard deviation. Budget columns are means per run."""
-
-    scenario: str
-    algorithm: str
-    runs: int
-    solved: int
-    collision_free: int
-    search_mean: float
-    search_worst: float
-    search_best: float
-    search_std: float
-    route_mean: float
-    route_worst: float
-    route_best: float
-    route_std: float
-    mean_evaluations: float
-    mean_reach_checks: float
-    mean_iterations: float
-    mean_runtime_s: float
-    median_runtime_s: float
-    budget_stops: int  # runs that ended because the evaluation budget was spent
-
-    @property
-    def success_rate(self) -> float:
-        return self.collision_free / self.runs if self.runs else 0.0
-
-
 # ---------------------------------------------------------------------------------------------
 # Jobs
 
@@ -371,7 +305,7 @@ def scenario_key(scenario: Scenario) -> str:
         scenario.safety_margin_m,
         scenario.start_m,
         scenario.goal_m,
-        cfg.grid,
+        scenario.grid,
         cfg.energy,
     )
     return hashlib.sha256(pickle.dumps(parts)).hexdigest()[:16]
@@ -510,7 +444,7 @@ def run_job(job: BenchJob) -> RunRecord:
         scenario=scn.name,
         algorithm=job.variant.label,
         seed=job.seed,
-        status=res.status.value,
+        status=res.status,
         route_energy=float(res.energy),
         search_fitness=float(pr.best_fitness),
         collision_free=bool(res.collision_free),
@@ -586,7 +520,8 @@ def run_jobs(
     ``distributed.Client``; the jobs then run on that cluster and ``workers`` is ignored.
     Otherwise ``workers`` > 1 runs them on that many local processes, 1 runs them here.
     ``progress(done, total, record)`` is called as each job finishes. ``should_stop`` is
-    polled between jobs (a Ctrl-C flag): the run then raises KeyboardInterrupt.
+    polled between jobs (a Ctrl-C flag): the run then stops and returns the records finished
+    so far (the caller, who owns the flag, knows why there are fewer).
     """
     stop = should_stop or (lambda: False)
     jobs = list(jobs)
@@ -615,8 +550,10 @@ def run_jobs(
         else:
             for job in phase:
                 if stop():
-                    raise KeyboardInterrupt
+                    break
                 finished(run_job(job))
+        if stop():
+            break
     return sorted(done, key=lambda r: r.index)
 
 
@@ -649,11 +586,10 @@ def _run_processes(
                 for fut in ready:
                     finished(fut.result())
                 if stop():
-                    raise KeyboardInterrupt
-        except BaseException:
+                    break
+        finally:
             for fut in futures:
                 fut.cancel()
-            raise
 
 
 def _run_dask(jobs: list[BenchJob], dask: Any, finished: Callable[[RunRecord], None]) -> None:
@@ -678,219 +614,6 @@ def _run_dask(jobs: list[BenchJob], dask: Any, finished: Callable[[RunRecord], N
     finally:
         if own:
             client.close()
-
-
-# ---------------------------------------------------------------------------------------------
-# Aggregation
-
-
-def summarise(records: Iterable[RunRecord]) -> list[Summary]:
-    """Table-2 statistics per (scenario, algorithm), in first-seen order."""
-    groups: dict[tuple[str, str], list[RunRecord]] = {}
-    for r in records:
-        groups.setdefault((r.scenario, r.algorithm), []).append(r)
-    out = []
-    for (scn, alg), rs in groups.items():
-        ok = [r for r in rs if r.status == "ok"]
-        e = np.array([r.route_energy for r in ok if math.isfinite(r.route_energy)])
-        s = np.array([r.search_fitness for r in ok if math.isfinite(r.search_fitness)])
-        out.append(
-            Summary(
-                scn,
-                alg,
-                len(rs),
-                int(e.size),
-                sum(r.collision_free for r in rs),
-                *_stats(s),
-                *_stats(e),
-                float(np.mean([r.evaluations for r in rs])),
-                float(np.mean([r.reach_checks for r in rs])),
-                float(np.mean([r.iterations for r in rs])),
-                float(np.mean([r.runtime_s for r in rs])),
-                float(np.median([r.runtime_s for r in rs])),
-                sum(r.termination == "budget" for r in rs),
-            )
-        )
-    return out
-
-
-def _stats(v: np.ndarray) -> tuple[float, float, float, float]:
-    """(mean, worst, best, sample std) of ``v``; NaN when empty, std 0 for one value."""
-    if not v.size:
-        return (math.nan,) * 4
-    std = float(v.std(ddof=1)) if v.size > 1 else 0.0
-    return float(v.mean()), float(v.max()), float(v.min()), std
-
-
-def mean_convergence(records: Iterable[RunRecord]) -> dict[str, dict[str, np.ndarray]]:
-    """scenario → algorithm → mean best fitness after each iteration (over runs that have a
-    full curve)."""
-    curves: dict[str, dict[str, list[np.ndarray]]] = {}
-    for r in records:
-        if r.convergence.size:
-            curves.setdefault(r.scenario, {}).setdefault(r.algorithm, []).append(r.convergence)
-    out: dict[str, dict[str, np.ndarray]] = {}
-    for scn, by_alg in curves.items():
-        out[scn] = {}
-        for alg, cs in by_alg.items():
-            n = min(c.size for c in cs)
-            out[scn][alg] = np.mean([c[:n] for c in cs], axis=0)
-    return out
-
-
-def _fmt(v: float, digits: int = 2) -> str:
-    return "—" if not math.isfinite(v) else f"{v:.{digits}f}"
-
-
-def _count(v: float) -> str:
-    return "—" if not math.isfinite(v) else f"{v:,.0f}"
-
-
-def format_table(summaries: Sequence[Summary], scenario: str) -> str:
-    """One scenario's results (Markdown), one column per algorithm: the paper's Table-2
-    statistics (mean, worst, best, std) of the raw search result, then the same of the
-    post-processed route energy, then collision-free runs, the budget used per run
-    (evaluations, reachability checks, iterations, wall time) and, when SPSA is in the
-    table, SPSA's mean as a fraction of each algorithm's, raw and post-processed."""
-    rows = [s for s in summaries if s.scenario == scenario]
-    if not rows:
-        return ""
-    head = f"| {scenario} | " + " | ".join(s.algorithm for s in rows) + " |"
-    sep = "|---|" + "---:|" * len(rows)
-    lines = [head, sep]
-
-    def line(name: str, cells: Iterable[str]) -> None:
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
-
-    line("search fitness mean (raw, Table 2)", (_fmt(s.search_mean) for s in rows))
-    line("search fitness worst", (_fmt(s.search_worst) for s in rows))
-    line("search fitness best", (_fmt(s.search_best) for s in rows))
-    line("search fitness std", (_fmt(s.search_std) for s in rows))
-    line("route energy mean (post-processed)", (_fmt(s.route_mean) for s in rows))
-    line("route energy worst", (_fmt(s.route_worst) for s in rows))
-    line("route energy best", (_fmt(s.route_best) for s in rows))
-    line("route energy std", (_fmt(s.route_std) for s in rows))
-    line("collision-free", (f"{s.collision_free}/{s.runs}" for s in rows))
-    line("evaluations / run", (_count(s.mean_evaluations) for s in rows))
-    line("reachability checks / run", (_count(s.mean_reach_checks) for s in rows))
-    line("iterations / run", (_count(s.mean_iterations) for s in rows))
-    line("wall time / run (s)", (_fmt(s.mean_runtime_s) for s in rows))
-    if any(s.budget_stops for s in rows):
-        line("stopped by the budget", (f"{s.budget_stops}/{s.runs}" for s in rows))
-    spsa = next((s for s in rows if s.algorithm == "spsa"), None)
-    if spsa is not None:
-        for name, key in (("raw", "search_mean"), ("post-processed", "route_mean")):
-            mine = getattr(spsa, key)
-            cells = []
-            for s in rows:
-                theirs = getattr(s, key)
-                ok = math.isfinite(mine) and math.isfinite(theirs) and theirs
-                cells.append(_fmt(mine / theirs, 3) if ok else "—")
-            line(f"SPSA mean ÷ mean ({name})", cells)
-    return "\n".join(lines)
-
-
-def format_tables(summaries: Sequence[Summary]) -> str:
-    scenarios = list(dict.fromkeys(s.scenario for s in summaries))
-    return "\n\n".join(format_table(summaries, scn) for scn in scenarios)
-
-
-# ---------------------------------------------------------------------------------------------
-# Outputs
-
-
-def plot_convergence(curves: Mapping[str, np.ndarray], title: str, path: str | Path) -> None:
-    """Mean best fitness against iteration, one line per algorithm (paper Figures 10–12)."""
-    from matplotlib.figure import Figure  # no pyplot: no global backend state, Agg for PNG
-
-    fig = Figure(figsize=(7.5, 4.5), dpi=120)
-    ax = fig.add_subplot()
-    for alg, curve in curves.items():
-        style = "--" if alg.startswith("spsa-") else "-"
-        ax.plot(np.arange(1, curve.size + 1), curve, style, label=alg, linewidth=1.4)
-    ax.set_xlabel("iteration")
-    ax.set_ylabel("mean best fitness (energy)")
-    ax.set_yscale("log")
-    ax.set_title(title)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="small", ncols=2)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    atomic_write_bytes(path, buf.getvalue())
-
-
-def _safe_name(name: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
-
-
-def write_outputs(
-    out_dir: str | Path,
-    records: Sequence[RunRecord],
-    *,
-    config: Mapping[str, Any] | None = None,
-    plots: bool = True,
-) -> list[Path]:
-    """Write ``runs.csv`` (one row per run), ``summary.csv``, ``bench.json`` (configuration,
-    summary and mean convergence curves), ``summary.md`` (the tables) and one
-    ``convergence-<scenario>.png`` per scenario. Every file is written atomically. Returns
-    the paths written."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    summaries = summarise(records)
-    curves = mean_convergence(records)
-    written: list[Path] = []
-
-    def put(name: str, text: str) -> None:
-        atomic_write_text(out / name, text)
-        written.append(out / name)
-
-    rows = [r.row() for r in records]
-    columns = [c for c in RunRecord.__dataclass_fields__ if c != "convergence"]
-    put("runs.csv", _csv([{**r, "stats": json.dumps(r["stats"])} for r in rows], columns))
-    srows = [{**dataclasses.asdict(s), "success_rate": s.success_rate} for s in summaries]
-    put("summary.csv", _csv(srows, [*Summary.__dataclass_fields__, "success_rate"]))
-    doc = {
-        "config": dict(config or {}),
-        "summary": srows,
-        "mean_convergence": {
-            scn: {alg: [round(float(v), 2) for v in c] for alg, c in by.items()}
-            for scn, by in curves.items()
-        },
-    }
-    # one line per top-level key: the convergence curves (thousands of numbers) stay compact
-    parts = [f"{json.dumps(k)}: {json.dumps(v)}" for k, v in _jsonable(doc).items()]
-    put("bench.json", "{\n" + ",\n".join(parts) + "\n}\n")
-    put("summary.md", format_tables(summaries) + "\n")
-    if plots:
-        for scn, by_alg in curves.items():
-            path = out / f"convergence-{_safe_name(scn)}.png"
-            plot_convergence(by_alg, f"{scn}: mean best fitness over runs", path)
-            written.append(path)
-    return written
-
-
-def _csv(rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n")
-    w.writeheader()
-    for row in rows:
-        w.writerow({k: _jsonable(row.get(k)) for k in columns})
-    return buf.getvalue()
-
-
-def _jsonable(value: Any) -> Any:
-    """Plain JSON values: NaN/inf become None (JSON has neither)."""
-    if isinstance(value, float | np.floating):
-        v = float(value)
-        return v if math.isfinite(v) else None
-    if isinstance(value, np.integer | np.bool_):
-        return value.item()
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    return value
 
 
 def resolved_config(jobs: Sequence[BenchJob]) -> dict[str, Any]:

@@ -1,7 +1,11 @@
 """The ``uavplan`` command line: a thin click layer over the library.
 
-Each command lives in its own module under :mod:`uavplan.cli` and registers itself on
-:data:`main`; this module only assembles them. Nothing in the library imports the CLI.
+Each command lives in a module under :mod:`uavplan.cli` and registers itself on :data:`main`;
+this module only assembles them. A command parses its options, calls one use case of
+:mod:`uavplan.app` and prints the outcome. Command modules import this package,
+:mod:`uavplan.cli.common` and :mod:`uavplan.cli.options`, never each other; nothing in the
+library imports the CLI. Importing this package changes nothing in the process: start-up
+tweaks are the entry point's (:mod:`uavplan.__main__`).
 
 Start-up is part of the product (``uavplan --help`` in well under a tenth of a second): the
 command modules are imported only when their command runs. :data:`COMMANDS` names each
@@ -13,18 +17,13 @@ from __future__ import annotations
 
 import gc
 import importlib
-import os
-from typing import Any
-
-# numpy's OpenBLAS starts a thread pool at import whose threads spin after every call; the
-# planner's only BLAS calls are 2 × 2 solves, so the pool is pure cost: 0.1–0.15 s of CPU per
-# run, all of it stolen from the planner when the process has one core. A user's own
-# setting stands.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import sys
+from typing import Any, NoReturn
 
 import click
 
 from uavplan import __version__
+from uavplan.errors import EXIT_INTERRUPTED
 
 #: command name → (the module that defines it, its one-line help as ``--help`` lists it)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -37,12 +36,16 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "clear": ("link_cmd", "Clear the vehicle's mission, geofence, rally points, or all three."),
     "convert": (
-        "render_cmd",
+        "convert_cmd",
         "Convert mission file IN to OUT; the formats come from the extensions.",
     ),
     "download": (
         "link_cmd",
         "Read the vehicle's mission (and geofence / rally points for a .plan) into a file.",
+    ),
+    "fly": (
+        "fly_cmd",
+        "Fly MISSION on the vehicle at CONN: check it, start it, follow it to the landing.",
     ),
     "import": (
         "import_cmd",
@@ -58,11 +61,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "render_cmd",
         "Draw SCENARIO in 3-D and from above, with a planned route or a mission's route.",
     ),
+    "simulate": (
+        "simulate_cmd",
+        "Fly MISSION through the flight model, in simulated time, without a vehicle.",
+    ),
     "upload": (
         "link_cmd",
         "Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).",
     ),
-    "validate": ("plan_cmd", "Check a scenario file, or a mission file against a scenario."),
+    "validate": ("check_cmd", "Check a scenario file, or a mission file against a scenario."),
 }
 
 
@@ -87,6 +94,25 @@ def startup_done() -> None:
         gc.enable()
 
 
+def interrupted() -> NoReturn:
+    """Ctrl-C: the one line ``interrupted`` on stderr and exit 130 (nothing was written)."""
+    click.echo("interrupted", err=True)
+    sys.exit(EXIT_INTERRUPTED)
+
+
+def caused_by_interrupt(exc: BaseException) -> bool:
+    """Is ``exc`` a KeyboardInterrupt, or did one cause it? (Python wraps one that lands in
+    some places: a class attribute's ``__set_name__`` turns it into a RuntimeError.)"""
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        if isinstance(link, KeyboardInterrupt):
+            return True
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
+    return False
+
+
 class _LazyGroup(click.Group):
     """A group whose commands are imported on first use (see :data:`COMMANDS`)."""
 
@@ -98,9 +124,31 @@ class _LazyGroup(click.Group):
             importlib.import_module(f"uavplan.cli.{COMMANDS[cmd_name][0]}")
         return self.commands.get(cmd_name)
 
+    # click answers a KeyboardInterrupt with a blank line, "Aborted!" and exit 1; ours is
+    # one line and exit 130, wherever it lands: parsing, importing the command, running it
+
+    def make_context(
+        self,
+        info_name: str | None,
+        args: list[str],
+        parent: click.Context | None = None,
+        **extra: Any,
+    ) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except (KeyboardInterrupt, Exception) as exc:
+            if caused_by_interrupt(exc):
+                interrupted()
+            raise
+
     def invoke(self, ctx: click.Context) -> Any:
-        startup_done()
-        return super().invoke(ctx)
+        try:
+            startup_done()
+            return super().invoke(ctx)
+        except (KeyboardInterrupt, Exception) as exc:
+            if caused_by_interrupt(exc):
+                interrupted()
+            raise
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         # the listing from the table: no command module is imported to print it

@@ -1,17 +1,22 @@
-"""``uavplan bench``: the paper's comparison (Table 2) and SPSA's ablation, as thin wiring
-over :mod:`uavplan.bench`."""
+"""``uavplan bench``: parse, call :func:`uavplan.app.bench.run_bench`, print."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import click
 
+from uavplan.app.bench import BenchRequest, run_bench
 from uavplan.cli import main
-from uavplan.cli.common import Progress, handle_errors, interruptible, show_progress
+from uavplan.cli.common import (
+    check_threads_variable,
+    exit_interrupted,
+    feedback,
+    handle_errors,
+    interruptible,
+    warn,
+)
 from uavplan.cli.options import ALGORITHMS
-from uavplan.errors import InputError
 
 
 @main.command("bench")
@@ -104,81 +109,30 @@ def bench_command(
     mean / worst / best / std of the raw search result and of the post-processed route
     energy, with collision-free runs, evaluations, reachability checks and wall time per
     run."""
-    from uavplan import bench
-    from uavplan.bench.reference import OMPL_MISSING, OMPL_PLANNERS, ompl_available
-    from uavplan.scenario import load_scenario
-
     if dask_address and workers != 1:
         raise click.UsageError("--workers and --dask are exclusive (Dask sizes its own workers)")
-    budget = None
-    if budget_text is not None:
-        try:
-            budget = bench.parse_budget(budget_text)
-        except ValueError as err:
-            raise InputError(str(err), key="--budget") from None
-    if variants is None:
-        variants = [bench.Variant.parse(name) for name in bench.default_algorithms()]
-    if ablation:
-        have = {v.label for v in variants}
-        variants += [v for v in bench.ablation_variants() if v.label not in have]
-    if references:
-        have = {v.label for v in variants}
-        variants += [v for v in bench.reference_variants() if v.label not in have]
-        if not ompl_available() and not quiet:
-            click.echo(f"note: {OMPL_MISSING}", err=True)
-    if any(v.algorithm in OMPL_PLANNERS for v in variants) and not ompl_available():
-        raise InputError(OMPL_MISSING.removesuffix("; they were skipped"), key="--algorithms")
-    loaded = [load_scenario(path) for path in scenarios]
-    try:
-        jobs = bench.make_jobs(
-            loaded,
-            variants,
-            runs=runs,
-            seed0=seed0,
-            iterations=iterations,
-            population=population,
-            search=None if fitness_smoothing is None else {"fitness_smoothing": fitness_smoothing},
-            budget=budget,
-        )
-    except InputError:
-        raise
-    except ValueError as err:
-        raise InputError(str(err), key="--algorithms") from None
-
-    bar = Progress(show_progress(quiet), "bench")
-
-    def progress(done: int, total: int, rec: bench.RunRecord) -> None:
-        bar.show(done, total, f"{rec.scenario} {rec.algorithm}")
-
-    t0 = time.perf_counter()
-    try:
-        with interruptible() as stop_requested:
-            records = bench.run_jobs(
-                jobs,
-                workers=workers,
-                dask=dask_address,
-                progress=progress,
-                should_stop=stop_requested,
-            )
-    except ConnectionError as err:
-        raise InputError(str(err), key="--dask") from None
-    except RuntimeError as err:
-        if "uavplan[dask]" in str(err):
-            raise InputError(str(err), key="--dask") from None
-        raise
-    finally:
-        bar.close()
-    wall = time.perf_counter() - t0
-
-    click.echo(bench.format_tables(bench.summarise(records)))
-    if out_dir:
-        config = bench.resolved_config(jobs)
-        config["runs"] = runs
-        config["workers"] = None if dask_address else workers
-        config["dask"] = dask_address
-        config["wall_time_s"] = round(wall, 2)
-        written = bench.write_outputs(out_dir, records, config=config)
+    request = BenchRequest(
+        scenarios,
+        variants,
+        runs=runs,
+        iterations=iterations,
+        population=population,
+        fitness_smoothing=fitness_smoothing,
+        seed0=seed0,
+        workers=workers,
+        dask=dask_address,
+        budget=budget_text,
+        references=references,
+        ablation=ablation,
+        out_dir=out_dir,
+    )
+    check_threads_variable(warn)
+    with interruptible() as interrupts:
+        outcome = run_bench(request, feedback(quiet, interrupts))
+        if outcome.interrupted:
+            exit_interrupted()
+        click.echo(outcome.tables())
+        if out_dir and not quiet:
+            click.echo(f"wrote {len(outcome.written)} files to {out_dir}", err=True)
         if not quiet:
-            click.echo(f"wrote {len(written)} files to {out_dir}", err=True)
-    if not quiet:
-        click.echo(f"{len(records)} runs in {wall:.1f} s", err=True)
+            click.echo(f"{len(outcome.records)} runs in {outcome.wall_s:.1f} s", err=True)

@@ -1,27 +1,34 @@
 """``uavplan upload``, ``download``, ``clear`` and ``mock-vehicle``: missions over MAVLink.
 
-Thin wrappers: parse options, call :mod:`uavplan.mavlink`, print one summary line. Failures
-of the vehicle or the link exit 4 with the step that failed; bad files or options exit 2.
-The MAVLink package is imported inside the commands so ``uavplan --help`` stays fast.
+Thin: parse the options, call one use case of :mod:`uavplan.app.link` (``mock-vehicle``: the
+simulated vehicle of :mod:`uavplan.sim`), print one summary line. Failures of the vehicle or
+the link exit 4 with the step that failed; bad files or options exit 2. The MAVLink package
+is imported by the use cases when they run, so ``uavplan --help`` stays fast.
 """
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
 import click
 
+from uavplan.app.link import (
+    CLEAR_TYPES,
+    ClearRequest,
+    DownloadRequest,
+    LinkOptions,
+    UploadRequest,
+    clear,
+    download,
+    upload,
+)
 from uavplan.cli import main
-from uavplan.cli.common import Progress, handle_errors, show_progress
+from uavplan.cli.common import feedback, handle_errors, interruptible
 from uavplan.errors import InputError
-
-if TYPE_CHECKING:
-    from uavplan.mavlink.link import VehicleLink
-    from uavplan.mavlink.protocol import ProtocolTimeouts
 
 _CONN_HELP = (
     "connection: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, "
@@ -86,53 +93,36 @@ def _link_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     return fn
 
 
-def _timeouts(timeout_s: float, retries: int) -> ProtocolTimeouts:
-    from uavplan.mavlink.protocol import ProtocolTimeouts
-
-    return ProtocolTimeouts.scaled(timeout_s, retries)
-
-
-def _connect(
+def _link(
     conn: str,
+    timeout_s: float,
+    retries: int,
     target_system: int | None,
     heartbeat_timeout_s: float,
-    source: tuple[int, int | None] = (255, None),
-) -> VehicleLink:
-    from uavplan.mavlink.link import VehicleLink
-
-    return VehicleLink.connect(
+    source_system: int,
+    source_component: int | None,
+) -> LinkOptions:
+    return LinkOptions(
         conn,
-        target_system=target_system,
-        heartbeat_timeout_s=heartbeat_timeout_s,
-        system_id=source[0],
-        component_id=source[1],
+        timeout_s,
+        retries,
+        target_system,
+        heartbeat_timeout_s,
+        source_system,
+        source_component,
     )
-
-
-def _describe_vehicle(link: VehicleLink) -> str:
-    vehicle = link.vehicle
-    return (
-        f"system {vehicle.system_id} ({vehicle.autopilot.label}) on {link.connection.description}"
-    )
-
-
-@contextmanager
-def _progress(quiet: bool) -> Iterator[Callable[[str, int, int], None] | None]:
-    """A ``progress(phase, done, total)`` drawing one bar per phase on stderr, or None."""
-    if not show_progress(quiet):
-        yield None
-        return
-    bar = Progress(True)
-    try:
-        yield lambda phase, done, total: bar.show(done, total, label=phase)
-    finally:
-        bar.close()
 
 
 @main.command("upload")
 @click.argument("mission", type=click.Path(dir_okay=False))
 @_link_options
 @click.option("--no-verify", is_flag=True, help="Skip the read-back comparison.")
+@click.option(
+    "--set-params",
+    is_flag=True,
+    help="First set the vehicle parameters the .plan says the mission relies on (RTL "
+    "altitude, fence ceiling, fence on: written by plan), each read back; prints old → new.",
+)
 @handle_errors
 def upload_cmd(
     mission: str,
@@ -145,45 +135,26 @@ def upload_cmd(
     source_component: int | None,
     quiet: bool,
     no_verify: bool,
+    set_params: bool,
 ) -> None:
     """Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).
 
     Succeeds only when the vehicle accepts every plan type and, unless --no-verify, the
     read-back matches item for item.
     """
-    from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import check_plan_fits_wire, upload_plan
-    from uavplan.mission.io import load_mission
-    from uavplan.mission.items import MissionType
-
-    plan = load_mission(mission)
-    check_plan_fits_wire(plan, file=mission)
-    with (
-        _connect(
-            conn, target_system, heartbeat_timeout_s, (source_system, source_component)
-        ) as link,
-        _progress(quiet) as progress,
-    ):
-        client = MissionClient(link, _timeouts(timeout_s, retries))
-        try:
-            report = upload_plan(client, plan, verify=not no_verify, progress=progress)
-        except InputError as err:
-            if err.file is not None:
-                raise
-            raise InputError(err.reason, file=mission, key=err.key) from None
-        counts = report.item_counts
-        parts = [f"{counts[MissionType.MISSION]} mission items"]
-        if MissionType.FENCE in counts:
-            parts.append(f"{counts[MissionType.FENCE]} fence items")
-        if MissionType.RALLY in counts:
-            parts.append(f"{counts[MissionType.RALLY]} rally points")
-        checked = "verified by read-back" if report.verified else "not verified"
-        for note in report.notes:
+    link = _link(
+        conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
+        source_component,
+    )  # fmt: skip
+    with interruptible() as interrupts:
+        request = UploadRequest(mission, link, not no_verify, set_params)
+        outcome = upload(request, feedback(quiet, interrupts))
+        for note in outcome.report.notes:
             click.echo(f"note: {note}", err=True)
-        click.echo(
-            f"uploaded {', '.join(parts)} to {_describe_vehicle(link)}; {checked} "
-            f"({report.elapsed_s:.2f} s)"
-        )
+        params = outcome.parameter_summary()
+        if params is not None:
+            click.echo(params)
+        click.echo(outcome.summary())
 
 
 @main.command("download")
@@ -209,35 +180,15 @@ def download_cmd(
     output: str,
 ) -> None:
     """Read the vehicle's mission (and geofence / rally points for a .plan) into a file."""
-    from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import download_plan
-    from uavplan.mission.io import format_for, save_mission
-
-    wants_plan = output.lower().endswith(".plan")
-    format_for(output)  # an unknown extension is a usage error: fail before connecting
-    with (
-        _connect(
-            conn, target_system, heartbeat_timeout_s, (source_system, source_component)
-        ) as link,
-        _progress(quiet) as progress,
-    ):
-        client = MissionClient(link, _timeouts(timeout_s, retries))
-        result = download_plan(client, fence_and_rally=wants_plan, progress=progress)
-        save_mission(result.plan, output)
-        for note in result.notes:
+    link = _link(
+        conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
+        source_component,
+    )  # fmt: skip
+    with interruptible() as interrupts:
+        outcome = download(DownloadRequest(output, link), feedback(quiet, interrupts))
+        for note in outcome.notes:
             click.echo(f"note: {note}", err=True)
-        plan = result.plan
-        extra = ""
-        if wants_plan:
-            n_fence = len(plan.fence.wire_items())
-            extra = f", {n_fence} fence items, {len(plan.rally)} rally points"
-        click.echo(
-            f"downloaded {len(plan.items)} mission items{extra} from "
-            f"{_describe_vehicle(link)} into {output}"
-        )
-
-
-_TYPE_CHOICES = ("mission", "fence", "rally", "all")
+        click.echo(outcome.summary())
 
 
 @main.command("clear")
@@ -245,7 +196,7 @@ _TYPE_CHOICES = ("mission", "fence", "rally", "all")
 @click.option(
     "--type",
     "plan_type",
-    type=click.Choice(_TYPE_CHOICES),
+    type=click.Choice(list(CLEAR_TYPES)),
     default="mission",
     show_default=True,
     help="Plan type to clear; 'all' clears the three one after another.",
@@ -263,21 +214,13 @@ def clear_cmd(
     plan_type: str,
 ) -> None:
     """Clear the vehicle's mission, geofence, rally points, or all three."""
-    from uavplan.mavlink.protocol import MissionClient
-    from uavplan.mavlink.transfer import clear_plan
-    from uavplan.mission.items import MissionType
-
-    types = (
-        [MissionType.MISSION, MissionType.FENCE, MissionType.RALLY]
-        if plan_type == "all"
-        else [MissionType[plan_type.upper()]]
-    )
-    with _connect(
-        conn, target_system, heartbeat_timeout_s, (source_system, source_component)
-    ) as link:
-        clear_plan(MissionClient(link, _timeouts(timeout_s, retries)), types)
-        names = ", ".join(t.name.lower() for t in types)
-        click.echo(f"cleared {names} on {_describe_vehicle(link)}")
+    link = _link(
+        conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
+        source_component,
+    )  # fmt: skip
+    with interruptible() as interrupts:
+        outcome = clear(ClearRequest(plan_type, link), feedback(quiet, interrupts))
+        click.echo(outcome.summary())
 
 
 def _parse_home(text: str | None) -> Any:
@@ -294,6 +237,31 @@ def _parse_home(text: str | None) -> Any:
         ) from None
 
 
+def _parse_wind(text: str | None) -> tuple[float, float]:
+    if text is None:
+        return (0.0, 0.0)
+    try:
+        east, north = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"expected E,N in m/s, got {text!r}", key="--wind") from None
+    if not (math.isfinite(east) and math.isfinite(north)):
+        raise InputError(f"the wind must be finite, got {text!r}", key="--wind")
+    return (east, north)
+
+
+def _parse_params(pairs: tuple[str, ...]) -> dict[str, float]:
+    values: dict[str, float] = {}
+    for pair in pairs:
+        name, sep, value = pair.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise InputError(f"expected NAME=VALUE, got {pair!r}", key="--param") from None
+    return values
+
+
 @main.command("mock-vehicle")
 @click.option("--conn", required=True, metavar="CONN", help=_CONN_HELP)
 @click.option(
@@ -301,7 +269,7 @@ def _parse_home(text: str | None) -> Any:
     type=click.Choice(["px4", "ardupilot"]),
     default="px4",
     show_default=True,
-    help="Which firmware's mission-protocol behaviour to imitate.",
+    help="Which firmware to imitate: mission protocol, modes, arming, parameters, flight.",
 )
 @click.option(
     "--loss",
@@ -323,7 +291,38 @@ def _parse_home(text: str | None) -> Any:
     "--home",
     metavar="LAT,LON,ALT",
     default=None,
-    help="ArduPilot: the home position a download returns as seq 0.",
+    help="Where the vehicle stands (AMSL metres); ArduPilot returns it as mission seq 0. "
+    "Default: the home of --mission, else PX4 SITL's default home.",
+)
+@click.option(
+    "--speedup",
+    type=click.FloatRange(min=0.01, max=1000.0),
+    default=1.0,
+    show_default=True,
+    help="Simulated time runs this many times faster than wall time (flight and telemetry; "
+    "the mission protocol keeps real time).",
+)
+@click.option(
+    "--wind",
+    metavar="E,N",
+    default=None,
+    help="Wind blowing toward east and north, m/s: it changes the ground speed.",
+)
+@click.option(
+    "--profile",
+    "profile_name",
+    type=click.Choice(["small-quad", "x500", "heavy-lift"]),
+    default="x500",
+    show_default=True,
+    help="The vehicle whose power model drains the battery (docs/energy.md).",
+)
+@click.option(
+    "--param",
+    "param_pairs",
+    metavar="NAME=VALUE",
+    multiple=True,
+    help="Start with this autopilot parameter changed (repeatable; WPNAV_SPEED=500, "
+    "MPC_XY_CRUISE=8, ...: docs/flight-model.md lists them).",
 )
 @click.option(
     "--firmware-timing",
@@ -347,30 +346,53 @@ def mock_vehicle_cmd(
     seed: int,
     system_id: int,
     home: str | None,
+    speedup: float,
+    wind: str | None,
+    profile_name: str,
+    param_pairs: tuple[str, ...],
     firmware_timing: bool,
     preload: str | None,
 ) -> None:
     """Run a simulated vehicle on CONN until SIGINT / SIGTERM.
 
-    It sends heartbeats, serves mission / geofence / rally upload, download and clear,
-    and holds what it is sent. --loss and --duplicate inject faults deterministically.
+    It speaks MAVLink as PX4 or ArduPilot Copter: heartbeats and telemetry, mission /
+    geofence / rally upload, download and clear, parameters, modes and arming, and it flies
+    the mission it holds once armed and started (docs/flight-model.md). --loss and
+    --duplicate inject packet faults deterministically.
     """
-    from uavplan.mavlink.mock_vehicle import LinkFaults, MockConfig, MockVehicle
     from uavplan.mavlink.transfer import check_plan_fits_wire, plan_wire_items
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import Autopilot, MissionType
+    from uavplan.sim.faults import Faults
+    from uavplan.sim.mock import MockVehicle
+    from uavplan.sim.params import UnknownParameter
+    from uavplan.sim.power import spec_for
+    from uavplan.sim.vehicle import VehicleConfig
+    from uavplan.vehicle import resolve
 
     flavour = Autopilot.from_name(autopilot)
-    config = MockConfig(
-        autopilot=flavour,
-        system_id=system_id,
-        home=_parse_home(home),
-        firmware_timing=firmware_timing,
-        link_faults=LinkFaults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
-    )
     plan = load_mission(preload) if preload else None
     if plan is not None:
         check_plan_fits_wire(plan, file=preload)
+    stand_at = _parse_home(home)
+    if stand_at is None and plan is not None:
+        stand_at = plan.home
+    try:
+        config = VehicleConfig(
+            autopilot=flavour,
+            system_id=system_id,
+            home=stand_at,
+            firmware_timing=firmware_timing,
+            faults=Faults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
+            params=_parse_params(param_pairs),
+            speedup=speedup,
+            wind_en_m_s=_parse_wind(wind),
+            vehicle=spec_for(resolve({"profile": profile_name})),
+        )
+    except UnknownParameter as err:
+        raise InputError(str(err), key="--param") from None
+    except ValueError as err:
+        raise InputError(str(err), key="--param") from None
     vehicle = MockVehicle(conn, config)
     try:
         if plan is not None:
@@ -389,9 +411,15 @@ def mock_vehicle_cmd(
                 if (loss or duplicate)
                 else ""
             )
+            at = config.standing_at
+            extra = f", speedup {speedup:g}" if speedup != 1.0 else ""
+            extra += f", {profile_name}"
+            if wind:
+                extra += f", wind {config.wind_en_m_s[0]:g},{config.wind_en_m_s[1]:g} m/s"
             click.echo(
-                f"mock {flavour.label} vehicle, system {system_id}, serving on {where}"
-                f"{faults}; Ctrl-C to stop",
+                f"mock {flavour.label} vehicle, system {system_id}, at "
+                f"{at.lat_deg:.7f},{at.lon_deg:.7f},{at.alt_m:.1f}, serving on {where}"
+                f"{faults}{extra}; Ctrl-C to stop",
                 err=True,
             )
             vehicle.run(stop)

@@ -61,3 +61,56 @@ class AlgorithmListType(click.ParamType):
 ALGORITHM = AlgorithmType()
 #: ``--algorithms`` of ``bench``
 ALGORITHMS = AlgorithmListType()
+
+
+class WindType(click.ParamType):
+    """``E,N``: wind blowing toward east and north, m/s (``--wind 3,-1.5``)."""
+
+    name = "wind"
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[float, float]:
+        if isinstance(value, tuple):
+            return value
+        import math
+
+        try:
+            east, north = (float(v) for v in str(value).split(","))
+        except ValueError:
+            self.fail(f"expected E,N in m/s, got {value!r}", param, ctx)
+        if not (math.isfinite(east) and math.isfinite(north)):
+            self.fail(f"the wind must be finite, got {value!r}", param, ctx)
+        return (east, north)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "E,N"
+
+
+class ParamAssignmentType(click.ParamType):
+    """``NAME=VALUE``: an autopilot parameter and its value (``--param WPNAV_SPEED=500``);
+    the name and the range are checked against the flavour's table by the use case."""
+
+    name = "param"
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[str, float]:
+        if isinstance(value, tuple):
+            return value
+        name, sep, text = str(value).partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            return (name.strip(), float(text))
+        except ValueError:
+            self.fail(f"expected NAME=VALUE, got {value!r}", param, ctx)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "NAME=VALUE"
+
+
+#: ``--wind`` of ``simulate``
+WIND = WindType()
+#: ``--param`` of ``simulate``
+PARAM = ParamAssignmentType()

@@ -1,8 +1,9 @@
-"""MAVLink for missions: connections, the mission protocol client, and a mock vehicle.
+"""MAVLink for missions: connections and the mission protocol client (the ground side).
 
 Layers (each module imports only the ones above it):
 
 - :mod:`.messages` - our own message dataclasses and MAVLink enums (no pymavlink);
+- :mod:`.modes` - PX4's and ArduPilot Copter's flight modes in HEARTBEAT.custom_mode;
 - :mod:`.transport` - connection strings (pymavlink and MAVSDK spellings) and byte
   transports (UDP, TCP, serial);
 - :mod:`.connection` - MAVLink 2 framing through pymavlink, the only module importing it;
@@ -10,9 +11,13 @@ Layers (each module imports only the ones above it):
 - :mod:`.machines` - upload / download / clear state machines (no I/O, the time passed in);
 - :mod:`.protocol` - the client driving them over a link, outcomes as values;
 - :mod:`.transfer` - whole plans: firmware layout, mission + fence + rally, read-back;
-- :mod:`.mock_vehicle` - the vehicle side, PX4 or ArduPilot flavoured;
-- :mod:`.linkfaults` - the mock's seeded packet faults; :mod:`.faultproxy` - a seeded UDP
-  fault proxy between two endpoints; :mod:`.chaos` - upload runs through it.
+- :mod:`.flightmachines` - flying a mission: pre-flight checks, command sequences, the
+  monitor, as state machines without I/O;
+- :mod:`.flightclient` - their driver over a link;
+- :mod:`.faultproxy` - a seeded UDP fault proxy between two endpoints.
+
+The vehicle side (the simulated PX4 / ArduPilot vehicle, its mission-protocol server and its
+faults) is :mod:`uavplan.sim`, a layer above this one.
 
 Typical use::
 
@@ -28,16 +33,12 @@ import importlib
 from typing import Any
 
 #: public name -> module that defines it; imported on first use, so that importing one
-#: submodule (the CLI's upload path) does not pull in the mock vehicle and numpy
+#: submodule (the CLI's upload path) does not pull in the rest
 _EXPORTS = {
     "VehicleInfo": "link",
     "VehicleLink": "link",
     "Capability": "messages",
     "MissionResult": "messages",
-    "LinkFaults": "linkfaults",
-    "MissionFaults": "mock_vehicle",
-    "MockConfig": "mock_vehicle",
-    "MockVehicle": "mock_vehicle",
     "MissionClient": "protocol",
     "MissionTransferError": "protocol",
     "Operation": "protocol",

@@ -19,15 +19,21 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable
+from typing import Any
 
 from pymavlink.dialects.v20 import common as _mav  # type: ignore[import-untyped]
 
 from uavplan.errors import LinkError
 from uavplan.mavlink.messages import (
     AutopilotVersion,
+    BatteryStatus,
     CommandAck,
+    CommandInt,
     CommandLong,
+    ExtendedSysState,
+    GlobalPositionInt,
     Heartbeat,
+    HomePosition,
     MalformedMessage,
     Message,
     MissionAck,
@@ -35,11 +41,19 @@ from uavplan.mavlink.messages import (
     MissionCount,
     MissionCurrent,
     MissionItemInt,
+    MissionItemReached,
     MissionRequest,
     MissionRequestList,
     MissionSetCurrent,
+    ParamRequestList,
+    ParamRequestRead,
+    ParamSet,
+    ParamValue,
     Received,
+    RequestDataStream,
+    SetMode,
     StatusText,
+    SysStatus,
     UnknownMessage,
 )
 from uavplan.mavlink.transport import ConnectionSpec, Transport, open_transport
@@ -139,7 +153,86 @@ def _encode(mav: _mav.MAVLink, msg: Message) -> _mav.MAVLink_message:
         )
     if isinstance(msg, StatusText):
         return mav.statustext_encode(msg.severity, msg.text.encode("utf-8")[:50])
-    raise TypeError(f"cannot send {type(msg).__name__}")
+    encoder = _MORE_ENCODERS.get(type(msg))
+    if encoder is None:
+        raise TypeError(f"cannot send {type(msg).__name__}")
+    return encoder(mav, msg)
+
+
+def _param_id(name: str) -> bytes:
+    return name.encode("ascii", errors="replace")[:16]
+
+
+#: the vehicle-side messages (telemetry, parameters, modes), by type
+_MORE_ENCODERS: dict[type, Callable[[_mav.MAVLink, Any], _mav.MAVLink_message]] = {
+    GlobalPositionInt: lambda mav, m: mav.global_position_int_encode(
+        m.time_boot_ms, m.lat, m.lon, m.alt, m.relative_alt, m.vx, m.vy, m.vz, m.hdg
+    ),
+    MissionItemReached: lambda mav, m: mav.mission_item_reached_encode(m.seq),
+    HomePosition: lambda mav, m: mav.home_position_encode(
+        m.latitude, m.longitude, m.altitude, m.x, m.y, m.z, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0
+    ),
+    ExtendedSysState: lambda mav, m: mav.extended_sys_state_encode(m.vtol_state, m.landed_state),
+    SysStatus: lambda mav, m: mav.sys_status_encode(
+        m.onboard_control_sensors_present,
+        m.onboard_control_sensors_enabled,
+        m.onboard_control_sensors_health,
+        m.load,
+        m.voltage_battery,
+        m.current_battery,
+        m.battery_remaining,
+        m.drop_rate_comm,
+        m.errors_comm,
+        0,
+        0,
+        0,
+        0,
+    ),
+    BatteryStatus: lambda mav, m: mav.battery_status_encode(
+        m.id,
+        m.battery_function,
+        m.type,
+        m.temperature,
+        list(m.voltages),
+        m.current_battery,
+        m.current_consumed,
+        m.energy_consumed,
+        m.battery_remaining,
+        m.time_remaining,
+        m.charge_state,
+    ),
+    ParamRequestList: lambda mav, m: mav.param_request_list_encode(
+        m.target_system, m.target_component
+    ),
+    ParamRequestRead: lambda mav, m: mav.param_request_read_encode(
+        m.target_system, m.target_component, _param_id(m.param_id), m.param_index
+    ),
+    ParamSet: lambda mav, m: mav.param_set_encode(
+        m.target_system, m.target_component, _param_id(m.param_id), m.param_value, m.param_type
+    ),
+    ParamValue: lambda mav, m: mav.param_value_encode(
+        _param_id(m.param_id), m.param_value, m.param_type, m.param_count, m.param_index
+    ),
+    SetMode: lambda mav, m: mav.set_mode_encode(m.target_system, m.base_mode, m.custom_mode),
+    CommandInt: lambda mav, m: mav.command_int_encode(
+        m.target_system,
+        m.target_component,
+        m.frame,
+        m.command,
+        m.current,
+        m.autocontinue,
+        m.param1,
+        m.param2,
+        m.param3,
+        m.param4,
+        m.x,
+        m.y,
+        m.z,
+    ),
+    RequestDataStream: lambda mav, m: mav.request_data_stream_encode(
+        m.target_system, m.target_component, m.req_stream_id, m.req_message_rate, m.start_stop
+    ),
+}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -250,6 +343,71 @@ _DECODERS: dict[int, Callable[[_mav.MAVLink_message], Message]] = {
         m.uid,
     ),
     _mav.MAVLINK_MSG_ID_STATUSTEXT: lambda m: StatusText(m.severity, _text(m.text)),
+    _mav.MAVLINK_MSG_ID_COMMAND_INT: lambda m: CommandInt(
+        m.target_system,
+        m.target_component,
+        m.command,
+        m.frame,
+        m.current,
+        m.autocontinue,
+        m.param1,
+        m.param2,
+        m.param3,
+        m.param4,
+        m.x,
+        m.y,
+        m.z,
+    ),
+    _mav.MAVLINK_MSG_ID_SET_MODE: lambda m: SetMode(m.target_system, m.base_mode, m.custom_mode),
+    _mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: lambda m: GlobalPositionInt(
+        m.time_boot_ms, m.lat, m.lon, m.alt, m.relative_alt, m.vx, m.vy, m.vz, m.hdg
+    ),
+    _mav.MAVLINK_MSG_ID_MISSION_ITEM_REACHED: lambda m: MissionItemReached(m.seq),
+    _mav.MAVLINK_MSG_ID_HOME_POSITION: lambda m: HomePosition(
+        m.latitude, m.longitude, m.altitude, m.x, m.y, m.z
+    ),
+    _mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: lambda m: ExtendedSysState(
+        m.vtol_state, m.landed_state
+    ),
+    _mav.MAVLINK_MSG_ID_SYS_STATUS: lambda m: SysStatus(
+        m.onboard_control_sensors_present,
+        m.onboard_control_sensors_enabled,
+        m.onboard_control_sensors_health,
+        m.load,
+        m.voltage_battery,
+        m.current_battery,
+        m.battery_remaining,
+        m.drop_rate_comm,
+        m.errors_comm,
+    ),
+    _mav.MAVLINK_MSG_ID_BATTERY_STATUS: lambda m: BatteryStatus(
+        m.id,
+        m.battery_function,
+        m.type,
+        m.temperature,
+        tuple(m.voltages),
+        m.current_battery,
+        m.current_consumed,
+        m.energy_consumed,
+        m.battery_remaining,
+        m.time_remaining,
+        m.charge_state,
+    ),
+    _mav.MAVLINK_MSG_ID_PARAM_REQUEST_LIST: lambda m: ParamRequestList(
+        m.target_system, m.target_component
+    ),
+    _mav.MAVLINK_MSG_ID_PARAM_REQUEST_READ: lambda m: ParamRequestRead(
+        m.target_system, m.target_component, _text(m.param_id), m.param_index
+    ),
+    _mav.MAVLINK_MSG_ID_PARAM_SET: lambda m: ParamSet(
+        m.target_system, m.target_component, _text(m.param_id), m.param_value, m.param_type
+    ),
+    _mav.MAVLINK_MSG_ID_PARAM_VALUE: lambda m: ParamValue(
+        _text(m.param_id), m.param_value, m.param_type, m.param_count, m.param_index
+    ),
+    _mav.MAVLINK_MSG_ID_REQUEST_DATA_STREAM: lambda m: RequestDataStream(
+        m.target_system, m.target_component, m.req_stream_id, m.req_message_rate, m.start_stop
+    ),
 }
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,7 +32,7 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
-from uavplan.route import ALTITUDE_TOLERANCE_M, END_ACTIONS, EndAction, drop_repeats
+from uavplan.route import ALTITUDE_TOLERANCE_M, END_ACTIONS, EndAction, Follow, drop_repeats
 
 __all__ = [
     "ALTITUDE_TOLERANCE_M",
@@ -41,6 +42,13 @@ __all__ = [
     "mission_polyline_enu",
 ]
 
+#: NAV_WAYPOINT param1 (hold time, s) where the vehicle must fly to a stop rather than cut the
+#: corner: both firmwares stop at a waypoint with a hold time (ArduPilot keeps whole seconds)
+CORNER_HOLD_S = 1.0
+#: param2 of the planned return's waypoints, the acceptance radius (m): PX4 turns toward the
+#: next waypoint once this close and cuts its corners by about as much (its default,
+#: NAV_ACC_RAD, is 10 m); ArduPilot Copter ignores it (its corners: WPNAV_RADIUS)
+CORNER_ACCEPTANCE_M = 0.5
 #: DO_CHANGE_SPEED param1: speed type 1 = ground speed (common.xml SPEED_TYPE_GROUNDSPEED)
 SPEED_TYPE_GROUND = 1.0
 #: DO_CHANGE_SPEED param3: -1 = leave the throttle unchanged
@@ -58,6 +66,9 @@ def build_mission(
     vehicle_type: int = 2,
     ground_z_m: ArrayLike | None = None,
     altitude: str = "relative",
+    return_enu: ArrayLike | None = None,
+    return_ground_z_m: ArrayLike | None = None,
+    return_stops: tuple[int, ...] = (),
 ) -> MissionPlan:
     """Turn a planned path into mission items.
 
@@ -67,8 +78,15 @@ def build_mission(
     Items: NAV_TAKEOFF above the start to ``takeoff_altitude_m`` (default: the start's z);
     DO_CHANGE_SPEED (ground speed) if ``cruise_speed_m_s`` is given; a NAV_WAYPOINT at the
     start's height if that differs from the takeoff altitude; a NAV_WAYPOINT per later row;
-    then NAV_RETURN_TO_LAUNCH (``end="rtl"``), NAV_LAND at the goal (``"land"``) or nothing
-    (``"none"``). Home is the ground point below the start, with an AMSL altitude.
+    then NAV_RETURN_TO_LAUNCH (``end="rtl"``), NAV_LAND at the goal (``"land"``), nothing
+    (``"none"``), or (``"return"``) the planned return ``return_enu`` ``(r, 3)`` (the goal
+    first, the point above home last; ``return_ground_z_m`` the ground under each): a
+    DO_LAND_START at the goal that marks it as the mission's landing sequence, a
+    NAV_WAYPOINT per later row and NAV_LAND at home; the rows ``return_stops`` (0: the goal)
+    get a hold time of :data:`CORNER_HOLD_S`, so the autopilot flies to a stop there
+    instead of cutting the corner, and every return waypoint an acceptance radius of
+    :data:`CORNER_ACCEPTANCE_M`. Home is the ground point below the start, with an AMSL
+    altitude.
 
     ``ground_z_m`` ``(n,)``: the ground's z under each waypoint (terrain; default flat ground
     at z = 0); home is on the ground under row 0. ``altitude``: ``"relative"`` (above home,
@@ -99,6 +117,13 @@ def build_mission(
         raise ValueError(f"altitude must be one of {', '.join(ALTITUDE_FRAMES)}; got {altitude!r}")
     if end not in END_ACTIONS:
         raise ValueError(f"end must be one of {', '.join(END_ACTIONS)}; got {end!r}")
+    back = None
+    if end == "return":
+        if return_enu is None:
+            raise ValueError('end="return" needs the planned return (return_enu)')
+        back = np.asarray(return_enu, dtype=np.float64)
+        if back.ndim != 2 or back.shape[1] != 3 or len(back) < 2 or not np.isfinite(back).all():
+            raise ValueError(f"return_enu must be finite, shape (r >= 2, 3), got {back.shape}")
     if takeoff_altitude_m is not None and not (
         math.isfinite(takeoff_altitude_m) and takeoff_altitude_m > 0.0
     ):
@@ -186,6 +211,17 @@ def build_mission(
             )
         )
 
+    if back is not None:
+        if 0 in return_stops:
+            goal = next(i for i in range(len(items) - 1, -1, -1) if items[i].command == 16)
+            items[goal] = replace(items[goal], param1=CORNER_HOLD_S, param2=CORNER_ACCEPTANCE_M)
+        items.extend(
+            _planned_return(
+                back, frame, ref_alt, home_z, under[-1], return_ground_z_m, altitude, home,
+                return_stops,
+            )
+        )  # fmt: skip
+
     return MissionPlan(
         items=tuple(items),
         autopilot=autopilot,
@@ -194,6 +230,74 @@ def build_mission(
         cruise_speed_m_s=None if cruise_speed_m_s is None else float(cruise_speed_m_s),
         hover_speed_m_s=None if cruise_speed_m_s is None else float(cruise_speed_m_s),
     )
+
+
+def _planned_return(
+    back: NDArray[np.float64],
+    frame: EnuFrame,
+    ref_alt: float,
+    home_z: float,
+    goal_ground_z: float,
+    ground_z_m: ArrayLike | None,
+    altitude: str,
+    home: GeoPoint,
+    stops: tuple[int, ...] = (),
+) -> list[MissionItem]:
+    """DO_LAND_START at the goal (the landing sequence begins there), the return's
+    waypoints after the goal (a hold time at ``stops``), NAV_LAND at home (see
+    :func:`build_mission`)."""
+    under = (
+        np.full(len(back), home_z)
+        if ground_z_m is None
+        else np.asarray(ground_z_m, dtype=np.float64).reshape(-1)
+    )
+    if under.shape != (len(back),) or not np.all(np.isfinite(under)):
+        raise ValueError(f"return_ground_z_m must hold one height per return row ({len(back)})")
+    if ground_z_m is None:
+        under[0] = goal_ground_z
+    if np.any(back[:, 2] - under <= 0.0):
+        raise ValueError("a return waypoint is not above the ground")
+    ground = back.copy()
+    ground[:, 2] = 0.0
+    lat_deg, lon_deg, _ = frame.to_geodetic(ground)
+    item_frame = ALTITUDE_FRAMES[altitude]
+    if altitude == "relative":
+        item_z = back[:, 2] - home_z
+    elif altitude == "amsl":
+        item_z = back[:, 2] + ref_alt
+    else:
+        item_z = back[:, 2] - under
+    items = [
+        MissionItem(
+            command=MavCmd.DO_LAND_START,
+            frame=item_frame,
+            param1=0.0,
+            param2=0.0,
+            param3=0.0,
+            param4=0.0,
+            x=float(lat_deg[0]),
+            y=float(lon_deg[0]),
+            z=float(item_z[0]),
+        )
+    ]
+    for i in range(1, len(back)):
+        item = _waypoint(float(lat_deg[i]), float(lon_deg[i]), float(item_z[i]), item_frame)
+        hold = CORNER_HOLD_S if i in stops else 0.0
+        items.append(replace(item, param1=hold, param2=CORNER_ACCEPTANCE_M))
+    items.append(
+        MissionItem(
+            command=MavCmd.NAV_LAND,
+            frame=item_frame,
+            param1=0.0,  # abort altitude: default
+            param2=0.0,  # precision landing: off
+            param3=0.0,
+            param4=None,  # yaw: keep the current heading
+            x=home.lat_deg,
+            y=home.lon_deg,
+            z=home.alt_m if altitude == "amsl" else 0.0,
+        )
+    )
+    return items
 
 
 def _waypoint(
@@ -231,6 +335,7 @@ def mission_polyline_enu(
     plan: MissionPlan,
     frame: EnuFrame,
     ground_z: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    follow: Follow | None = None,
 ) -> NDArray[np.float64]:
     """The path the vehicle flies through ``plan``'s items, as ENU points ``(n, 3)``.
 
@@ -247,6 +352,8 @@ def mission_polyline_enu(
     there, relative altitudes are above home, AMSL ones are placed through home's AMSL
     altitude, terrain ones are above the ground beneath the item, and a landing descends to
     the ground. NAV_LAND at lat/lon 0 lands where the vehicle is, as the autopilots read it.
+    With ``follow`` as well, a leg into a terrain-frame item is flown as ArduPilot flies it,
+    over the ground (``follow(a, b)``: the flown points after a, b last); without it, straight.
     """
     home_alt_m = plan.home.alt_m if plan.home is not None else None
     flown: list[MissionItem] = []
@@ -290,6 +397,17 @@ def mission_polyline_enu(
             z = _on_terrain(item, home_alt_m, home_z, ground_at(float(x), float(y)))
         if item.command == MavCmd.NAV_LAND and points:
             points.append((float(x), float(y), points[-1][2]))
+        over_ground = (
+            follow is not None
+            and ground_z is not None
+            and points
+            and item.command not in (MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND)
+            and canonical_frame(item.frame) == MavFrame.GLOBAL_TERRAIN_ALT
+        )
+        if over_ground:
+            assert follow is not None
+            leg = follow(np.array(points[-1]), np.array([float(x), float(y), z]))
+            points.extend((float(p[0]), float(p[1]), float(p[2])) for p in leg[:-1])
         points.append((float(x), float(y), z))
     return drop_repeats(np.array(points, dtype=np.float64).reshape(-1, 3))
 

@@ -19,19 +19,25 @@ What is drawn:
   the **obstacles** (footprint polygons with their heights; cylinders as 48-gons);
 * the mission's **geofence** zones, if it has any (circles as 48-gons).
 
-Altitudes: the mission's altitudes are heights above home, which is the scenario's flat
-ground, and that is what both formats carry. GeoJSON's third coordinate is that height in
-metres (RFC 7946 would have ellipsoidal height; every feature says so in its
+Altitudes: over flat ground the mission's altitudes are heights above home, which is the
+scenario's flat ground, and that is what both formats carry. GeoJSON's third coordinate is
+that height in metres (RFC 7946 would have ellipsoidal height; every feature says so in its
 ``altitude_reference`` property, and the route gives ``home_amsl_m`` to convert). KML uses
 ``<altitudeMode>relativeToGround</altitudeMode>``, the route is ``<extrude>``\\ d down to the
 ground and obstacles are extruded to their heights, so Google Earth shows a 3-D scene.
+
+Over terrain (extras with ``datum_amsl_m``) every coordinate is an altitude AMSL (KML
+``absolute``) and says so; a waypoint's ``height_m`` is its altitude in its own frame (above
+home, or above the terrain for a terrain-frame item, labelled), an obstacle's ``height_m``
+is above the ground it stands on and ``top_amsl_m`` its top. The site's internal datum never
+appears.
 """
 
 from __future__ import annotations
 
 import json
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -87,6 +93,14 @@ class ExportExtras:
     #: over terrain: ENU z is metres above this altitude AMSL, and the export gives AMSL
     #: altitudes (KML ``absolute``) instead of heights above flat ground
     datum_amsl_m: float | None = None
+    #: over terrain: each obstacle's height above the ground it stands on, by obstacle index
+    #: (what ``height_m`` says; the footprints' own heights are tops above the datum)
+    heights_agl_m: tuple[float, ...] | None = None
+    #: over terrain: the ground's altitude AMSL at (lat, lon) arrays (to place terrain-frame
+    #: waypoints at their altitude AMSL)
+    ground_amsl_m: (
+        Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]] | None
+    ) = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -109,8 +123,12 @@ class ExportExtras:
         *,
         name: str | None = None,
         properties: Mapping[str, Any] | None = None,
+        heights_agl_m: tuple[float, ...] | None = None,
+        ground_amsl_m: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+        | None = None,
     ) -> ExportExtras:
-        """A planned route's frame, smoothed path, flown line and margin, plus obstacles."""
+        """A planned route's frame, smoothed path, flown line and margin, plus obstacles
+        (over terrain: their heights above the ground, and the ground's altitude)."""
         return cls(
             frame=route.frame,
             obstacles=obstacles,
@@ -120,6 +138,8 @@ class ExportExtras:
             safety_margin_m=route.safety_margin_m,
             properties=dict(properties or {}),
             datum_amsl_m=route.datum_amsl_m,
+            heights_agl_m=heights_agl_m,
+            ground_amsl_m=ground_amsl_m,
         )
 
     @property
@@ -167,10 +187,17 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
     waypoints = _waypoints(plan, home_alt)
     datum = extras.datum_amsl_m
     if datum is not None and home_alt is not None:
-        waypoints = tuple(
-            replace(wp, amsl_m=None if _terrain_frame(wp.item) else home_alt + wp.height_m)
-            for wp in waypoints
-        )
+        ground = extras.ground_amsl_m
+
+        def amsl(wp: _Waypoint) -> float | None:
+            if not _terrain_frame(wp.item):
+                return home_alt + wp.height_m
+            if ground is None:
+                return None
+            lat, lon = np.array([wp.item.lat_deg]), np.array([wp.item.lon_deg])
+            return float(ground(lat, lon)[0]) + wp.height_m
+
+        waypoints = tuple(replace(wp, amsl_m=amsl(wp)) for wp in waypoints)
     route = None
     if extras.flown_enu is not None:  # a planned route's own line: not rebuilt from items
         assert extras.frame is not None
@@ -191,12 +218,15 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
     if extras.obstacles:
         assert extras.frame is not None
         for fp in extras.footprints:
+            agl = extras.heights_agl_m
             props: dict[str, Any] = {
                 "kind": "obstacle",
                 "index": fp.index,
                 "shape": fp.kind,
-                "height_m": fp.height_m,
+                "height_m": fp.height_m if agl is None else agl[fp.index],
             }
+            if datum is not None:
+                props["height_reference"] = "above the ground at the obstacle's centre"
             if fp.radius_m is not None:
                 props["radius_m"] = fp.radius_m
             if extras.safety_margin_m is not None:
@@ -455,7 +485,8 @@ def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
         _point(mark, scene.home.lon_deg, scene.home.lat_deg, 0.0)
     for wp in scene.waypoints:
         name = f"{wp.seq} {_command_name(wp.item.command)}"
-        mark = _placemark(wp_folder, name, "waypoint", f"{wp.height_m:.1f} m above home")
+        above = "the terrain" if _terrain_frame(wp.item) else "home"
+        mark = _placemark(wp_folder, name, "waypoint", f"{wp.height_m:.1f} m above {above}")
         _extended_data(
             mark, {"seq": wp.seq, "command": wp.item.command, "height_m": round(wp.height_m, 3)}
         )

@@ -30,7 +30,9 @@ polygon (a start or goal on the bounds' edge would otherwise sit on the fence li
 
 Autopilots hold few fence items (one per polygon vertex, one per circle): PX4 releases
 before 1.15 keep 63 (:data:`DEFAULT_MAX_ITEMS`; their first of 64 slots holds statistics).
-Zones closest to the route come first; the rest are left out (``OVER_LIMIT``) and reported.
+Zones closest to the route come first; the rest are left out (``OVER_LIMIT``) and counted.
+A zone is built only while the budget could still hold it, so the thousands of obstacles of
+a city map that cannot be fenced cost one vectorised distance each (:func:`route_distances`).
 
 This module is fence *policy*; the polygon geometry is :mod:`uavplan.geometry2d`. Nothing
 here plans or reads a scenario: the inputs are plain values (obstacles or footprints, the
@@ -162,7 +164,8 @@ class ObstacleZone:
     """What the fence does with one obstacle.
 
     ``route_distance_m``: smallest horizontal distance from the flown route to the footprint.
-    ``offset_m``: how far the zone reaches beyond the footprint (EXCLUDED and OVER_LIMIT).
+    ``offset_m``: how far the zone reaches beyond the footprint (EXCLUDED; for OVER_LIMIT
+    the most it could have reached: a zone left out is not built, so it has no polygon).
     ``height_above_top_m``: FLOWN_OVER / TOO_CLOSE: the route's lowest height above the
     obstacle top where it is horizontally within the margin of the footprint.
     ``polygon_enu`` (``(k, 2)``, counter-clockwise) or ``circle_enu`` (x, y, radius): the zone.
@@ -202,18 +205,41 @@ class FenceBuild:
         return [z.index for z in self.zones if z.status is status]
 
     def summary(self) -> str:
-        """One line: what went into the fence and what did not."""
-        parts = [f"{len(self.with_status(ZoneStatus.EXCLUDED))} exclusion zones"]
-        for status, label in (
-            (ZoneStatus.FLOWN_OVER, "flown over"),
-            (ZoneStatus.OVER_LIMIT, f"left out (over the {self.max_items}-item limit)"),
-            (ZoneStatus.TOO_CLOSE, "too close to the route to fence"),
-        ):
-            indices = self.with_status(status)
-            if indices:
-                parts.append(f"obstacles {_ranges(indices)} {label}")
+        """One line: what went into the fence and what did not, as counts and sizes (how
+        far from the route the fenced and the nearest left-out obstacles are, how high above
+        the flown-over ones the route passes), never a list of obstacles: a district of
+        thousands of buildings gets the same short line as a field of five."""
+        by = {status: [z for z in self.zones if z.status is status] for status in ZoneStatus}
+        fenced = by[ZoneStatus.EXCLUDED]
+        circles = sum(z.circle_enu is not None for z in fenced)
+        kinds = [
+            _count(len(fenced) - circles, "polygon"),
+            _count(circles, "circle"),
+        ]
+        parts = [f"{_count(len(fenced), 'exclusion zone')}"]
+        if fenced:
+            farthest = max(z.route_distance_m for z in fenced)
+            parts[0] += f" ({', '.join(k for k in kinds if not k.startswith('0 '))}, up to "
+            parts[0] += f"{farthest:.1f} m from the route)"
+        over = by[ZoneStatus.FLOWN_OVER]
+        if over:
+            lowest = min(z.height_above_top_m or 0.0 for z in over)
+            parts.append(
+                f"{_count(len(over), 'obstacle')} flown over (the route at least "
+                f"{lowest:.1f} m above {'its top' if len(over) == 1 else 'their tops'})"
+            )
+        left = by[ZoneStatus.OVER_LIMIT]
+        if left:
+            nearest = min(z.route_distance_m for z in left)
+            parts.append(
+                f"{_count(len(left), 'obstacle')} left out (over the {self.max_items}-item "
+                f"limit; the nearest {nearest:.1f} m from the route)"
+            )
+        close = by[ZoneStatus.TOO_CLOSE]
+        if close:
+            parts.append(f"{_count(len(close), 'obstacle')} too close to the route to fence")
         return (
-            f"geofence: inclusion polygon + {', '.join(parts)}; "
+            f"geofence: inclusion polygon + {'; '.join(parts)}; "
             f"{self.item_count} of at most {self.max_items} fence items"
         )
 
@@ -221,23 +247,33 @@ class FenceBuild:
         """Things an operator must know before flying with this fence."""
         notes: list[str] = []
         shrunk = [
-            z.index
+            z.offset_m
             for z in self.zones
             if z.status is ZoneStatus.EXCLUDED
             and z.offset_m is not None
             and z.offset_m < self.margin_m - 1e-9
         ]
         if shrunk:
+            reach = (
+                f"{min(shrunk):.1f}-{max(shrunk):.1f}" if len(shrunk) > 1 else f"{shrunk[0]:.1f}"
+            )
             notes.append(
-                f"the route passes close to obstacles {_ranges(shrunk)}: their zones reach "
-                f"less than the {self.margin_m:g} m margin beyond the footprint"
+                f"the route passes close to {_count(len(shrunk), 'fenced obstacle')}: "
+                f"{'their zones reach' if len(shrunk) > 1 else 'its zone reaches'} {reach} m "
+                f"beyond the footprint, less than the {self.margin_m:g} m margin"
             )
         if self.ceiling_m is not None:
             notes.append(
-                f"a .plan fence has no altitude: set the autopilot's maximum altitude to "
-                f"{self.ceiling_m:g} m (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX)"
+                f"a .plan fence has no altitude: its ceiling, {self.ceiling_m:g} m, is the "
+                "autopilot's maximum altitude (PX4 GF_MAX_VER_DIST, ArduPilot FENCE_ALT_MAX), "
+                "which upload --set-params sets"
             )
         return notes
+
+
+def _count(n: int, noun: str) -> str:
+    """``3 obstacles``, ``1 obstacle``, ``4,909 obstacles``."""
+    return f"{n:,} {noun}" if n == 1 else f"{n:,} {noun}s"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -279,26 +315,37 @@ def build_geofence(
     inclusion = np.array([[x0 - b, y0 - b], [x1 + b, y0 - b], [x1 + b, y1 + b], [x0 - b, y1 + b]])
 
     seg_a, seg_b = g2.polyline_segments(route)
-    candidates = [_zone(fp, route, seg_a, seg_b, margin_m, route_gap_m) for fp in footprints]
+    distances = route_distances(footprints, seg_a, seg_b)
+    zones: list[ObstacleZone | None] = [None] * len(footprints)
+    near = distances < margin_m - DISTANCE_TOL_M
+    if near.any():
+        samples = densify(route, SAMPLE_STEP_M)  # where the route's height over a top is read
+        for i in np.flatnonzero(near):
+            fp, distance = footprints[i], float(distances[i])
+            lowest = _height_above_top(fp, samples, margin_m)
+            status = ZoneStatus.FLOWN_OVER if lowest >= -DISTANCE_TOL_M else ZoneStatus.TOO_CLOSE
+            zones[i] = ObstacleZone(fp.index, status, distance, height_above_top_m=lowest)
 
-    # The fence item budget: zones nearest the route first (they matter most).
+    # The fence item budget: zones nearest the route first (they matter most). A zone is
+    # built only while the budget could still hold it (a circle is one item, a polygon at
+    # least three); the rest are left out unbuilt.
     budget = max_items - inclusion.shape[0]
-    chosen: dict[int, ObstacleZone] = {}
-    for zone in sorted(
-        (z for z in candidates if z.status is ZoneStatus.EXCLUDED),
-        key=lambda z: (z.route_distance_m, z.index),
-    ):
-        if zone.item_count <= budget:
-            budget -= zone.item_count
-            chosen[zone.index] = zone
-    zones = tuple(
-        z
-        if z.status is not ZoneStatus.EXCLUDED or z.index in chosen
-        else _replace_status(z, ZoneStatus.OVER_LIMIT)
-        for z in candidates
-    )
-    fence = _to_geofence(inclusion, [z for z in zones if z.status is ZoneStatus.EXCLUDED], frame)
-    return FenceBuild(fence, inclusion, zones, float(margin_m), int(max_items), ceiling_m)
+    far = np.flatnonzero(~near)
+    for i in far[np.lexsort((far, distances[far]))]:
+        fp, distance = footprints[i], float(distances[i])
+        if budget < (1 if fp.is_circle else 3):
+            zones[i] = _left_out(fp, distance, margin_m, route_gap_m)
+            continue
+        zone = _zone(fp, distance, seg_a, seg_b, margin_m, route_gap_m)
+        if zone.status is ZoneStatus.EXCLUDED:
+            if zone.item_count <= budget:
+                budget -= zone.item_count
+            else:
+                zone = _replace_status(zone, ZoneStatus.OVER_LIMIT)
+        zones[i] = zone
+    done = tuple(z for z in zones if z is not None)
+    fence = _to_geofence(inclusion, [z for z in done if z.status is ZoneStatus.EXCLUDED], frame)
+    return FenceBuild(fence, inclusion, done, float(margin_m), int(max_items), ceiling_m)
 
 
 def geofence_for_route(
@@ -326,20 +373,26 @@ def _replace_status(zone: ObstacleZone, status: ZoneStatus) -> ObstacleZone:
     return replace(zone, status=status)
 
 
+def _left_out(fp: Footprint, distance: float, margin_m: float, gap_m: float) -> ObstacleZone:
+    """The zone of an obstacle the route flies around that the item budget cannot hold, not
+    built: left out (``OVER_LIMIT``), or ``TOO_CLOSE`` where :func:`_zone` would find no room
+    for a zone beside the route (the route within the gap of the footprint)."""
+    offset = min(margin_m, distance - gap_m)
+    if offset <= 0:
+        return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
+    return ObstacleZone(fp.index, ZoneStatus.OVER_LIMIT, distance, offset_m=offset)
+
+
 def _zone(
     fp: Footprint,
-    route: _Arr,
+    distance: float,
     seg_a: _Arr,
     seg_b: _Arr,
     margin_m: float,
     gap_m: float,
 ) -> ObstacleZone:
-    distance = _footprint_distance(fp, seg_a, seg_b)
-    if distance < margin_m - DISTANCE_TOL_M:
-        lowest = _height_above_top(fp, route, margin_m)
-        status = ZoneStatus.FLOWN_OVER if lowest >= -DISTANCE_TOL_M else ZoneStatus.TOO_CLOSE
-        return ObstacleZone(fp.index, status, distance, height_above_top_m=lowest)
-
+    """The exclusion zone of an obstacle the route flies around (``distance`` from the
+    route, at least the margin), or ``TOO_CLOSE`` when no zone fits beside the route."""
     if fp.is_circle:
         assert fp.center_enu is not None and fp.radius_m is not None
         offset = min(margin_m, distance - gap_m)
@@ -431,39 +484,56 @@ def _latlon_clockwise(ring_enu: NDArray[np.float64], frame: EnuFrame) -> tuple:
 # Distances and heights between a footprint and the flown route
 
 
-def _footprint_distance(
-    fp: Footprint, seg_a: NDArray[np.float64], seg_b: NDArray[np.float64]
-) -> float:
-    """Smallest horizontal distance from the route's segments to the footprint region."""
-    if fp.is_circle:
-        assert fp.center_enu is not None and fp.radius_m is not None
-        center = np.asarray(fp.center_enu, dtype=np.float64)
-        d = g2.point_segment_distance(center[None, :], seg_a, seg_b) - fp.radius_m
-        return float(max(d.min(), 0.0))
-    return float(g2.segments_polygon_distance(seg_a, seg_b, fp.outline_enu()).min())
+def route_distances(
+    footprints: Sequence[Footprint], seg_a: NDArray[np.float64], seg_b: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Smallest horizontal distance ``(n,)`` from the route's segments to each footprint's
+    region (0 where the route enters it), for all footprints at once
+    (:func:`~uavplan.geometry2d.segments_rings_distance`, circles apart)."""
+    n = len(footprints)
+    out = np.empty(n)
+    circles = [i for i, fp in enumerate(footprints) if fp.is_circle]
+    polygons = [i for i, fp in enumerate(footprints) if not fp.is_circle]
+    if circles:
+        centres = np.array([footprints[i].center_enu for i in circles], dtype=np.float64)
+        radii = np.array([footprints[i].radius_m for i in circles], dtype=np.float64)
+        out[circles] = g2.segments_circles_distance(seg_a, seg_b, centres, radii)
+    if polygons:
+        rings = [footprints[i].ring_enu or () for i in polygons]
+        sizes = np.fromiter((len(r) for r in rings), dtype=np.int64, count=len(rings))
+        edge_a = np.array([xy for r in rings for xy in r], dtype=np.float64)
+        ends = np.cumsum(sizes)
+        after = np.arange(1, len(edge_a) + 1)
+        after[ends - 1] = ends - sizes  # each ring's last vertex closes on its first
+        edge_b = edge_a[after]
+        owner = np.repeat(np.arange(len(rings), dtype=np.int64), sizes)
+        out[polygons] = g2.segments_rings_distance(seg_a, seg_b, edge_a, edge_b, owner, len(rings))
+    return out
 
 
-def _height_above_top(fp: Footprint, route: NDArray[np.float64], margin_m: float) -> float:
-    """Lowest ``z - height`` of the route where it is horizontally within the margin."""
-    samples = densify(route, SAMPLE_STEP_M)
+def _height_above_top(fp: Footprint, samples: NDArray[np.float64], margin_m: float) -> float:
+    """Lowest ``z - height`` of the route (``samples`` ``(n, 3)`` along it) where it is
+    horizontally within the margin of the footprint."""
     xy = samples[:, :2]
     if fp.is_circle:
         assert fp.center_enu is not None and fp.radius_m is not None
-        d = np.hypot(*(xy - np.asarray(fp.center_enu)).T) - fp.radius_m
+        lo = np.asarray(fp.center_enu) - fp.radius_m
+        hi = np.asarray(fp.center_enu) + fp.radius_m
     else:
-        d = g2.points_polygon_distance(xy, fp.outline_enu())
+        ring = np.asarray(fp.ring_enu)
+        lo, hi = ring.min(axis=0), ring.max(axis=0)
+    # the samples within the margin lie in the footprint's box grown by it
+    box = np.all((xy >= lo - margin_m) & (xy <= hi + margin_m), axis=1)
+    d = _sample_distances(fp, xy[box])
     near = d < margin_m - DISTANCE_TOL_M
-    if not near.any():  # only a segment interior comes close; take its nearer end
-        near = d <= d.min() + 1e-9
-    return float((samples[near, 2] - fp.height_m).min())
+    if near.any():
+        return float((samples[box][near, 2] - fp.height_m).min())
+    d = _sample_distances(fp, xy)  # only a segment interior comes close: its nearer end
+    return float((samples[d <= d.min() + 1e-9, 2] - fp.height_m).min())
 
 
-def _ranges(indices: Sequence[int]) -> str:
-    """[0, 1, 2, 5] -> '0-2, 5'."""
-    runs: list[list[int]] = []
-    for i in sorted(indices):
-        if runs and i == runs[-1][1] + 1:
-            runs[-1][1] = i
-        else:
-            runs.append([i, i])
-    return ", ".join(f"{a}-{b}" if b != a else f"{a}" for a, b in runs)
+def _sample_distances(fp: Footprint, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    if fp.is_circle:
+        assert fp.center_enu is not None and fp.radius_m is not None
+        return np.hypot(*(xy - np.asarray(fp.center_enu)).T) - fp.radius_m
+    return g2.points_polygon_distance(xy, fp.outline_enu())

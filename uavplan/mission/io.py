@@ -88,17 +88,46 @@ FORMATS: dict[str, MissionFormat] = {
 }
 
 
-def format_for(path: str | os.PathLike[str]) -> MissionFormat:
-    """The format a file name asks for; :class:`MissionFileError` for an unknown extension."""
+def format_for(path: str | os.PathLike[str], *, reading: bool = False) -> MissionFormat:
+    """The format a file name asks for; :class:`MissionFileError` for an unknown extension
+    (``reading``: or one that can only be written; the message lists what can)."""
     suffix = Path(path).suffix.lower()
     fmt = FORMATS.get(suffix)
-    if fmt is None:
-        known = ", ".join(sorted(FORMATS))
+    if fmt is None or (reading and fmt.loads is None):
+        known = ", ".join(sorted(readable_extensions() if reading else FORMATS))
         found = f"extension {suffix!r}" if suffix else "no extension"
-        raise MissionFileError(
-            f"unknown mission file type ({found}); use one of {known}", file=str(path)
-        )
+        if fmt is not None:
+            reason = (
+                f"{fmt.name} is a map export: it can be written but not read as a mission; "
+                f"read one of {known}"
+            )
+        else:
+            kind = "mission file type to read" if reading else "mission file type"
+            reason = f"unknown {kind} ({found}); use one of {known}"
+        raise MissionFileError(reason, file=str(path))
     return fmt
+
+
+def readable_extensions() -> tuple[str, ...]:
+    """The extensions of the formats :func:`load_mission` reads."""
+    return tuple(ext for ext, fmt in FORMATS.items() if fmt.loads is not None)
+
+
+def mission_text(
+    plan: MissionPlan,
+    path: str | os.PathLike[str],
+    *,
+    extras: ExportExtras | Callable[[], ExportExtras] | None = None,
+) -> str:
+    """``plan`` as the text of a file named ``path`` (its format from the extension; see
+    :func:`save_mission`). A problem is a :class:`MissionFileError` naming ``path``."""
+    fmt = format_for(path)
+    try:
+        if extras is not None and fmt.dumps_extras is not None:
+            return fmt.dumps_extras(plan, extras() if callable(extras) else extras)
+        return fmt.dumps(plan)
+    except MissionFileError as err:
+        raise MissionFileError(err.reason, file=str(path), key=err.key) from err
 
 
 def save_mission(
@@ -111,16 +140,10 @@ def save_mission(
 
     ``extras`` (obstacles, planned path) are drawn by the export formats and ignored by the
     mission formats; a callable is called only when the format draws them. Any failure is a
-    :class:`MissionFileError` naming ``path``; nothing is written then.
+    :class:`MissionFileError` naming ``path``; nothing is written then. (A command writes its
+    outputs as a set: :mod:`uavplan.app.outputs`, with :func:`mission_text`.)
     """
-    fmt = format_for(path)
-    try:
-        if extras is not None and fmt.dumps_extras is not None:
-            text = fmt.dumps_extras(plan, extras() if callable(extras) else extras)
-        else:
-            text = fmt.dumps(plan)
-    except MissionFileError as err:
-        raise MissionFileError(err.reason, file=str(path), key=err.key) from err
+    text = mission_text(plan, path, extras=extras)
     try:
         atomic_write_text(path, text)
     except OutputFileError as err:
@@ -153,9 +176,8 @@ def load_mission(path: str | os.PathLike[str], autopilot: Autopilot | None = Non
     shown = os.fspath(path)
     if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
         shown = shown.decode(errors="replace")
-    fmt = format_for(shown)
-    if fmt.loads is None:
-        raise MissionFileError(f"{fmt.name} files can be written but not read", file=shown)
+    fmt = format_for(shown, reading=True)
+    assert fmt.loads is not None
     text = decode_text(read_bytes(shown), file=shown)
     return fmt.loads(text, file=shown, autopilot=autopilot)
 

@@ -46,6 +46,7 @@ class MavCmd(enum.IntEnum):
     NAV_TAKEOFF = 22
     DO_JUMP = 177
     DO_CHANGE_SPEED = 178
+    DO_LAND_START = 189
     NAV_FENCE_RETURN_POINT = 5000
     NAV_FENCE_POLYGON_VERTEX_INCLUSION = 5001
     NAV_FENCE_POLYGON_VERTEX_EXCLUSION = 5002
@@ -429,6 +430,52 @@ class RallyPoint:
         )
 
 
+@dataclass(frozen=True)
+class VehicleParameter:
+    """A vehicle parameter the mission relies on, in the firmware's own name and unit
+    (ArduPilot ``RTL_ALT`` in cm, PX4 ``RTL_RETURN_ALT`` in m, ...): ``upload --set-params``
+    keeps the vehicle's value when it lies within ``at_least`` .. ``at_most`` (a bound left
+    None is open; both None: it must equal ``value``) and sets ``value`` otherwise.
+    ``reason``: why the mission needs it, in words."""
+
+    name: str
+    value: float
+    at_least: float | None = None
+    at_most: float | None = None
+    unit: str = ""
+    reason: str = ""
+
+    def __post_init__(self) -> None:
+        if not (1 <= len(self.name) <= 16 and self.name.isascii() and self.name.isprintable()):
+            raise ValueError(f"parameter name {self.name!r} must be 1..16 printable ASCII")
+        for label, number in (("value", self.value), ("atLeast", self.at_least)):
+            if number is not None and not math.isfinite(number):
+                raise ValueError(f"parameter {self.name} {label} must be finite")
+        if self.at_most is not None and not math.isfinite(self.at_most):
+            raise ValueError(f"parameter {self.name} atMost must be finite")
+        low = -math.inf if self.at_least is None else self.at_least
+        high = math.inf if self.at_most is None else self.at_most
+        if not low <= self.value <= high:
+            raise ValueError(
+                f"parameter {self.name} {self.value:g} is outside its own range "
+                f"{self.at_least}..{self.at_most}"
+            )
+        object.__setattr__(self, "value", float(self.value))
+
+    def describe(self) -> str:
+        """``RTL_ALT 4500 cm (or more)``."""
+        unit = f" {self.unit}" if self.unit else ""
+        if self.at_least is not None and self.at_most is not None:
+            span = f" (keeps {self.at_least:g}..{self.at_most:g})"
+        elif self.at_least is not None:
+            span = " (or more)"
+        elif self.at_most is not None:
+            span = " (or less)"
+        else:
+            span = ""
+        return f"{self.name} {self.value:g}{unit}{span}"
+
+
 # ---------------------------------------------------------------------------------------------
 
 
@@ -448,10 +495,16 @@ class MissionPlan:
     vehicle_type: int = 2  # MAV_TYPE_QUADROTOR
     cruise_speed_m_s: float | None = None
     hover_speed_m_s: float | None = None
+    #: vehicle parameters the mission relies on (``upload --set-params`` sends them)
+    parameters: tuple[VehicleParameter, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "items", tuple(self.items))
         object.__setattr__(self, "rally", tuple(self.rally))
+        object.__setattr__(self, "parameters", tuple(self.parameters))
+        names = [p.name for p in self.parameters]
+        if len(set(names)) != len(names):
+            raise ValueError(f"a parameter is named twice: {', '.join(names)}")
 
     def home_item(self) -> MissionItem:
         """ArduPilot's seq-0 placeholder: NAV_WAYPOINT, frame 0, planned home (or zeros)."""

@@ -39,6 +39,7 @@ from uavplan.mission.items import (
     MissionItem,
     MissionPlan,
     RallyPoint,
+    VehicleParameter,
     canonical_frame,
 )
 
@@ -56,6 +57,10 @@ DEFAULT_CRUISE_SPEED_M_S = 15.0
 DEFAULT_HOVER_SPEED_M_S = 5.0
 #: read when a file has no vehicleType (MAV_TYPE_QUADROTOR, MissionPlan's default)
 DEFAULT_VEHICLE_TYPE = 2
+#: our top-level key for the vehicle parameters a mission relies on (written only when there
+#: are some; loaders that do not know it ignore it, reference §5.4 / §5.6)
+PARAMETERS_KEY = "parameters"
+PARAMETERS_VERSION = 1
 
 
 class AltitudeMode(enum.IntEnum):
@@ -139,6 +144,26 @@ def plan_to_dict(plan: MissionPlan) -> dict[str, Any]:
             "version": RALLY_VERSION,
         },
         "version": PLAN_VERSION,
+        **({PARAMETERS_KEY: _parameters_to_json(plan)} if plan.parameters else {}),
+    }
+
+
+def _parameters_to_json(plan: MissionPlan) -> dict[str, Any]:
+    """The parameters the mission relies on (our key: QGroundControl and MAVSDK ignore it)."""
+    return {
+        "firmwareType": plan.autopilot.value,
+        "items": [
+            {
+                "atLeast": p.at_least,
+                "atMost": p.at_most,
+                "name": p.name,
+                "reason": p.reason,
+                "unit": p.unit,
+                "value": p.value,
+            }
+            for p in plan.parameters
+        ],
+        "version": PARAMETERS_VERSION,
     }
 
 
@@ -325,9 +350,48 @@ class _PlanReader:
             ),
             cruise_speed_m_s=self.optional_number(mission, "cruiseSpeed", "mission"),
             hover_speed_m_s=self.optional_number(mission, "hoverSpeed", "mission"),
+            parameters=self.parameters(doc.get(PARAMETERS_KEY), autopilot),
         )
         self.check_wire(plan)
         return plan
+
+    def parameters(self, value: Any, autopilot: Autopilot) -> tuple[VehicleParameter, ...]:
+        """Our ``parameters`` section (absent: none)."""
+        if value is None:
+            return ()
+        if not isinstance(value, dict):
+            self.fail(PARAMETERS_KEY, f"must be an object, not {_json_type(value)}")
+        self.version(value, PARAMETERS_KEY, PARAMETERS_VERSION)
+        firmware = value.get("firmwareType")
+        named = _FIRMWARE_TYPES.get(firmware) if isinstance(firmware, int) else None
+        if named is not None and named is not autopilot:
+            self.fail(
+                f"{PARAMETERS_KEY}.firmwareType",
+                f"the parameters are {named.label}'s, the mission is read as {autopilot.label}'s",
+            )
+        out: list[VehicleParameter] = []
+        for i, entry in enumerate(self.array(value, "items", PARAMETERS_KEY)):
+            key = f"{PARAMETERS_KEY}.items[{i}]"
+            if not isinstance(entry, dict):
+                self.fail(key, f"must be an object, not {_json_type(entry)}")
+            name = self.require(entry, "name", key)
+            if not isinstance(name, str):
+                self.fail(f"{key}.name", "must be a string")
+            number = self.number(self.require(entry, "value", key), f"{key}.value")
+            low = self.number(entry.get("atLeast"), f"{key}.atLeast", nullable=True)
+            high = self.number(entry.get("atMost"), f"{key}.atMost", nullable=True)
+            texts = [entry.get(k, "") for k in ("unit", "reason")]
+            for k, text in zip(("unit", "reason"), texts, strict=True):
+                if not isinstance(text, str):
+                    self.fail(f"{key}.{k}", "must be a string")
+            out.append(
+                self.model(key, VehicleParameter, name, number, low, high, texts[0], texts[1])
+            )
+        names = [p.name for p in out]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.fail(f"{PARAMETERS_KEY}.items[{i}].name", f"{name} is named twice")
+        return tuple(out)
 
     def bounded(self, value: Any, key: str, limit: int) -> int:
         number = self.integer(value, key)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uavplan._geom import _c, world_arrays
+from uavplan._geom import _c
 from uavplan.config import EnergyWeights
 from uavplan.world import World
 
@@ -79,7 +79,7 @@ def refine(vertices: np.ndarray, world: World, weights: EnergyWeights) -> np.nda
     v = np.ascontiguousarray(subdivide(vertices, REFINE_LEG_M), dtype=float)
     w = weights
     _c.refine_vertices(
-        v, _MOVES, np.array(REFINE_STEPS_M), REFINE_PASSES, world_arrays(world.kernel_args),
+        v, _MOVES, np.array(REFINE_STEPS_M), REFINE_PASSES, world.kernel_args,
         world.margin_m, (w.k0, w.k1 * w.mu0, w.k2),
     )  # fmt: skip
     return tighten(v[simplify(v, world)], world)

@@ -9,35 +9,41 @@ goal). Every planner proposes nodes through one :class:`~uavplan.planners.propos
 (its own update rule, computed in its own module) and :func:`rebuild` repairs them the same
 way for all, so differences between algorithms come from their update rules alone.
 
-Everything the reachability rule reads travels in one :class:`Reach` value (named fields,
-no positional slots). Randomness comes only from seeds drawn from the caller's
-``numpy.random.Generator``.
+Everything the reachability rule reads travels in one :class:`Reach` value, and the fused
+SPSA step's arguments in a :class:`StepSetup` and a :class:`StepDraws`: named fields the
+kernels read by name (``_ckernels.FIELDS`` lists them), no positional slots. Randomness
+comes only from seeds drawn from the caller's ``numpy.random.Generator``.
 
 The loops are compiled C (:mod:`uavplan._ckernels`, built by pip at install time); the
-functions here allocate their outputs and hand the arrays over.
+functions here allocate their outputs and hand the arrays over. The constants below (draw
+kinds, the memo's size, the step's switches and thread limit) are the kernels' own, read
+from the module.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from uavplan._geom import _c, world_arrays
+from uavplan._geom import KernelWorld, _c, kernel_fields
+from uavplan.path.energy import EnergyArgs
 
 #: how a proposal draws its random term for every attempt (``Proposal.draw``)
-DRAW_NONE = 0  # no random term
-DRAW_UNIFORM = 1  # U[0, 1)
-DRAW_SYMMETRIC = 2  # U[−1, 1): 2·U − 1
-DRAW_NORMAL = 3  # N(0, 1)
+DRAW_NONE: int = _c.DRAW_NONE  # no random term
+DRAW_UNIFORM: int = _c.DRAW_UNIFORM  # U[0, 1)
+DRAW_SYMMETRIC: int = _c.DRAW_SYMMETRIC  # U[−1, 1): 2·U − 1
+DRAW_NORMAL: int = _c.DRAW_NORMAL  # N(0, 1)
 
 
-class Reach(NamedTuple):
+@dataclass(frozen=True, slots=True, eq=False)
+class Reach:
     """Everything the reachability rule of one path problem reads (built by PathProblem).
 
-    ``world``: the world tuple of :mod:`uavplan._geom` (``World.kernel_args``, path frame);
+    ``world``: the world in the path frame (``World.kernel_args``);
     ``cols`` (D + 1, 4): every column's origin on the guide and its unit normal (cx, cy, nx,
     ny; a straight guide has (j·dx, 0, 0, 1));
     ``memo``: the reachability memo (see :func:`new_memo`); ``table`` (D + 1, ny, nz): node
@@ -48,7 +54,7 @@ class Reach(NamedTuple):
     exact segment tests among them (the evaluation budget of the rule).
     """
 
-    world: tuple
+    world: KernelWorld
     cols: np.ndarray
     memo: np.ndarray
     table: np.ndarray
@@ -58,6 +64,9 @@ class Reach(NamedTuple):
     goal_m: np.ndarray
     margin: float
     counts: np.ndarray
+
+    def __post_init__(self) -> None:
+        kernel_fields(self, "reach")
 
 
 def _round(v: float) -> float:
@@ -69,10 +78,10 @@ def _round(v: float) -> float:
     return float(math.floor(v + 0.5))
 
 
-#: memo table for node reachability (open addressing, linear probing)
-MEMO_BITS = 21
+#: memo table for node reachability (open addressing, linear probing): 2^MEMO_BITS slots
+MEMO_BITS: int = _c.MEMO_BITS
 #: probes per lookup; a full neighbourhood means no memo entry (the exact test runs)
-MEMO_PROBES = 16
+MEMO_PROBES: int = _c.MEMO_PROBES
 
 
 def new_memo() -> np.ndarray:
@@ -113,19 +122,23 @@ def clearance_table(
     iz_hi: int,
     dy: float,
     dz: float,
-    world: tuple,
+    world: KernelWorld,
     cap: float,
+    exact_m: float | None = None,
 ) -> np.ndarray:
     """Distance from every grid node (column, y, z) to the nearest piece, capped at ``cap``;
     −1 for nodes outside the bounds or outside their column's lateral window ``ylim[j]``
     (grid units; where columns of a curved guide would fold over each other). Shape
     (D + 1, iy_hi − iy_lo + 1, iz_hi − iz_lo + 1). A piece only visits the nodes of the
-    columns whose lateral line passes within ``cap`` of its bounding box."""
+    columns whose lateral line passes within ``cap`` of its bounding box. With ``exact_m``,
+    the terrain's distances at or above it may be lower bounds (never above the distance):
+    exact where the reachability rule's node test needs them, cheap elsewhere."""
     cols = _f64(cols)
     tab = np.full((cols.shape[0], iy_hi - iy_lo + 1, iz_hi - iz_lo + 1), float(cap))
+    exact = math.inf if exact_m is None else float(exact_m)
     _c.clearance_table(
         cols, _f64(ylim), int(iy_lo), int(iy_hi), int(iz_lo), int(iz_hi), float(dy), float(dz),
-        world_arrays(world[:7]), float(cap), tab,
+        world, float(cap), tab, exact,
     )  # fmt: skip
     return tab
 
@@ -171,14 +184,14 @@ def node_resolve(
     dz: float,
     start_m: np.ndarray,
     goal_m: np.ndarray,
-    world: tuple,
+    world: KernelWorld,
     margin: float,
     keys: np.ndarray,
 ) -> int:
     """The exact reachability test behind :func:`node_status`, memoised."""
     return _c.node_resolve(
         int(j), float(y0), float(z0), float(y1), float(z1), cols, float(dy), float(dz), start_m,
-        goal_m, world_arrays(world), float(margin), keys,
+        goal_m, world, float(margin), keys,
     )  # fmt: skip
 
 
@@ -367,20 +380,37 @@ def paths_feasible(nodes: np.ndarray, reach: Reach) -> np.ndarray:
     return out
 
 
-#: switches of :func:`spsa_step` (``flags``)
-SPSA_START_END = 1  # contribution 2: producers pulled toward the start-end line (eq. 11)
-SPSA_LITERAL = 2  # eq. 11 read literally (else the deviation reading)
-SPSA_POP_INDEX = 4  # eq. 4's i ranked in the whole population (else among the scroungers)
-SPSA_ESCAPE = 8  # contribution 3: the adaptive variable-speed escape (eq. 12)
-SPSA_OSCILLATE = 16  # contribution 4: the adaptive oscillation optimisation (eq. 13)
+#: switches of :func:`spsa_step` (``StepSetup.flags``)
+#: contribution 2: producers pulled toward the start-end line (eq. 11)
+SPSA_START_END: int = _c.SPSA_START_END
+#: eq. 11 read literally (else the deviation reading)
+SPSA_LITERAL: int = _c.SPSA_LITERAL
+#: eq. 4's i ranked in the whole population (else among the scroungers)
+SPSA_POP_INDEX: int = _c.SPSA_POP_INDEX
+#: contribution 3: the adaptive variable-speed escape (eq. 12)
+SPSA_ESCAPE: int = _c.SPSA_ESCAPE
+#: contribution 4: the adaptive oscillation optimisation (eq. 13)
+SPSA_OSCILLATE: int = _c.SPSA_OSCILLATE
+#: ε of eq. 5 (the danger-aware best sparrow's denominator), as in Xue & Shen's code
+SPSA_EPS: float = _c.SPSA_EPS
 
 
 #: what an energy cache may hold (bytes of stored paths) and its largest number of slots
 ENERGY_CACHE_BYTES = 2 << 20
 ENERGY_CACHE_SLOTS = 1024
 
-#: (filled (slots,) bool, values (slots,) float64, paths (slots, 2n) int32)
-EnergyCache = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+@dataclass(frozen=True, slots=True, eq=False)
+class EnergyCache:
+    """A fitness cache (:func:`new_energy_cache`): ``filled`` (slots,) bool, ``values``
+    (slots,) float64, ``paths`` (slots, 2n) int32; the kernels write all three."""
+
+    filled: np.ndarray
+    values: np.ndarray
+    paths: np.ndarray
+
+    def __post_init__(self) -> None:
+        kernel_fields(self, "cache")
 
 
 def new_energy_cache(n_inner: int, slots: int | None = None) -> EnergyCache:
@@ -395,70 +425,102 @@ def new_energy_cache(n_inner: int, slots: int | None = None) -> EnergyCache:
         slots = min(ENERGY_CACHE_SLOTS, 1 << (fit.bit_length() - 1))
     if slots < 0 or slots & (slots - 1):
         raise ValueError(f"energy cache: {slots} slots, not a power of two")
-    return (
+    return EnergyCache(
         np.zeros(slots, dtype=np.bool_),
         np.zeros(slots, dtype=np.float64),
         np.zeros((slots, m), dtype=np.int32),
     )
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class StepSetup:
+    """What every fused SPSA step of one search shares (built once per search; see
+    :meth:`uavplan.planners.sparrow.SparrowPlanner.step`).
+
+    ``reach``: the reachability rule; ``energy``: :attr:`PathProblem.energy_args`; ``line``
+    (n, 2): the start-end line P_ST at the inner columns; ``goal_u`` (2,): the goal in grid
+    units; ``n_prod``: producers; ``iterations``: the search's M (eq. 11's e = exp(−i/(α·M)));
+    ``t_max``: attempts per node; ``v_min``, ``v_max``: eq. 12's escape speeds; ``window``:
+    eq. 13's N_p; ``flags``: the ``SPSA_*`` switches; ``warning_value``: ST; ``cache``: a
+    fitness cache (:func:`new_energy_cache`) or None; ``threads``: threads to share the
+    step's per-individual work (see :func:`step_threads`)."""
+
+    reach: Reach
+    energy: EnergyArgs
+    line: np.ndarray
+    goal_u: np.ndarray
+    n_prod: int
+    iterations: int
+    t_max: int
+    v_min: int
+    v_max: int
+    window: int
+    flags: int
+    warning_value: float
+    cache: EnergyCache | None
+    threads: int
+
+    def __post_init__(self) -> None:
+        kernel_fields(self, "setup")
+
+
+class StepDraws(NamedTuple):
+    """The random numbers of one fused SPSA step, drawn from the search's Generator (see
+    :meth:`uavplan.planners.sparrow.SparrowPlanner.step`): ``warn`` R2; ``pdraw`` (n_prod,)
+    float64, α = 1 − U when R2 < ST, else Q ~ N(0, 1); ``signs`` (near, n, 2) float64,
+    eq. 4's ±1; ``aware`` int64, the danger-aware sparrows; ``seeds1``, ``seeds2`` (G,)
+    uint64, the two rebuilds' random streams (:func:`stream_seeds`). Built for every step,
+    so a plain record: the kernel reads its fields by name and checks every array's dtype
+    and shape itself (TypeError / ValueError)."""
+
+    warn: float
+    pdraw: np.ndarray
+    signs: np.ndarray
+    aware: np.ndarray
+    seeds1: np.ndarray
+    seeds2: np.ndarray
+
+
 def spsa_step(
     x: np.ndarray,
     f: np.ndarray,
     osc_fixed: np.ndarray,
-    line: np.ndarray,
-    goal_u: np.ndarray,
-    reach: Reach,
-    energy: tuple,
-    n_prod: int,
-    iterations: int,
-    t_max: int,
-    v_range: tuple[int, int],
-    window: int,
-    flags: int,
-    warn: float,
-    warning_value: float,
-    pdraw: np.ndarray,
-    signs: np.ndarray,
-    aware: np.ndarray,
-    seeds: tuple[np.ndarray, np.ndarray],
     counts: np.ndarray,
-    cache: EnergyCache | None = None,
-    threads: int = 1,
+    setup: StepSetup,
+    draws: StepDraws,
 ) -> None:
     """One SPSA / SSA iteration in place on ``x`` (G, n, 2), ``f`` (G,) and ``osc_fixed``
-    (G,) (see :meth:`uavplan.planners.sparrow.SparrowPlanner.step`, which draws the random
-    numbers: ``warn`` R2, ``pdraw`` (n_prod,) α or Q, ``signs`` (near, n, 2) eq. 4's ±1,
-    ``aware`` the danger-aware sparrows, ``seeds`` the two rebuilds' streams). ``line``
-    (n, 2): the start-end line at the inner columns; ``energy``:
-    :attr:`PathProblem.energy_args`. ``counts`` (3,) int64 gets += (fitness evaluations,
-    escapes, failed updates): a fitness recalled from ``cache`` (:func:`new_energy_cache`)
-    counts as an evaluation, so evaluation budgets mean the same with and without it.
+    (G,) (see :meth:`uavplan.planners.sparrow.SparrowPlanner.step`), with what the search's
+    steps share in ``setup`` and this step's random numbers in ``draws``. ``counts`` (3,)
+    int64 gets += (fitness evaluations, escapes, failed updates): a fitness recalled from
+    ``setup.cache`` counts as an evaluation, so evaluation budgets mean the same with and
+    without it.
 
-    ``threads``: the step's per-individual work (rebuilds, oscillation, fitness) is shared
-    among this many threads (see :func:`step_threads`); every result is the same on any
-    number, except the count of exact segment tests in ``reach.counts`` (threads share the
-    reachability memo, and a lost race repeats a test)."""
-    _c.spsa_step(
-        x, f, osc_fixed, line, _f64(goal_u), reach, energy, int(n_prod), int(iterations),
-        int(t_max), int(v_range[0]), int(v_range[1]), int(window), int(flags), float(warn),
-        float(warning_value), _f64(pdraw), _f64(signs), np.ascontiguousarray(aware, np.int64),
-        np.ascontiguousarray(seeds[0], np.uint64), np.ascontiguousarray(seeds[1], np.uint64),
-        counts, cache, int(threads),
-    )  # fmt: skip
+    ``setup.threads``: the step's per-individual work (rebuilds, oscillation, fitness) is
+    shared among this many threads (see :func:`step_threads`); every result is the same on
+    any number, except the count of exact segment tests in ``reach.counts`` (threads share
+    the reachability memo, and a lost race repeats a test)."""
+    _c.spsa_step(x, f, osc_fixed, counts, setup, draws)
 
 
 #: the most threads :func:`step_threads` picks on its own (the step's phases are short: more
 #: threads were not measured)
 STEP_THREADS_AUTO_MAX = 2
-#: the most threads the kernel runs
-STEP_THREADS_MAX = 8
+#: the most threads the kernel runs (the kernels' own limit)
+STEP_THREADS_MAX: int = _c.STEP_MAX_THREADS
+#: whether this build of the kernels has helper threads (POSIX threads and gcc's / clang's
+#: atomics); without them the step runs on its caller's thread alone and says so
+#: (:func:`step_threads` is then 1, and the planner, ``bench`` and ``bench_core`` report it)
+HAVE_THREADS: bool = bool(_c.HAVE_THREADS)
 
 
 def step_threads() -> int:
     """Threads for the fused SPSA step: ``UAVPLAN_THREADS`` when it is set to a whole number
     (1 turns threading off; at most :data:`STEP_THREADS_MAX`), else the CPUs this process may
-    run on, at most :data:`STEP_THREADS_AUTO_MAX` (one CPU, e.g. under ``taskset -c 0``: 1)."""
+    run on, at most :data:`STEP_THREADS_AUTO_MAX` (one CPU, e.g. under ``taskset -c 0``: 1).
+    Always 1 on a build without threads (:data:`HAVE_THREADS`)."""
+    if not HAVE_THREADS:
+        return 1
     text = os.environ.get("UAVPLAN_THREADS", "").strip()
     if text.isdigit() and int(text) >= 1:
         return min(int(text), STEP_THREADS_MAX)
@@ -467,3 +529,11 @@ def step_threads() -> int:
     except (AttributeError, OSError):  # not on Linux
         cpus = os.cpu_count() or 1
     return max(1, min(cpus, STEP_THREADS_AUTO_MAX))
+
+
+def step_threads_note() -> str:
+    """One line for a report: the threads the fused SPSA step runs on by default
+    (:func:`step_threads`), and why it is one on a build without helper threads."""
+    if not HAVE_THREADS:
+        return "SPSA step threads: 1 (this build of uavplan's kernels has no helper threads)"
+    return f"SPSA step threads: {step_threads()}"

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from uavplan._geom import _c, world_arrays
+from uavplan._geom import KernelWorld, _c
 from uavplan.config import EnergyWeights
 from uavplan.path.frame import PathFrame
 from uavplan.world import World
@@ -106,9 +106,9 @@ def _neighbour_offsets() -> np.ndarray:
 _MOVES = _neighbour_offsets()
 
 
-def _node_clearance(px: float, py: float, pz: float, W: tuple, cap: float) -> float:
+def _node_clearance(px: float, py: float, pz: float, W: KernelWorld, cap: float) -> float:
     """Distance from a point to the nearest piece, capped at ``cap``; −1 outside the bounds."""
-    return _c.node_clearance(float(px), float(py), float(pz), world_arrays(W[:7]), float(cap))
+    return _c.node_clearance(float(px), float(py), float(pz), W, float(cap))
 
 
 def _astar_kernel(
@@ -117,7 +117,7 @@ def _astar_kernel(
     steps: np.ndarray,
     start: np.ndarray,
     goal: np.ndarray,
-    W: tuple,
+    W: KernelWorld,
     margin: float,
     cap: float,
     k0: float,
@@ -132,7 +132,7 @@ def _astar_kernel(
     status, path, expanded, cost = _c.astar_kernel(
         np.ascontiguousarray(lo, i64), np.ascontiguousarray(shape, i64),
         np.ascontiguousarray(steps, np.float64), np.ascontiguousarray(start, np.float64),
-        np.ascontiguousarray(goal, np.float64), world_arrays(W), float(margin), float(cap),
+        np.ascontiguousarray(goal, np.float64), W, float(margin), float(cap),
         float(k0), float(k2), np.ascontiguousarray(moves, i64),
     )  # fmt: skip
     nodes = np.frombuffer(path, dtype=np.float64).reshape(-1, 3).copy()

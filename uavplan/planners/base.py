@@ -10,7 +10,6 @@ come from their update rules alone (the paper's protocol, section 6).
 
 from __future__ import annotations
 
-import enum
 import math
 import time
 from collections.abc import Callable
@@ -21,7 +20,8 @@ from typing import Any
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EnergyWeights, GridSpec, SearchParams
-from uavplan.path.energy import N_SUB, energy_of
+from uavplan.outcome import SearchEnd
+from uavplan.path.energy import N_SUB, NO_PHYSICS, EnergyArgs, PhysicalFitness, energy_of
 from uavplan.path.frame import PathFrame
 from uavplan.planners import _kernels as K
 from uavplan.planners.proposal import Proposal
@@ -29,13 +29,11 @@ from uavplan.world import World
 
 #: starts per individual before the initialisation gives up on it
 INIT_MAX_ATTEMPTS = 25
+#: the clearance table is exact below the margin + this (m); the terrain's clearances above
+#: it may be lower bounds (see ``K.clearance_table``)
+TABLE_EXACT_PAD_M = 1.0
 
 ProgressFn = Callable[[int, int, float], None]  # (iteration, iterations, best fitness)
-
-
-class PlanStatus(enum.Enum):
-    SOLVED = "solved"
-    NO_PATH = "no_path"  # no individual could be initialised (every start deadlocked)
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,6 +59,9 @@ class PathProblem:
     #: limit), like ``Termination.max_evaluations``; carried by the problem so a caller that
     #: hands the problem to a pipeline (the bench) can share one budget among algorithms
     max_evaluations: int | None = None
+    #: the physical fitness (``planner: {energy: physical}``): the fitness is the power
+    #: model's watt-hours of the path, not eq. 1-2 with ``energy``'s weights (None: the paper's)
+    physical: PhysicalFitness | None = None
 
     @classmethod
     def build(
@@ -71,6 +72,7 @@ class PathProblem:
         grid: GridSpec,
         energy: EnergyWeights,
         fitness_smoothing: int = 0,
+        physical: PhysicalFitness | None = None,
     ) -> PathProblem:
         """The problem from ``start_enu`` to ``goal_enu`` in ``world_enu``, in the paper's
         straight frame. The route keeps the margin from the ground too: it never flies lower
@@ -81,11 +83,16 @@ class PathProblem:
         world = world_enu.in_frame(
             frame.origin_xy, frame.heading_rad, world_enu.margin_m + MARGIN_PAD_M, floor
         )
-        return cls.in_frame(world, frame, energy, fitness_smoothing)
+        return cls.in_frame(world, frame, energy, fitness_smoothing, physical)
 
     @classmethod
     def in_frame(
-        cls, world: World, frame: PathFrame, energy: EnergyWeights, fitness_smoothing: int = 0
+        cls,
+        world: World,
+        frame: PathFrame,
+        energy: EnergyWeights,
+        fitness_smoothing: int = 0,
+        physical: PhysicalFitness | None = None,
     ) -> PathProblem:
         """The problem of ``frame``'s columns in ``world`` (already in the path frame)."""
         start_m = np.array([0.0, 0.0, float(frame.start_enu[2])])
@@ -105,13 +112,16 @@ class PathProblem:
             table,
             window,
             fitness_smoothing,
+            physical=physical,
         )
 
     def along(self, guide_xy: np.ndarray) -> PathProblem:
         """The same problem with its columns along ``guide_xy`` (k, 2), a polyline in the path
         frame from the start to the goal (see :meth:`PathFrame.along`); fresh memo."""
         frame = self.frame.along(guide_xy)
-        return PathProblem.in_frame(self.world, frame, self.energy, self.fitness_smoothing)
+        return PathProblem.in_frame(
+            self.world, frame, self.energy, self.fitness_smoothing, self.physical
+        )
 
     def with_fresh_memo(self) -> PathProblem:
         """The same problem with an empty reachability memo (the memo is pure, but one that
@@ -138,16 +148,16 @@ class PathProblem:
         its arrays are the problem's own, the memo and the counters shared)."""
         dx, dy, dz = self.steps
         return K.Reach(
-            self.world.kernel_args,
-            self.frame.cols,
-            self.memo,
-            self.table[0],
-            self.table[1],
-            np.array([dx, dy, dz]),
-            self.start_m,
-            self.goal_m,
-            float(self.margin_m),
-            self.counters[1:],
+            world=self.world.kernel_args,
+            cols=self.frame.cols,
+            memo=self.memo,
+            table=self.table[0],
+            table_off=self.table[1],
+            steps=np.array([dx, dy, dz]),
+            start_m=self.start_m,
+            goal_m=self.goal_m,
+            margin=float(self.margin_m),
+            counts=self.counters[1:],
         )
 
     @property
@@ -170,22 +180,33 @@ class PathProblem:
         return (self.frame.dx_m, g.dy_m, g.dz_m)
 
     @cached_property
-    def energy_args(self) -> tuple:
+    def energy_args(self) -> EnergyArgs:
         """The fitness's fixed arguments as the kernels read them (see
         :func:`~uavplan.path.energy.energy_of`)."""
         w = self.energy
         dx, dy, dz = self.steps
-        return (
-            np.ascontiguousarray(self.start_m[1:]),
-            np.ascontiguousarray(self.goal_m[1:]),
-            np.ascontiguousarray(self.frame.cols, dtype=np.float64),
-            float(dx), float(dy), float(dz), N_SUB,
-            float(w.k0), float(w.k1), float(w.mu0), float(w.k2),
-            int(self.fitness_smoothing), bool(self.frame.straight),
-        )  # fmt: skip
+        return EnergyArgs(
+            start_yz=self.start_m[1:],
+            goal_yz=self.goal_m[1:],
+            cols=self.frame.cols,
+            dx=float(dx),
+            dy=float(dy),
+            dz=float(dz),
+            n_sub=N_SUB,
+            k0=float(w.k0),
+            k1=float(w.k1),
+            mu0=float(w.mu0),
+            k2=float(w.k2),
+            smooth=int(self.fitness_smoothing),
+            straight=bool(self.frame.straight),
+            phys=NO_PHYSICS
+            if self.physical is None
+            else self.physical.table(self.frame.heading_rad, *self.world.zlim),
+        )
 
     def fitness(self, nodes: np.ndarray) -> np.ndarray:
-        """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2)."""
+        """Energy (G,) of individuals (G, D − 1, 2) on their cubic splines (eq. 1–2, or the
+        physical fitness's watt-hours)."""
         self.counters[0] += nodes.shape[0]
         return energy_of(nodes, self.energy_args)
 
@@ -313,6 +334,7 @@ def _clearance_table(
         g.dz_m,
         world.kernel_args,
         cap,
+        world.margin_m + TABLE_EXACT_PAD_M,
     )
     window = np.empty((frame.n_cols + 1, 4))
     window[:, :2] = ylim
@@ -328,9 +350,9 @@ class Termination:
     ``stall_iterations``: stop a search early once the run's best fitness has not improved
     for that many iterations (None: never); ``restart_stall_iterations``: the same for every
     restart after the first (SPSA's restarts; None: ``stall_iterations``); ``should_stop``:
-    polled once per iteration, e.g. a Ctrl-C flag (the run then ends as "interrupted" and
-    returns what it has); ``max_evaluations``: stop once this many fitness evaluations were
-    made (a budget every algorithm can share).
+    polled once per iteration, e.g. a Ctrl-C flag (the run then ends as
+    ``SearchEnd.INTERRUPTED`` and returns what it has); ``max_evaluations``: stop once this
+    many fitness evaluations were made (a budget every algorithm can share).
     """
 
     def __init__(
@@ -357,27 +379,19 @@ class Termination:
         return self.stall_iterations
 
 
-#: why a run ended (``PlannerResult.termination``)
-TERMINATED_ITERATIONS = "iterations"  # the iteration budget was spent
-TERMINATED_STALLED = "stalled"  # no improvement for stall_iterations
-TERMINATED_INTERRUPTED = "interrupted"  # should_stop() said so
-TERMINATED_BUDGET = "budget"  # the evaluation budget was spent
-TERMINATED_NO_PATH = "no_path"  # nothing could be initialised
-
-
 @dataclass
 class PlannerResult:
     """What a planner returns: one record (STYLE: x, fun, nit, success, message).
 
     ``iterations`` counts the iterations actually run; ``termination`` says why the run
-    ended; ``evaluations`` counts fitness evaluations (individuals) and ``reach_checks`` /
+    ended (:class:`~uavplan.outcome.SearchEnd`; ``NO_PATH``: nothing could be initialised);
+    ``evaluations`` counts fitness evaluations (individuals) and ``reach_checks`` /
     ``exact_checks`` the reachability tests of the run (its budget); ``stats`` holds the
     planner's own counters (escapes, failed updates, ...), numbers only.
     """
 
     algorithm: str
     seed: int
-    status: PlanStatus
     best_nodes: np.ndarray | None  # (D − 1, 2) grid units
     best_fitness: float
     convergence: np.ndarray  # best fitness after each iteration run
@@ -388,14 +402,14 @@ class PlannerResult:
     message: str = ""
     population: np.ndarray | None = None  # final positions (G, D − 1, 2)
     population_fitness: np.ndarray | None = None
-    termination: str = TERMINATED_ITERATIONS
+    termination: SearchEnd = SearchEnd.ITERATIONS
     evaluations: int = 0
     reach_checks: int = 0
     exact_checks: int = 0
 
     @property
     def solved(self) -> bool:
-        return self.status is PlanStatus.SOLVED
+        return self.termination.solved
 
 
 @dataclass
@@ -488,14 +502,13 @@ class SwarmPlanner:
         best_f = float("inf")
         deadlocks = 0
         stats: dict[str, float] = {}
-        reason = TERMINATED_ITERATIONS
+        reason = SearchEnd.ITERATIONS
 
-        def record(status: PlanStatus, message: str = "") -> PlannerResult:
+        def record(end: SearchEnd, message: str = "") -> PlannerResult:
             used = problem.counters - start_counts
             return PlannerResult(
                 self.name,
                 search.seed,
-                status,
                 best_x,
                 best_f,
                 np.array(convergence),
@@ -506,7 +519,7 @@ class SwarmPlanner:
                 message,
                 population=np.concatenate(finals_x) if finals_x else None,
                 population_fitness=np.concatenate(finals_f) if finals_f else None,
-                termination=reason if status is PlanStatus.SOLVED else TERMINATED_NO_PATH,
+                termination=end,
                 evaluations=int(used[0]),
                 reach_checks=int(used[1]),
                 exact_checks=int(used[2]),
@@ -518,7 +531,7 @@ class SwarmPlanner:
             if not ok.any():
                 if best_x is None:
                     return record(
-                        PlanStatus.NO_PATH,
+                        SearchEnd.NO_PATH,
                         "every initial path deadlocked: no reachable node sequence "
                         "from start to goal along the start→goal direction",
                     )
@@ -546,22 +559,22 @@ class SwarmPlanner:
                 if progress is not None:
                     progress(len(convergence), budget, best_f)
                 if term.should_stop is not None and term.should_stop():
-                    reason = TERMINATED_INTERRUPTED
+                    reason = SearchEnd.INTERRUPTED
                     break
                 if stall_limit is not None and stalled >= stall_limit:
-                    reason = TERMINATED_STALLED
+                    reason = SearchEnd.STALLED
                     break
                 if round_evals is None:
                     continue
                 used = problem.counters[0] - start_counts[0]
                 if used >= round_evals[r]:
                     if r == rounds - 1 or used >= max_evals:  # type: ignore[operator]
-                        reason = TERMINATED_BUDGET
+                        reason = SearchEnd.BUDGET
                     break
             finals_x.append(pop.x.copy())
             finals_f.append(pop.f.copy())
             for k, v in pop.counters.items():
                 stats[k] = stats.get(k, 0.0) + float(v)
-            if reason in (TERMINATED_INTERRUPTED, TERMINATED_BUDGET):
+            if reason in (SearchEnd.INTERRUPTED, SearchEnd.BUDGET):
                 break
-        return record(PlanStatus.SOLVED)
+        return record(reason)

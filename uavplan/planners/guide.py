@@ -19,37 +19,36 @@ so routes with no topological problem pay nothing for it.
 
 from __future__ import annotations
 
-import enum
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from uavplan.config import MARGIN_PAD_M
+from uavplan.config import MARGIN_PAD_M, EnergyWeights
+from uavplan.outcome import RouteFailure
+from uavplan.path.energy import PhysicalFitness
+from uavplan.path.frame import PathFrame
 from uavplan.path.post import simplify
 from uavplan.planners.astar import GridRoute, GridStatus, _grid_extent, astar
 from uavplan.planners.base import PathProblem
+from uavplan.world import World
 
 #: grid refinements tried, as multiples of the planner's grid steps (coarse first)
 GUIDE_SCALES = (2.0, 1.0, 0.5)
-#: a finer grid is not tried when it would have more nodes than this
-MAX_GUIDE_NODES = 6_000_000
-
-
-class GuideStatus(enum.Enum):
-    FOUND = "found"
-    START_ENCLOSED = "start_enclosed"
-    GOAL_ENCLOSED = "goal_enclosed"
-    NO_GAP = "no_gap"
+#: a grid search holds about 70 bytes a node: no grid of more nodes than this is searched
+#: (about 140 MB). The first, coarsest grid is coarsened further until it fits; a finer one
+#: is not tried when it would not fit.
+MAX_GUIDE_NODES = 2_000_000
 
 
 @dataclass(frozen=True, eq=False)
 class Guide:
     """Outcome of the global search. ``route_pf`` (n, 3): the line-of-sight route in the
     path frame (start to goal, keeps the margin), ``guide_xy`` its horizontal polyline;
-    ``steps_m`` the grid spacing that decided; ``message`` says why when nothing was found."""
+    ``steps_m`` the grid spacing that decided; when nothing was found, ``failure`` says why
+    and ``message`` says it to the user."""
 
-    status: GuideStatus
+    failure: RouteFailure | None
     route_pf: np.ndarray | None
     steps_m: tuple[float, float, float]
     runtime_s: float
@@ -57,7 +56,7 @@ class Guide:
 
     @property
     def found(self) -> bool:
-        return self.status is GuideStatus.FOUND
+        return self.failure is None
 
     @property
     def guide_xy(self) -> np.ndarray:
@@ -71,13 +70,36 @@ class Guide:
         return self.found and bool(np.all(np.diff(self.guide_xy[:, 0]) > 0))
 
 
-def _nodes(problem: PathProblem, steps: tuple[float, float, float]) -> int:
+@dataclass(frozen=True, eq=False)
+class GuideSpace:
+    """What the global search needs of a path problem: its world in the path frame, the
+    frame and the energy weights; not its node table or memo, so a caller can let those go
+    before the search builds its own grid (:meth:`of`)."""
+
+    world: World
+    frame: PathFrame
+    energy: EnergyWeights
+    fitness_smoothing: int = 0
+    physical: PhysicalFitness | None = None
+
+    @classmethod
+    def of(cls, problem: PathProblem) -> GuideSpace:
+        return cls(
+            problem.world,
+            problem.frame,
+            problem.energy,
+            problem.fitness_smoothing,
+            problem.physical,
+        )
+
+
+def _nodes(problem: PathProblem | GuideSpace, steps: tuple[float, float, float]) -> int:
     """Nodes of the A* grid over the flight volume at ``steps``."""
     _, shape = _grid_extent(problem.world, steps)
     return int(np.prod(shape))
 
 
-def find_guide(problem: PathProblem) -> Guide:
+def find_guide(problem: PathProblem | GuideSpace) -> Guide:
     """Grid A* from start to goal over the whole flight volume of ``problem`` (its world in
     the path frame, its margin), coarse to fine; the first route found, shortened by line of
     sight, or why there is none."""
@@ -86,7 +108,10 @@ def find_guide(problem: PathProblem) -> Guide:
     base = (frame.dx_m, frame.grid.dy_m, frame.grid.dz_m)
     last: GridRoute | None = None
     steps = base
-    for scale in GUIDE_SCALES:
+    first = GUIDE_SCALES[0]
+    while _nodes(problem, tuple(b * first for b in base)) > MAX_GUIDE_NODES:  # type: ignore[arg-type]
+        first *= 1.25
+    for scale in (first, *(s for s in GUIDE_SCALES if s < first)):
         steps = (base[0] * scale, base[1] * scale, base[2] * scale)
         if last is not None and _nodes(problem, steps) > MAX_GUIDE_NODES:
             break
@@ -94,37 +119,38 @@ def find_guide(problem: PathProblem) -> Guide:
         if last.found:
             assert last.path_pf is not None
             route = last.path_pf[simplify(last.path_pf, world)]
-            return Guide(GuideStatus.FOUND, route, steps, time.perf_counter() - t0)
+            return Guide(None, route, steps, time.perf_counter() - t0)
     assert last is not None
     return _why_not(problem, last, steps, time.perf_counter() - t0)
 
 
-def _why_not(problem: PathProblem, route: GridRoute, steps: tuple[float, float, float],
+def _why_not(problem: PathProblem | GuideSpace, route: GridRoute, steps: tuple[float, float, float],
              runtime_s: float) -> Guide:  # fmt: skip
     margin = problem.world.margin_m - MARGIN_PAD_M  # the user's margin (planning pads it)
     res = f"{steps[0]:g} × {steps[1]:g} × {steps[2]:g} m"
+    failure: RouteFailure
     if route.status is GridStatus.INVALID_START:
-        status, why = GuideStatus.START_ENCLOSED, "the start is enclosed: no free straight line"
+        failure, why = RouteFailure.START_ENCLOSED, "the start is enclosed: no free straight line"
         why += f" leads from it to the free space ({margin:g} m margin kept)"
     elif route.status is GridStatus.INVALID_GOAL:
-        status, why = GuideStatus.GOAL_ENCLOSED, "the goal is enclosed: no free straight line"
+        failure, why = RouteFailure.GOAL_ENCLOSED, "the goal is enclosed: no free straight line"
         why += f" leads from the free space to it ({margin:g} m margin kept)"
     else:
         # both ends touch free space that does not connect: the side whose free space is the
         # smaller is the enclosed one (a full search from each side counts it)
         back = astar(problem.world, problem.frame, problem.energy, steps, reverse=True)
         if back.expanded < 0.5 * route.expanded:
-            status, who = GuideStatus.GOAL_ENCLOSED, "the goal is enclosed"
+            failure, who = RouteFailure.GOAL_ENCLOSED, "the goal is enclosed"
         elif route.expanded < 0.5 * back.expanded:
-            status, who = GuideStatus.START_ENCLOSED, "the start is enclosed"
+            failure, who = RouteFailure.START_ENCLOSED, "the start is enclosed"
         else:
-            status, who = GuideStatus.NO_GAP, "start and goal are separated"
+            failure, who = RouteFailure.SEPARATED, "start and goal are separated"
         why = (
             f"{who}: no gap wide enough for the {margin:g} m safety margin connects start and "
             "goal inside the flight bounds"
         )
     message = f"{why} (grid search over the whole flight volume at {res})"
-    return Guide(status, None, steps, runtime_s, message)
+    return Guide(failure, None, steps, runtime_s, message)
 
 
 def guided_problem(problem: PathProblem, guide: Guide) -> PathProblem:
@@ -133,3 +159,12 @@ def guided_problem(problem: PathProblem, guide: Guide) -> PathProblem:
     if guide.is_straight or not guide.found:
         return problem
     return problem.along(guide.guide_xy)
+
+
+def problem_along(space: GuideSpace, guide: Guide) -> PathProblem:
+    """The path problem of ``space`` with its columns along ``guide``'s route (not
+    straight: a straight route keeps the problem the caller has)."""
+    frame = space.frame.along(guide.guide_xy)
+    return PathProblem.in_frame(
+        space.world, frame, space.energy, space.fitness_smoothing, space.physical
+    )

@@ -62,7 +62,8 @@ class SparrowPlanner(SwarmPlanner):
     def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
         """One iteration (Algorithm 3), fused in the compiled kernel
         (:func:`uavplan.planners._kernels.spsa_step`); this method draws its random numbers
-        from ``rng``, in the order the numpy formulation in tests/spsa_reference.py draws
+        from ``rng``, in the order the numpy formulation
+        (:class:`~uavplan.planners.sparrow_numpy.NumpySparrowPlanner`, ``spsa_numpy``) draws
         them (the tests hold the two to the same results).
 
         Ranks: the ``PD·G`` fittest are producers, the rest scroungers. δ = P − P_ST, P_ST
@@ -84,12 +85,15 @@ class SparrowPlanner(SwarmPlanner):
           oscillation optimisation (eq. 13) runs on every candidate that is not a known
           fixed point of it, and greedy selection keeps a candidate only when it is better.
         """
-        prm, search = self.params, self.search
+        prm = self.params
         n_pop, n_inner = pop.x.shape[0], pop.x.shape[1]
         sizes = pop.state.get("sizes")
         if sizes is None:
             sizes = pop.state["sizes"] = self._sizes(n_pop)
         n_prod, n_near, n_danger, flags = sizes
+        setup = pop.state.get("step_setup")
+        if setup is None:  # what every step of this search shares, built once
+            setup = pop.state["step_setup"] = self._step_setup(problem, pop, n_prod, flags)
         warn = rng.random()
         if warn < prm.warning_value:
             pdraw = 1.0 - rng.random(n_prod)  # α in (0, 1]
@@ -97,24 +101,43 @@ class SparrowPlanner(SwarmPlanner):
             pdraw = rng.standard_normal(n_prod)  # Q
         seeds1 = K.stream_seeds(rng, n_pop)
         signs = K.sign_draws(rng, (n_near, n_inner, 2))  # 2·rng.integers(0, 2) − 1
-        aware = rng.permutation(n_pop)[:n_danger]
+        aware = rng.permutation(n_pop)[:n_danger].astype(np.int64, copy=False)
         seeds2 = K.stream_seeds(rng, n_pop)
+        draws = K.StepDraws(warn, pdraw, signs, aware, seeds1, seeds2)
         fixed = pop.state.get("osc_fixed")
         if fixed is None:
             fixed = pop.state["osc_fixed"] = np.zeros(n_pop, dtype=np.bool_)
         counts = np.zeros(3, dtype=np.int64)
-        cache = pop.state.get("energy_cache")
-        if cache is None:
-            cache = pop.state["energy_cache"] = K.new_energy_cache(n_inner)
-        K.spsa_step(
-            pop.x, pop.f, fixed, self._line(problem), problem.goal_u, problem.reach,
-            problem.energy_args, n_prod, pop.iterations, search.t_max, (prm.v_min, prm.v_max),
-            prm.oscillation_window, flags, warn, prm.warning_value, pdraw, signs, aware,
-            (seeds1, seeds2), counts, cache, pop.state.get("threads", 1),
-        )  # fmt: skip
+        K.spsa_step(pop.x, pop.f, fixed, counts, setup, draws)
         problem.counters[0] += counts[0]
         pop.count("escapes", int(counts[1]))
         pop.count("failed_updates", int(counts[2]))
+
+    def _step_setup(
+        self, problem: PathProblem, pop: Population, n_prod: int, flags: int
+    ) -> K.StepSetup:
+        """What every fused step of this search shares (the fitness cache: ``setup``'s, or a
+        new one of the default size)."""
+        prm = self.params
+        cache = pop.state.get("energy_cache")
+        if cache is None:
+            cache = pop.state["energy_cache"] = K.new_energy_cache(pop.x.shape[1])
+        return K.StepSetup(
+            reach=problem.reach,
+            energy=problem.energy_args,
+            line=self._line(problem),
+            goal_u=problem.goal_u,
+            n_prod=n_prod,
+            iterations=pop.iterations,
+            t_max=self.search.t_max,
+            v_min=prm.v_min,
+            v_max=prm.v_max,
+            window=prm.oscillation_window,
+            flags=flags,
+            warning_value=prm.warning_value,
+            cache=cache,
+            threads=pop.state.get("threads", 1),
+        )
 
     def _sizes(self, n_pop: int) -> tuple[int, int, int, int]:
         """(producers, scroungers with i <= n/2, danger-aware sparrows, the kernel's flags)

@@ -1,4 +1,5 @@
-"""What every obstacle reader shares: the file entry, errors, heights, and footprint → solid.
+"""The entry points of the obstacle readers, and footprint → solid (the values they share are
+in :mod:`~uavplan.sources.base`).
 
 Readers (:mod:`~uavplan.sources.osm`, :mod:`~uavplan.sources.vector`) turn a file into
 :class:`Feature` values (a shapely footprint in longitude/latitude degrees, a height, where the
@@ -28,26 +29,44 @@ conservative, and counted in the report as ``base lifted: modelled down to the g
 
 from __future__ import annotations
 
-import math
-import re
-from collections import Counter
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from uavplan.errors import InputError
+from uavplan.limits import MAX_ALTITUDE_M, MAX_HORIZONTAL_M, MAX_OBSTACLES, MAX_POLYGON_VERTICES
 from uavplan.obstacles import Bounds, CylinderObstacle, Obstacle, PrismObstacle
+from uavplan.sources.base import (
+    DEFAULT_HEIGHT_M,
+    LEVEL_HEIGHT_M,
+    OSM_SUFFIXES,
+    Feature,
+    ImportResult,
+    ObstacleFileSpec,
+    SourceError,
+    parse_height_m,
+    parse_levels,
+)
 
 if TYPE_CHECKING:
-    from shapely.geometry.base import BaseGeometry
-
     from uavplan.geo import EnuFrame
 
-#: height of a feature with no usable height information (metres)
-DEFAULT_HEIGHT_M = 10.0
-#: height of one storey when only ``building:levels`` is known (metres)
-LEVEL_HEIGHT_M = 3.0
+__all__ = [
+    "DEFAULT_HEIGHT_M",
+    "LEVEL_HEIGHT_M",
+    "OSM_SUFFIXES",
+    "Feature",
+    "ImportResult",
+    "ObstacleFileSpec",
+    "SourceError",
+    "features_extent_lonlat",
+    "features_to_obstacles",
+    "obstacles_from_entries",
+    "parse_height_m",
+    "parse_levels",
+    "read_features",
+    "read_obstacle_file",
+]
+
 #: obstacles are kept when they reach within this distance of the bounds (metres)
 CLIP_PAD_M = 50.0
 #: footprints with more vertices than this are simplified (conservatively)
@@ -58,189 +77,6 @@ SIMPLIFY_TOLERANCE_M = 0.5
 MIN_AREA_M2 = 0.5
 #: pieces of a courtyard split smaller than this are numerical slivers and dropped (m²)
 MIN_PIECE_AREA_M2 = 1e-4
-
-OSM_SUFFIXES = (".osm", ".osm.pbf", ".pbf", ".osm.bz2", ".osm.gz", ".o5m", ".opl")
-
-
-class SourceError(InputError):
-    """A data file or its entry is unusable. ``key`` is the entry key at fault
-    (``file``, ``layer``, ``height_attribute``, ...), ``index`` the entry's position."""
-
-    def __init__(
-        self,
-        reason: str,
-        *,
-        file: str | None = None,
-        key: str | None = None,
-        index: int | None = None,
-    ) -> None:
-        self.index = index
-        super().__init__(reason, file=file, key=key)
-
-    def key_path(self, list_key: str = "obstacle_files") -> str:
-        """``obstacle_files[1].layer`` for the entry at fault."""
-        head = f"{list_key}[{self.index}]" if self.index is not None else list_key
-        return f"{head}.{self.key}" if self.key else head
-
-
-@dataclass(frozen=True)
-class ObstacleFileSpec:
-    """One ``obstacle_files`` entry. ``path`` is resolved (absolute or relative to the cwd)."""
-
-    path: Path
-    layer: str | None = None
-    height_attribute: str | None = None
-    default_height_m: float = DEFAULT_HEIGHT_M
-    min_height_m: float | None = None  # a base for every feature of the file (metres)
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.default_height_m) and self.default_height_m > 0):
-            raise SourceError(
-                f"must be a number > 0, got {self.default_height_m!r}", key="default_height"
-            )
-        if self.min_height_m is not None and not (
-            math.isfinite(self.min_height_m) and self.min_height_m >= 0
-        ):
-            raise SourceError(f"must be a number >= 0, got {self.min_height_m!r}", key="min_height")
-
-    @property
-    def is_osm(self) -> bool:
-        name = self.path.name.lower()
-        return name.endswith(OSM_SUFFIXES)
-
-    @classmethod
-    def from_mapping(cls, raw: Any, base_dir: Path) -> ObstacleFileSpec:
-        """Check one entry as written in a scenario or map (keys as the user spells them)."""
-        if isinstance(raw, str):
-            raw = {"file": raw}
-        if not isinstance(raw, Mapping):
-            raise SourceError(f"must be a mapping with a 'file' key, got {type(raw).__name__}")
-        allowed = {"file", "layer", "height_attribute", "default_height", "min_height"}
-        for k in raw:
-            if k not in allowed:
-                raise SourceError(f"unknown key (allowed: {', '.join(sorted(allowed))})", key=k)
-        if "file" not in raw:
-            raise SourceError("missing required key", key="file")
-        file = raw["file"]
-        if not isinstance(file, str) or not file:
-            raise SourceError("must be a file name", key="file")
-        layer = raw.get("layer")
-        if layer is not None and not isinstance(layer, str | int):
-            raise SourceError("must be a layer name", key="layer")
-        attr = raw.get("height_attribute")
-        if attr is not None and not isinstance(attr, str):
-            raise SourceError("must be an attribute name", key="height_attribute")
-        default = _number(raw.get("default_height", DEFAULT_HEIGHT_M), "default_height")
-        min_h = raw.get("min_height")
-        min_height = None if min_h is None else _number(min_h, "min_height")
-        path = Path(file).expanduser()
-        if not path.is_absolute():
-            path = (base_dir / path).resolve()
-        return cls(path, None if layer is None else str(layer), attr, default, min_height)
-
-
-def _number(value: Any, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SourceError(f"must be a number, got {value!r}", key=key)
-    return float(value)
-
-
-@dataclass
-class Feature:
-    """A footprint in longitude/latitude degrees (shapely), its height and provenance."""
-
-    geometry: BaseGeometry
-    height_m: float
-    height_source: str  # "height", "levels", "attribute", "default"
-    kind: str  # "building", "tower", ...
-    base_m: float = 0.0
-    radius_m: float | None = None  # point features only
-
-
-@dataclass
-class ImportResult:
-    """Obstacles read from one file, with what was kept, skipped and why.
-
-    ``kept`` counts source features by kind, ``skipped`` by reason, ``notes`` counts things
-    the reader did to kept features (a default height, a lifted base modelled to the ground,
-    a courtyard split, a simplified outline).
-    """
-
-    path: Path
-    obstacles: tuple[Obstacle, ...] = ()
-    kept: Counter[str] = field(default_factory=Counter)
-    skipped: Counter[str] = field(default_factory=Counter)
-    notes: Counter[str] = field(default_factory=Counter)
-    seconds: float = 0.0
-
-    def summary_lines(self) -> list[str]:
-        """Human-readable report lines (the ``import`` command prints these)."""
-        lines = [
-            f"{self.path.name}: kept {sum(self.kept.values())} features as "
-            f"{len(self.obstacles)} obstacles, skipped {sum(self.skipped.values())}"
-        ]
-        for kind, n in sorted(self.kept.items(), key=lambda kv: (-kv[1], kv[0])):
-            lines.append(f"  kept     {n:6d}  {kind}")
-        for reason, n in sorted(self.skipped.items(), key=lambda kv: (-kv[1], kv[0])):
-            lines.append(f"  skipped  {n:6d}  {reason}")
-        for note, n in sorted(self.notes.items(), key=lambda kv: (-kv[1], kv[0])):
-            lines.append(f"  note     {n:6d}  {note}")
-        return lines
-
-
-# ---------------------------------------------------------------------------------------------
-# Heights
-
-_HEIGHT_RE = re.compile(
-    r"^\s*(?P<num>[+]?\d+(?:[.,]\d+)?)\s*(?P<unit>m|meters?|metres?|ft|feet|foot|')?\s*$",
-    re.IGNORECASE,
-)
-_FEET_INCHES_RE = re.compile(r"^\s*(?P<ft>\d+)\s*'\s*(?P<inch>\d+(?:\.\d+)?)\s*(?:\"|'')\s*$")
-FOOT_M = 0.3048
-
-
-def parse_height_m(value: Any) -> float | None:
-    """A height in metres from an OSM ``height`` tag or an attribute value, or ``None``.
-
-    Accepts numbers, ``"12"``, ``"12.5 m"``, ``"12,5"``, ``"40'"``, ``"40 ft"`` and
-    ``"12'6\\""`` (feet and inches); of OSM multiple values (``"12;15"``) the tallest.
-    Anything else, zero or negative → ``None``.
-    """
-    if value is None or isinstance(value, bool):
-        return None
-    if isinstance(value, int | float):
-        out = float(value)
-    elif ";" in str(value):  # OSM multiple values: the tallest one (conservative)
-        heights = [h for h in (parse_height_m(v) for v in str(value).split(";")) if h is not None]
-        return max(heights) if heights else None
-    else:
-        text = str(value)
-        m = _FEET_INCHES_RE.match(text)
-        if m:
-            out = (int(m["ft"]) + float(m["inch"]) / 12.0) * FOOT_M
-        else:
-            m = _HEIGHT_RE.match(text)
-            if not m:
-                return None
-            out = float(m["num"].replace(",", "."))
-            unit = (m["unit"] or "m").lower()
-            if unit in ("ft", "feet", "foot", "'"):
-                out *= FOOT_M
-    if not math.isfinite(out) or out <= 0:
-        return None
-    return out
-
-
-def parse_levels(value: Any) -> float | None:
-    """``building:levels`` → a positive number of storeys, or ``None``."""
-    if value is None:
-        return None
-    try:
-        out = float(str(value).strip().replace(",", "."))
-    except ValueError:
-        return None
-    return out if math.isfinite(out) and out > 0 else None
-
 
 # ---------------------------------------------------------------------------------------------
 # Entry points
@@ -283,7 +119,39 @@ def read_features(
         from uavplan.sources.vector import read_vector_features
 
         features = read_vector_features(spec, result.skipped, result.notes)
-    return features, result
+    return _with_valid_coordinates(features, result), result
+
+
+def _with_valid_coordinates(features: list[Feature], result: ImportResult) -> list[Feature]:
+    """The features whose every coordinate is a finite longitude/latitude; the others are
+    counted as skipped. If none is valid the file is refused: when its numbers are finite but
+    not degrees (metres of a projected CRS the file does not declare), the message says so."""
+    import numpy as np
+    import shapely
+
+    if not features:
+        return features
+    coords, owner = shapely.get_coordinates([f.geometry for f in features], return_index=True)
+    finite = np.isfinite(coords).all(axis=1)
+    with np.errstate(invalid="ignore"):
+        degrees = finite & (np.abs(coords[:, 0]) <= 180.0) & (np.abs(coords[:, 1]) <= 90.0)
+    bad = np.zeros(len(features), dtype=bool)
+    np.logical_or.at(bad, owner, ~degrees)
+    if not bad.any():
+        return features
+    if bad.all():
+        projected = finite & ~degrees
+        if projected.any():
+            x, y = coords[int(np.argmax(projected))]
+            raise SourceError(
+                f"coordinates such as ({x:.10g}, {y:.10g}) are not longitude/latitude "
+                "degrees: the file's coordinate reference system is missing or wrong (GeoJSON "
+                "holds longitude/latitude unless it names another CRS)",
+                key="file",
+            )
+        raise SourceError("no feature has usable coordinates (non-finite numbers)", key="file")
+    result.skipped["coordinates not finite, or not longitude/latitude degrees"] += int(bad.sum())
+    return [f for f, b in zip(features, bad.tolist(), strict=True) if not b]
 
 
 def features_extent_lonlat(features: Sequence[Feature]) -> tuple[float, float, float, float]:
@@ -419,6 +287,12 @@ def features_to_obstacles(
     for feat, geom in zip(features, enu_geoms, strict=True):
         if feat.height_source == "default" and feat.base_m > 0:
             feat.height_m += feat.base_m  # a default-height part standing on a lifted base
+        if feat.height_m > MAX_ALTITUDE_M:  # a data error (height=9999999, levels=1e308)
+            feat.height_m = MAX_ALTITUDE_M
+            result.notes[f"height above {MAX_ALTITUDE_M:g} m: held at {MAX_ALTITUDE_M:g} m"] += 1
+        # to the millimetre, as a map file stores heights and outlines (so a map written by
+        # `import` and the same file read through obstacle_files hold the same obstacles)
+        feat.height_m = round(feat.height_m, 3)
         if feat.height_m <= feat.base_m:
             result.skipped["top not above its base (min_height >= height)"] += 1
             continue
@@ -463,10 +337,56 @@ def features_to_obstacles(
                 if ring is None:  # thinner than a millimetre somewhere: fill conservatively
                     ring = _mm_ring(piece.convex_hull)
                     result.notes["outline pinched to < 1 mm: its convex hull used"] += 1
+                if ring is not None and len(ring) > MAX_POLYGON_VERTICES:
+                    ring = _mm_ring(_fewer_vertices(piece))
+                    result.notes[
+                        f"outline of more than {MAX_POLYGON_VERTICES} vertices: a covering "
+                        "outline with fewer used"
+                    ] += 1
                 if ring is not None:
                     obstacles.append(PrismObstacle(ring, feat.height_m))
         _count_kept(result, feat)
+    if clip_box is None:  # clipped obstacles lie within the (checked) bounds
+        _check_extent(obstacles)
     result.obstacles = result.obstacles + tuple(obstacles)
+    if len(result.obstacles) > MAX_OBSTACLES:
+        raise SourceError(
+            f"more than {MAX_OBSTACLES:,} obstacles ({len(result.obstacles):,}): narrow the bounds",
+            key="file",
+        )
+
+
+def _fewer_vertices(poly: Any) -> Any:
+    """A polygon covering ``poly`` with at most :data:`MAX_POLYGON_VERTICES` vertices: the
+    conservative simplification at growing tolerances, else the minimum rotated rectangle."""
+    import shapely
+
+    tolerance = SIMPLIFY_TOLERANCE_M
+    for _ in range(12):
+        tolerance *= 2.0
+        grown = poly.buffer(tolerance, join_style="mitre", mitre_limit=2.0)
+        pieces = _polygons(grown.simplify(tolerance, preserve_topology=True))
+        if len(pieces) == 1 and not pieces[0].interiors and pieces[0].covers(poly):
+            if len(pieces[0].exterior.coords) - 1 <= MAX_POLYGON_VERTICES:
+                return pieces[0]
+    return shapely.minimum_rotated_rectangle(poly)
+
+
+def _check_extent(obstacles: Sequence[Obstacle]) -> None:
+    """Refuse obstacles beyond the horizontal limit of every map (data spread over a continent
+    read without bounds)."""
+    far = 0.0
+    for ob in obstacles:
+        if isinstance(ob, CylinderObstacle):
+            far = max(far, max(abs(ob.center_m[0]), abs(ob.center_m[1])) + ob.radius_m)
+        else:
+            far = max(far, max(max(abs(x), abs(y)) for x, y in ob.footprint()))
+    if far > MAX_HORIZONTAL_M:
+        raise SourceError(
+            f"the data reaches {far / 1000:,.0f} km from the origin, beyond the "
+            f"{MAX_HORIZONTAL_M / 1000:,.0f} km a map may span: give bounds around the area",
+            key="file",
+        )
 
 
 def _mm_ring(poly: Any) -> tuple[tuple[float, float], ...] | None:

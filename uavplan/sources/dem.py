@@ -34,7 +34,7 @@ the real ground under the stated Lipschitz assumption (2).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uavplan.errors import InputError
+from uavplan.limits import MAX_DEM_POSTS, MAX_GROUND_AMSL_M, MIN_GROUND_AMSL_M
 
 if TYPE_CHECKING:
     from pyproj import Transformer
@@ -104,7 +105,7 @@ class Terrain:
         ENU area is read, and a DEM that does not cover it is a :class:`TerrainError`."""
         import rasterio
         from rasterio.errors import RasterioError, WindowError
-        from rasterio.windows import Window, from_bounds
+        from rasterio.windows import Window
 
         path = Path(path)
         if not path.is_file():
@@ -116,24 +117,24 @@ class Terrain:
                         "the DEM declares no coordinate reference system", file=str(path)
                     )
                 crs_wkt = src.crs.to_wkt()
+                _check_transform(src.transform, str(path))
                 full = Window(0, 0, src.width, src.height)
                 window = full
                 if area_xy_m is not None:
                     box = _area_in_crs(frame, crs_wkt, area_xy_m)
-                    window = (
-                        from_bounds(*box, transform=src.transform)
-                        .round_offsets(op="floor")
-                        .round_lengths(op="ceil")
-                    )
-                    window = Window(
-                        window.col_off - 2, window.row_off - 2, window.width + 4, window.height + 4
-                    )
+                    window = _pixel_window(src.transform, box)
                     try:
                         window = window.intersection(full)
                     except WindowError:  # no overlap at all
                         raise TerrainError(
                             "the DEM does not cover the area (no overlap)", file=str(path)
                         ) from None
+                if window.width * window.height > MAX_DEM_POSTS:
+                    raise TerrainError(
+                        f"the DEM holds {int(window.width * window.height):,} posts over the "
+                        f"area, more than {MAX_DEM_POSTS:,}: resample it coarser",
+                        file=str(path),
+                    )
                 data = src.read(1, window=window, masked=True).astype(np.float64)
                 posts = np.ma.filled(data, np.nan)
                 unit = (src.units[0] or "").strip().lower() if src.units else ""
@@ -142,10 +143,25 @@ class Terrain:
             raise TerrainError(f"cannot read the DEM: {err}", file=str(path)) from None
         if unit in _FEET_UNITS:
             posts = posts * 0.3048
+        _check_posts(posts, str(path))
         terrain = cls(frame, posts, transform, crs_wkt, str(path))
         if area_xy_m is not None:
             terrain.check_covers(area_xy_m)
         return terrain
+
+    def in_frame(self, frame: EnuFrame) -> Terrain:
+        """The same DEM queried at ENU points of ``frame`` (one per frame origin, so what it
+        computes once, the posts' positions, is computed once per frame)."""
+        if frame.origin == self.frame.origin:
+            return self
+        hit = self._frames_memo.get(frame.origin)
+        if hit is None:
+            hit = self._frames_memo[frame.origin] = replace(self, frame=frame)
+        return hit
+
+    @cached_property
+    def _frames_memo(self) -> dict[Any, Terrain]:
+        return {}
 
     # -- coordinates -------------------------------------------------------------------------
     @cached_property
@@ -307,118 +323,119 @@ class Terrain:
             raise TerrainError("the DEM has no posts near part of the area", file=self.source)
         return TerrainMaxGrid(float(x_m[0]), float(y_m[0]), float(cell_m), grid)
 
-    def quad_prisms(
-        self,
-        x_m: tuple[float, float],
-        y_m: tuple[float, float],
-        *,
-        cell_m: float | None = None,
-        max_prisms: int = 40_000,
-        grow_m: float = 0.05,
+    def posts_around(
+        self, x_m: tuple[float, float], y_m: tuple[float, float], pad_m: float
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Convex solids that contain the interpolated ground over the ENU rectangle.
+        """The posts around the ENU rectangle ``x_m`` × ``y_m``: every post within ``pad_m`` +
+        one post spacing of it (the DEM's own edge and nodata permitting: at least the posts
+        of every quad the rectangle touches), as ``(xy (r, c, 2), z_amsl (r, c), centres
+        (r − 1, c − 1, 2))``: their exact ENU positions in this frame, their heights, and the
+        exact positions of the quads' centres. Raises :class:`TerrainError` where the DEM does
+        not cover the rectangle. Computed once per rectangle and frame."""
+        key = (tuple(x_m), tuple(y_m), float(pad_m))
+        hit = self._posts_memo.get(key)
+        if hit is None:
+            hit = self._posts_around(x_m, y_m, pad_m)
+            self._posts_memo[key] = hit
+        return hit
 
-        Between four neighbouring posts the surface is bilinear, and a bilinear function
-        takes its maximum over any sub-rectangle of its quad at one of the sub-rectangle's
-        corners. So each quad is cut into ``s × s`` sub-quads (``s`` = post spacing /
-        ``cell_m``, rounded up), and each sub-quad's outline (a parallelogram in ENU to well
-        under a millimetre) extruded up to its highest corner contains the surface there:
-        exactly, with no slope padding. If that makes more than ``max_prisms`` solids,
-        neighbouring ones are merged ``k × k`` (the outline of the outer corners, the highest
-        top). Outlines are grown by ``grow_m`` so neighbours overlap rather than leave a sliver.
+    @cached_property
+    def _posts_memo(self) -> dict[Any, tuple[Any, Any, Any]]:
+        return {}
 
-        Returns ``(xy (n, 4, 2) counter-clockwise, top_amsl_m (n,), low_amsl_m (n,))`` for the
-        solids touching the rectangle, ``low`` being the lowest corner (the surface's minimum
-        over the outline, by the same argument). Raises :class:`TerrainError` if the DEM does
-        not cover it.
-        """
+    def _posts_around(
+        self, x_m: tuple[float, float], y_m: tuple[float, float], pad_m: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         self.check_covers((x_m, y_m))
         xy = self._posts_enu
         z = self.posts_amsl_m
         nrows, ncols = z.shape
         if nrows < 2 or ncols < 2:
             raise TerrainError("the DEM needs at least 2 x 2 posts here", file=self.source)
-        pad = 2 * self.post_spacing_m
-        inside = (
-            (xy[..., 0] >= x_m[0] - pad)
-            & (xy[..., 0] <= x_m[1] + pad)
-            & (xy[..., 1] >= y_m[0] - pad)
-            & (xy[..., 1] <= y_m[1] + pad)
-        )
-        rows = np.flatnonzero(inside.any(axis=1))
-        cols = np.flatnonzero(inside.any(axis=0))
-        r0, r1 = max(int(rows.min()) - 1, 0), min(int(rows.max()) + 1, nrows - 1)
-        c0, c1 = max(int(cols.min()) - 1, 0), min(int(cols.max()) + 1, ncols - 1)
-        sub = 1 if cell_m is None else max(1, math.ceil(self.post_spacing_m / cell_m - 1e-9))
-        quads = (r1 - r0) * (c1 - c0)
-        sub = max(1, min(sub, int(math.sqrt(max_prisms / max(quads, 1)))))
-        # the window's posts refined s times: bilinear values and positions on the sub-grid
-        rr = r0 + np.arange((r1 - r0) * sub + 1) / sub
-        cc = c0 + np.arange((c1 - c0) * sub + 1) / sub
-        zf = _bilinear_grid(np.where(np.isfinite(z), z, np.nan), rr, cc)
-        xf = np.stack([_bilinear_grid(xy[..., i], rr, cc) for i in (0, 1)], axis=-1)
-        nr, nc = zf.shape
-        k = max(1, math.ceil(math.sqrt((nr - 1) * (nc - 1) / max_prisms)))
-        rs = np.arange(0, nr - 1, k)
-        cs = np.arange(0, nc - 1, k)
-        re = np.minimum(rs + k, nr - 1)
-        ce = np.minimum(cs + k, nc - 1)
-        top = np.full((len(rs), len(cs)), -np.inf)
-        low = np.full((len(rs), len(cs)), np.inf)
-        for dr in range(k + 1):
-            for dc in range(k + 1):
-                corner = zf[np.minimum(rs + dr, re)[:, None], np.minimum(cs + dc, ce)[None, :]]
-                top = np.fmax(top, corner)
-                low = np.fmin(low, corner)
-        corners = np.stack(
-            [
-                xf[rs[:, None], cs[None, :]],
-                xf[rs[:, None], ce[None, :]],
-                xf[re[:, None], ce[None, :]],
-                xf[re[:, None], cs[None, :]],
-            ],
-            axis=2,
-        ).reshape(-1, 4, 2)
-        top_flat: NDArray[np.float64] = top.ravel()
-        low_flat: NDArray[np.float64] = low.ravel()
-        # counter-clockwise (the raster may run either way in ENU), then grown outwards
-        a = corners[:, 1] - corners[:, 0]
-        b = corners[:, 3] - corners[:, 0]
-        cw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
-        corners[cw] = corners[cw][:, ::-1]
-        d = corners - corners.mean(axis=1, keepdims=True)
-        corners = corners + grow_m * d / np.maximum(np.linalg.norm(d, axis=2, keepdims=True), 1e-9)
-        lo = corners.min(axis=1)
-        hi = corners.max(axis=1)
-        keep = (
-            (hi[:, 0] >= x_m[0])
-            & (lo[:, 0] <= x_m[1])
-            & (hi[:, 1] >= y_m[0])
-            & (lo[:, 1] <= y_m[1])
-        )
-        if not np.all(np.isfinite(top_flat[keep])) or not np.all(np.isfinite(low_flat[keep])):
+
+        def window(pad: float) -> tuple[int, int, int, int]:
+            inside = (
+                (xy[..., 0] >= x_m[0] - pad)
+                & (xy[..., 0] <= x_m[1] + pad)
+                & (xy[..., 1] >= y_m[0] - pad)
+                & (xy[..., 1] <= y_m[1] + pad)
+            )
+            rows = np.flatnonzero(inside.any(axis=1))
+            cols = np.flatnonzero(inside.any(axis=0))
+            if not len(rows) or not len(cols):  # a rectangle inside one quad
+                col, row = self._pixels(np.array([[sum(x_m) / 2.0, sum(y_m) / 2.0]]))
+                r, c = int(np.floor(row[0] - 0.5)), int(np.floor(col[0] - 0.5))
+                return max(r, 0), min(r + 1, nrows - 1), max(c, 0), min(c + 1, ncols - 1)
+            r0, r1 = max(int(rows.min()) - 1, 0), min(int(rows.max()) + 1, nrows - 1)
+            c0, c1 = max(int(cols.min()) - 1, 0), min(int(cols.max()) + 1, ncols - 1)
+            return r0, r1, c0, c1
+
+        r0, r1, c0, c1 = window(pad_m + self.post_spacing_m)
+        if not np.all(np.isfinite(z[r0 : r1 + 1, c0 : c1 + 1])):
+            r0, r1, c0, c1 = window(0.0)  # nodata in the margin around: the rectangle's own
+        posts = z[r0 : r1 + 1, c0 : c1 + 1]
+        if not np.all(np.isfinite(posts)) or posts.shape[0] < 2 or posts.shape[1] < 2:
             raise TerrainError("the DEM has nodata posts inside the area", file=self.source)
-        return corners[keep], top_flat[keep], low_flat[keep]
+        cols, rows = np.meshgrid(np.arange(c0, c1) + 1.0, np.arange(r0, r1) + 1.0)
+        x, y = _apply(self.transform, cols.ravel(), rows.ravel())
+        lon, lat = self._from_crs.transform(np.asarray(x), np.asarray(y))
+        centres = self.frame.to_enu_xy(np.asarray(lat), np.asarray(lon))
+        return (
+            np.ascontiguousarray(xy[r0 : r1 + 1, c0 : c1 + 1]),
+            np.ascontiguousarray(posts),
+            centres.reshape(r1 - r0, c1 - c0, 2),
+        )
 
 
-def _bilinear_grid(
-    values: NDArray[np.float64], rows: NDArray[np.float64], cols: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """``values`` (posts) interpolated bilinearly at fractional row/column indices → a grid
-    ``(len(rows), len(cols))`` (NaN propagates from nodata posts)."""
-    nrows, ncols = values.shape
-    i0 = np.clip(np.floor(rows).astype(np.int64), 0, nrows - 2)
-    j0 = np.clip(np.floor(cols).astype(np.int64), 0, ncols - 2)
-    tv = (rows - i0)[:, None]
-    tu = (cols - j0)[None, :]
-    a = values[i0[:, None], j0[None, :]]
-    b = values[i0[:, None], j0[None, :] + 1]
-    c = values[i0[:, None] + 1, j0[None, :]]
-    d = values[i0[:, None] + 1, j0[None, :] + 1]
-    return np.asarray(
-        a * (1 - tu) * (1 - tv) + b * tu * (1 - tv) + c * (1 - tu) * tv + d * tu * tv,
-        dtype=np.float64,
-    )
+def _check_transform(transform: Any, file: str) -> None:
+    """A geotransform that maps pixels to an area: a zero pixel size (or rows parallel to
+    columns) has no inverse. Rotated, north-up and south-up rasters are all fine."""
+    det = transform.a * transform.e - transform.b * transform.d
+    if not (math.isfinite(det) and det != 0.0):
+        raise TerrainError(
+            "the DEM's pixel size is zero (its geotransform maps every pixel to one line)",
+            file=file,
+        )
+
+
+def _pixel_window(transform: Any, box: tuple[float, float, float, float]) -> Any:
+    """The window of whole pixels around a box (west, south, east, north) in the DEM's CRS,
+    with two pixels to spare on each side, for a raster laid out in any direction (rasterio's
+    ``from_bounds`` refuses a south-up raster)."""
+    from rasterio.windows import Window
+
+    west, south, east, north = box
+    corners_x = np.array([west, east, east, west])
+    corners_y = np.array([south, south, north, north])
+    cols, rows = _apply(~transform, corners_x, corners_y)
+    col_off, row_off = float(np.min(cols)), float(np.min(rows))
+    # offsets rounded down and lengths up, as from_bounds(...).round_offsets("floor")
+    # .round_lengths("ceil") gives them for a north-up raster
+    width = math.ceil(float(np.max(cols)) - col_off)
+    height = math.ceil(float(np.max(rows)) - row_off)
+    return Window(math.floor(col_off) - 2, math.floor(row_off) - 2, width + 4, height + 4)
+
+
+def _check_posts(posts: NDArray[np.float64], file: str) -> None:
+    """At least 2 x 2 posts, and every height a plausible ground height (else the file holds
+    an undeclared nodata value such as the float32 maximum, or is in other units)."""
+    if posts.shape[0] < 2 or posts.shape[1] < 2:
+        raise TerrainError(
+            f"the DEM has {posts.shape[0]} x {posts.shape[1]} posts over the area; it needs at "
+            "least 2 x 2 to interpolate between them",
+            file=file,
+        )
+    known = posts[~np.isnan(posts)]  # NaN: nodata; ±inf is a height out of range
+    wild = known[(known < MIN_GROUND_AMSL_M) | (known > MAX_GROUND_AMSL_M)]
+    if len(wild):
+        raise TerrainError(
+            f"the DEM holds heights outside {MIN_GROUND_AMSL_M:g}..{MAX_GROUND_AMSL_M:g} m "
+            f"AMSL ({len(wild):,} posts, e.g. {float(wild[0]):.6g}): a nodata value the file "
+            "does not declare, or heights in other units",
+            file=file,
+        )
+    if not len(known):
+        raise TerrainError("the DEM has no data over the area (every post is nodata)", file=file)
 
 
 def _apply(t: Any, u: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[Any, Any]:

@@ -25,7 +25,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from uavplan.sources.common import (
+from uavplan.sources.base import (
     LEVEL_HEIGHT_M,
     Feature,
     ObstacleFileSpec,
@@ -217,9 +217,15 @@ def read_osm_features(
                 height, source = _height(tags, spec, notes)
                 blobs.append(blob)
                 pending.append((height, source, kind, _base(tags, spec)))
+    except osmium.InvalidLocationError as err:  # the parser met a coordinate such as "nan"
+        raise SourceError(
+            f"cannot read OpenStreetMap file {spec.path.name}: a node's location is not a "
+            f"valid longitude/latitude ({_first_line(err)})",
+            key="file",
+        ) from None
     except (RuntimeError, ValueError, OSError) as err:
         raise SourceError(
-            f"cannot read OpenStreetMap file {spec.path.name}: {err}", key="file"
+            f"cannot read OpenStreetMap file {spec.path.name}: {_first_line(err)}", key="file"
         ) from None
     # one vectorised WKB decode and bounding-box test for all outlines
     geoms = shapely.from_wkb(blobs) if blobs else []
@@ -233,3 +239,8 @@ def read_osm_features(
     if broken:
         skipped["multipolygon relation did not assemble (members missing or broken)"] += broken
     return features
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip()
+    return text.splitlines()[0][:200] if text else type(err).__name__

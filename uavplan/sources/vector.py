@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from uavplan.sources.common import Feature, ObstacleFileSpec, SourceError, parse_height_m
+from uavplan.sources.base import Feature, ObstacleFileSpec, SourceError, parse_height_m
 
 
 def _layers(path: str) -> list[str]:
@@ -70,12 +70,19 @@ def read_vector_features(
         raise SourceError(f"cannot read {spec.path.name}: {_first_line(err)}", key="file") from None
 
     to_lonlat = _to_lonlat(crs, spec)
-    geoms = shapely.from_wkb(geometries)
+    # a ring of fewer than four points, or one not closed, is no geometry GEOS can hold
+    geoms = shapely.from_wkb(geometries, on_invalid="ignore")
+    invalid = shapely.is_missing(geoms) & np.array([g is not None for g in geometries], bool)
+    if invalid.any():
+        skipped["invalid geometry (a ring that is not closed or has too few points)"] += int(
+            invalid.sum()
+        )
     heights: Any = field_data[0] if columns else None
     features: list[Feature] = []
     for i, geom in enumerate(geoms):
         if geom is None or geom.is_empty:
-            skipped["no geometry"] += 1
+            if not invalid[i]:
+                skipped["no geometry"] += 1
             continue
         geom = shapely.force_2d(geom)
         if geom.geom_type not in ("Polygon", "MultiPolygon"):

@@ -1,11 +1,10 @@
-"""A simulated vehicle: heartbeats and the vehicle side of the mission protocol.
+"""The vehicle side of the MAVLink mission protocol, sans-I/O: messages in, messages out.
 
-:class:`MockVehicle` is a real MAVLink 2 endpoint (UDP or TCP, any connection string of
-:mod:`.transport`), so QGroundControl, MAVProxy, MAVSDK or our own client can talk to it.
-It holds a mission, a geofence and rally points; it sends HEARTBEAT and MISSION_CURRENT at
-1 Hz, answers AUTOPILOT_VERSION requests with the MISSION_INT / MISSION_FENCE /
-MISSION_RALLY capability bits (MAVSDK refuses transfers without MISSION_INT), and behaves
-like PX4 or ArduPilot where they differ (reference §4):
+:class:`MissionServer` holds a vehicle's mission, geofence and rally points and serves
+their upload, download and clear exactly as PX4 or ArduPilot does where they differ
+(reference §4). It does no I/O and reads no clock: :meth:`MissionServer.handle` takes one
+message and the time, :meth:`MissionServer.timers` the time alone, and both return the
+messages to send. The simulated vehicle (:mod:`.vehicle`) owns one.
 
 =============================  ==============================  ================================
 topic                          ``px4``                         ``ardupilot``
@@ -24,7 +23,7 @@ repeated last item after ACK   ACCEPTED again                  ignored
 clear while busy               ignored + STATUSTEXT            ERROR; type ALL: UNSUPPORTED
 cancel (OPERATION_CANCELLED)   honoured                        ignored (times out after 8 s)
 mission seq 0                  first item                      home: downloads return
-                                                               ``config.home`` when set
+                                                               the vehicle's home when set
 download frames, altitude      as uploaded                     0/3/10 spellings, z to 1 cm,
                                                                autocontinue 1
 item limits                    500 / 64 / 32                   700 / 84 / 100
@@ -40,54 +39,30 @@ after ``srtt + 4 x rttvar`` of the measured request->item round trip (floor 10 m
 the firmware interval as the ceiling: a loopback link is not a 57600-baud radio, and lossy
 tests and benchmarks then measure the protocol rather than a radio timer.
 
-Packet faults live apart, in :mod:`.linkfaults` (:class:`~.linkfaults.LinkFaults` drops,
-duplicates or reorders packets each way with a seeded ``numpy.random.Generator``); here
-:class:`MissionFaults` makes the vehicle misbehave on purpose (error ACK at an item,
-out-of-range request, early ACCEPTED, falling silent).
+The protocol misbehaviour of :class:`~uavplan.sim.faults.Faults` (error ACK at an item,
+out-of-range request, early ACCEPTED, falling silent) is applied here.
 """
 
 from __future__ import annotations
 
 import math
-import threading
-import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from struct import error as struct_error
 
 from uavplan.geo import GeoPoint
-from uavplan.mavlink.connection import MavlinkConnection
-from uavplan.mavlink.linkfaults import MISSION_PROTOCOL_MESSAGES as MISSION_PROTOCOL_MESSAGES
-from uavplan.mavlink.linkfaults import FaultInjector, LinkFaults
 from uavplan.mavlink.messages import (
-    AUTOPILOT_VERSION_ID,
-    COMP_ID_MISSIONPLANNER,
-    AutopilotVersion,
-    Capability,
-    CommandAck,
-    CommandLong,
-    Heartbeat,
     MalformedMessage,
-    MavAutopilotId,
-    MavCommand,
-    MavResult,
-    MavType,
     Message,
     MissionAck,
     MissionClearAll,
     MissionCount,
-    MissionCurrent,
     MissionItemInt,
     MissionRequest,
     MissionRequestList,
     MissionResult,
     MissionSetCurrent,
-    Received,
     StatusText,
-    message_name,
 )
 from uavplan.mavlink.protocol import RoundTripEstimator, item_from_wire, item_to_wire
-from uavplan.mavlink.transport import ConnectionSpec
 from uavplan.mission.items import (
     Autopilot,
     MavCmd,
@@ -97,8 +72,11 @@ from uavplan.mission.items import (
     canonical_frame,
     deg_to_e7,
 )
+from uavplan.sim.faults import Faults
 
-#: (mission, fence, rally) capacity of the mock per flavour
+__all__ = ["FIRMWARE_RETRY_S", "FIRMWARE_TRANSFER_TIMEOUT_S", "ITEM_LIMITS", "MissionServer"]
+
+#: (mission, fence, rally) capacity per flavour
 ITEM_LIMITS: dict[Autopilot, tuple[int, int, int]] = {
     Autopilot.PX4: (500, 64, 32),
     Autopilot.ARDUPILOT: (700, 84, 100),
@@ -112,7 +90,6 @@ MIN_RETRY_S = 0.01
 INITIAL_RETRY_S = 0.05
 RETRY_BACKOFF = 1.5
 
-
 _FENCE_COMMANDS = frozenset(range(5000, 5005))
 _POLYGON_COMMANDS = frozenset({5001, 5002})
 _RALLY_COMMANDS = {Autopilot.PX4: frozenset({5100, 31}), Autopilot.ARDUPILOT: frozenset({5100})}
@@ -124,39 +101,15 @@ _ARDUPILOT_NAN_PARAM4 = frozenset({16, 17, 21, 22, 84})
 # STATUSTEXT severities
 _CRITICAL, _WARNING, _INFO = 2, 4, 6
 
-
-@dataclass(frozen=True)
-class MissionFaults:
-    """Deliberate protocol misbehaviour, for the fault-matrix tests (all off by default)."""
-
-    reject_at_seq: int | None = None  # answer this item with ``reject_result`` and abort
-    reject_result: MissionResult = MissionResult.INVALID_PARAM1
-    out_of_range_after_seq: int | None = None  # after this item, request seq = count + 2
-    accept_early_after_seq: int | None = None  # after this item, send ACCEPTED and stop
-    silent_after_seq: int | None = None  # after this item, stop requesting (no ACK either)
-    ignore_requests: bool = False  # never answer COUNT / REQUEST_LIST / CLEAR_ALL
-
-
-@dataclass(frozen=True)
-class MockConfig:
-    autopilot: Autopilot = Autopilot.PX4
-    system_id: int = 1
-    component_id: int = 1
-    heartbeat_period_s: float = 1.0
-    send_heartbeats: bool = True
-    home: GeoPoint | None = None  # ArduPilot: what a download returns as seq 0
-    firmware_timing: bool = False
-    #: AUTOPILOT_VERSION.capabilities to report; None: MISSION_FLOAT/INT, COMMAND_INT,
-    #: MAVLINK2, MISSION_FENCE and MISSION_RALLY
-    capabilities: int | None = None
-    link_faults: LinkFaults = field(default_factory=LinkFaults)
-    mission_faults: MissionFaults = field(default_factory=MissionFaults)
-
-    def __post_init__(self) -> None:
-        if self.autopilot not in ITEM_LIMITS:
-            raise ValueError("the mock vehicle is px4 or ardupilot")
-        if self.heartbeat_period_s <= 0:
-            raise ValueError("heartbeat_period_s must be positive")
+MISSION_MESSAGES = (
+    MissionCount,
+    MissionItemInt,
+    MissionRequestList,
+    MissionRequest,
+    MissionAck,
+    MissionClearAll,
+    MissionSetCurrent,
+)
 
 
 @dataclass
@@ -184,255 +137,93 @@ class _Sending:
     last_recv: float = 0.0
 
 
-@dataclass(frozen=True)
-class MockStats:
-    uploads_accepted: int
-    uploads_failed: int
-    downloads_served: int
-    clears: int
-    dropped_in: int
-    dropped_out: int
-    duplicated: int
-    reordered: int
+class MissionServer:
+    """One vehicle's mission, geofence and rally points and the protocol serving them.
 
-
-def _whole_number(value: float) -> int | None:
-    """A COMMAND_LONG param that must hold a whole number, or ``None`` (NaN, inf, 2.5)."""
-    if not math.isfinite(value) or value != math.floor(value) or abs(value) > 2**31:
-        return None
-    return int(value)
-
-
-class MockVehicle:
-    """A simulated PX4 or ArduPilot vehicle on a real MAVLink endpoint.
-
-    Use as a context manager (or :meth:`start` / :meth:`stop`) to run it in a background
-    thread, or call :meth:`run` in the foreground until a :class:`threading.Event` is set.
+    ``home``: for ArduPilot, what a download returns as mission seq 0 (the vehicle's home),
+    when set. ``faults``: the protocol misbehaviour to apply (read on every message, so it
+    may be changed while serving). ``current_seq`` is the current mission item; the server
+    sets it on MISSION_SET_CURRENT and resets it when the mission changes, and raises
+    ``current_changed`` / ``mission_version`` for the vehicle to act on.
     """
 
-    def __init__(self, conn: str | ConnectionSpec, config: MockConfig | None = None) -> None:
-        self.config = config or MockConfig()
-        c = self.config
-        self.connection = MavlinkConnection.open(
-            conn, system_id=c.system_id, component_id=c.component_id
-        )
-        self._faults = FaultInjector(c.link_faults)
-        self._lock = threading.Lock()
-        #: notified after every message and timer pass, for :meth:`wait_for`
-        self._changed = threading.Condition()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+    def __init__(
+        self,
+        autopilot: Autopilot,
+        *,
+        system_id: int = 1,
+        component_id: int = 1,
+        home: GeoPoint | None = None,
+        firmware_timing: bool = False,
+        faults: Faults | None = None,
+    ) -> None:
+        if autopilot not in ITEM_LIMITS:
+            raise ValueError("the simulated vehicle is px4 or ardupilot")
+        self.autopilot = autopilot
+        self.system_id = system_id
+        self.component_id = component_id
+        self.home = home
+        self.firmware_timing = firmware_timing
+        self.faults = faults or Faults()
         self._storage: dict[int, list[MissionItemInt]] = {0: [], 1: [], 2: []}
         self._receiving: _Receiving | None = None
         self._sending: _Sending | None = None
         self._last_completed: tuple[tuple[int, int], int, int] | None = None
-        self._current_seq = 0
+        self.current_seq = 0
+        self.current_changed = False
+        #: bumped whenever the stored mission changes (upload, clear)
+        self.mission_version = 0
         self._rtt = RoundTripEstimator()
+        self._now = 0.0
+        self._out: list[Message] = []
         self._uploads_accepted = self._uploads_failed = self._downloads = self._clears = 0
-        self.error: BaseException | None = None
-        #: messages whose handling failed (hostile or broken input), and the last reason
+        #: messages whose fields could not be stored, and the last reason
         self.rejected_messages = 0
         self.last_rejection: str | None = None
 
-    # -- public ---------------------------------------------------------------------------
-    @property
-    def address(self) -> tuple[str, int]:
-        """(host, port) the vehicle listens on (port chosen by the OS for port 0)."""
-        addr = self.connection.local_address
-        if addr is None:
-            raise RuntimeError("this endpoint does not listen")
-        host = "127.0.0.1" if addr[0] in ("0.0.0.0", "") else addr[0]
-        return host, addr[1]
-
-    @property
-    def autopilot(self) -> Autopilot:
-        return self.config.autopilot
-
+    # -- storage --------------------------------------------------------------------------
     def wire_items(self, mission_type: MissionType) -> list[MissionItemInt]:
-        """What the vehicle stores for that plan type, as received."""
-        with self._lock:
-            return list(self._storage[int(mission_type)])
+        return list(self._storage[int(mission_type)])
 
     def items(self, mission_type: MissionType) -> list[MissionItem]:
         """The stored plan type as MissionItems (seq = index; ArduPilot's home included)."""
         return [item_from_wire(w) for w in self.wire_items(mission_type)]
 
     def preload(self, mission_type: MissionType, items: list[MissionItem]) -> None:
-        """Store a plan as if it had been uploaded (for download tests)."""
-        sysid, compid = self.config.system_id, self.config.component_id
-        wire = [item_to_wire(it, seq, mission_type, sysid, compid) for seq, it in enumerate(items)]
-        with self._lock:
-            self._storage[int(mission_type)] = wire
+        """Store a plan as if it had been uploaded."""
+        wire = [
+            item_to_wire(it, seq, mission_type, self.system_id, self.component_id)
+            for seq, it in enumerate(items)
+        ]
+        self._storage[int(mission_type)] = wire
+        if int(mission_type) == 0:
+            self._mission_changed()
 
-    def set_link_faults(self, faults: LinkFaults) -> None:
-        """Change the packet faults while running (the generators keep their state)."""
-        self._faults.faults = faults
-
-    def wait_for(self, predicate: Callable[[MockVehicle], bool], timeout_s: float) -> bool:
-        """Block until ``predicate(self)`` holds (checked after each message the vehicle
-        handles and each timer pass) or ``timeout_s`` passes; returns whether it holds.
-        Tests wait for a state this way instead of sleeping."""
-        with self._changed:
-            return self._changed.wait_for(lambda: predicate(self), timeout_s)
+    def _mission_changed(self) -> None:
+        self.current_seq = 0
+        self.mission_version += 1
 
     @property
     def busy(self) -> bool:
         return self._receiving is not None or self._sending is not None
 
-    def stats(self) -> MockStats:
-        f = self._faults
-        return MockStats(
-            self._uploads_accepted,
-            self._uploads_failed,
-            self._downloads,
-            self._clears,
-            f.dropped_in,
-            f.dropped_out,
-            f.duplicated,
-            f.reordered,
-        )
+    def counters(self) -> tuple[int, int, int, int]:
+        """(uploads accepted, uploads failed, downloads served, clears)."""
+        return (self._uploads_accepted, self._uploads_failed, self._downloads, self._clears)
 
-    def start(self) -> MockVehicle:
-        if self._thread is not None:
-            raise RuntimeError("already started")
-        self._thread = threading.Thread(target=self._run_guarded, name="mock-vehicle", daemon=True)
-        self._thread.start()
-        return self
-
-    def stop(self, timeout_s: float = 5.0) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout_s)
-            self._thread = None
-        self.connection.close()
-
-    def __enter__(self) -> MockVehicle:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
-
-    def run(self, stop: threading.Event | None = None) -> None:
-        """Serve in the calling thread until ``stop`` (or :meth:`stop`) is set."""
-        if stop is not None:
-            self._stop = stop
-        self._serve()
-
-    # -- main loop ------------------------------------------------------------------------
-    def _run_guarded(self) -> None:
-        try:
-            self._serve()
-        except BaseException as err:  # surfaced to tests through .error
-            self.error = err
-
-    def _serve(self) -> None:
-        c = self.config
-        next_heartbeat = time.monotonic()
-        next_current = time.monotonic() + 0.5
-        while not self._stop.is_set():
-            now = time.monotonic()
-            if now >= next_heartbeat:
-                self._send_heartbeat()
-                next_heartbeat = now + c.heartbeat_period_s
-            if now >= next_current:
-                self._send_mission_current()
-                next_current = now + 1.0
-            self._timers(now)
-            self._notify()
-            wake = min(next_heartbeat, next_current, now + 0.05, self._next_timer(now))
-            received = self.connection.recv(max(0.0, wake - time.monotonic()))
-            if received is None:
-                self._flush_held()
-                continue
-            copies = self._faults.inbound_copies(received.message)
-            for _ in range(copies):
-                self._handle_safely(received)
-            self._notify()
-
-    def _notify(self) -> None:
-        with self._changed:
-            self._changed.notify_all()
-
-    def _handle_safely(self, received: Received) -> None:
-        """One message; anything it could break is caught here so the vehicle keeps serving
-        (a hostile packet costs that packet only, never the stored plans)."""
-        try:
-            self._handle(received)
-        except (ArithmeticError, ValueError, TypeError, struct_error) as err:
-            self.rejected_messages += 1
-            self.last_rejection = f"{message_name(received.message)}: {err}"
-
-    # -- sending --------------------------------------------------------------------------
-    def _send(self, message: Message) -> None:
-        self._faults.send(self.connection, message)
-
-    def _flush_held(self) -> None:
-        self._faults.flush(self.connection)
-
-    def _send_heartbeat(self) -> None:
-        if not self.config.send_heartbeats:
-            return
-        px4 = self.config.autopilot == Autopilot.PX4
-        self._send(
-            Heartbeat(
-                type=MavType.QUADROTOR,
-                autopilot=MavAutopilotId.PX4 if px4 else MavAutopilotId.ARDUPILOTMEGA,
-                base_mode=1,  # MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-                system_status=3,  # MAV_STATE_STANDBY
-            )
-        )
-
-    def _ack(self, partner: tuple[int, int], result: MissionResult, mission_type: int) -> None:
-        self._send(MissionAck(partner[0], partner[1], int(result), mission_type))
-
-    def _text(self, severity: int, text: str) -> None:
-        self._send(StatusText(severity, text))
-
-    def _send_mission_current(self) -> None:
-        count = len(self._storage[0])
-        if self.config.autopilot == Autopilot.PX4:
-            total = count if count else 65535
-        else:
-            total = max(0, count - 1)
-        state = 2 if count else 1  # MISSION_STATE_NOT_STARTED / NO_MISSION
-        self._send(MissionCurrent(self._current_seq, total, state, 0))
-
-    # -- dispatch -------------------------------------------------------------------------
-    def _addressed_to_us(self, message: Message) -> bool:
-        target_system = getattr(message, "target_system", None)
-        if target_system is None:
-            return True
-        if target_system not in (0, self.config.system_id):
-            return False
-        target_component = getattr(message, "target_component", 0)
-        accepted = {0, self.config.component_id}
-        if self.config.autopilot == Autopilot.PX4:
-            accepted.add(COMP_ID_MISSIONPLANNER)
-        return target_component in accepted
-
-    def _handle(self, received: Received) -> None:
-        message = received.message
-        partner = (received.system_id, received.component_id)
-        if isinstance(message, Heartbeat):
-            if message.type == MavType.GCS:
-                # answer a ground station's heartbeat at once instead of at the next 1 Hz
-                # tick, so connecting takes a round trip, not up to a second (only a GCS's:
-                # two vehicles must not echo each other)
-                self._send_heartbeat()
-            return
-        if isinstance(message, StatusText) or not self._addressed_to_us(message):
-            return
-        if isinstance(message, CommandLong):
-            self._on_command(partner, message)
-            return
-        if isinstance(message, MissionSetCurrent):
-            self._on_set_current(message.seq)
-            return
-        if self.config.mission_faults.ignore_requests and isinstance(
+    # -- the sans-I/O interface -----------------------------------------------------------
+    def handle(self, partner: tuple[int, int], message: Message, now: float) -> list[Message]:
+        """One mission-protocol message (or MISSION_SET_CURRENT) from ``partner``; the
+        messages to send back."""
+        self._now = now
+        self._out = []
+        if self.faults.ignore_requests and isinstance(
             message, MissionCount | MissionRequestList | MissionClearAll
         ):
-            return
-        if isinstance(message, MissionCount):
+            return []
+        if isinstance(message, MissionSetCurrent):
+            self._on_set_current(message.seq)
+        elif isinstance(message, MissionCount):
             self._on_count(partner, message)
         elif isinstance(message, MissionItemInt):
             self._on_item(partner, message)
@@ -446,74 +237,40 @@ class MockVehicle:
             self._on_ack(partner, message)
         elif isinstance(message, MissionClearAll):
             self._on_clear(partner, message)
+        return self._out
 
-    def _on_command(self, partner: tuple[int, int], cmd: CommandLong) -> None:
-        def ack(result: MavResult) -> None:
-            self._send(CommandAck(cmd.command, int(result), partner[0], partner[1]))
+    def timers(self, now: float) -> list[Message]:
+        """Re-requests and transfer timeouts due at ``now``; the messages to send."""
+        self._now = now
+        self._out = []
+        self._timers(now)
+        return self._out
 
-        wanted = _whole_number(cmd.param1)
-        if cmd.command == MavCommand.REQUEST_MESSAGE and wanted is None:
-            ack(MavResult.DENIED)  # param1 NaN / inf / fractional: names no message
-        elif (
-            cmd.command == MavCommand.REQUEST_MESSAGE and wanted == AUTOPILOT_VERSION_ID
-        ) or cmd.command == MavCommand.REQUEST_AUTOPILOT_CAPABILITIES:
-            ack(MavResult.ACCEPTED)
-            self._send(self._autopilot_version())
-        elif cmd.command == MavCommand.DO_SET_MISSION_CURRENT:
-            if wanted is None:
-                ack(MavResult.DENIED)
-                return
-            seq = wanted
-            count = len(self._storage[0])
-            if seq == -1 or 0 <= seq < count:
-                if seq >= 0:
-                    self._current_seq = seq
-                ack(MavResult.ACCEPTED)
-                self._send_mission_current()
-            else:
-                ack(MavResult.FAILED)
-        else:
-            ack(MavResult.UNSUPPORTED)
+    def next_timer(self, now: float) -> float:
+        """When :meth:`timers` next has something to do."""
+        return self._next_timer(now)
 
-    def _autopilot_version(self) -> AutopilotVersion:
-        caps = self.config.capabilities
-        if caps is None:
-            caps = (
-                Capability.MISSION_FLOAT
-                | Capability.MISSION_INT
-                | Capability.COMMAND_INT
-                | Capability.MAVLINK2
-                | Capability.MISSION_FENCE
-                | Capability.MISSION_RALLY
-            )
-        if self.config.autopilot == Autopilot.PX4:
-            version = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 official
-        else:
-            version = (4 << 24) | (5 << 16) | (0 << 8) | 255  # v4.5.0 official
-        return AutopilotVersion(
-            capabilities=int(caps),
-            flight_sw_version=version,
-            vendor_id=0x1209,
-            product_id=0x5740,
-            uid=0x55A0_0000 + self.config.system_id,
-        )
+    def _ack(self, partner: tuple[int, int], result: MissionResult, mission_type: int) -> None:
+        self._out.append(MissionAck(partner[0], partner[1], int(result), mission_type))
+
+    def _text(self, severity: int, text: str) -> None:
+        self._out.append(StatusText(severity, text))
 
     def _on_set_current(self, seq: int) -> None:
         if self.busy:
             self._text(_CRITICAL, "WPM: IGN WP CURR CMD: Busy")
         elif 0 <= seq < len(self._storage[0]):
-            self._current_seq = seq
-            self._send_mission_current()
-        elif self.config.autopilot == Autopilot.PX4:
+            self.current_seq = seq
+            self.current_changed = True
+        elif self.autopilot == Autopilot.PX4:
             self._text(_CRITICAL, "WPM: WP CURR CMD: Not in list")
 
-    # -- upload (vehicle receives) --------------------------------------------------------
     def _limit(self, mission_type: int) -> int:
-        return ITEM_LIMITS[self.config.autopilot][mission_type]
+        return ITEM_LIMITS[self.autopilot][mission_type]
 
     def _on_count(self, partner: tuple[int, int], msg: MissionCount) -> None:
-        px4 = self.config.autopilot == Autopilot.PX4
-        now = time.monotonic()
+        px4 = self.autopilot == Autopilot.PX4
+        now = self._now
         rx = self._receiving
         if msg.mission_type not in (0, 1, 2):
             self._ack(partner, MissionResult.INVALID if px4 else MissionResult.UNSUPPORTED, 0)
@@ -546,10 +303,9 @@ class MockVehicle:
             self._uploads_failed += 1
             return
         if msg.count == 0:
-            with self._lock:
-                self._storage[msg.mission_type] = []
+            self._storage[msg.mission_type] = []
             if msg.mission_type == 0:
-                self._current_seq = 0
+                self._mission_changed()
             self._ack(partner, MissionResult.ACCEPTED, msg.mission_type)
             self._last_completed = None
             self._uploads_accepted += 1
@@ -565,10 +321,10 @@ class MockVehicle:
 
     def _request(self, rx: _Receiving, *, retry: bool, seq: int | None = None) -> None:
         rx.requested_seq = rx.next_seq if seq is None else seq
-        rx.last_request = time.monotonic()
+        rx.last_request = self._now
         rx.request_is_retry = retry
-        int_form = rx.int_mode and self.config.autopilot == Autopilot.PX4
-        self._send(
+        int_form = rx.int_mode and self.autopilot == Autopilot.PX4
+        self._out.append(
             MissionRequest(
                 rx.partner[0], rx.partner[1], rx.requested_seq, rx.mission_type, int_form=int_form
             )
@@ -576,13 +332,13 @@ class MockVehicle:
 
     def _validate(self, mission_type: int, item: MissionItemInt) -> MissionResult:
         """The checks a real autopilot makes that matter for a planner (reference §1.7, §4)."""
-        px4 = self.config.autopilot == Autopilot.PX4
+        px4 = self.autopilot == Autopilot.PX4
         cmd, frame = item.command, item.frame
         if mission_type == 0 and (cmd in _FENCE_COMMANDS or cmd == MavCmd.NAV_RALLY_POINT):
             return MissionResult.ERROR if px4 else MissionResult.UNSUPPORTED
         if mission_type == 1 and cmd not in _FENCE_COMMANDS:
             return MissionResult.UNSUPPORTED
-        if mission_type == 2 and cmd not in _RALLY_COMMANDS[self.config.autopilot]:
+        if mission_type == 2 and cmd not in _RALLY_COMMANDS[self.autopilot]:
             return MissionResult.UNSUPPORTED
         if frame not in (_PX4_FRAMES if px4 else _ARDUPILOT_FRAMES):
             return MissionResult.UNSUPPORTED_FRAME
@@ -607,10 +363,10 @@ class MockVehicle:
         return MissionResult.ACCEPTED
 
     def _on_item(self, partner: tuple[int, int], item: MissionItemInt) -> None:
-        px4 = self.config.autopilot == Autopilot.PX4
-        faults = self.config.mission_faults
+        px4 = self.autopilot == Autopilot.PX4
+        faults = self.faults
         rx = self._receiving
-        now = time.monotonic()
+        now = self._now
         if rx is None or partner != rx.partner:
             if rx is None and px4 and self._last_completed is not None:
                 done_partner, done_type, done_count = self._last_completed
@@ -695,7 +451,7 @@ class MockVehicle:
         self._uploads_failed += 1
 
     def _commit(self, rx: _Receiving) -> None:
-        if rx.mission_type == 1 and self.config.autopilot == Autopilot.ARDUPILOT:
+        if rx.mission_type == 1 and self.autopilot == Autopilot.ARDUPILOT:
             # ArduPilot validates the whole fence at the end
             if not self._fence_complete(rx.items):
                 self._ack(rx.partner, MissionResult.ERROR, 1)
@@ -706,10 +462,9 @@ class MockVehicle:
             replace(i, seq=n, current=1 if n == 0 else 0, legacy_float=False)
             for n, i in enumerate(rx.items)
         ]
-        with self._lock:
-            self._storage[rx.mission_type] = wire
+        self._storage[rx.mission_type] = wire
         if rx.mission_type == 0:
-            self._current_seq = 0
+            self._mission_changed()
         self._receiving = None
         self._last_completed = (rx.partner, rx.mission_type, rx.count)
         self._uploads_accepted += 1
@@ -728,12 +483,12 @@ class MockVehicle:
         return remaining == 0
 
     def _on_ack(self, partner: tuple[int, int], ack: MissionAck) -> None:
-        px4 = self.config.autopilot == Autopilot.PX4
+        px4 = self.autopilot == Autopilot.PX4
         rx, tx = self._receiving, self._sending
         if rx is not None and partner == rx.partner and ack.mission_type == rx.mission_type:
             if not px4:
                 return  # ArduPilot does not honour cancel; it times out instead
-            rx.last_recv = time.monotonic()
+            rx.last_recv = self._now
             if ack.type == MissionResult.UNSUPPORTED:
                 rx.int_mode = not rx.int_mode  # the GCS wants the other request form
                 self._request(rx, retry=True)
@@ -746,7 +501,7 @@ class MockVehicle:
 
     def _timers(self, now: float) -> None:
         rx = self._receiving
-        ap = self.config.autopilot
+        ap = self.autopilot
         if rx is not None:
             if now - rx.last_recv > FIRMWARE_TRANSFER_TIMEOUT_S[ap]:
                 self._receiving = None
@@ -766,8 +521,8 @@ class MockVehicle:
             self._text(_CRITICAL, "Operation timeout")
 
     def _retry_interval(self, rx: _Receiving) -> float:
-        ceiling = FIRMWARE_RETRY_S[self.config.autopilot]
-        if self.config.firmware_timing:
+        ceiling = FIRMWARE_RETRY_S[self.autopilot]
+        if self.firmware_timing:
             return ceiling
         base = self._rtt.timeout(min(ceiling, INITIAL_RETRY_S), MIN_RETRY_S)
         # gentle back-off after three misses in a row, so a GCS that stalls for a moment is
@@ -782,7 +537,7 @@ class MockVehicle:
 
     # -- download (vehicle sends) ---------------------------------------------------------
     def _on_request_list(self, partner: tuple[int, int], msg: MissionRequestList) -> None:
-        px4 = self.config.autopilot == Autopilot.PX4
+        px4 = self.autopilot == Autopilot.PX4
         if msg.mission_type not in (0, 1, 2):
             self._ack(partner, MissionResult.UNSUPPORTED, msg.mission_type)
             return
@@ -800,12 +555,12 @@ class MockVehicle:
             if tx is not None and (tx.partner != partner or tx.mission_type != msg.mission_type):
                 self._text(_INFO, "Mission download request ignored, already active")
                 return
-            self._sending = _Sending(partner, msg.mission_type, count, 0, time.monotonic())
+            self._sending = _Sending(partner, msg.mission_type, count, 0, self._now)
         self._downloads += 1
-        self._send(MissionCount(partner[0], partner[1], count, msg.mission_type))
+        self._out.append(MissionCount(partner[0], partner[1], count, msg.mission_type))
 
     def _on_request(self, partner: tuple[int, int], msg: MissionRequest) -> None:
-        px4 = self.config.autopilot == Autopilot.PX4
+        px4 = self.autopilot == Autopilot.PX4
         rx = self._receiving
         if rx is not None:
             # a request while *we* are receiving: nonsense from a GCS's point of view
@@ -821,7 +576,7 @@ class MockVehicle:
                 return  # PX4 ignores requests outside a download silently
             if tx.mission_type != msg.mission_type:
                 return
-            tx.last_recv = time.monotonic()
+            tx.last_recv = self._now
             if msg.seq == tx.next_seq and tx.next_seq < tx.count:
                 tx.next_seq += 1
             elif msg.seq != tx.next_seq - 1:
@@ -833,25 +588,25 @@ class MockVehicle:
                 self._sending = None
                 self._ack(partner, MissionResult.ERROR, msg.mission_type)
                 return
-            self._send(self._outgoing(stored[msg.seq], partner))
+            self._out.append(self._outgoing(stored[msg.seq], partner))
             return
         if msg.seq >= len(stored):
-            self._send(MissionCount(partner[0], partner[1], len(stored), msg.mission_type))
+            self._out.append(MissionCount(partner[0], partner[1], len(stored), msg.mission_type))
             self._ack(partner, MissionResult.ERROR, msg.mission_type)
             return
-        self._send(self._outgoing(stored[msg.seq], partner))
+        self._out.append(self._outgoing(stored[msg.seq], partner))
 
     def _outgoing(self, item: MissionItemInt, partner: tuple[int, int]) -> MissionItemInt:
         out = replace(
             item,
             target_system=partner[0],
             target_component=partner[1],
-            current=1 if (item.mission_type == 0 and item.seq == self._current_seq) else 0,
+            current=1 if (item.mission_type == 0 and item.seq == self.current_seq) else 0,
         )
-        if self.config.autopilot == Autopilot.ARDUPILOT:
+        if self.autopilot == Autopilot.ARDUPILOT:
             out = replace(out, frame=canonical_frame(out.frame))
-            if out.mission_type == 0 and out.seq == 0 and self.config.home is not None:
-                home = self.config.home
+            if out.mission_type == 0 and out.seq == 0 and self.home is not None:
+                home = self.home
                 out = replace(
                     out,
                     frame=int(MavFrame.GLOBAL),
@@ -864,7 +619,7 @@ class MockVehicle:
 
     # -- clear ----------------------------------------------------------------------------
     def _on_clear(self, partner: tuple[int, int], msg: MissionClearAll) -> None:
-        px4 = self.config.autopilot == Autopilot.PX4
+        px4 = self.autopilot == Autopilot.PX4
         if self.busy:
             if px4:
                 self._text(_CRITICAL, "WPM: IGN CLEAR CMD: Busy")
@@ -881,11 +636,10 @@ class MockVehicle:
         else:
             self._ack(partner, MissionResult.UNSUPPORTED, msg.mission_type)
             return
-        with self._lock:
-            for mission_type in types:
-                self._storage[mission_type] = []
+        for mission_type in types:
+            self._storage[mission_type] = []
         if 0 in types:
-            self._current_seq = 0
+            self._mission_changed()
         self._last_completed = None
         self._clears += 1
         self._ack(partner, MissionResult.ACCEPTED, msg.mission_type)

@@ -1,5 +1,5 @@
-"""Link chaos: upload through a :class:`~.faultproxy.FaultProxy` to a mock vehicle and check
-the invariants of issue 12 on every run.
+"""Link chaos: upload through a :class:`~uavplan.mavlink.faultproxy.FaultProxy` to a simulated
+vehicle and check the invariants of issue 12 on every run.
 
 One run (:func:`run_upload`): a fresh mock vehicle holding an *old* mission, a seeded fault
 proxy in front of it, our ground station connecting through the proxy and uploading a new
@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from uavplan.errors import UavplanError
 from uavplan.mavlink.faultproxy import FaultProxy, ProxyFaults
 from uavplan.mavlink.link import HEARTBEAT_TIMEOUT_S, VehicleLink
-from uavplan.mavlink.mock_vehicle import MockConfig, MockVehicle
 from uavplan.mavlink.protocol import MissionClient, ProtocolTimeouts
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
 from uavplan.mission.items import (
@@ -34,6 +33,8 @@ from uavplan.mission.items import (
     MissionPlan,
     MissionType,
 )
+from uavplan.sim.mock import MockVehicle
+from uavplan.sim.vehicle import VehicleConfig
 
 
 def chaos_mission(n_items: int, *, seed: int, autopilot: Autopilot = Autopilot.PX4) -> MissionPlan:
@@ -106,7 +107,7 @@ def run_upload(
     timeouts = timeouts or ProtocolTimeouts()
     old = chaos_mission(max(2, n_items // 2), seed=faults.seed + 1_000_000, autopilot=autopilot)
     new = chaos_mission(n_items, seed=faults.seed, autopilot=autopilot)
-    vehicle = MockVehicle("udpin:127.0.0.1:0", MockConfig(autopilot=autopilot))
+    vehicle = MockVehicle("udpin:127.0.0.1:0", VehicleConfig(autopilot=autopilot))
     vehicle.preload(MissionType.MISSION, plan_wire_items(old, MissionType.MISSION, autopilot))
     vehicle.start()
     started = time.monotonic()

@@ -1,25 +1,33 @@
-"""The numpy formulation of one SPSA / SSA iteration: the oracle the compiled step
-(:func:`uavplan.planners._kernels.spsa_step`) is held to in tests/test_spsa_step.py.
+"""SPSA / SSA with its iteration written in numpy: the readable formulation, and the oracle
+the compiled step (:func:`uavplan.planners._kernels.spsa_step`, which
+:class:`~uavplan.planners.sparrow.SparrowPlanner` runs) is held to.
 
 This is the step as it was written before it was fused into C: every update rule computed
-with numpy over the population and handed to the shared rebuild kernel as a Proposal. It
-draws its random numbers from the Generator in the order the product's step does, so the
-two give the same populations, fitness and counters.
+with numpy over the whole population and handed to the shared rebuild kernel as a
+:class:`~uavplan.planners.proposal.Proposal`, the oscillation and the fitness through the
+same kernels every planner uses. It draws its random numbers from the Generator in the order
+the compiled step does, so the two give the same populations, fitness and convergence, bit
+for bit (tests/test_spsa_step.py; registered as ``spsa_numpy``, so the contract tests of
+every planner run it too). Slower: the compiled step recalls a producer's fitness when its
+candidate did not move after it was evaluated and caches the fitness of paths seen before,
+so it counts as many or fewer fitness evaluations than this one.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, Population
 from uavplan.planners.proposal import Draw, Proposal
 from uavplan.planners.sparrow import SparrowPlanner, oscillate
 
-EPS = 1e-50  # ε of eq. 5, as in the reference code
 
+class NumpySparrowPlanner(SparrowPlanner):
+    """:class:`SparrowPlanner` (SPSA, or SSA with :meth:`SpsaParams.ssa
+    <uavplan.config.SpsaParams.ssa>`) with its step written in numpy."""
 
-class ReferenceSparrow(SparrowPlanner):
-    """SparrowPlanner with its step written in numpy (the reference)."""
+    name = "spsa_numpy"
 
     def producers(
         self, problem: PathProblem, pop: Population, producers: np.ndarray, best_i: int,
@@ -115,13 +123,18 @@ class ReferenceSparrow(SparrowPlanner):
             prop.spread[others] = np.abs(x[others] - x[best_i])
             prop.draw[others] = Draw.NORMAL
             # the best: P + K·|P − P_worst|/(f_i − f_w + ε), K ~ U(−1, 1)
-            k = (1.0 / (f[best] - f[worst_i] + EPS))[:, None, None]
+            k = (1.0 / (f[best] - f[worst_i] + K.SPSA_EPS))[:, None, None]
             prop.anchor[best] = x[best]
             prop.spread[best] = np.abs(x[best] - x[worst_i]) * k
             prop.draw[best] = Draw.SYMMETRIC
         return prop
 
     def step(self, problem: PathProblem, pop: Population, rng: np.random.Generator) -> None:
+        """One iteration (Algorithm 3; the update rules are :meth:`producers` and
+        :meth:`followers`): producers proposed and rebuilt, their fitness, the best producer's
+        new position; scroungers and danger-aware sparrows proposed and rebuilt; SPSA's
+        oscillation of every candidate that is not a known fixed point of it; greedy
+        selection."""
         prm, search = self.params, self.search
         x, f = pop.x, pop.f
         n_pop = x.shape[0]

@@ -1,0 +1,190 @@
+"""The flight machines without I/O: scripted messages and a fake clock.
+
+- a command is re-sent with a growing ``confirmation`` until its COMMAND_ACK comes, then
+  confirmed by the HEARTBEAT; a refusal keeps the STATUSTEXT that explains it (also one that
+  trails the ACK), and a command that is accepted but never takes effect is reported so;
+- the start sequences are QGroundControl's (PX4: Mission mode, arm; ArduPilot: GUIDED, arm,
+  MISSION_START with param1 = param2 = 0);
+- the pre-flight machine re-asks what is missing and reports the pre-arm bit and texts;
+- the monitor ends when the mission is complete and the vehicle is down, and on silence.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from uavplan.mavlink.flightmachines import (
+    CommandSequence,
+    FlightTimeouts,
+    MonitorEnd,
+    MonitorMachine,
+    Preflight,
+    PreflightMachine,
+    VehicleState,
+    arm_step,
+    mode_steps,
+    start_steps,
+)
+from uavplan.mavlink.messages import (
+    SYS_STATUS_PREARM_CHECK,
+    CommandAck,
+    CommandLong,
+    ExtendedSysState,
+    GlobalPositionInt,
+    Heartbeat,
+    HomePosition,
+    LandedState,
+    MavCommand,
+    MavModeFlag,
+    MavResult,
+    MissionCurrent,
+    MissionItemReached,
+    MissionState,
+    StatusText,
+    SysStatus,
+)
+from uavplan.mavlink.modes import ModeKind, mode_named
+from uavplan.mission.items import Autopilot
+
+AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4
+T = FlightTimeouts(ack_s=1.0, retries=2, confirm_s=2.0, text_grace_s=0.2, link_s=3.0)
+TARGET = (1, 1)
+
+
+def heartbeat(autopilot: Autopilot, kind: ModeKind, armed: bool) -> Heartbeat:
+    mode = mode_named(autopilot, kind)
+    base = MavModeFlag.CUSTOM_MODE_ENABLED | (MavModeFlag.SAFETY_ARMED if armed else 0)
+    return Heartbeat(type=2, autopilot=12 if autopilot == PX4 else 3, base_mode=int(base),
+                     custom_mode=mode.custom_mode)  # fmt: skip
+
+
+def test_the_start_sequences_are_qgroundcontrols() -> None:
+    px4 = start_steps(PX4)
+    assert [s.command for s in px4] == [MavCommand.DO_SET_MODE, MavCommand.COMPONENT_ARM_DISARM]
+    assert px4[0].params[1:3] == (4.0, 4.0)  # AUTO (main 4), MISSION (sub 4)
+    ap = start_steps(AP)
+    assert [s.command for s in ap] == [
+        MavCommand.DO_SET_MODE,
+        MavCommand.COMPONENT_ARM_DISARM,
+        MavCommand.MISSION_START,
+    ]
+    assert ap[0].params[1] == 4.0  # GUIDED
+    assert ap[2].params[:2] == (0.0, 0.0)
+    assert mode_steps(AP, ModeKind.HOLD)[0].params[1] == 5.0  # LOITER
+    assert mode_steps(PX4, ModeKind.HOLD)[0].params[1:3] == (4.0, 3.0)  # AUTO.LOITER (Hold)
+
+
+def test_a_command_is_resent_with_a_growing_confirmation_then_confirmed() -> None:
+    state = VehicleState(PX4)
+    machine = CommandSequence(state, TARGET, T, [arm_step()])
+    (first,) = machine.start(0.0)
+    assert isinstance(first, CommandLong) and first.confirmation == 0 and first.param1 == 1.0
+    (again,) = machine.on_timeout(1.0)
+    assert isinstance(again, CommandLong) and again.confirmation == 1
+    assert machine.on_message(CommandAck(400, MavResult.ACCEPTED), 1.1) == []
+    assert machine.finished is None  # accepted, not yet seen armed
+    machine.on_message(heartbeat(PX4, ModeKind.HOLD, armed=True), 1.5)
+    assert machine.finished is not None and machine.finished.ok  # type: ignore[attr-defined]
+
+
+def test_a_command_without_an_answer_fails_after_its_retries() -> None:
+    machine = CommandSequence(VehicleState(PX4), TARGET, T, [arm_step()])
+    machine.start(0.0)
+    sent = [machine.on_timeout(t) for t in (1.0, 2.0, 3.0)]
+    assert [len(s) for s in sent] == [1, 1, 0]
+    outcome = machine.finished
+    assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
+    assert "no COMMAND_ACK after 3 tries" in outcome.message()  # type: ignore[attr-defined]
+
+
+def test_a_refusal_quotes_the_text_that_trails_its_ack() -> None:
+    state = VehicleState(AP)
+    machine = CommandSequence(state, TARGET, T, start_steps(AP))
+    machine.start(0.0)
+    machine.on_message(CommandAck(176, MavResult.ACCEPTED), 0.1)
+    out = machine.on_message(heartbeat(AP, ModeKind.GUIDED, armed=False), 0.2)
+    assert isinstance(out[0], CommandLong) and out[0].command == 400
+    machine.on_message(CommandAck(400, MavResult.ACCEPTED), 0.3)
+    out = machine.on_message(heartbeat(AP, ModeKind.GUIDED, armed=True), 0.4)
+    assert out[0].command == MavCommand.MISSION_START  # type: ignore[union-attr]
+    machine.on_message(CommandAck(300, MavResult.FAILED), 0.5)
+    machine.on_message(StatusText(2, "Auto: Missing Takeoff Cmd"), 0.55)  # after the ACK
+    assert machine.finished is None
+    machine.on_timeout(0.7)
+    outcome = machine.finished
+    assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
+    text = outcome.message()  # type: ignore[attr-defined]
+    assert '"Auto: Missing Takeoff Cmd"' in text and "MAV_RESULT_FAILED" in text
+    assert "MISSION_START" in text
+
+
+def test_an_accepted_command_that_never_shows_is_reported() -> None:
+    state = VehicleState(PX4)
+    machine = CommandSequence(state, TARGET, T, mode_steps(PX4, ModeKind.HOLD))
+    machine.start(0.0)
+    machine.on_message(CommandAck(176, MavResult.ACCEPTED), 0.1)
+    machine.on_message(heartbeat(PX4, ModeKind.MISSION, armed=True), 1.0)
+    machine.on_timeout(2.2)
+    outcome = machine.finished
+    assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
+    assert "still reports Mission, armed (expected mode Hold)" in outcome.message()  # type: ignore[attr-defined]
+
+
+def test_preflight_reasks_what_is_missing_and_reports_the_prearm_bit() -> None:
+    state = VehicleState(AP)
+    machine = PreflightMachine(state, TARGET, FlightTimeouts(preflight_s=3.0, text_grace_s=0.2))
+    first = machine.start(0.0)
+    assert {m.param1 for m in first if m.command == MavCommand.REQUEST_MESSAGE} == {242, 1, 245}  # type: ignore[union-attr]
+    assert any(m.command == MavCommand.RUN_PREARM_CHECKS for m in first)  # type: ignore[union-attr]
+    machine.on_message(HomePosition(473977420, 85455940, 488000), 0.1)
+    again = machine.on_timeout(1.0)  # SYS_STATUS and the checks' answer are missing
+    assert {m.param1 for m in again if m.command == MavCommand.REQUEST_MESSAGE} == {1, 245}  # type: ignore[union-attr]
+    sensors = 0x2F | SYS_STATUS_PREARM_CHECK
+    machine.on_message(SysStatus(sensors, sensors, 0x2F, 0, 16000, 0, 90), 1.1)
+    machine.on_message(CommandAck(401, MavResult.ACCEPTED), 1.2)
+    machine.on_message(StatusText(2, "PreArm: Need Position Estimate"), 1.25)
+    machine.on_timeout(1.5)
+    result = machine.finished
+    assert isinstance(result, Preflight)
+    assert result.home == pytest.approx((47.397742, 8.545594, 488.0))
+    assert result.prearm_ready is False
+    assert result.texts == ("PreArm: Need Position Estimate",)
+
+
+def _position(t_s: float, alt_m: float) -> GlobalPositionInt:
+    return GlobalPositionInt(int(t_s * 1000), 473977420, 85455940, int((488 + alt_m) * 1000),
+                             int(alt_m * 1000))  # fmt: skip
+
+
+def test_the_monitor_ends_when_the_mission_is_complete_and_the_vehicle_down() -> None:
+    state = VehicleState(PX4)
+    machine = MonitorMachine(state, TARGET, T, last_seq=5, lands=True)
+    streams = machine.start(0.0)
+    assert {m.param1 for m in streams} >= {33.0, 42.0, 245.0}  # type: ignore[union-attr]
+    state.recording = True
+    machine.on_message(heartbeat(PX4, ModeKind.MISSION, armed=True), 0.1)
+    machine.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.2)
+    machine.on_message(_position(10.0, 30.0), 0.3)
+    machine.on_message(MissionItemReached(5), 0.4)
+    machine.on_message(heartbeat(PX4, ModeKind.RETURN, armed=True), 0.5)
+    assert machine.finished is None  # the mission's last item, but still flying home
+    machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.6)
+    assert machine.finished is MonitorEnd.COMPLETE
+    assert [s.relative_alt_m for s in state.take_samples()] == [30.0]
+
+
+def test_the_monitor_reports_silence_as_a_lost_link_and_an_early_landing() -> None:
+    state = VehicleState(AP)
+    machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True)
+    machine.start(0.0)
+    machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 1.0)
+    assert machine.deadline == pytest.approx(4.0)
+    machine.on_timeout(4.0)
+    assert machine.finished is MonitorEnd.LINK_LOST
+    early = MonitorMachine(VehicleState(AP), TARGET, T, last_seq=9, lands=True)
+    early.start(0.0)
+    early.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.1)
+    early.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.2)
+    early.on_message(heartbeat(AP, ModeKind.LAND, armed=False), 0.3)
+    assert early.finished is MonitorEnd.LANDED_EARLY
+    assert "disarmed, in LAND, at mission item 4/9" in early.state.describe()

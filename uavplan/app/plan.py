@@ -1,0 +1,332 @@
+"""``plan``: plan a scenario into a mission file, or reroute a QGroundControl plan.
+
+:func:`recognise` is the one place that decides what an input is; :func:`plan` dispatches
+on it to :func:`plan_scenario` or :func:`uavplan.app.reroute.reroute_file`.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+import math
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
+from uavplan.app.inputs import load_scenario_file
+from uavplan.app.outputs import Output, OutputSet
+from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
+from uavplan.errors import InputError
+from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
+from uavplan.geo import import_in_background
+from uavplan.mission.io import format_for, mission_text
+from uavplan.mission.items import Autopilot, MissionPlan
+from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
+from uavplan.rehearsal import plan_safe_as_flown, refresh_flight
+from uavplan.scenario import Scenario
+
+if TYPE_CHECKING:
+    from uavplan.mission.fence import FenceBuild
+    from uavplan.route import PlannedRoute
+    from uavplan.sim.simulate import FlownTrack
+    from uavplan.wayhome import WayHome
+
+
+class InputKind(enum.Enum):
+    """What ``plan`` was given."""
+
+    SCENARIO = "scenario"  # a scenario file (YAML): plan it
+    QGC_PLAN = "qgc-plan"  # a QGroundControl .plan: reroute it around its exclusion zones
+
+
+def recognise(path: str) -> InputKind:
+    """What the input ``path`` is, from its name: a ``.plan`` is a QGroundControl plan,
+    anything else is read as a scenario (whose reader says so if it is not one)."""
+    return InputKind.QGC_PLAN if path.lower().endswith(".plan") else InputKind.SCENARIO
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """``uavplan plan SOURCE -o OUTPUT ...``: ``scenario`` only with a .plan source (its
+    obstacles and settings join the rerouting)."""
+
+    source: str
+    output: str
+    options: PlannerOptions = field(default_factory=PlannerOptions)
+    autopilot: str | None = None
+    report: str | None = None
+    plot: str | None = None
+    fence: bool = False
+    scenario: str | None = None
+    #: ``--reserve``: % of the usable battery left on landing (None: the default, 20 %, and a
+    #: flight over it is refused only when the scenario names its vehicle)
+    reserve_pct: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PlanOutcome:
+    """A planned scenario: the route, the mission written to ``output`` (None when the
+    search was interrupted: nothing was written). ``elapsed_s``: the whole use case, from
+    reading the scenario to the last output in place."""
+
+    scenario: Scenario
+    result: RouteResult
+    output: str
+    mission: MissionPlan | None = None
+    elapsed_s: float = math.nan
+    #: the flight's time, energy and battery (docs/energy.md)
+    estimate: FlightEstimate | None = None
+    #: how the route gets home (the RTL proof, a planned return, the parameters)
+    way: WayHome | None = None
+
+    @property
+    def interrupted(self) -> bool:
+        return self.result.interrupted or (self.way is not None and self.way.interrupted)
+
+    def summary(self) -> str:
+        """One line: the mission, the route (its length: the planned path from the start to
+        the goal, without the take-off climb and the landing) and the times."""
+        route, result = self.result.route, self.result
+        assert route is not None and self.mission is not None
+        e_path, e_turn, e_climb = result.energy_terms
+        return (
+            f"{Path(self.output).name}: {len(self.mission.items)} items, "
+            f"{route.waypoints_enu.shape[0]} waypoints, {route.length_m:.0f} m from start to "
+            f"goal, energy {result.energy:.1f} (path {e_path:.1f}, turning {fixed(e_turn, 2)}, "
+            f"climb {e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
+            f"{result.runtime_s:.2f} s ({self.elapsed_s:.2f} s in all, reading and writing "
+            f"included){flight_text(result)}"
+        )
+
+
+def fixed(value: float, digits: int) -> str:
+    """``value`` with ``digits`` decimals, never ``-0.00`` (a tiny negative rounds to 0)."""
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def flight_text(result: RouteResult) -> str:
+    """``, flight 7 min 36 s (ardupilot flight model)``: the predicted flight time."""
+    flight = result.flight
+    if flight is None:
+        return ""
+    minutes, seconds = divmod(round(flight.flight_time_s), 60)
+    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
+
+
+def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome:
+    """Plan ``request.source`` as what it is (:func:`recognise`)."""
+    kind = recognise(request.source)
+    if kind is InputKind.QGC_PLAN:
+        if request.reserve_pct is not None:
+            raise InputError("--reserve goes with a scenario (a rerouted plan is not estimated)")
+        return reroute_file(
+            RerouteRequest(
+                request.source,
+                request.output,
+                scenario=request.scenario,
+                options=request.options,
+                report=request.report,
+                autopilot=request.autopilot,
+                plot=request.plot,
+                fence=request.fence,
+            ),
+            feedback,
+        )
+    if request.scenario is not None:
+        raise InputError("--scenario goes with a .plan input (the SCENARIO argument is one)")
+    return plan_scenario(request, feedback)
+
+
+def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
+    """Plan the scenario file ``request.source`` and write the mission (and the report, the
+    picture) as one set of outputs: all of them, or (no route, an error, Ctrl-C) none.
+    Notes go to ``feedback.say``; no route raises NoPathError."""
+    t0 = time.perf_counter()
+    outputs, mission_out, report_out, plot_out = _outputs(request, feedback)
+    import_in_background()  # the mission writer's pyproj loads on another core during the search
+    scn = request.options.apply(load_scenario_file(request.source, "plan"))
+    if request.autopilot:
+        autopilot = Autopilot.from_name(request.autopilot)
+        scn = replace(scn, mission=replace(scn.mission, autopilot=autopilot))
+    if scn.mission.altitude == "terrain" and scn.mission.autopilot is Autopilot.PX4:
+        feedback.warn(
+            "warning: mission.altitude terrain writes MAV_FRAME_GLOBAL_TERRAIN_ALT items, "
+            "which PX4 missions do not fly (ArduPilot does); use relative or amsl for PX4"
+        )
+    feedback.say(_announce(scn))
+    with outputs:
+        with feedback.polled():
+            result = _search(scn, feedback)
+            if result.collision_free:  # and the track the flight model predicts keeps it too
+                result = plan_safe_as_flown(scn, result, should_stop=feedback.should_stop)
+            way = None if result.route is None else _way_home(scn, result.route, request, feedback)
+        if result.interrupted or (way is not None and way.interrupted):
+            return PlanOutcome(scn, result, request.output, way=way)
+        route = require_route(scn, result)
+        if way is not None and way.route is not route:
+            # the route as flown with its planned return: the flight model flies that mission
+            route = way.route
+            result = refresh_flight(scn, replace(result, route=route))
+        flown = None if result.flight is None else result.flight.flown
+        estimate = flight_estimate(scn, route, request.reserve_pct, feedback, flown)
+        mission, built = _mission(scn, route, request, feedback)
+        if way is not None:
+            mission = replace(mission, parameters=way.parameters)
+        summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
+        mission_out.write_text(
+            mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
+        )
+        if report_out is not None:
+            report = {**result.report(scn), **estimate.report_fields()}
+            if way is not None:
+                report.update(way.report())
+            report_out.write_text(json.dumps(report, indent=2) + "\n")
+        if plot_out is not None:
+            # matplotlib (and the fence's outlines) load only for a picture
+            from uavplan.planning import scene_for
+            from uavplan.render import RouteLayers, render_png, route_subtitle
+
+            subtitle = route_subtitle(
+                route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+            )
+            layers = RouteLayers.from_route(route, built)
+            plot_out.write_bytes(render_png(scene_for(scn), layers, subtitle=subtitle))
+        outputs.commit()
+    for note in result.notes:
+        feedback.say(f"note: {note}")
+    if built is not None:
+        for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
+            feedback.say(line)
+    if way is not None:
+        for line in way.lines():
+            feedback.say(line)
+        if way.parameters and not _holds_parameters(request.output):
+            feedback.say(
+                f"note: a {Path(request.output).suffix} file holds no parameters: set them by hand"
+            )
+    return PlanOutcome(
+        scn, result, request.output, mission, time.perf_counter() - t0, estimate=estimate, way=way
+    )
+
+
+def flight_estimate(
+    scn: Scenario,
+    route: PlannedRoute,
+    reserve_pct: float | None,
+    feedback: Feedback,
+    flown: FlownTrack | None = None,
+) -> FlightEstimate:
+    """The planned route's flight time, energy and battery (issue 27): of ``flown``, the
+    mission as the flight model flew it (the vehicle's power model at every step), else of
+    the route's flown line. A flight that does not leave the reserve raises
+    EnergyBudgetError (exit 2, nothing written) when the scenario names its vehicle or
+    ``--reserve`` was given, else it is a warning."""
+    reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
+    if flown is not None:  # the mission as the flight model flies it: one time for both lines
+        estimate = estimate_flown(scn, flown, reserve_pct=reserve)
+    else:
+        estimate = estimate_route(scn, route.flown_enu, reserve_pct=reserve)
+    warning = estimate.check(enforce=scn.vehicle.named or reserve_pct is not None)
+    if warning is not None:
+        feedback.warn(warning)
+    return estimate
+
+
+def _holds_parameters(output: str) -> bool:
+    """Does the mission file keep the parameters the mission relies on? (A .plan does.)"""
+    return Path(output).suffix.lower() == ".plan"
+
+
+def _way_home(
+    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
+) -> WayHome:
+    """The way home of ``route`` (:func:`uavplan.wayhome.way_home`): a return planned with
+    the feedback's progress bar and Ctrl-C flag when the mission needs one."""
+    from uavplan.wayhome import way_home
+
+    bar = feedback.progress
+    started = False
+
+    def progress(iteration: int, total: int, best: float) -> None:
+        nonlocal started
+        assert bar is not None
+        if not started:  # only when a return is planned
+            bar.start(f"{scn.planner.algorithm} {scn.name}: the way home")
+            started = True
+        bar(iteration, total, best)
+
+    try:
+        return way_home(
+            scn,
+            route,
+            fence=request.fence,
+            progress=None if bar is None else progress,
+            should_stop=feedback.should_stop,
+        )
+    finally:
+        if bar is not None and started:
+            bar.close()
+
+
+def _search(scn: Scenario, feedback: Feedback) -> RouteResult:
+    """Plan ``scn`` with the feedback's progress bar and Ctrl-C flag."""
+    bar = feedback.progress
+    if bar is not None:
+        bar.start(f"{scn.planner.algorithm} {scn.name}")
+    try:
+        return plan_route(scn, progress=bar, should_stop=feedback.should_stop)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _announce(scn: Scenario) -> str:
+    search = scn.planner.search
+    budget = plural(search.iterations, "iteration")
+    if search.stall_iterations is not None:
+        again = search.restart_stall_iterations
+        budget = (
+            f"at most {plural(search.iterations, 'iteration')}, stopping after "
+            f"{search.stall_iterations} without improvement"
+            + ("" if again is None else f" ({again} in a restart)")
+        )
+    return (
+        f"planning {scn.name} with {scn.planner.algorithm} (population {search.population}, "
+        f"{budget}, seed {search.seed}); Ctrl-C stops"
+    )
+
+
+def _outputs(
+    request: PlanRequest, feedback: Feedback
+) -> tuple[OutputSet, Output, Output | None, Output | None]:
+    """The outputs (mission, report, picture), every one checked before any planning."""
+    out_format = format_for(request.output)  # fail on an unknown extension before planning
+    if request.plot and Path(request.plot).suffix.lower() != ".png":
+        raise InputError("--plot writes a PNG picture; name the file *.png", file=request.plot)
+    if (
+        request.fence
+        and out_format.dumps_extras is None
+        and Path(request.output).suffix.lower() != ".plan"
+    ):
+        raise InputError(
+            "a geofence needs a .plan (or .geojson / .kml) output", file=request.output
+        )
+    outputs = OutputSet(feedback.interrupts)
+    mission = outputs.file(request.output)
+    report = outputs.file(request.report) if request.report else None
+    plot = outputs.file(request.plot) if request.plot else None
+    outputs.check()
+    return outputs, mission, report, plot
+
+
+def _mission(
+    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
+) -> tuple[MissionPlan, FenceBuild | None]:
+    """The mission, with the geofence if asked: (the mission, the fence build or None)."""
+    mission = mission_for(scn, route)
+    if not request.fence:
+        return mission, None
+    return fence_for(scn, route, mission)

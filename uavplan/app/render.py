@@ -1,0 +1,282 @@
+"""``render``: a picture of a scenario alone, of a route planned as ``plan`` plans it (same
+options, same seed, same route), or of a mission file's flight (checked against the scenario
+by the one mission check, :func:`uavplan.app.check.check_flight_in`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from uavplan.app.check import check_flight_in, no_fence, read_mission_flight
+from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
+from uavplan.app.inputs import load_scenario_file, mission_kind
+from uavplan.app.outputs import OutputSet
+from uavplan.app.reroute import fence_scene
+from uavplan.errors import InputError, NoPathError, ScenarioError
+from uavplan.planning import enu_frame, plan_route, scene_around, scene_for
+from uavplan.render import RouteLayers, Scene, render_png, route_subtitle
+from uavplan.reroute import fence_world
+from uavplan.route import keeps_margin
+from uavplan.scenario import Scenario, load_surroundings
+
+
+@dataclass(frozen=True)
+class RenderRequest:
+    """``uavplan render SCENARIO -o OUTPUT``: with ``mission`` that file's flight, with
+    ``no_plan`` the scenario alone, else a planned route (``options``)."""
+
+    scenario: str
+    output: str
+    mission: str | None = None
+    no_plan: bool = False
+    options: PlannerOptions = field(default_factory=PlannerOptions)
+    width_px: int = 1600
+    height_px: int = 800
+    dpi: int = 100
+    #: a flown track (.csv / .geojson, ``simulate`` or ``fly --track``) drawn over it
+    track: str | None = None
+
+
+@dataclass(frozen=True)
+class RenderOutcome:
+    """The picture written (``summary`` says what it shows), or an interrupted planning."""
+
+    output: str
+    width_px: int
+    height_px: int
+    summary: str
+    interrupted: bool = False
+    #: the mission's clearance (a mission picture over obstacles or terrain), or None
+    min_clearance_m: float | None = None
+
+    def line(self) -> str:
+        return f"{Path(self.output).name}: {self.width_px}x{self.height_px} px, {self.summary}"
+
+
+def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
+    """Draw what ``request`` asks for into its PNG output (written as the command's one
+    output: complete, or not at all)."""
+    if Path(request.output).suffix.lower() != ".png":
+        raise InputError("render writes a PNG picture; name the file *.png", file=request.output)
+    outputs = OutputSet(feedback.interrupts)
+    picture = outputs.file(request.output)
+    outputs.check()
+    with outputs:
+        if mission_kind(request.scenario) == "plan" and request.mission is None:
+            outcome = _render_plan(request)
+        elif request.no_plan and request.mission is None:
+            outcome = _render_scenario(request, feedback)
+        else:
+            scn = load_scenario_file(request.scenario, "render")
+            if request.mission is not None:
+                outcome = _render_mission(scn, request)
+            else:
+                outcome = _render_planned(request.options.apply(scn), request, feedback)
+        if outcome.outcome.interrupted:
+            return outcome.outcome
+        picture.write_bytes(outcome.png)
+        outputs.commit()
+    if outcome.failure is not None:
+        raise outcome.failure
+    return outcome.outcome
+
+
+@dataclass(frozen=True, eq=False)
+class _Drawn:
+    """A picture made (``png``), what it shows and, for a route that failed, the error to
+    raise once the picture is written."""
+
+    outcome: RenderOutcome
+    png: bytes = b""
+    failure: NoPathError | None = None
+
+
+def _draw(
+    scene: Scene,
+    request: RenderRequest,
+    layers: RouteLayers | None,
+    subtitle: str,
+    *,
+    failure: NoPathError | None = None,
+    min_clearance_m: float | None = None,
+    summary: str | None = None,
+    scenario: Scenario | None = None,
+) -> _Drawn:
+    """The picture of ``scene`` with ``layers``; with ``request.track`` the flown track over
+    it, measured in ``scenario``'s site (the subtitle gives its clearance)."""
+    if request.track is not None:
+        if scenario is None:
+            raise InputError(
+                "--track draws a flown track over a scenario: give a scenario file (a "
+                "QGroundControl plan's own geofence is not one)",
+                file=request.track,
+            )
+        layers, subtitle = _with_track(scenario, request, layers, subtitle)
+    png = render_png(
+        scene,
+        layers,
+        subtitle=subtitle,
+        width_px=request.width_px,
+        height_px=request.height_px,
+        dpi=request.dpi,
+    )
+    outcome = RenderOutcome(
+        request.output,
+        request.width_px,
+        request.height_px,
+        subtitle if summary is None else summary,
+        min_clearance_m=min_clearance_m,
+    )
+    return _Drawn(outcome, png, failure)
+
+
+def _with_track(
+    scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str
+) -> tuple[RouteLayers, str]:
+    """``layers`` with the flown track of ``request.track`` (placed in the scenario's site)
+    and, in the subtitle, its clearance by the one check: with ``request.mission`` the
+    mission's part apart from the autopilot's return to launch."""
+    import numpy as np
+
+    from uavplan.mission.io import load_mission
+    from uavplan.mission.track import Track
+    from uavplan.rehearsal import CheckSite, return_seq
+
+    assert request.track is not None
+    track = Track.load(request.track)
+    layers = layers or RouteLayers()
+    if len(track) < 2:
+        return layers, subtitle
+    site = CheckSite.of_scenario(scn)
+    cut = len(track)
+    if request.mission is not None:
+        plan = load_mission(request.mission)
+        rtl = return_seq(plan, plan.autopilot)
+        if rtl is not None:
+            hits = np.flatnonzero(track.current_seq >= rtl)
+            cut = int(hits[0]) + 1 if hits.size else cut
+    whole = site.check(track, lands=bool(track.relative_alt_m[-1] < 0.5))
+    text = f"flown track {Path(request.track).name}: min clearance "
+    if cut < len(track):
+        part = site.check(track.until(cut), lands=False)
+        text += f"{part.min_clearance_m:.2f} m to the return, {whole.min_clearance_m:.2f} m with it"
+    else:
+        text += f"{whole.min_clearance_m:.2f} m"
+    layers = replace(layers, track_enu=whole.check.flight.points_enu)
+    return layers, f"{subtitle}; {text}" if subtitle else text
+
+
+def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
+    """``--no-plan``: the scenario alone, also when its route points are not valid (the
+    picture is how a user finds valid ones): then the subtitle and a warning say why."""
+    try:
+        scn = load_scenario_file(request.scenario, "render")
+    except ScenarioError as err:
+        if not _about_the_route(err):
+            raise
+        around = load_surroundings(request.scenario)
+        if around.start_m is None or around.goal_m is None:
+            raise
+        feedback.warn(f"warning: {err}; drawn as it is")
+        subtitle = (
+            f"{plural(len(around.obstacles), 'obstacle')}, safety margin "
+            f"{around.safety_margin_m:g} m, start {list(around.start_m)}, goal "
+            f"{list(around.goal_m)}: NOT PLANNABLE: {err.key}: {err.reason}"
+        )
+        return _draw(scene_around(around), request, None, subtitle, summary="scenario only")
+    subtitle = (
+        f"{plural(len(scn.obstacles), 'obstacle')}, safety margin {scn.safety_margin_m:g} m, "
+        f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"
+    )
+    return _draw(scene_for(scn), request, None, subtitle, summary="scenario only", scenario=scn)
+
+
+#: the keys of a scenario's route: a problem there does not keep --no-plan from drawing it
+_ROUTE_KEYS = ("start", "goal", "via", "vehicle.takeoff_altitude")
+
+
+def _about_the_route(err: ScenarioError) -> bool:
+    key = err.key or ""
+    return any(key == k or key.startswith((f"{k}[", f"{k}.")) for k in _ROUTE_KEYS)
+
+
+def _render_plan(request: RenderRequest) -> _Drawn:
+    """A QGroundControl plan without a scenario: drawn in the world its rerouting plans in
+    (its geofence's zones as obstacles), with its clearance from them."""
+    from uavplan.mission.io import load_mission  # the mission readers: only with a mission
+
+    plan = load_mission(request.scenario)
+    if not (plan.fence.polygons or plan.fence.circles):
+        raise no_fence(request.scenario, "render")
+    world, flight = fence_world(plan, file=request.scenario)
+    layers = RouteLayers.from_mission(plan, world.frame, flight.points_enu)
+    check = world.check(flight)
+    name = Path(request.scenario).name
+    subtitle = (
+        f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown from take-off, "
+        f"min clearance from its geofence {check.min_clearance_m:.2f} m (margin "
+        f"{world.margin_m:g} m)" + ("" if check.problem() is None else "  (too close!)")
+    )
+    # start and goal: the first and last position flown (every position is a waypoint of
+    # the flown route already; which were the user's the plan does not say)
+    first, last = (tuple(float(v) for v in flight.points_enu[k]) for k in (1, -1))
+    ends = [(first[0], first[1], first[2]), (last[0], last[1], last[2])]
+    scene = fence_scene(Path(request.scenario).stem, world.airspace, world.margin_m, ends)
+    return _draw(scene, request, layers, subtitle, min_clearance_m=check.min_clearance_m)
+
+
+def _render_mission(scn: Scenario, request: RenderRequest) -> _Drawn:
+    assert request.mission is not None
+    plan, flight = read_mission_flight(request.mission, scn)
+    try:
+        layers = RouteLayers.from_mission(plan, enu_frame(scn), flight.points_enu)
+    except ValueError as err:
+        raise InputError(str(err), file=request.mission) from None
+    name = Path(request.mission).name
+    clearance = None
+    if len(flight.points_enu) < 2:
+        subtitle = f"{name}: {len(plan.items)} items, nothing to fly"
+    else:
+        subtitle = f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown from take-off"
+        check = check_flight_in(scn, flight)
+        if math.isfinite(check.min_clearance_m):
+            clearance = check.min_clearance_m
+            close = not keeps_margin(clearance, scn.safety_margin_m)
+            subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
+                "  (closer than the margin!)" if close else ""
+            )
+    return _draw(scene_for(scn), request, layers, subtitle, min_clearance_m=clearance, scenario=scn)
+
+
+def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -> _Drawn:
+    bar = feedback.progress
+    if bar is not None:
+        bar.start(f"{scn.planner.algorithm} {scn.name}")
+    try:
+        with feedback.polled():
+            result = plan_route(scn, progress=bar, should_stop=feedback.should_stop)
+    finally:
+        if bar is not None:
+            bar.close()
+    if result.interrupted:
+        size = (request.width_px, request.height_px)
+        return _Drawn(RenderOutcome(request.output, *size, "", interrupted=True))
+    if not result.ok:
+        no_route = NoPathError(
+            f"{scn.name}: no collision-free path: {result.message} (drew the scenario alone "
+            f"in {request.output})"
+        )
+        subtitle = f"no collision-free path: {result.message}"
+        return _draw(scene_for(scn), request, None, subtitle, failure=no_route, scenario=scn)
+    assert result.route is not None
+    subtitle = route_subtitle(
+        result.route, algorithm=result.algorithm, seed=result.seed, energy=result.energy
+    )
+    failure: NoPathError | None = None
+    try:
+        require_route(scn, result)  # closer than the margin: drawn (it shows where), exit 3
+    except NoPathError as err:
+        failure = err
+    layers = RouteLayers.from_route(result.route)
+    return _draw(scene_for(scn), request, layers, subtitle, failure=failure, scenario=scn)

@@ -1,0 +1,138 @@
+"""``simulate``: rehearse a mission file without a link.
+
+The mission flies through the flight model (:func:`uavplan.rehearsal.rehearse`, the model the
+simulated vehicle flies) in simulated time. The outcome gives the flight time, the largest
+deviation from the planned legs and, where a scenario (or the plan's own geofence) says what
+is in the way, the track's clearance through the one mission check. A track that comes closer
+than the margin is exit 3, as ``validate`` does for the straight legs; the return to launch
+(the autopilot's own flight home, not planned) is reported apart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from uavplan.app.feedback import Feedback
+from uavplan.config import Autopilot
+from uavplan.errors import InputError, NoPathError
+from uavplan.fileio import check_writable
+from uavplan.flight import TrackCheck
+from uavplan.mission.io import load_mission
+from uavplan.mission.items import MissionPlan
+from uavplan.mission.track import check_track_path
+from uavplan.rehearsal import CheckSite, Rehearsal, rehearse
+from uavplan.scenario import load_scenario
+from uavplan.sim.params import Parameters, UnknownParameter
+
+
+@dataclass(frozen=True)
+class SimulateRequest:
+    """``uavplan simulate MISSION``: fly it as ``autopilot`` (default: the file's) with these
+    parameter changes and wind; check it against ``scenario`` (default: the plan's own
+    geofence, if it has exclusion zones); write the track to ``track``."""
+
+    mission: str
+    scenario: str | None = None
+    autopilot: str | None = None
+    track: str | None = None
+    wind_en_m_s: tuple[float, float] = (0.0, 0.0)
+    params: Mapping[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulateOutcome:
+    """A rehearsed mission file; ``checked_in`` says against what (None: nothing)."""
+
+    file: str
+    plan: MissionPlan
+    rehearsal: Rehearsal
+    checked_in: str | None = None
+    track: str | None = None
+
+    @property
+    def check(self) -> TrackCheck | None:
+        return self.rehearsal.check
+
+    def summary(self) -> str:
+        r = self.rehearsal
+        minutes, seconds = divmod(round(r.flight_time_s), 60)
+        ended = {
+            "landed": "to touchdown",
+            "mission_complete": "to the end of the mission (in the air)",
+            "no_headway": "until the wind stopped it",
+            "timeout": "until the simulation gave up",
+        }[r.flown.ended]
+        text = (
+            f"{Path(self.file).name}: flown as {r.autopilot.label} in {minutes} min "
+            f"{seconds:02d} s ({r.flight_time_s:.1f} s, take-off {ended}), largest deviation "
+            f"from the planned legs {r.max_deviation_m:.2f} m"
+        )
+        check = self.check
+        if check is not None:
+            text += (
+                f", min clearance {check.min_clearance_m:.2f} m from {check.nearest} "
+                f"(margin {check.margin_m:g} m, {self.checked_in})"
+            )
+        return text
+
+
+def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutcome:
+    """Rehearse ``request.mission``; write the track; raise NoPathError (exit 3) when the
+    mission's part of the track comes closer than the margin or leaves the flight volume."""
+    if request.track:
+        check_track_path(request.track)
+        check_writable(request.track)
+    plan = load_mission(request.mission)
+    if plan.home is None:
+        raise InputError(
+            "the mission has no planned home (plannedHomePosition): the vehicle must stand "
+            "somewhere to fly it",
+            file=request.mission,
+        )
+    autopilot = plan.autopilot
+    if request.autopilot:
+        autopilot = Autopilot.from_name(request.autopilot)
+    if autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
+        raise InputError("the file names no autopilot: give --autopilot px4 or ardupilot")
+    try:
+        params = Parameters(autopilot, dict(request.params))
+    except UnknownParameter as err:
+        raise InputError(str(err), key="--param") from None
+    except ValueError as err:
+        raise InputError(str(err), key="--param") from None
+    site: CheckSite | None = None
+    if request.scenario is not None:
+        site = CheckSite.of_scenario(load_scenario(request.scenario))
+    else:
+        site = CheckSite.of_plan(plan, file=request.mission)
+    if site is not None:
+        feedback.say(f"checking the track against {site.label} (margin {site.margin_m:g} m)")
+    rehearsal = rehearse(
+        plan, site, autopilot=autopilot, params=params, wind_en_m_s=request.wind_en_m_s
+    )
+    if request.track:
+        rehearsal.track.save(request.track)
+        feedback.say(f"track: {len(rehearsal.track)} samples written to {request.track}")
+    outcome = SimulateOutcome(
+        request.mission, plan, rehearsal, None if site is None else site.label, request.track
+    )
+    back = rehearsal.return_check
+    if back is not None and not back.ok:
+        param = "RTL_RETURN_ALT" if autopilot == Autopilot.PX4 else "RTL_ALT"
+        feedback.warn(
+            f"warning: the return to launch ({autopilot.label}'s own flight home at its "
+            f"{param}, not part of the planned mission): {back.problem()}; raise {param} "
+            f"(--param {param}=...) or plan the mission with end: land"
+        )
+    if rehearsal.flown.ended in ("no_headway", "timeout"):
+        feedback.warn(f"warning: the flight did not finish ({rehearsal.flown.ended})")
+    check = rehearsal.check
+    if check is not None:
+        problem = check.problem()
+        if problem is not None:
+            raise NoPathError(
+                f"{request.mission}: as {autopilot.label} flies it (flight model): {problem}"
+            )
+    return outcome

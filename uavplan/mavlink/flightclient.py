@@ -1,0 +1,134 @@
+"""The thin driver of the flight machines (:mod:`uavplan.mavlink.flightmachines`) over a link.
+
+:class:`FlightClient` owns the clock: it feeds each message from the vehicle and each expired
+deadline to the running machine and sends what the machine returns, exactly as
+:class:`~uavplan.mavlink.protocol.MissionClient` drives the mission-protocol machines (and
+shares the link with one: the mission is checked and uploaded between the pre-flight
+checks and the start). ``should_stop`` (a Ctrl-C flag) is polled at least every
+:data:`POLL_S`; ``on_tick`` is called as often, for a progress display.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import TypeVar
+
+from uavplan.mavlink.flightmachines import (
+    CommandOutcome,
+    CommandSequence,
+    FlightMachine,
+    FlightTimeouts,
+    MonitorEnd,
+    MonitorMachine,
+    Preflight,
+    PreflightMachine,
+    VehicleState,
+    mode_steps,
+    start_steps,
+)
+from uavplan.mavlink.link import VehicleLink
+from uavplan.mavlink.messages import Message
+from uavplan.mavlink.modes import ModeKind
+
+__all__ = ["POLL_S", "FlightClient"]
+
+#: the driver looks at the Ctrl-C flag and the progress display at least this often (s)
+POLL_S = 0.1
+
+T = TypeVar("T")
+
+
+class FlightClient:
+    """Fly one vehicle over ``link``; :attr:`state` is what it last reported."""
+
+    def __init__(
+        self,
+        link: VehicleLink,
+        timeouts: FlightTimeouts | None = None,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.link = link
+        self.timeouts = timeouts or FlightTimeouts()
+        self.clock = clock
+        self.state = VehicleState(link.vehicle.autopilot)
+        self.target = (link.vehicle.system_id, link.vehicle.component_id)
+
+    def _send(self, messages: list[Message]) -> None:
+        for message in messages:
+            self.link.send(message)
+
+    def run(
+        self,
+        machine: FlightMachine,
+        *,
+        should_stop: Callable[[], bool] | None = None,
+        on_tick: Callable[[VehicleState], None] | None = None,
+    ) -> object | None:
+        """Drive ``machine`` to its end; None when ``should_stop`` said stop first."""
+        self._send(machine.start(self.clock()))
+        while machine.finished is None:
+            if should_stop is not None and should_stop():
+                return None
+            now = self.clock()
+            wait = min(max(0.0, machine.deadline - now), POLL_S)
+            received = self.link.recv(wait)
+            now = self.clock()
+            if received is not None:
+                out = machine.on_message(received.message, now)
+            elif now >= machine.deadline:
+                out = machine.on_timeout(now)
+            else:
+                out = []
+            self._send(out)
+            if on_tick is not None:
+                on_tick(self.state)
+        return machine.finished
+
+    def preflight(self) -> Preflight:
+        """Home, health, pre-arm checks, armed, mode and landed state."""
+        result = self.run(PreflightMachine(self.state, self.target, self.timeouts))
+        assert isinstance(result, Preflight)
+        return result
+
+    def commands(
+        self, steps: list, *, should_stop: Callable[[], bool] | None = None
+    ) -> CommandOutcome | None:
+        """Run a command sequence; None when interrupted."""
+        machine = CommandSequence(self.state, self.target, self.timeouts, steps)
+        result = self.run(machine, should_stop=should_stop)
+        assert result is None or isinstance(result, CommandOutcome)
+        return result
+
+    def start_mission(
+        self, *, should_stop: Callable[[], bool] | None = None
+    ) -> CommandOutcome | None:
+        """Start the uploaded mission from the ground the way the firmware expects
+        (:func:`~uavplan.mavlink.flightmachines.start_steps`)."""
+        self.state.recording = True
+        return self.commands(start_steps(self.state.autopilot), should_stop=should_stop)
+
+    def change_mode(self, kind: ModeKind) -> CommandOutcome:
+        """Switch to the mode of ``kind`` and see the vehicle report it (never interrupted:
+        this is what a Ctrl-C asks for)."""
+        result = self.commands(mode_steps(self.state.autopilot, kind))
+        assert result is not None
+        return result
+
+    def monitor(
+        self,
+        *,
+        last_seq: int,
+        lands: bool,
+        should_stop: Callable[[], bool] | None = None,
+        on_tick: Callable[[VehicleState], None] | None = None,
+    ) -> MonitorEnd | None:
+        """Follow the flight to its end; None when interrupted."""
+        self.state.recording = True
+        machine = MonitorMachine(
+            self.state, self.target, self.timeouts, last_seq=last_seq, lands=lands
+        )
+        result = self.run(machine, should_stop=should_stop, on_tick=on_tick)
+        assert result is None or isinstance(result, MonitorEnd)
+        return result

@@ -1,0 +1,206 @@
+"""Reading scenario and map files: :func:`load_scenario` and :func:`load_map`.
+
+A scenario may name a map (``map:``), whose origin, bounds, obstacles and terrain it
+inherits where it does not set its own, obstacle files (``obstacle_files:``, read by
+:mod:`uavplan.sources`) and a DEM (``terrain:``, read by :mod:`uavplan.sources.dem`). Paths
+are relative to the file that names them. The values are checked key by key here
+(:mod:`uavplan.scenario.fields`) and as a whole when the
+:class:`~uavplan.scenario.values.Scenario` is made (:meth:`Scenario.from_file`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from uavplan.config import PlannerConfig, type_name
+from uavplan.geo import EnuFrame, GeoPoint
+from uavplan.obstacles import Bounds, Obstacle
+from uavplan.scenario.checker import Checker
+from uavplan.scenario.fields import (
+    bounds as read_bounds,
+)
+from uavplan.scenario.fields import (
+    map_path as read_map_path,
+)
+from uavplan.scenario.fields import (
+    mission as read_mission,
+)
+from uavplan.scenario.fields import (
+    name as read_name,
+)
+from uavplan.scenario.fields import (
+    obstacles as read_obstacles,
+)
+from uavplan.scenario.fields import (
+    origin as read_origin,
+)
+from uavplan.scenario.fields import (
+    planner as read_planner,
+)
+from uavplan.scenario.fields import (
+    vehicle as read_vehicle,
+)
+from uavplan.scenario.fields import (
+    wind as read_wind,
+)
+from uavplan.scenario.limits import MAX_OBSTACLES, MAX_SAFETY_MARGIN_M, MAX_VIA_POINTS
+from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleConfig
+from uavplan.scenario.yamlfile import read_yaml
+
+if TYPE_CHECKING:
+    from uavplan.sources.dem import Terrain
+
+_SCENARIO_KEYS = {
+    "name",
+    "origin",
+    "bounds",
+    "start",
+    "goal",
+    "via",
+    "map",
+    "obstacles",
+    "safety_margin",
+    "vehicle",
+    "planner",
+    "mission",
+    "obstacle_files",
+    "terrain",
+    "wind",
+}
+_MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files", "terrain"}
+
+
+def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...]]:
+    """Read a map file: (origin, bounds, obstacles); missing sections are ``None`` / empty."""
+    return _read_map(path)[:3]
+
+
+def _read_map(
+    path: str | Path,
+) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...], Any]:
+    """:func:`load_map` plus the map's raw ``terrain`` value (None without one)."""
+    path = Path(path)
+    chk = Checker(str(path))
+    raw = read_yaml(path, "map")
+    chk.mapping(raw, "", _MAP_KEYS)
+    if "name" in raw:
+        read_name(chk, raw["name"])
+    origin = read_origin(chk, raw["origin"]) if "origin" in raw else None
+    bounds = read_bounds(chk, raw["bounds"]) if "bounds" in raw else None
+    obstacles = read_obstacles(chk, raw.get("obstacles", []))
+    if raw.get("obstacle_files"):
+        if origin is None:
+            raise chk.fail("obstacle_files", "needs origin in the same map file")
+        obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
+    return origin, bounds, obstacles, raw.get("terrain")
+
+
+def _obstacle_files(
+    chk: Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds | None
+) -> tuple[Obstacle, ...]:
+    """Obstacles of the ``obstacle_files`` list (OSM, GIS files), paths relative to ``path``.
+    The readers' package loads here, for a scenario that names such files (6 ms of imports a
+    small scenario's ``validate`` does not pay, ``python -X importtime``)."""
+    from uavplan.sources import SourceError, obstacles_from_entries
+
+    try:
+        return obstacles_from_entries(raw, path.parent, EnuFrame.at(origin), bounds)
+    except SourceError as err:
+        raise chk.fail(err.key_path("obstacle_files"), err.reason) from None
+
+
+def _terrain(chk: Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bounds) -> Terrain:
+    """The ``terrain`` DEM, resolved next to ``path`` and checked to cover the bounds.
+    numpy, rasterio and pyproj load here, for a scenario that names a DEM."""
+    from uavplan.sources.dem import Terrain, TerrainError
+
+    dem = (path.parent / chk.string(raw, "terrain")).resolve()
+    try:
+        return Terrain.from_file(dem, EnuFrame.at(origin), area_xy_m=(bounds.x_m, bounds.y_m))
+    except TerrainError as err:
+        raise chk.fail("terrain", f"{dem.name}: {err.reason}") from None
+
+
+def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any]:
+    """The values of a scenario file (and of the map it names), checked key by key, as the
+    keyword arguments of :class:`~uavplan.scenario.values.Scenario`, which checks them as a
+    whole. ``route=False``: ``start`` and ``goal`` may be missing (None then); what the file
+    gives is checked key by key all the same (the values of a
+    :class:`~uavplan.scenario.values.Surroundings`)."""
+    path = Path(path)
+    chk = Checker(str(path))
+    raw = read_yaml(path, "scenario")
+    chk.mapping(raw, "", _SCENARIO_KEYS, ("start", "goal") if route else ())
+
+    map_origin = map_bounds = None
+    map_obstacles: tuple[Obstacle, ...] = ()
+    map_terrain: Any = None
+    map_path = path
+    map_chk = chk
+    if "map" in raw:
+        map_path = read_map_path(chk, raw["map"], path)
+        map_origin, map_bounds, map_obstacles, map_terrain = _read_map(map_path)
+        map_chk = Checker(str(map_path))
+
+    if "origin" in raw:
+        origin = read_origin(chk, raw["origin"])
+    elif map_origin is not None:
+        origin = map_origin
+    else:
+        raise chk.fail("origin", "missing required key (not set here nor in the map)")
+    if "bounds" in raw:
+        bounds = read_bounds(chk, raw["bounds"])
+    elif map_bounds is not None:
+        bounds = map_bounds
+    else:
+        raise chk.fail("bounds", "missing required key (not set here nor in the map)")
+
+    terrain = None
+    if "terrain" in raw:
+        terrain = _terrain(chk, raw["terrain"], path, origin, bounds)
+    elif map_terrain is not None:
+        terrain = _terrain(map_chk, map_terrain, map_path, origin, bounds)
+    inline = read_obstacles(chk, raw.get("obstacles", []))
+    obstacles = map_obstacles + inline
+    if raw.get("obstacle_files"):
+        obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
+    if len(obstacles) > MAX_OBSTACLES:
+        raise chk.fail(
+            "obstacles", f"map and scenario hold {len(obstacles):,} (at most {MAX_OBSTACLES:,})"
+        )
+    margin = 10.0
+    if "safety_margin" in raw:
+        margin = chk.number(
+            raw["safety_margin"], "safety_margin", minimum=0, maximum=MAX_SAFETY_MARGIN_M
+        )
+    start = chk.point(raw["start"], "start", 3) if "start" in raw else None
+    goal = chk.point(raw["goal"], "goal", 3) if "goal" in raw else None
+    via_raw = raw.get("via", [])
+    if not isinstance(via_raw, list):
+        raise chk.fail("via", f"must be a list of [x, y, z] points, got {type_name(via_raw)}")
+    if len(via_raw) > MAX_VIA_POINTS:
+        raise chk.fail("via", f"{len(via_raw):,} points (at most {MAX_VIA_POINTS:,})")
+    via = tuple(chk.point(p, f"via[{i}]", 3) for i, p in enumerate(via_raw))
+    name = read_name(chk, raw["name"]) if "name" in raw else path.stem
+    vehicle = read_vehicle(chk, raw["vehicle"]) if "vehicle" in raw else VehicleConfig()
+    planner = read_planner(chk, raw["planner"]) if "planner" in raw else PlannerConfig()
+    mission = read_mission(chk, raw["mission"]) if "mission" in raw else MissionConfig()
+    wind = read_wind(chk, raw["wind"]) if "wind" in raw else None
+    return dict(
+        name=name,
+        origin=origin,
+        bounds=bounds,
+        start_m=None if start is None else (start[0], start[1], start[2]),
+        goal_m=None if goal is None else (goal[0], goal[1], goal[2]),
+        via_m=tuple((p[0], p[1], p[2]) for p in via),
+        obstacles=obstacles,
+        safety_margin_m=margin,
+        vehicle=vehicle,
+        planner=planner,
+        mission=mission,
+        source=str(path),
+        terrain=terrain,
+        obstacle_sources=ObstacleSources(len(map_obstacles), raw.get("map"), len(inline)),
+        wind=wind,
+    )

@@ -1,0 +1,283 @@
+"""Fly a mission through the flight model in simulated time: the flown track, no link.
+
+:func:`simulate` is a pure function: a :class:`~uavplan.mission.items.MissionPlan` in, a
+:class:`FlownTrack` out. It arms the model at the plan's home, starts the mission as the
+autopilot does (ArduPilot from seq 1, after its home slot; PX4 from seq 0) and steps the
+same :class:`~uavplan.sim.model.FlightModel` the simulated vehicle flies, until the vehicle
+has landed or the mission has ended in the air. A bundled mission takes a few tens of
+milliseconds (docs/flight-model.md).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from uavplan.config import Autopilot
+from uavplan.errors import InputError
+from uavplan.geo import GeoPoint
+from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
+from uavplan.sim.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, NavItem, nav_items
+from uavplan.sim.params import Parameters
+from uavplan.sim.power import X500, VehicleSpec, power_w_array
+
+__all__ = [
+    "FlownTrack",
+    "MissionRefused",
+    "check_startable",
+    "simulate",
+]
+
+#: a simulation stops after this much simulated time (a mission that never ends)
+MAX_DURATION_S = 6 * 3600.0
+#: ... or when the wind has held the vehicle still for this long
+NO_HEADWAY_LIMIT_S = 60.0
+
+
+class MissionRefused(InputError):
+    """The autopilot would refuse to start this mission; ``firmware_text`` is its words."""
+
+    def __init__(self, reason: str, firmware_text: str) -> None:
+        super().__init__(f"{reason} ({firmware_text!r})")
+        self.firmware_text = firmware_text
+
+
+def _first_nav(items: list[MissionItem], start: int) -> MissionItem | None:
+    for item in items[start:]:
+        if item.command < 80:
+            return item
+    return None
+
+
+def check_startable(wire_items: list[MissionItem], autopilot: Autopilot) -> None:
+    """Raise :class:`MissionRefused` when ``autopilot`` refuses to start this mission from
+    the ground: PX4 without a mission ("Mission start denied! No valid mission",
+    commander/Commander.cpp), ArduPilot without a take-off as its first NAV command ("Auto:
+    Missing Takeoff Cmd", ArduCopter/mode_auto.cpp ``ModeAuto::init``)."""
+    if autopilot == Autopilot.ARDUPILOT:
+        first = _first_nav(wire_items, 1)
+        if first is None or first.command != MavCmd.NAV_TAKEOFF:
+            raise MissionRefused(
+                "ArduPilot refuses a mission that does not begin with NAV_TAKEOFF",
+                "Auto: Missing Takeoff Cmd",
+            )
+        return
+    if not any(item.command < 80 and item.is_global for item in wire_items):
+        raise MissionRefused(
+            "PX4 refuses a mission without a position item",
+            "Mission start denied! No valid mission",
+        )
+
+
+@dataclass(frozen=True)
+class FlownTrack:
+    """What the flight model flew: one row per step of ``dt`` simulated seconds.
+
+    ``x_m``/``y_m``/``z_m`` are ENU metres in the frame at ``home`` (``z_m`` is the altitude
+    above home); ``lat_deg``/``lon_deg`` the position below the vehicle and ``alt_amsl_m``
+    its altitude above mean sea level (home's plus ``z_m``), the convention of the mission
+    builder. ``current_seq`` is the current mission item (-1 before the first). ``ended``:
+    "landed", "mission_complete" (ended in the air), "no_headway" (the wind stopped it) or
+    "timeout".
+    """
+
+    autopilot: Autopilot
+    home: GeoPoint
+    t_s: NDArray[np.float64]
+    x_m: NDArray[np.float64]
+    y_m: NDArray[np.float64]
+    z_m: NDArray[np.float64]
+    lat_deg: NDArray[np.float64]
+    lon_deg: NDArray[np.float64]
+    alt_amsl_m: NDArray[np.float64]
+    speed_m_s: NDArray[np.float64]
+    climb_m_s: NDArray[np.float64]
+    current_seq: NDArray[np.int64]
+    events: tuple[FlightEvent, ...]
+    ended: str
+    energy_wh: float
+    battery_used_pct: float
+    params: Parameters
+    wind_en_m_s: tuple[float, float] = (0.0, 0.0)
+    nav: tuple[NavItem, ...] = field(default=(), repr=False)
+    #: the electrical power drawn over the step that ended at each row (W; row 0: 0)
+    power_w: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
+    #: the simulated vehicle (its power model profile and pack)
+    vehicle: VehicleSpec = field(default=X500, repr=False)
+
+    @property
+    def completed(self) -> bool:
+        return self.ended in ("landed", "mission_complete")
+
+    @property
+    def flight_time_s(self) -> float:
+        """From the mission start to touchdown (or the mission's end in the air)."""
+        return float(self.t_s[-1]) if len(self.t_s) else 0.0
+
+    @property
+    def enu_m(self) -> NDArray[np.float64]:
+        """The track as ENU points ``(n, 3)`` in the frame at home."""
+        return np.column_stack((self.x_m, self.y_m, self.z_m))
+
+    @property
+    def relative_alt_m(self) -> NDArray[np.float64]:
+        return self.z_m
+
+    def modes(self) -> tuple[str, ...]:
+        """The flight mode the vehicle reports at each sample: PX4 Mission, then Return from
+        its RTL item; ArduPilot AUTO throughout (it flies the mission's RTL inside AUTO)."""
+        from uavplan.mavlink.modes import ModeKind, mode_named
+
+        mission = mode_named(self.autopilot, ModeKind.MISSION).name
+        rtl_at = [e.t_s for e in self.events if e.kind is EventKind.RTL]
+        if self.autopilot != Autopilot.PX4 or not rtl_at:
+            return (mission,) * len(self.t_s)
+        back = mode_named(self.autopilot, ModeKind.RETURN).name
+        return tuple(back if t >= rtl_at[0] - 1e-9 else mission for t in self.t_s)
+
+    def reached(self) -> list[tuple[int, float]]:
+        """(seq, time) of every mission item the vehicle completed, in order."""
+        return [
+            (e.seq, e.t_s) for e in self.events if e.kind is EventKind.REACHED and e.seq is not None
+        ]
+
+    def planned_polyline_enu(self) -> NDArray[np.float64]:
+        """The straight legs of the mission (home, the positional items in order) ``(m, 3)``,
+        in the same frame as the track."""
+        points = [(0.0, 0.0, 0.0)]
+        for item in self.nav:
+            if item.is_position and item.position is not None and not math.isnan(item.position[0]):
+                points.append(item.position)
+            elif item.command == MavCmd.NAV_TAKEOFF and item.position is not None:
+                points.append((points[-1][0], points[-1][1], item.position[2]))
+        return np.array(points, dtype=np.float64)
+
+    def deviation_from(self, polyline_enu: ArrayLike) -> NDArray[np.float64]:
+        """Each track point's distance to the polyline ``(m, 3)`` (same frame), ``(n,)``."""
+        return distance_to_polyline(self.enu_m, polyline_enu)
+
+
+def distance_to_polyline(points: ArrayLike, polyline: ArrayLike) -> NDArray[np.float64]:
+    """Distance of each of ``points`` ``(n, 3)`` to the polyline ``(m, 3)``: ``(n,)``.
+    Vectorised over points and segments (n × (m - 1) at once)."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    line = np.asarray(polyline, dtype=np.float64).reshape(-1, 3)
+    if len(line) == 1:
+        return np.linalg.norm(p - line[0], axis=1)
+    a = line[:-1][None, :, :]
+    d = (line[1:] - line[:-1])[None, :, :]
+    length2 = np.maximum(np.sum(d * d, axis=2), 1e-18)
+    t = np.clip(np.sum((p[:, None, :] - a) * d, axis=2) / length2, 0.0, 1.0)
+    closest = a + t[:, :, None] * d
+    return np.min(np.linalg.norm(p[:, None, :] - closest, axis=2), axis=1)
+
+
+def simulate(
+    plan: MissionPlan,
+    *,
+    autopilot: Autopilot | None = None,
+    params: Parameters | Mapping[str, float] | None = None,
+    wind_en_m_s: tuple[float, float] = (0.0, 0.0),
+    dt_s: float = DEFAULT_DT_S,
+    ground_z: Callable[[float, float], float] | None = None,
+    vehicle: VehicleSpec = X500,
+    max_duration_s: float = MAX_DURATION_S,
+) -> FlownTrack:
+    """Fly ``plan`` from its home through the flight model and return the flown track.
+
+    ``autopilot``: the flavour to fly it as (default: the plan's); ``params``: parameter
+    values of that flavour, or changes to its defaults by name; ``wind_en_m_s``: wind
+    (east, north) m/s; ``ground_z``: the ground's height above home at ENU (x, y), for
+    terrain-frame altitudes and landings (flat ground at home's altitude without it).
+
+    Raises :class:`MissionRefused` (an :class:`~uavplan.errors.InputError`) when the
+    autopilot would refuse to start the mission, ``ValueError`` for a plan without a home.
+    """
+    flavour = autopilot or plan.autopilot
+    if flavour not in (Autopilot.PX4, Autopilot.ARDUPILOT):
+        raise ValueError("simulate needs a PX4 or ArduPilot plan (give autopilot=)")
+    if plan.home is None:
+        raise ValueError("the plan has no home: the vehicle must stand somewhere")
+    if isinstance(params, Parameters):
+        if params.autopilot != flavour:
+            raise ValueError(f"parameters of {params.autopilot.label} for a {flavour.label} flight")
+        values = params
+    else:
+        values = Parameters(flavour, dict(params or {}))
+    wire = replace(plan, autopilot=flavour).wire_items(MissionType.MISSION)
+    check_startable(wire, flavour)
+    nav = nav_items(wire, plan.home, ground_z=ground_z)
+
+    model = FlightModel(values, wind_en_m_s=wind_en_m_s, dt_s=dt_s, ground_z=ground_z)
+    model.set_mission(nav)
+    model.start_mission()
+
+    rows: list[tuple[float, float, float, float, float, float, float, int, float]] = []
+    events: list[FlightEvent] = []
+
+    def record() -> None:
+        x, y, z = model.position
+        vx, vy, vz = model.velocity
+        seq = -1 if model.current_seq is None else model.current_seq
+        rows.append((model.t_s, x, y, z, vx, vy, vz, seq, 0.0 if model.landed else 1.0))
+
+    record()
+    ended = "timeout"
+    while model.t_s < max_duration_s:
+        step_events = model.step()
+        record()
+        events.extend(step_events)
+        kinds = {e.kind for e in step_events}
+        if EventKind.MISSION_COMPLETE in kinds:
+            ended = "landed" if model.landed else "mission_complete"
+            break
+        if model.stuck_for_s >= NO_HEADWAY_LIMIT_S:
+            ended = "no_headway"
+            break
+
+    table = np.array(rows, dtype=np.float64)
+    t, x, y, z = table[:, 0], table[:, 1], table[:, 2], table[:, 3]
+    speed = np.hypot(table[:, 4], table[:, 5])
+    climb = table[:, 6]
+    # the battery: each step drains the power of the state it ended in (armed throughout)
+    we, wn = (float(v) for v in wind_en_m_s)
+    power = power_w_array(
+        vehicle,
+        armed=np.ones(len(t), dtype=bool),
+        airborne=table[:, 8] > 0.5,
+        airspeed_m_s=np.hypot(table[:, 4] - we, table[:, 5] - wn),
+        climb_m_s=climb,
+        altitude_amsl_m=plan.home.alt_m + z,
+    )
+    power[0] = 0.0
+    energy_wh = float(np.sum(power) * dt_s / 3600.0)
+    from uavplan.geo import EnuFrame
+
+    lat, lon, _ = EnuFrame.at(plan.home).to_geodetic(np.column_stack((x, y, np.zeros_like(x))))
+    return FlownTrack(
+        autopilot=flavour,
+        home=plan.home,
+        t_s=t,
+        x_m=x,
+        y_m=y,
+        z_m=z,
+        lat_deg=lat,
+        lon_deg=lon,
+        alt_amsl_m=plan.home.alt_m + z,
+        speed_m_s=speed,
+        climb_m_s=climb,
+        current_seq=table[:, 7].astype(np.int64),
+        events=tuple(events),
+        ended=ended,
+        energy_wh=energy_wh,
+        battery_used_pct=100.0 * energy_wh / vehicle.usable_wh,
+        params=values,
+        wind_en_m_s=(float(wind_en_m_s[0]), float(wind_en_m_s[1])),
+        nav=nav,
+        power_w=power,
+        vehicle=vehicle,
+    )

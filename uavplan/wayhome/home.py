@@ -1,0 +1,428 @@
+"""The way home of a planned scenario, as ``plan`` writes and reports it.
+
+:func:`way_home` proves the autopilot's own return from every point of the route
+(:mod:`.proof`); where the mission ends with a planned return (``end: return``), or where no
+RTL altitude up to the ceiling is safe (``end: rtl``), it plans the return from the goal home
+(:func:`uavplan.planning.plan_return`, keeping a little more than the margin for the
+autopilot's tracking) and marks the corners the autopilot must not cut; and it lists the
+vehicle parameters the mission relies on (the RTL altitude, PX4's ``RTL_TYPE`` for a mission
+landing, with ``--fence`` the fence's ceiling and the fence switched on), which the ``.plan``
+keeps and ``upload --set-params`` sets. docs/way-home.md tells the whole story.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from uavplan.config import Autopilot
+from uavplan.flight import Flight
+from uavplan.mission.builder import CORNER_ACCEPTANCE_M
+from uavplan.mission.items import VehicleParameter
+from uavplan.planners.base import ProgressFn
+from uavplan.planning import Leg, PlannedReturn, build_world, plan_return, with_return
+from uavplan.route import PlannedRoute
+from uavplan.scenario import Scenario
+from uavplan.sim.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
+from uavplan.wayhome.proof import (
+    ARDUPILOT_FENCE_MARGIN_M,
+    RTL_PARAMETERS,
+    RtlProof,
+    ceiling_above_home,
+    prove_rtl,
+)
+from uavplan.world import World
+
+__all__ = [
+    "LANDING",
+    "WayHome",
+    "corner_stops",
+    "fence_parameters",
+    "floor_world",
+    "rtl_parameter",
+    "way_home",
+]
+
+
+def floor_world(scenario: Scenario) -> World:
+    """What a return from ``scenario``'s route must clear: its obstacles and the terrain's
+    solids that stand on the ground, keeping its margin, in bounds open above and below and
+    :data:`BOUNDS_PAD_M` wider than the volume (the ceiling is the proof's own bound, and a
+    route point that files or rounding put a hair outside is not a return's fault)."""
+    site = scenario.site
+    ground = site.ground
+    if ground is not None:
+        # the proof bounds the climb itself: no ceiling over the ground
+        ground = replace(ground, ceiling_agl_m=OPEN_Z_M)
+    (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
+    pad = BOUNDS_PAD_M
+    return World.build(
+        site.obstacles,
+        bounds_xyz=((x0 - pad, x1 + pad), (y0 - pad, y1 + pad), (-OPEN_Z_M, OPEN_Z_M)),
+        margin_m=site.safety_margin_m,
+        ground=ground,
+    )
+
+
+#: the proof's world is this much wider than the flight volume (m)
+BOUNDS_PAD_M = 1.0
+#: ... and open this far above and below (m)
+OPEN_Z_M = 1e7
+
+
+@dataclass(frozen=True, eq=False)
+class WayHome:
+    """How a planned route gets home, as ``plan`` writes and reports it.
+
+    ``route``: the route as the mission flies it (with the planned return when there is
+    one); ``proof``: the autopilot's own return checked from every point;
+    ``planned_return``: the mission ends with a planned return (``end: return``, or
+    ``end: rtl`` where no RTL altitude up to the ceiling is safe: ``switched``);
+    ``parameters``: what the mission relies on (``upload --set-params``)."""
+
+    end: str
+    route: PlannedRoute
+    proof: RtlProof | None
+    fence_ceiling_m: float | None = None
+    switched: bool = False
+    return_leg: Leg | None = None
+    parameters: tuple[VehicleParameter, ...] = ()
+    interrupted: bool = False
+    failure: str = ""
+
+    @property
+    def planned_return(self) -> bool:
+        return self.route.return_enu is not None
+
+    @property
+    def return_length_m(self) -> float:
+        back = self.route.return_enu
+        if back is None:
+            return 0.0
+        return float(np.linalg.norm(np.diff(back, axis=0), axis=1).sum())
+
+    def report(self) -> dict[str, object]:
+        proof = {} if self.proof is None else self.proof.report()
+        return {
+            "rtl_safe_altitude_m": None if self.proof is None else self.proof.safe_altitude_m,
+            "way_home": {
+                "end": self.end,
+                "flown_end": "return" if self.planned_return else self.end,
+                "autopilot": None if self.proof is None else self.proof.autopilot.label,
+                **proof,
+                "planned_return": self.planned_return,
+                "return_replaces_rtl": self.switched,
+                "return_length_m": self.return_length_m if self.planned_return else None,
+                "return_min_clearance_m": (
+                    self.return_leg.min_clearance_m if self.return_leg is not None else None
+                ),
+                "fence_ceiling_m": self.fence_ceiling_m,
+                "parameters": [
+                    {
+                        "name": p.name,
+                        "value": p.value,
+                        "at_least": p.at_least,
+                        "at_most": p.at_most,
+                        "unit": p.unit,
+                        "reason": p.reason,
+                    }
+                    for p in self.parameters
+                ],
+            },
+        }
+
+    def lines(self) -> list[str]:
+        """What ``plan`` prints about the way home: the proof, the return, the parameters."""
+        out: list[str] = []
+        proof = self.proof
+        if proof is not None:
+            out.append(_proof_line(proof))
+        if self.failure and not self.interrupted:
+            out.append(f"way home: the return could not be planned: {self.failure}")
+        elif proof is not None and not proof.proven and not self.planned_return:
+            out.append(
+                "way home: a failsafe return would not keep the margin; mission.end: return "
+                "plans the way home into the mission"
+            )
+        if self.planned_return:
+            why = (
+                "no RTL altitude brings it home safely, so the mission"
+                if self.switched
+                else "the mission"
+            )
+            clearance = (
+                ""
+                if self.return_leg is None
+                else (f", clearance {self.return_leg.min_clearance_m:.2f} m")
+            )
+            out.append(
+                f"way home: {why} ends with a planned return ({self.return_length_m:.0f} m"
+                f"{clearance}) after DO_LAND_START, landing at home"
+            )
+            if proof is not None and not proof.proven:
+                out.append(_failsafe_advice(proof.autopilot))
+        if self.parameters:
+            out.append(
+                "parameters the mission relies on (upload --set-params sends them): "
+                + ", ".join(p.describe() for p in self.parameters)
+            )
+        return out
+
+
+#: how ``plan`` names each firmware
+FIRMWARE_NAMES = {Autopilot.ARDUPILOT: "ArduPilot", Autopilot.PX4: "PX4"}
+
+
+def _where(b: tuple[tuple[float, float, float], str, float]) -> str:
+    (x, y, z), what, clearance = b
+    return f"from ({x:.0f}, {y:.0f}, {z:.0f}) its return passes {clearance:.2f} m from {what}"
+
+
+def _proof_line(proof: RtlProof) -> str:
+    spec = proof.parameter
+    default = f"{proof.default_altitude_m:g} m"
+    if proof.safe_altitude_m is None:
+        assert proof.blocked is not None
+        return (
+            f"way home: no RTL altitude up to the ceiling ({proof.ceiling_m:.0f} m above home) "
+            f"keeps the {proof.margin_m:g} m margin from every point of the route: at the "
+            f"ceiling, {_where(proof.blocked)}"
+        )
+    safe = proof.safe_altitude_m
+    value = _rtl_value(proof)
+    head = (
+        f"way home: {FIRMWARE_NAMES[proof.autopilot]}'s return to launch keeps the "
+        f"{proof.margin_m:g} m margin from every point of the route at an RTL altitude of "
+        f"{safe:.2f} m or more (set {spec.name} ≥ {value:g} {spec.unit}; ceiling "
+        f"{proof.ceiling_m:.0f} m)"
+    )
+    if proof.default_safe:
+        return f"{head}; the default {default} does"
+    if proof.default_blocked is None:
+        return f"{head}; the default {default} is above the ceiling"
+    return f"{head}; the default {default} does not: {_where(proof.default_blocked)}"
+
+
+def _failsafe_advice(autopilot: Autopilot) -> str:
+    if autopilot is Autopilot.PX4:
+        return (
+            "way home: for a return (a failsafe, RTL) to fly the mission on to its planned "
+            "landing instead of straight home, PX4 needs RTL_TYPE 2 (upload --set-params "
+            "sets it)"
+        )
+    return (
+        "way home: ArduPilot flies the planned return at the mission's end; a failsafe RTL "
+        "still flies straight home. A failsafe action 'Auto DO_LAND_START or RTL' (e.g. "
+        "FS_THR_ENABLE 6, FS_GCS_ENABLE 6, BATT_FS_LOW_ACT 6) jumps to the landing sequence "
+        "instead, flying straight from where it is to the goal first (not proven)"
+    )
+
+
+def _rtl_value(proof: RtlProof) -> float:
+    """The least RTL parameter value (firmware unit) proven safe, in whole metres."""
+    spec = proof.parameter
+    assert proof.setting_m is not None
+    return proof.setting_m * spec.per_m
+
+
+def rtl_parameter(proof: RtlProof) -> VehicleParameter | None:
+    """The RTL altitude parameter a proven return needs: at least the safe altitude
+    (rounded up to a whole metre), at most the ceiling; set to the firmware's default when
+    that lies between, else to the nearer bound."""
+    if proof.safe_altitude_m is None:
+        return None
+    spec = proof.parameter
+    low = _rtl_value(proof)
+    high = math.floor(proof.ceiling_m + 1e-9) * spec.per_m
+    if high < low:
+        high = low  # a ceiling that is not a whole number of metres above the safe one
+    value = min(max(proof.default_altitude_m * spec.per_m, low), high)
+    return VehicleParameter(
+        spec.name,
+        value,
+        at_least=low,
+        at_most=high,
+        unit=spec.unit,
+        reason=(
+            f"the return to launch keeps the {proof.margin_m:g} m margin from every point of "
+            f"the route at {proof.safe_altitude_m:.2f} m or higher, up to the ceiling"
+        ),
+    )
+
+
+def fence_parameters(autopilot: Autopilot, ceiling_m: float) -> tuple[VehicleParameter, ...]:
+    """The altitude fence at ``ceiling_m`` above home, enabled: ArduPilot FENCE_ENABLE 1,
+    FENCE_TYPE 5 (maximum altitude and the uploaded polygons and circles; not the circle
+    around home of FENCE_RADIUS), FENCE_ALT_MAX; PX4 GF_MAX_VER_DIST, GF_ACTION 1..5 (not
+    0, which turns the fence off; 2, Hold, its default)."""
+    ceiling = round(float(ceiling_m), 2)
+    why = "the mission's ceiling (the flight volume's top above home)"
+    if autopilot is Autopilot.PX4:
+        return (
+            VehicleParameter("GF_MAX_VER_DIST", ceiling, unit="m", reason=why),
+            VehicleParameter(
+                "GF_ACTION", 2.0, 1.0, 5.0, reason="a fence breach does something (0: no fence)"
+            ),
+        )
+    return (
+        VehicleParameter("FENCE_ENABLE", 1.0, reason="the geofence is on"),
+        VehicleParameter(
+            "FENCE_TYPE",
+            float(FENCE_TYPE_ALT_MAX | FENCE_TYPE_POLYGON),
+            reason="the ceiling and the uploaded zones (not the circle of FENCE_RADIUS "
+            "around home)",
+        ),
+        VehicleParameter("FENCE_ALT_MAX", ceiling, unit="m", reason=why),
+    )
+
+
+def way_home(
+    scenario: Scenario,
+    route: PlannedRoute,
+    *,
+    fence: bool = False,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> WayHome:
+    """The way home of ``route`` planned for ``scenario``: the proof of the autopilot's return
+    from every point (:func:`prove_rtl`), a planned return where the mission ends with one
+    (``end: return``) or where no RTL altitude is safe (``end: rtl``), and the parameters
+    the mission relies on (the RTL altitude; with ``fence``, the fence's ceiling)."""
+    autopilot = scenario.mission.autopilot
+    end = scenario.mission.end
+    if autopilot not in RTL_PARAMETERS:
+        return WayHome(end, route, None)
+    site = scenario.site
+    world = build_world(scenario)
+    floor = floor_world(scenario)
+    home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
+    start = route.waypoints_enu[0]
+    home = (float(start[0]), float(start[1]), home_z)
+    top = ceiling_above_home(route, site.bounds.z_m[1])
+    ceiling = top - (ARDUPILOT_FENCE_MARGIN_M if fence and autopilot is Autopilot.ARDUPILOT else 0)
+
+    def prove(line: PlannedRoute) -> RtlProof:
+        flight = Flight.from_polyline(
+            line.flown_enu, from_ground=scenario.mission.takeoff, to_ground=line.end in LANDING
+        )
+        return prove_rtl(
+            floor,
+            flight,
+            home_enu=home,
+            autopilot=autopilot,
+            ceiling_m=ceiling,
+            name_of=scenario.obstacle_name,
+        )
+
+    proof = None if end == "return" else prove(route)
+    if should_stop is not None and should_stop():
+        return WayHome(end, route, proof, interrupted=True, failure="interrupted")
+    switched = False
+    leg = None
+    if end == "return" or (end == "rtl" and proof is not None and not proof.proven):
+        planned = _plan_return(scenario, route, world, progress, should_stop)
+        if planned.route is None:
+            assert planned.failure is not None
+            return WayHome(
+                end, route, proof, interrupted=planned.interrupted,
+                failure=planned.failure.message,
+            )  # fmt: skip
+        switched = end == "rtl"
+        route, leg = planned.route, planned.leg
+        assert route.return_enu is not None
+        route = replace(route, return_stops=corner_stops(world, route))
+        if proof is None:
+            proof = prove(route)
+    parameters: list[VehicleParameter] = []
+    rtl = rtl_parameter(proof) if proof is not None else None
+    if rtl is not None:
+        parameters.append(rtl)
+    elif autopilot is Autopilot.PX4 and (route.return_enu is not None or end == "land"):
+        parameters.append(
+            VehicleParameter(
+                "RTL_TYPE",
+                2.0,
+                reason="no direct return is safe: a return flies the mission on to its landing",
+            )
+        )
+    if fence:
+        parameters.extend(fence_parameters(autopilot, top))
+    return WayHome(
+        end,
+        route,
+        proof,
+        fence_ceiling_m=top if fence else None,
+        switched=switched,
+        return_leg=leg,
+        parameters=tuple(parameters),
+    )
+
+
+#: the planned return keeps this much more than the margin, for the autopilot's tracking: PX4
+#: reaches a return waypoint within its acceptance radius (CORNER_ACCEPTANCE_M) and turns
+#: from there
+RETURN_ALLOWANCE_M = CORNER_ACCEPTANCE_M
+
+
+def _plan_return(
+    scenario: Scenario,
+    route: PlannedRoute,
+    world: World,
+    progress: ProgressFn | None,
+    should_stop: Callable[[], bool] | None,
+) -> PlannedReturn:
+    """The return planned keeping :data:`RETURN_ALLOWANCE_M` more than the margin, or (when
+    the goal or the start is too close to something for that) the margin itself; the
+    route's clearance is measured in ``world`` either way."""
+    site = scenario.site
+    b = site.bounds
+    wide = World.build(
+        site.obstacles,
+        bounds_xyz=(b.x_m, b.y_m, b.z_m),
+        margin_m=site.safety_margin_m + RETURN_ALLOWANCE_M,
+        ground=site.ground,
+    )
+    ends = np.vstack([route.waypoints_enu[-1], route.waypoints_enu[0]])
+    if wide.segments_free(ends, ends).all():
+        planned = plan_return(
+            scenario, route, world=wide, progress=progress, should_stop=should_stop
+        )
+        if planned.route is not None and planned.route.return_enu is not None:
+            measured = with_return(scenario, route, planned.route.return_enu, world)
+            return replace(planned, route=measured)
+        if planned.interrupted:
+            return planned
+    return plan_return(scenario, route, world=world, progress=progress, should_stop=should_stop)
+
+
+#: the corner of a planned return is checked with this many segments fanning out from it
+CORNER_FAN = 16
+
+
+def corner_stops(world: World, route: PlannedRoute) -> tuple[int, ...]:
+    """The rows of ``route``'s planned return (0: the goal) whose corner the autopilot may
+    not cut. Both firmwares cut a corner inside the triangle of the previous waypoint, the
+    corner and the next one (ArduPilot's S-curve blends the two legs, PX4 turns once within
+    its acceptance radius, a little outside): a corner whose triangle keeps the margin and
+    :data:`RETURN_ALLOWANCE_M` more (its far side and :data:`CORNER_FAN` segments from the
+    corner to it, :meth:`World.segments_free`) may be cut; the others are flown to a stop."""
+    back = route.return_enu
+    assert back is not None
+    line = np.vstack([route.waypoints_enu[-2:-1], back])  # the leg into the goal, the return
+    stops = []
+    k = np.linspace(0.0, 1.0, CORNER_FAN + 1)[:, None]
+    for row in range(len(back) - 1):  # the last row is followed by the landing: a stop
+        a, b, c = line[row], line[row + 1], line[row + 2]
+        chord = a + k * (c - a)
+        p0 = np.vstack([a[None, :], np.repeat(b[None, :], len(chord), axis=0)])
+        p1 = np.vstack([c[None, :], chord])
+        if not world.segments_free(p0, p1, world.margin_m + RETURN_ALLOWANCE_M).all():
+            stops.append(row)
+    return tuple(stops)
+
+
+#: mission ends whose flown line ends with a landing descent
+LANDING = ("land", "return")
