@@ -14,7 +14,6 @@ import pytest
 
 from uavplan.mavlink.machines import (
     ENDED_AFTER_RESENDS,
-    FLOOR_DECAY_ITEMS,
     SILENT_END_RESENDS,
     ClearMachine,
     DownloadMachine,
@@ -450,55 +449,6 @@ def test_an_end_that_shows_a_late_request_makes_re_requests_wait_longer_than_it(
     assert 1.25 * late_s > 3 * T.min_retry_s
     for seq in range(1, 6):
         s.give(_item_from_vehicle(wire, seq))
-    finished = s.machine.finished
-    assert finished is not None and finished.status is TransferStatus.SUCCESS
-
-
-def _download_with_a_raised_floor(n: int) -> tuple[Script, list[MissionItemInt]]:
-    """A download of ``n`` items whose first attempt the vehicle ended on a request that
-    came late (as in the test above): the floor is up, item 0 of the new attempt asked for."""
-    wire = _wire(_items(n))
-    s = _download()
-    s.give(_count(n))
-    s.give(_item_from_vehicle(wire, 0))
-    s.expire()  # request 1 asked twice
-    s.give(_item_from_vehicle(wire, 1))
-    s.give(_item_from_vehicle(wire, 2))
-    s.give(ack(MissionResult.ERROR), dt_s=0.060)
-    _ended_by_the_vehicle_after_its_ack(s)
-    s.give(_count(n))
-    assert s.machine.late_floor_s > 0.08
-    return s, wire
-
-
-def test_the_re_request_floor_halves_after_clean_items_until_it_is_gone() -> None:
-    """Items answered within the round trip's own interval show the floor spared nothing:
-    every FLOOR_DECAY_ITEMS of them in a row halve it, back to the fast interval."""
-    n = 8 * FLOOR_DECAY_ITEMS
-    s, wire = _download_with_a_raised_floor(n)
-    raised = s.machine.late_floor_s
-    floors = []
-    for seq in range(n - 1):
-        s.give(_item_from_vehicle(wire, seq))  # 1 ms round trips
-        floors.append(s.machine.late_floor_s)
-    assert floors[FLOOR_DECAY_ITEMS - 2] == raised
-    assert floors[FLOOR_DECAY_ITEMS - 1] == pytest.approx(raised / 2)
-    assert floors[2 * FLOOR_DECAY_ITEMS - 1] == pytest.approx(raised / 4)
-    assert floors[-1] == 0.0
-    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
-
-
-def test_items_that_come_later_than_the_round_trip_keep_the_floor() -> None:
-    """An item answered after the round trip's interval, but within the floor, is one a
-    faster re-request would have duplicated: on such a link the floor stays up."""
-    n = 6 * FLOOR_DECAY_ITEMS
-    s, wire = _download_with_a_raised_floor(n)
-    raised = s.machine.late_floor_s
-    for seq in range(n):
-        slow = seq % (FLOOR_DECAY_ITEMS // 2) == 0
-        s.give(_item_from_vehicle(wire, seq), dt_s=0.050 if slow else 0.001)
-        if seq < n - 1:
-            assert s.machine.late_floor_s == raised, seq
     finished = s.machine.finished
     assert finished is not None and finished.status is TransferStatus.SUCCESS
 

@@ -62,9 +62,6 @@ ENDED_AFTER_RESENDS = 3
 #: lost for one item in 10,000; after the first three they back off, about 0.5 s in all at
 #: the 10 ms floor, against item_s x (1 + retries) = 1.5 s)
 SILENT_END_RESENDS = 10
-#: download: items in a row whose first request was answered within the round trip's own
-#: interval (the floor spared no duplicate), after which the re-request floor halves
-FLOOR_DECAY_ITEMS = 20
 #: the error results a vehicle also sends outside a transfer (PX4 "No transfer" / "Busy",
 #: ArduPilot "request while receiving"): an ACK with one of these may be stale
 AMBIGUOUS_RESULTS = frozenset({MissionResult.ERROR, MissionResult.DENIED})
@@ -699,14 +696,9 @@ class DownloadMachine(Machine):
     duplicate, which PX4 refuses once it has moved on. But a link that duplicates and
     reorders ends PX4 downloads too, at any interval: there a longer wait only slows every
     lost packet. So the floor stays at zero until an end shows the timing of a late
-    request, and then it covers that lateness; only ends that keep coming double it. The
-    evidence can mislead (a held-back copy whose error ACK the vehicle or a busy host
-    delays looks late), so the floor must keep earning its place: it halves after
-    :data:`FLOOR_DECAY_ITEMS` items in a row whose first request was answered within the
-    round trip's interval, and any item answered later than that (a re-request then would
-    have been a duplicate) restarts the count (:meth:`_keep_or_decay_floor`). A vehicle that
-    takes duplicates in its stride (ArduPilot) never ends a download for them, so its
-    re-requests stay fast.
+    request, and then it covers that lateness; only ends that keep coming double it. A
+    vehicle that takes duplicates in its stride (ArduPilot) never ends a download for them,
+    so its re-requests stay fast.
     """
 
     def __init__(
@@ -744,8 +736,6 @@ class DownloadMachine(Machine):
         #: floor of the item re-request interval, raised when the vehicle ends the download
         #: (see above and :meth:`_learn_from_end`)
         self.late_floor_s = 0.0
-        #: items in a row answered within the round trip's interval while the floor was up
-        self.clean_items = 0
         #: ends by the vehicle whose error ACK was lost (they cannot be read)
         self.silent_ends = 0
         #: the fastest round trip of this download
@@ -801,36 +791,16 @@ class DownloadMachine(Machine):
         - An end whose ACK was lost cannot be read. From the third such end in one download
           on, each doubles the floor (the lateness hides from us).
 
-        Never beyond ``item_s``, QGroundControl's fixed interval; clean items bring it down
-        again (:meth:`_keep_or_decay_floor`)."""
+        Never beyond ``item_s``, QGroundControl's fixed interval."""
         t = self.timeouts
         if self.suspect is None:
             self.silent_ends += 1
             if self.silent_ends > 2:
                 self.late_floor_s = min(t.item_s, 2.0 * self._base_interval())
-                self.clean_items = 0
             return
         late_s = self._end_lateness()
         if late_s > 0.0:
             self.late_floor_s = min(t.item_s, max(self.late_floor_s, 1.25 * late_s))
-            self.clean_items = 0
-
-    def _keep_or_decay_floor(self, round_trip_s: float) -> None:
-        """An item came at its first request after ``round_trip_s``. Slower than the round
-        trip's own interval: without the floor we would have sent a duplicate, so the floor
-        stays. Otherwise one more clean item; :data:`FLOOR_DECAY_ITEMS` in a row halve the
-        floor (below ``min_retry_s`` it is gone)."""
-        if self.late_floor_s <= 0.0:
-            return
-        t = self.timeouts
-        if round_trip_s > self.rtt.timeout(t.item_s, t.min_retry_s):
-            self.clean_items = 0
-            return
-        self.clean_items += 1
-        if self.clean_items >= FLOOR_DECAY_ITEMS:
-            self.clean_items = 0
-            half = 0.5 * self.late_floor_s
-            self.late_floor_s = half if half >= t.min_retry_s else 0.0
 
     def _end_lateness(self) -> float:
         """How late the request that ended the download was, as its error ACK shows (0 if
@@ -1011,7 +981,6 @@ class DownloadMachine(Machine):
                 self.counters.ignored += 1  # duplicate or stale item
                 return
             if self.sends == 1:
-                self._keep_or_decay_floor(now - self.first_sent)
                 self._sample(now - self.first_sent)
             try:
                 item = item_from_wire(message)
