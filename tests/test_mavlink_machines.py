@@ -8,10 +8,13 @@ earlier transfer) and checks what it sends and how it ends. Nothing sleeps or re
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import pytest
 
 from uavplan.mavlink.machines import (
+    ENDED_AFTER_RESENDS,
+    SILENT_END_RESENDS,
     ClearMachine,
     DownloadMachine,
     Machine,
@@ -216,6 +219,50 @@ def test_upload_lost_final_ack_re_sends_the_last_item_then_asks_for_a_read_back(
     assert finished is not None and finished.status is TransferStatus.NO_FINAL_ACK
 
 
+def test_a_late_request_after_the_last_item_ends_in_a_read_back_not_a_refusal() -> None:
+    """Every item was asked for and sent; the final ACK was lost, and a late copy of the
+    vehicle's request for an earlier item arrives. We answer it, the vehicle (done) says
+    "no transfer" and goes quiet: not a refusal of that item, but a case for reading the
+    plan back (PX4 kept the new plan)."""
+    s, wire = _upload(4)
+    for seq in range(4):
+        s.give(request(seq))
+    assert s.give(request(2), dt_s=0.030) == [wire[2]]  # a late duplicate
+    s.give(ack(MissionResult.ERROR))  # PX4 "IGN MISSION_ITEM: No transfer"
+    s.expire()
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.NO_FINAL_ACK
+    assert "all 4 items were sent" in finished.detail
+
+
+def test_the_upload_times_the_link_for_the_read_back_that_follows() -> None:
+    """COUNT answered at its first send is a clean round trip: the read-back's REQUEST_LIST
+    is re-sent after the short control interval, not after ack_s, if it is lost."""
+    rtt = RoundTripEstimator()
+    items = _items(2)
+    upload = Script(UploadMachine(TARGET, MISSION, items, _wire(items), T, rtt))
+    upload.give(request(0), dt_s=0.002)
+    upload.give(request(1))
+    upload.give(ack(MissionResult.ACCEPTED))
+    assert rtt.srtt_s == pytest.approx(0.002)
+    download = Script(DownloadMachine(TARGET, MISSION, T, rtt))
+    assert download.machine.deadline - download.now == pytest.approx(T.min_control_s)
+
+
+def test_a_lost_control_message_is_re_sent_twice_at_its_first_interval_then_backs_off() -> None:
+    """A link losing a third of its exchanges loses three in a row one time in twenty: the
+    first re-sends keep the round trip's interval, later ones double up to ack_s."""
+    rtt = RoundTripEstimator()
+    rtt.add(0.001)
+    s = Script(ClearMachine(TARGET, MISSION, T, rtt))
+    waits = []
+    for _ in range(7):
+        before = s.now
+        s.expire()
+        waits.append(round(s.now - before, 3))
+    assert waits == [0.2, 0.2, 0.2, 0.4, 0.8, 1.5, 1.5]
+
+
 # ---------------------------------------------------------------------------------------------
 # download
 
@@ -281,16 +328,27 @@ def test_reordered_packets_stale_error_ack_does_not_end_the_read_back() -> None:
     assert s.sent[-1] == MissionAck(*TARGET, int(MissionResult.ACCEPTED), int(MISSION))
 
 
+def _ended_by_the_vehicle(s: Script, *, behind_s: float = 0.020) -> None:
+    """The vehicle ends the download: its error ACK comes ``behind_s`` after the last item,
+    and our re-requests draw nothing until we start over."""
+    s.give(ack(MissionResult.ERROR), dt_s=behind_s)
+    _ended_by_the_vehicle_after_its_ack(s)
+
+
 def test_a_late_duplicate_request_that_ends_the_download_restarts_it() -> None:
     """PX4 ends a download on an out-of-order request ("Req. WP was unexpected"), which a
-    late duplicate of our own request can cause: the read-back starts over, not fails."""
+    late duplicate of our own request can cause: the read-back starts over, not fails.
+    The end is taken as such once three re-requests after the error ACK drew nothing."""
     wire = _wire(_items(3))
     s = _download()
     s.give(_count(3))
     s.give(_item_from_vehicle(wire, 0))
     s.give(_item_from_vehicle(wire, 1))
     s.give(ack(MissionResult.ERROR))  # the vehicle really ended it
-    s.expire()  # ... so our repeated request for item 2 draws nothing
+    assert _requests(s.sent[-1:]) == [2]  # asked again at once
+    for _ in range(ENDED_AFTER_RESENDS - 1):
+        assert _requests(s.expire()) == [2]
+    s.expire()
     assert s.sent[-1] == MissionRequestList(*TARGET, int(MISSION))
     s.give(_count(3))
     for seq in range(3):
@@ -300,68 +358,149 @@ def test_a_late_duplicate_request_that_ends_the_download_restarts_it() -> None:
     assert len(finished.items) == 3
 
 
+def test_a_stale_error_ack_and_a_lost_re_request_do_not_restart_the_download() -> None:
+    """On a lossy link the re-request after a stale error ACK (the vehicle answering a late
+    copy of something older) is itself lost a third of the time: one silence is no end."""
+    wire = _wire(_items(3))
+    s = _download()
+    s.give(_count(3))
+    s.give(_item_from_vehicle(wire, 0))
+    s.give(ack(MissionResult.ERROR), dt_s=0.005)
+    s.give(ack(MissionResult.ERROR))  # the link duplicated it: still no end
+    s.expire()  # the re-request was lost
+    s.give(_item_from_vehicle(wire, 1))  # ... the next one is answered: the ACK was stale
+    s.give(_item_from_vehicle(wire, 2))
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.SUCCESS
+    assert not any(isinstance(m, MissionRequestList) for m in s.sent[1:])
+
+
+def test_a_silent_end_is_noticed_after_ten_unanswered_re_requests() -> None:
+    """PX4's error ACK for the end was lost: the download starts over once
+    SILENT_END_RESENDS re-requests in a row drew nothing, well within item_s x (1 + retries)
+    (the budget after which a dead link gives up)."""
+    wire = _wire(_items(3))
+    s = _download()
+    s.give(_count(3))
+    s.give(_item_from_vehicle(wire, 0))
+    silent_from = s.now
+    while not isinstance(s.sent[-1], MissionRequestList):
+        s.expire()
+    assert _requests(s.sent).count(1) == 1 + SILENT_END_RESENDS
+    assert s.now - silent_from < T.item_s * (T.retries + 1) / 2
+
+
 def _interval_of_next_re_request(s: Script) -> float:
     """Let the pending request go unanswered: how long the machine waits after re-sending it."""
     s.expire()
     return s.machine.deadline - s.now
 
 
-def test_an_item_that_comes_again_late_leaves_re_requests_fast() -> None:
-    """A late second copy of an item is no reason to slow down: a vehicle that takes
-    duplicate requests in its stride (ArduPilot) would only pay for it on every lost packet.
-    Only a vehicle that ends the download raises the interval (next test)."""
-    wire = _wire(_items(3))
+def test_a_link_without_delayed_duplicates_keeps_the_fast_re_request_interval() -> None:
+    """A link that loses, duplicates and reorders packets, but delays none: lost requests,
+    late second copies of items (a held packet released by the next one), and the ends that
+    a reordered duplicate request causes on PX4, whose error ACK comes right behind the item
+    the releasing request drew. No wait would prevent such an end, so every re-request,
+    before and after it, keeps the round trip's interval (the 10 ms floor)."""
+    n = 30
+    wire = _wire(_items(n))
     s = _download()
-    s.give(_count(3))
-    s.give(_item_from_vehicle(wire, 0))  # 1 ms round trips: the estimate is small
-    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
-    s.give(_item_from_vehicle(wire, 1))  # the answer to the re-request
-    s.give(_item_from_vehicle(wire, 1), dt_s=0.040)  # ... and the late answer to the first
-    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
-    s.give(_item_from_vehicle(wire, 2))
+    s.give(_count(n))
+    intervals = []
+    for attempt in range(2):
+        for seq in range(n):
+            if seq % 3 == 1:
+                intervals.append(_interval_of_next_re_request(s))  # its request was lost
+            s.give(_item_from_vehicle(wire, seq))
+            if seq % 5 == 3:
+                # a duplicate of the item before, held back and released behind this one
+                s.give(_item_from_vehicle(wire, seq - 1), dt_s=0.0001)
+            if attempt == 0 and seq == 20:
+                # a duplicate of request 19 released behind request 20: PX4 ends it
+                _ended_by_the_vehicle(s, behind_s=0.0002)
+                s.give(_count(n))
+                break
     finished = s.machine.finished
     assert finished is not None and finished.status is TransferStatus.SUCCESS
+    assert len(intervals) > 15
+    assert intervals == pytest.approx([T.min_retry_s] * len(intervals))
+    assert s.machine.late_floor_s == 0.0
 
 
-def _ended_by_the_vehicle(s: Script) -> None:
-    s.give(ack(MissionResult.ERROR))
-    s.give(ack(MissionResult.ERROR))
-    assert s.sent[-1] == MissionRequestList(*TARGET, int(MISSION))
-
-
-def test_each_end_of_the_download_by_the_vehicle_makes_re_requests_wait_longer() -> None:
-    """PX4 ends a download when a late copy of a request we sent twice reaches it after it
-    moved on. The copy was at most as late as the time from our first request of that item
-    to our first request of the item the vehicle no longer answered: after starting over,
-    re-requests wait a quarter longer than that (at most four times as long as before), and
-    each further end doubles the wait, never beyond item_s."""
-    wire = _wire(_items(3))
+def test_an_end_that_shows_a_late_request_makes_re_requests_wait_longer_than_it() -> None:
+    """The evidence: the vehicle ended the download, its error ACK not right behind the
+    last item, and we had asked for an earlier item twice. That item's first request can
+    have been late by the time from it to the ACK: re-requests now wait a quarter longer.
+    A vehicle that takes duplicate requests in its stride never gives this evidence."""
+    wire = _wire(_items(6))
     s = _download()
-    s.give(_count(3))
+    s.give(_count(6))
     s.give(_item_from_vehicle(wire, 0))
     asked_1 = s.now
-    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)
-    s.give(_item_from_vehicle(wire, 1), dt_s=0.015)  # request 2 goes out 25 ms after 1's
+    assert _interval_of_next_re_request(s) == pytest.approx(T.min_retry_s)  # asked twice
+    s.give(_item_from_vehicle(wire, 1))
+    s.give(_item_from_vehicle(wire, 2))
+    s.give(ack(MissionResult.ERROR), dt_s=0.020)  # our first request 1 came late
     late_s = s.now - asked_1
-    _ended_by_the_vehicle(s)  # our first request for item 1 arrived late
-    s.give(_count(3))
+    _ended_by_the_vehicle_after_its_ack(s)
+    s.give(_count(6))
     s.give(_item_from_vehicle(wire, 0))
-    first = _interval_of_next_re_request(s)
-    assert first == pytest.approx(1.25 * late_s)
-    _ended_by_the_vehicle(s)  # again, with nothing asked twice since the restart
-    s.give(_count(3))
-    assert _interval_of_next_re_request(s) == pytest.approx(2.0 * first)
-    for _ in range(3):
-        _ended_by_the_vehicle(s)
-        s.give(_count(3))
-    assert _interval_of_next_re_request(s) == pytest.approx(T.item_s)
-    for seq in range(3):
+    assert _interval_of_next_re_request(s) == pytest.approx(1.25 * late_s)
+    assert 1.25 * late_s > 3 * T.min_retry_s
+    for seq in range(1, 6):
         s.give(_item_from_vehicle(wire, seq))
     finished = s.machine.finished
     assert finished is not None and finished.status is TransferStatus.SUCCESS
 
 
+def _ended_by_the_vehicle_after_its_ack(s: Script) -> None:
+    while s.machine.finished is None and not isinstance(s.sent[-1], MissionRequestList):
+        s.expire()
+
+
+def _intervals_after_each_end(ended_by: Callable[[Script], None]) -> tuple[list[int], Script]:
+    """End a 3-item download after item 1, again and again; the re-request interval (ms)
+    at the start of each new attempt."""
+    wire = _wire(_items(3))
+    s = _download()
+    s.give(_count(3))
+    intervals = []
+    while s.machine.finished is None:
+        s.give(_item_from_vehicle(wire, 0))
+        s.give(_item_from_vehicle(wire, 1))
+        ended_by(s)
+        if s.machine.finished is None:
+            s.give(_count(3))
+            intervals.append(round(1e3 * _interval_of_next_re_request(s)))
+    return intervals, s
+
+
+def test_ends_behind_a_held_back_copy_never_slow_the_re_requests() -> None:
+    """However often a reordered duplicate ends the download, its error ACK comes right
+    behind the item the releasing request drew: no wait would help, none is added."""
+    intervals, s = _intervals_after_each_end(lambda s: _ended_by_the_vehicle(s, behind_s=0.0002))
+    assert intervals == [10] * 11  # then the restart budget is spent
+    assert s.machine.finished is not None
+    assert s.machine.finished.status is TransferStatus.REJECTED
+
+
+def test_ends_whose_ack_was_lost_double_the_re_request_interval_from_the_third() -> None:
+    """An end whose error ACK was lost cannot be read: the first two leave the interval,
+    from the third on each doubles it (the lateness may hide from us), up to item_s."""
+
+    def silently(s: Script) -> None:
+        _ended_by_the_vehicle_after_its_ack(s)
+
+    intervals, s = _intervals_after_each_end(silently)
+    assert intervals == [10, 10, 20, 40, 80, 160] + [250] * 5
+    assert s.machine.finished is not None
+    assert s.machine.finished.status is TransferStatus.TIMEOUT  # no budget left to restart
+
+
 def test_a_vehicle_that_keeps_ending_the_download_is_rejected_after_the_retry_budget() -> None:
+    """Ending the download at the same item every time spends the restart budget
+    (2 x retries); only the first attempt got further than any before it (that restart is
+    free)."""
     s = _download()
     wire = _wire(_items(2))
     attempts = 0
@@ -369,12 +508,31 @@ def test_a_vehicle_that_keeps_ending_the_download_is_rejected_after_the_retry_bu
         attempts += 1
         s.give(_count(2))
         s.give(_item_from_vehicle(wire, 0))
-        s.give(ack(MissionResult.ERROR))
-        s.give(ack(MissionResult.ERROR))
+        _ended_by_the_vehicle(s)
     finished = s.machine.finished
     assert finished.status is TransferStatus.REJECTED
-    assert attempts == T.retries + 1
+    assert attempts == 2 * T.retries + 2
     assert "ended the download at item 1" in finished.detail
+
+
+def test_restarts_that_get_further_each_time_do_not_spend_the_retry_budget() -> None:
+    """Late requests end downloads at random places while the interval is learnt: an
+    attempt that got further than every one before it is progress, not a refusal."""
+    n = 15
+    wire = _wire(_items(n))
+    s = _download()
+    for reach in range(1, n):
+        s.give(_count(n))
+        for seq in range(reach):
+            s.give(_item_from_vehicle(wire, seq))
+        _ended_by_the_vehicle(s, behind_s=0.0002)
+        assert s.machine.finished is None, reach
+    s.give(_count(n))
+    for seq in range(n):
+        s.give(_item_from_vehicle(wire, seq))
+    finished = s.machine.finished
+    assert finished is not None and finished.status is TransferStatus.SUCCESS
+    assert s.machine.restarts == n - 1 > 2 * T.retries
 
 
 def test_download_refused_twice_is_busy() -> None:

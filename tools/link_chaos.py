@@ -28,6 +28,7 @@ Exit status 0 when every invariant held, 1 otherwise.
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import sys
 from dataclasses import dataclass, field
@@ -110,6 +111,13 @@ def run_case(case: Case, autopilot: Autopilot, runs: int, timeouts: ProtocolTime
     return row
 
 
+def percentile(values: list[float], fraction: float) -> float:
+    """Nearest-rank percentile: the smallest value with at least ``fraction`` of the values
+    at or below it (the 90th of 50 runs is the 45th smallest)."""
+    ordered = sorted(values)
+    return ordered[max(0, math.ceil(fraction * len(ordered)) - 1)]
+
+
 def _cells(row: Row, bound_s: float) -> list[str]:
     results = row.results
     ok = sum(r.ok for r in results)
@@ -125,6 +133,7 @@ def _cells(row: Row, bound_s: float) -> list[str]:
         str(other),
         str(sum(r.holds == "mixture" for r in results)),
         f"{statistics.median(times):.1f}" if times else "-",
+        f"{percentile(times, 0.9):.1f}" if times else "-",
         f"{max(times):.1f}" if times else "-",
         f"{bound_s:.1f}" if not row.case.expect_success else "-",
         "yes" if not row.problems else "NO",
@@ -140,6 +149,7 @@ HEADER = [
     "other exit",
     "mixtures",
     "median s",
+    "p90 s",
     "max s",
     "bound s",
     "invariants held",
@@ -173,7 +183,11 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(run_case(case, autopilot, runs, timeouts))
 
     table = [_cells(row, bound) for row in rows]
-    command = "python tools/link_chaos.py --markdown --runs " + str(args.runs)
+    command = f"python tools/link_chaos.py --markdown --runs {args.runs}"
+    if args.autopilot != "both":
+        command += f" --autopilot {args.autopilot}"
+    for name in args.case or ():
+        command += f" --case {name}"
     if args.markdown:
         print(f"Uploads of a {N_ITEMS}-item mission with read-back through a seeded fault proxy")
         print(f"(`{command}`; default protocol timeouts).\n")

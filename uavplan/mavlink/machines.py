@@ -51,6 +51,17 @@ ProgressCallback = Callable[[int, int], None]
 BUSY_ACK_REPEATS = 4
 #: growth of a repeated item re-request interval (after three misses in a row)
 RETRY_BACKOFF = 1.5
+#: re-sends of a control message (COUNT, REQUEST_LIST, CLEAR_ALL) at its first interval,
+#: before the interval doubles
+CONTROL_EVEN_RESENDS = 2
+#: download: re-requests after an error ACK that must all go unanswered before we take it
+#: that the vehicle ended the download (one lost exchange must not restart it)
+ENDED_AFTER_RESENDS = 3
+#: download: re-requests in a row that draw nothing, after which we take it that the vehicle
+#: ended the download and its error ACK was lost (at 40 % loss per exchange, all ten are
+#: lost for one item in 10,000; after the first three they back off, about 0.5 s in all at
+#: the 10 ms floor, against item_s x (1 + retries) = 1.5 s)
+SILENT_END_RESENDS = 10
 #: the error results a vehicle also sends outside a transfer (PX4 "No transfer" / "Busy",
 #: ArduPilot "request while receiving"): an ACK with one of these may be stale
 AMBIGUOUS_RESULTS = frozenset({MissionResult.ERROR, MissionResult.DENIED})
@@ -146,11 +157,14 @@ class ControlSchedule:
     """When to re-send a control message (COUNT, REQUEST_LIST, CLEAR_ALL) and when to quit.
 
     First wait: ``srtt + 4 rttvar`` of the link, within [``min_control_s``, ``ack_s``]
-    (``ack_s`` while the round trip is unknown); doubled after each re-send up to ``ack_s``.
-    Give up after ``1 + retries`` sends once ``(1 + retries) x ack_s`` have passed, the
-    devguide's budget: a fast link retries sooner, a dead one fails no sooner than the spec
-    says. The floor keeps a premature duplicate rare: it would restart a PX4 download, and
-    the MAVSDK server starts a second incoming transfer on a second COUNT.
+    (``ack_s`` while the round trip is unknown); the first :data:`CONTROL_EVEN_RESENDS`
+    re-sends wait as long, then each wait doubles up to ``ack_s``. On a link that loses a
+    fifth of the packets each way a third of the exchanges fail, and three failures in a
+    row (one in twenty) must not cost seconds; a link that stays silent longer still backs
+    off. Give up after ``1 + retries`` sends once ``(1 + retries) x ack_s`` have passed,
+    the devguide's budget: a fast link retries sooner, a dead one fails no sooner than the
+    spec says. The floor keeps a premature duplicate rare: it would restart a PX4
+    download, and the MAVSDK server starts a second incoming transfer on a second COUNT.
     """
 
     def __init__(self, timeouts: ProtocolTimeouts, rtt: RoundTripEstimator, now: float) -> None:
@@ -162,7 +176,7 @@ class ControlSchedule:
 
     def sent(self, now: float) -> None:
         """Record a send; :attr:`deadline` is when to give up waiting for its answer."""
-        if self.sends:
+        if self.sends > CONTROL_EVEN_RESENDS:
             self._interval = min(self._timeouts.ack_s, 2.0 * self._interval)
         self.sends += 1
         self.deadline = now + self._interval
@@ -414,6 +428,23 @@ class UploadMachine(Machine):
         t = self.timeouts
         schedule = self.schedule
         assert schedule is not None
+        if self.state == "SENDING" and len(self.sent_seqs) == self.count:
+            # Every item had been asked for and sent: a late copy of an earlier request
+            # took us back from waiting for the final ACK, and the vehicle, done (its ACK
+            # lost), answers the item we re-sent with "no transfer" or not at all. Whether
+            # it holds our plan, only a read-back can tell.
+            heard = (
+                "" if self.suspect is None else f" (it answered {result_label(self.suspect[0])})"
+            )
+            self._finish(
+                TransferStatus.NO_FINAL_ACK,
+                step="final MISSION_ACK",
+                detail=f"all {self.count} items were sent, then the vehicle asked again for "
+                f"item {self.last_sent_seq} and went quiet{heard}",
+                vehicle_result=None if self.suspect is None else self.suspect[0],
+                seq=self.last_sent_seq,
+            )
+            return
         if self.suspect is not None and self.state == "SENDING":
             result, seq = self.suspect
             self._refused(result, seq)  # the vehicle stopped requesting: the ACK was ours
@@ -496,6 +527,11 @@ class UploadMachine(Machine):
             return
         if self.suspect is not None:
             self.suspect = None  # the vehicle is still receiving: that error ACK was stale
+        schedule = self.schedule
+        if self.state == "WAIT_FIRST_REQUEST" and schedule is not None and schedule.sends == 1:
+            # COUNT sent once and answered: a clean round trip (Karn), the link's, which the
+            # read-back that follows needs (without one it waits ack_s for a lost COUNT)
+            self.rtt.add(now - schedule.started)
         self.requests_per_seq[seq] += 1
         if self.requests_per_seq[seq] > 1:
             self.counters.repeat_requests += 1
@@ -646,17 +682,23 @@ class DownloadMachine(Machine):
     WAIT_ITEM: REQUEST_INT strictly in order (PX4 aborts on a skipped seq); items of any
     other seq are dropped; a missing item is re-requested, then TIMEOUT after
     item_s x (1 + retries). An error ACK makes us re-send the request at once: the item
-    arriving proves the ACK stale; a second error or silence means the vehicle ended the
-    download (PX4 does so on a late duplicate of our own request), and the download starts
-    over from REQUEST_LIST, at most ``retries`` times, then REJECTED. An item whose fields
-    cannot be represented (:class:`~.messages.MalformedMessage`) is a PROTOCOL_ERROR.
+    arriving proves the ACK stale. When :data:`ENDED_AFTER_RESENDS` re-requests after it
+    draw nothing, or :data:`SILENT_END_RESENDS` in a row do (the ACK was lost), the vehicle
+    ended the download (PX4 does so on a late duplicate of our own request), and the
+    download starts over from REQUEST_LIST (:meth:`_may_restart` for the budget), then
+    REJECTED. An item whose fields cannot be represented
+    (:class:`~.messages.MalformedMessage`) is a PROTOCOL_ERROR.
 
-    Item re-requests wait at least :attr:`late_floor_s`, raised each time the vehicle ends
-    the download (see :meth:`_learn_from_end`). The round-trip estimate alone cannot see a
-    link that delays a few packets far beyond its usual round trip (Karn: an item that came
-    after a re-request is no sample), and every re-request sent before such a late answer
-    is a duplicate, which PX4 refuses once it has moved on. A vehicle that takes duplicates
-    in its stride (ArduPilot) never ends a download for them, so its re-requests stay fast.
+    Item re-requests wait at least :attr:`late_floor_s`, which grows only on evidence (see
+    :meth:`_learn_from_end`). The round-trip estimate alone cannot see a link that delays a
+    few packets far beyond its usual round trip (Karn: an item that came after a re-request
+    is no sample), and a re-request sent before such a late request arrives is a
+    duplicate, which PX4 refuses once it has moved on. But a link that duplicates and
+    reorders ends PX4 downloads too, at any interval: there a longer wait only slows every
+    lost packet. So the floor stays at zero until an end shows the timing of a late
+    request, and then it covers that lateness; only ends that keep coming double it. A
+    vehicle that takes duplicates in its stride (ArduPilot) never ends a download for them,
+    so its re-requests stay fast.
     """
 
     def __init__(
@@ -680,17 +722,29 @@ class DownloadMachine(Machine):
         self.first_sent = self.last_sent = 0.0
         self.sends = 0
         self.consecutive = 0
-        #: an error ACK awaiting confirmation: (result, seq or None in WAIT_COUNT)
+        #: an error ACK awaiting confirmation, and how many re-requests followed it
         self.suspect: MissionResult | int | None = None
+        self.suspect_at = 0.0
+        self.suspect_resends = 0
         self.restarts = 0
+        #: restarts after an attempt that got no further than an earlier one: the budget
+        self.futile_restarts = 0
+        #: the furthest seq any attempt waited for
+        self.furthest = 0
         #: the ACK ending the download, once sent (the driver keeps it to repeat)
         self.final_ack: MissionAck | None = None
-        #: floor of the item re-request interval, raised each time the vehicle ends the
-        #: download (see above)
+        #: floor of the item re-request interval, raised when the vehicle ends the download
+        #: (see above and :meth:`_learn_from_end`)
         self.late_floor_s = 0.0
-        #: this attempt: when we first requested each seq, and the seqs requested again
+        #: ends by the vehicle whose error ACK was lost (they cannot be read)
+        self.silent_ends = 0
+        #: the fastest round trip of this download
+        self.fastest_s: float | None = None
+        #: this attempt: when we first requested each seq, the seqs requested again, and
+        #: when the last item came
         self.first_asked: dict[int, float] = {}
         self.asked_again: set[int] = set()
+        self.item_at = 0.0
 
     def _start(self, now: float) -> None:
         self.state = "WAIT_COUNT"
@@ -709,30 +763,64 @@ class DownloadMachine(Machine):
     def _request(self) -> MissionRequest:
         return MissionRequest(*self.target, self.seq, int(self.mission_type), int_form=True)
 
-    def _item_interval(self) -> float:
+    def _sample(self, round_trip_s: float) -> None:
+        self.rtt.add(round_trip_s)
+        if self.fastest_s is None or round_trip_s < self.fastest_s:
+            self.fastest_s = round_trip_s
+
+    def _base_interval(self) -> float:
+        """The item re-request interval before any back-off: the round trip's, or the floor."""
         t = self.timeouts
+        return min(max(self.rtt.timeout(t.item_s, t.min_retry_s), self.late_floor_s), t.item_s)
+
+    def _item_interval(self) -> float:
         # gentle back-off after three misses in a row: doubling would make the expected
         # wait per item grow without bound once loss nears 50 % per try
-        interval = max(self.rtt.timeout(t.item_s, t.min_retry_s), self.late_floor_s)
-        return min(interval * RETRY_BACKOFF ** max(0, self.consecutive - 3), t.item_s)
+        interval = self._base_interval() * RETRY_BACKOFF ** max(0, self.consecutive - 3)
+        return min(interval, self.timeouts.item_s)
 
-    def _learn_from_end(self, now: float) -> None:
-        """The vehicle ended the download, most likely on a late copy of a request we sent
-        twice (PX4 refuses any seq but its next one and the one it just sent): re-requests
-        that early were premature. From now on they wait twice as long as they did, or a
-        quarter longer than that copy can have been late if that is longer (but at most four
-        times as long as they did): the time from our first request for the last item we
-        asked for twice to our first request for the item the vehicle no longer answered (we
-        may notice the end only after that item's retry budget). Never longer than
-        ``item_s``, QGroundControl's fixed interval."""
+    def _learn_from_end(self) -> None:
+        """The vehicle ended the download on a request it did not expect (PX4 refuses any
+        seq but its next one and the one it just sent): a late copy of one of our requests.
+
+        - An end whose error ACK shows how late that request was (:meth:`_end_lateness`)
+          sets the floor a quarter above that lateness: re-requests sent sooner are the
+          duplicates that end downloads.
+        - An end whose ACK shows a copy the link held back and released behind our next
+          request, which no wait prevents, leaves the interval as it is.
+        - An end whose ACK was lost cannot be read. From the third such end in one download
+          on, each doubles the floor (the lateness hides from us).
+
+        Never beyond ``item_s``, QGroundControl's fixed interval."""
         t = self.timeouts
-        floor = 2.0 * max(self.rtt.timeout(t.item_s, t.min_retry_s), self.late_floor_s)
+        if self.suspect is None:
+            self.silent_ends += 1
+            if self.silent_ends > 2:
+                self.late_floor_s = min(t.item_s, 2.0 * self._base_interval())
+            return
+        late_s = self._end_lateness()
+        if late_s > 0.0:
+            self.late_floor_s = min(t.item_s, max(self.late_floor_s, 1.25 * late_s))
+
+    def _end_lateness(self) -> float:
+        """How late the request that ended the download was, as its error ACK shows (0 if
+        it shows none).
+
+        - An ACK that came right behind the last item (within two of the download's fastest
+          round trips: sooner than an answer to anything we sent after that item) was sent
+          with it: the vehicle refused something that reached it right behind our request
+          for that item, as a copy the link held back and released with it does.
+        - Otherwise the request the vehicle refused is one we sent twice, its first copy
+          late: the vehicle had moved past its seq. Of the seqs we asked twice, the latest
+          gives the least lateness that explains the end: from our first request for it to
+          the error ACK.
+        """
         twice = [k for k in self.asked_again if k < self.seq]
-        if twice:
-            ended = min(now, self.first_asked.get(self.seq, now))
-            late_s = ended - self.first_asked[max(twice)]
-            floor = max(floor, min(2.0 * floor, 1.25 * late_s))
-        self.late_floor_s = min(t.item_s, floor)
+        if not twice:
+            return 0.0
+        if self.suspect_at - self.item_at < 2.0 * (self.fastest_s or 0.0):
+            return 0.0
+        return max(0.0, self.suspect_at - self.first_asked[max(twice)])
 
     def _ask_item(self, seq: int, now: float) -> None:
         self.state = "WAIT_ITEM"
@@ -745,9 +833,20 @@ class DownloadMachine(Machine):
         self.consecutive = 0
         self.deadline = now + self._item_interval()
 
+    def _may_restart(self) -> bool:
+        """Within the restart budget: ``2 x retries`` restarts after attempts that got no
+        further than an earlier one. An attempt that got further than every one before it
+        is free. A link that ends PX4 downloads at random places (a held-back or late copy
+        of a request, several per 200-item read-back on the lossy+flip link) makes most
+        attempts end short of the furthest; a vehicle that refuses at the same item every
+        time is given up on after ``1 + 2 x retries`` restarts, one that lets each attempt
+        go one item further after at most as many restarts as the plan has items."""
+        budget = 2 * self.timeouts.retries
+        return self.futile_restarts < budget or self.seq > self.furthest
+
     def _restart(self, now: float, result: MissionResult | int) -> None:
         """The vehicle ended the download: start over, or give up with its reason."""
-        if self.restarts >= self.timeouts.retries:
+        if not self._may_restart():
             self._finish(
                 TransferStatus.REJECTED,
                 step=f"MISSION_REQUEST_INT seq {self.seq}",
@@ -760,7 +859,11 @@ class DownloadMachine(Machine):
         self._start_over(now)
 
     def _start_over(self, now: float) -> None:
-        self._learn_from_end(now)
+        if self.seq > self.furthest:
+            self.furthest = self.seq
+        else:
+            self.futile_restarts += 1
+        self._learn_from_end()
         self.first_asked.clear()
         self.asked_again.clear()
         self.restarts += 1
@@ -790,14 +893,19 @@ class DownloadMachine(Machine):
             self._send_list(now)
             return
         # WAIT_ITEM
-        if self.suspect is not None:
-            self._restart(now, self.suspect)  # refused, and the re-request drew no item
+        if self.suspect is not None and self.suspect_resends >= ENDED_AFTER_RESENDS:
+            self._restart(now, self.suspect)  # refused, and the re-requests drew no item
+            return
+        resumable = (self.seq > 0 or self.restarts > 0) and self._may_restart()
+        if resumable and self.consecutive >= SILENT_END_RESENDS:
+            # PX4 ends a download silently for us when its error ACK is lost (a late
+            # duplicate of our own request reached it out of order; after a restart, one
+            # from the attempt before can end the new one at item 0): start over. On a dead
+            # link the REQUEST_LIST budget then ends it.
+            self._start_over(now)
             return
         if now - self.first_sent >= t.item_s * (t.retries + 1) and self.sends > t.retries:
-            if self.seq > 0 and self.restarts < t.retries:
-                # PX4 ends a download silently for us when its error ACK is lost (a late
-                # duplicate of our own request reached it out of order): start over. On a
-                # dead link the REQUEST_LIST budget then ends it.
+            if resumable:
                 self._start_over(now)
                 return
             self._finish(
@@ -809,10 +917,15 @@ class DownloadMachine(Machine):
                 seq=self.seq,
             )
             return
+        self.consecutive += 1
+        self._ask_again(now)
+
+    def _ask_again(self, now: float) -> None:
         self._send(self._request(), resend=True)
         self.asked_again.add(self.seq)
         self.sends += 1
-        self.consecutive += 1
+        if self.suspect is not None:
+            self.suspect_resends += 1
         self.last_sent = now
         self.deadline = now + self._item_interval()
 
@@ -838,7 +951,7 @@ class DownloadMachine(Machine):
         assert schedule is not None
         if isinstance(message, MissionCount):
             if schedule.sends == 1 and self.restarts == 0:
-                self.rtt.add(now - self.list_sent_at)
+                self._sample(now - self.list_sent_at)
             self.count = message.count
             if self.count == 0:
                 self._send(self._ack(MissionResult.ACCEPTED))
@@ -868,7 +981,7 @@ class DownloadMachine(Machine):
                 self.counters.ignored += 1  # duplicate or stale item
                 return
             if self.sends == 1:
-                self.rtt.add(now - self.first_sent)
+                self._sample(now - self.first_sent)
             try:
                 item = item_from_wire(message)
             except ValueError as err:
@@ -883,17 +996,14 @@ class DownloadMachine(Machine):
                 self.counters.ignored += 1
             return
         if isinstance(message, MissionAck) and message.type != MissionResult.ACCEPTED:
-            result = MissionResult.from_wire(message.type)
+            self.counters.ignored += 1
             if self.suspect is None:
-                self.suspect = result
-                self.counters.ignored += 1
-                self._send(self._request(), resend=True)
-                self.asked_again.add(self.seq)
-                self.sends += 1
-                self.last_sent = now
-                self.deadline = now + self._item_interval()
-                return
-            self._restart(now, result)
+                # the vehicle ended the download, or answers a late copy of something we
+                # sent earlier: ask again at once; the item coming proves the ACK stale
+                self.suspect = MissionResult.from_wire(message.type)
+                self.suspect_at = now
+                self.suspect_resends = 0
+                self._ask_again(now)
             return
         self.counters.ignored += 1  # duplicate COUNT, ACCEPTED of something else, ...
 
@@ -908,6 +1018,7 @@ class DownloadMachine(Machine):
 
     def _got(self, item: MissionItem, now: float) -> None:
         self.items.append(item)
+        self.item_at = now
         if self.progress is not None:
             self.progress(self.seq + 1, self.count)
         if self.seq + 1 < self.count:
