@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -381,43 +381,28 @@ def plan_safe_as_flown(
     site = CheckSite.of_scenario(scenario)
     margin = scenario.safety_margin_m
     flying = conditions_of(scenario)
-    rehearsal = rehearse(mission_for(scenario, result.route), site, **flying)
-    pad = 0.0
-    notes: list[str] = []
-    gave_up = ""
-    for attempt in range(MAX_REPLANS + 1):
-        check = rehearsal.check
-        assert check is not None
-        if check.ok:
-            break
-        grown = grown_pad(pad, check)
-        if attempt == MAX_REPLANS:
-            gave_up = f"planned {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
-            break
-        why = check.problem()
+    runtime_s = result.runtime_s
+
+    def fly(planned: RouteResult) -> Rehearsal:
+        assert planned.route is not None
+        return rehearse(mission_for(scenario, planned.route), site, **flying)
+
+    def plan_again(pad: float) -> RouteResult | str:
+        nonlocal runtime_s
         try:
-            padded = padded_scenario(scenario, grown)
+            padded = padded_scenario(scenario, pad)
         except ScenarioError as err:
-            gave_up = f"a margin {grown:.2f} m wider cannot be planned: {err.reason}"
-            break
+            return f"a margin {pad:.2f} m wider cannot be planned: {err.reason}"
         again = plan_route(padded, should_stop=should_stop)
         if again.interrupted:
             return again
         if again.route is None or not again.collision_free:
-            gave_up = f"no route keeps a margin {grown:.2f} m wider"
-            break
-        notes.append(
-            f"{autopilot.label} flight model: {why}; planned again with the margin "
-            f"{grown:.2f} m wider"
-        )
-        pad = grown
+            return f"no route keeps a margin {pad:.2f} m wider"
+        runtime_s += again.runtime_s
         route = replace(again.route, safety_margin_m=margin)
-        result = replace(again, route=route, runtime_s=result.runtime_s + again.runtime_s)
-        rehearsal = rehearse(mission_for(scenario, route), site, **flying)
-    flight = rehearsal.prediction(margin_pad_m=pad, gave_up=gave_up)
-    if flight.return_check is not None and not flight.return_check.ok:
-        notes.append(_return_note(flight.return_check, autopilot))
-    return replace(result, notes=(*result.notes, *notes), flight=flight)
+        return replace(again, route=route, runtime_s=runtime_s)
+
+    return _widened_until_flown_safe(result, fly, plan_again, autopilot, "planned")
 
 
 def refresh_flight(scenario: Scenario, result: RouteResult) -> RouteResult:
@@ -450,7 +435,36 @@ def reroute_safe_as_flown(
     site = CheckSite.of_plan(result.plan, base=base, file=file)
     if site is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
         return result
-    rehearsal = rehearse(result.plan, site)
+
+    def fly(rerouted: RerouteResult) -> Rehearsal:
+        return rehearse(rerouted.plan, site)
+
+    def reroute_again(pad: float) -> RerouteResult | str:
+        try:
+            return reroute_plan(source, base=base, planner=planner, name=name, file=file,
+                                should_stop=should_stop, margin_pad_m=pad)  # fmt: skip
+        except (InputError, NoPathError) as err:
+            return f"no reroute keeps a margin {pad:.2f} m wider: {err}"
+
+    return _widened_until_flown_safe(result, fly, reroute_again, autopilot, "rerouted")
+
+
+_R = TypeVar("_R", RouteResult, RerouteResult)
+
+
+def _widened_until_flown_safe(
+    result: _R,
+    fly: Callable[[_R], Rehearsal],
+    again_with: Callable[[float], _R | str],
+    autopilot: Autopilot,
+    verb: str,
+) -> _R:
+    """The one loop of :func:`plan_safe_as_flown` and :func:`reroute_safe_as_flown`: fly
+    ``result``; while its track breaks the margin, get it again from ``again_with(pad)`` (a
+    margin ``pad`` m wider, grown by :func:`grown_pad`; a string says why no wider margin
+    can be had), up to :data:`MAX_REPLANS` times. Returns the last result with its predicted
+    flight and the notes saying what was done; an interrupted result as it is."""
+    rehearsal = fly(result)
     pad = 0.0
     notes: list[str] = []
     gave_up = ""
@@ -461,24 +475,22 @@ def reroute_safe_as_flown(
             break
         grown = grown_pad(pad, check)
         if attempt == MAX_REPLANS:
-            gave_up = f"rerouted {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
+            gave_up = f"{verb} {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
             break
         why = check.problem()
-        try:
-            again = reroute_plan(source, base=base, planner=planner, name=name, file=file,
-                                 should_stop=should_stop, margin_pad_m=grown)  # fmt: skip
-        except (InputError, NoPathError) as err:
-            gave_up = f"no reroute keeps a margin {grown:.2f} m wider: {err}"
+        again = again_with(grown)
+        if isinstance(again, str):
+            gave_up = again
             break
         if again.interrupted:
             return again
         notes.append(
-            f"{autopilot.label} flight model: {why}; rerouted again with the margin "
+            f"{autopilot.label} flight model: {why}; {verb} again with the margin "
             f"{grown:.2f} m wider"
         )
         pad = grown
         result = again
-        rehearsal = rehearse(result.plan, site)
+        rehearsal = fly(result)
     flight = rehearsal.prediction(margin_pad_m=pad, gave_up=gave_up)
     if flight.return_check is not None and not flight.return_check.ok:
         notes.append(_return_note(flight.return_check, autopilot))
