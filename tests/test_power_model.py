@@ -40,7 +40,8 @@ HEAVY = PROFILES["heavy-lift"]
 
 _X500_REASON = (
     "Holybro's ~18 min hover is 12 % shorter than the generic model predicts for a 1.59 kg "
-    "X500 V2 with a 74 Wh pack; matching it would need per-vehicle tuning (docs/energy.md)"
+    "X500 V2 with a 74 Wh pack, and the kit's own motor bench table predicts the same; no "
+    "sourced all-up weight closes it, and tuning to the 18 min would be fitting (docs/energy.md)"
 )
 
 
@@ -59,9 +60,61 @@ def test_hover_time_is_within_10_percent_of_the_cited_one(name: str) -> None:
 
 
 def test_the_x500_miss_is_the_documented_one() -> None:
-    """The X500's xfail above is for this size of miss, not for anything else."""
+    """The X500's xfail above is for this size of miss, not for anything else; and the
+    better-sourced hover power of the kit's motor bench table (below) misses by as much."""
     ratio = hover_time_s(X500) / CITED_HOVER_TIME_S["x500"]
     assert 1.10 < ratio < 1.15
+    bench = X500.with_overrides(hover_power_w=_x500_bench_hover_power_w(X500.mass_kg))
+    assert 1.10 < hover_time_s(bench) / CITED_HOVER_TIME_S["x500"] < 1.15
+
+
+# The X500 V2 kit's propulsion bench test: Holybro's motor sheet, linked from the kit's page
+# (https://cdn.shopify.com/s/files/1/0604/5905/7341/files/X500MotorSpec.png), the table T-Motor
+# publishes for its Air Gear 450 II (AIR2216II KV920 motor, T1045II 10 x 4.5 in propeller,
+# BLHeli S 20A ESC) at 16 V. Per motor: thrust (g) and electrical power drawn from the battery (W),
+# 30 % to 100 % throttle. Read in two public transcriptions of the sheet that agree row for row
+# (not in the image itself): docs/energy.md, "Hover time: predicted and published".
+_X500_BENCH = (
+    (210, 23),
+    (259, 30),
+    (309, 37),
+    (373, 46),
+    (447, 58),
+    (536, 72),
+    (628, 90),
+    (729, 108),
+    (814, 126),
+    (906, 147),
+    (993, 169),
+    (1087, 193),
+    (1191, 219),
+    (1289, 249),
+    (1332, 260),
+)
+_X500_BENCH_THRUST_G, _X500_BENCH_POWER_W = np.array(_X500_BENCH, dtype=float).T
+
+
+def _x500_bench_hover_power_w(mass_kg: float) -> float:
+    """Hover power from the bench table: each of the 4 motors carries a quarter of the weight
+    (thrust in grams-force = mass in grams / 4), its power interpolated linearly between the
+    table's rows, plus the flight controller, GNSS and radios (the 10 W avionics constant: the
+    table is the propulsion alone)."""
+    per_motor_w = float(np.interp(mass_kg * 1000 / 4, _X500_BENCH_THRUST_G, _X500_BENCH_POWER_W))
+    return 4 * per_motor_w + C.AVIONICS_POWER_W
+
+
+def test_the_x500_hover_power_agrees_with_the_kits_motor_bench_table() -> None:
+    # 1.59 kg: 397.5 g per motor, between 373 g at 46 W and 447 g at 58 W: 49.97 W each,
+    # 199.9 W for four, 209.9 W with the avionics; the generic model gives 208.6 W. The
+    # bench is a static test of one propeller in free air at 16 V, so agreement within 5 %
+    # is what it can confirm; it is an independent check of the model, not an input to it
+    assert _x500_bench_hover_power_w(1.59) == pytest.approx(10 + 4 * (46 + 12 * 24.5 / 74))
+    assert hover_power_w(X500) == pytest.approx(_x500_bench_hover_power_w(X500.mass_kg), rel=0.05)
+    # and the bench table's X500 would need 435 g per motor (1.74 kg) to hover 18 minutes
+    # on the usable 70.3 Wh: 234.3 W, 56.1 W per motor
+    needed_w = 74.0 * 0.95 * 3600 / CITED_HOVER_TIME_S["x500"]
+    per_motor_g = np.interp((needed_w - 10) / 4, _X500_BENCH_POWER_W, _X500_BENCH_THRUST_G)
+    assert 4 * per_motor_g / 1000 == pytest.approx(1.74, abs=0.005)
 
 
 def test_heavy_lift_with_its_cited_payload_and_bigger_batteries() -> None:

@@ -3,7 +3,9 @@
 Only spec-sheet figures differ between the profiles (mass, rotors, battery, top speed); the
 aerodynamic and electrical constants are the generic ones of :mod:`uavplan.vehicle.constants`
 for all three. :data:`CITED_HOVER_TIME_S` holds the hover time each manufacturer publishes, which
-the model's prediction is compared with (tests/test_power_model.py, docs/energy.md).
+the model's prediction is compared with (tests/test_power_model.py, docs/energy.md). The x500's
+hover power is also checked against the kit's motor bench table (a cross-check: the profile does
+not use it, it agrees with the generic model within 1 %).
 
 * ``small-quad`` — DJI Mavic 2 Pro (a folding camera quad of under 1 kg);
 * ``x500`` — Holybro X500 V2 (the PX4 development kit: 500 mm frame, 10-inch props, 4S 5000 mAh);
@@ -47,6 +49,7 @@ _X500_AMC = (
     "vehicle_templates/ArduCopter/Holybro_X500_V2/vehicle_components.json"
 )
 _X500_PX4 = "https://docs.px4.io/main/en/frames_multicopter/holybro_x500V2_pixhawk5x.html"
+_X500_MOTOR_SHEET = "https://cdn.shopify.com/s/files/1/0604/5905/7341/files/X500MotorSpec.png"
 _PX4_PARAMS = "https://docs.px4.io/main/en/advanced_config/parameter_reference.html#MPC_XY_VEL_MAX"
 _M600 = "https://www.dji.com/matrice600-pro/info#specs"
 
@@ -160,6 +163,17 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 _X500,
                 "'Flight time: ~18 minutes hover with no additional payload. Tested with "
                 "5000mAh Battery'",
+            ),
+            Citation(
+                "hover power (a cross-check, not an input)",
+                "209.9 W at 1.59 kg (4 × 49.97 W + 10 W avionics); the model: 208.6 W",
+                _X500_MOTOR_SHEET,
+                "Holybro's motor sheet, linked from the kit's page: the current kit's AIR2216II "
+                "KV920 motor with the T1045II propeller at 16 V, per motor 373 g of thrust at "
+                "46 W and 447 g at 58 W (T-Motor's Air Gear 450 II table). Read in two public "
+                "transcriptions that agree row for row, not in the image itself "
+                "(tests/test_power_model.py, docs/energy.md)",
+                checked=False,
             ),
         ),
         "heavy-lift": (
