@@ -46,7 +46,7 @@ from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
 from uavplan.sim.faults import Faults
 from uavplan.sim.simulate import simulate
-from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicle import MAX_CATCH_UP_S, SimVehicle, VehicleConfig
 
 AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4
 GCS = (255, 190)
@@ -343,6 +343,21 @@ def test_speedup_runs_flight_and_telemetry_that_many_times_faster() -> None:
     assert fast.vehicle.flight.position[2] > 10 * slow.vehicle.flight.position[2]
     fast_fixes = len(of_type(fast.heard, GlobalPositionInt))
     assert fast_fixes == pytest.approx(20 * len(of_type(slow.heard, GlobalPositionInt)), rel=0.1)
+
+
+def test_a_vehicle_that_looks_late_slows_down_instead_of_sending_a_burst() -> None:
+    # its thread starved for 1 s of link time at speedup 100: catching up would put 100 s of
+    # flight (500 positions) on the wire at once, more than a ground station's UDP buffer
+    # holds (tracks with minutes missing, seen at load 5); it advances MAX_CATCH_UP_S instead
+    driver = with_mission(AP, speedup=100)
+    start(driver)
+    driver.run(0.05)
+    before = driver.vehicle.sim_time_s
+    burst = driver.run(1.0, step=1.0)
+    assert driver.vehicle.sim_time_s - before == pytest.approx(MAX_CATCH_UP_S)
+    assert 1 <= len(of_type(burst, GlobalPositionInt)) <= MAX_CATCH_UP_S / 0.2 + 1
+    driver.run(0.1, step=0.01)  # looking in time again, it runs at its speedup
+    assert driver.vehicle.sim_time_s - before == pytest.approx(MAX_CATCH_UP_S + 10.0)
 
 
 def test_the_battery_drains_in_flight_and_reports_it() -> None:

@@ -27,7 +27,11 @@ it over a real MAVLink endpoint. Inside:
 
 Stream intervals are simulated seconds (as in SITL: at ``speedup`` 20 a 5 Hz position
 stream arrives at 100 Hz); protocol timers (re-requests, transfer timeouts) run on the
-link's clock, since the ground station's timers do.
+link's clock, since the ground station's timers do. Simulated time runs at ``speedup`` times
+the link's clock while the vehicle keeps up; when it looks late (a starved thread on a loaded
+machine) it advances at most :data:`MAX_CATCH_UP_S` at a time, so the simulation slows down as
+SITL's does under load instead of sending the missed telemetry in one burst that a ground
+station's socket buffer would drop.
 """
 
 from __future__ import annotations
@@ -96,6 +100,9 @@ __all__ = ["DEFAULT_HOME", "SimVehicle", "VehicleConfig"]
 
 #: where the vehicle stands when nothing says otherwise: PX4 SITL's default home
 DEFAULT_HOME = GeoPoint(47.397742, 8.545594, 488.0)
+#: the most simulated time one look at the clock advances (s): a vehicle that looked late
+#: slows down rather than catching up in a burst (25 positions at 5 Hz at most)
+MAX_CATCH_UP_S = 5.0
 #: PX4 disarms this long after landing (commander COM_DISARM_LAND, 2 s)
 PX4_DISARM_AFTER_LANDING_S = 2.0
 #: PX4's take-off altitude for a take-off command (navigator MIS_TAKEOFF_ALT, 2.5 m)
@@ -320,7 +327,10 @@ class SimVehicle:
     def _advance(self, now: float) -> list[Message]:
         elapsed = max(0.0, now - self._last_now)
         self._last_now = now
-        self.sim_time_s += elapsed * self.config.speedup
+        # a vehicle that looked late (its thread starved on a loaded machine) slows its clock
+        # rather than catching up in one burst: at speedup 100 a 1 s stall would put 500
+        # positions on the wire at once, more than a ground station's UDP buffer holds
+        self.sim_time_s += min(elapsed * self.config.speedup, MAX_CATCH_UP_S)
         out: list[Message] = []
         flight = self.flight
         while flight.t_s + flight.dt_s <= self.sim_time_s + 1e-9:
