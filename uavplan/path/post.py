@@ -59,7 +59,7 @@ _MOVES = np.array([m for m in itertools.product((-1.0, 0.0, 1.0), repeat=3) if a
 _MOVES /= np.linalg.norm(_MOVES, axis=1)[:, None]
 #: step sizes of the pattern search, halving from a few grid cells (a vertex can move to the
 #: other side of a building or a level down) to a metre
-REFINE_STEPS_M = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0)
+REFINE_STEPS_M: tuple[float, ...] = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0)
 REFINE_PASSES = 3
 REFINE_LEG_M = 40.0
 #: :func:`refine_best`'s budget: subdivided vertices searched over all candidates (the first
