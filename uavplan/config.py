@@ -435,7 +435,8 @@ class PostParams:
     move vertices off the grid while every leg keeps the margin. The paper's protocol
     post-processes only the planners whose entry says so (SPSA); baselines report their raw
     best path. ``select``: "best" (the paper: the best individual) or "population" (ours:
-    every distinct final individual is simplified and the lowest simplified energy wins).
+    every distinct final individual is simplified and the lowest simplified energy wins; with
+    ``refine``, each is refined and the lowest refined energy wins).
     """
 
     simplify: bool = _flag(True)

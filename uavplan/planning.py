@@ -30,6 +30,7 @@ from uavplan.path.frame import PathFrame
 from uavplan.path.post import (
     dedupe,
     refine,
+    refine_best,
     resample_waypoints,
     simplify,
     smooth_route,
@@ -268,12 +269,13 @@ def reference_energy(scenario: Scenario, world: World | None = None) -> float:
     return float(sum(energy_terms(np.vstack(legs), scenario.planner.energy)))
 
 
-def _best_simplified(
+def _simplified_candidates(
     problem: PathProblem, population: np.ndarray, nodes_pf: np.ndarray, vertices: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Among the distinct final individuals (and the best one), the one whose simplified
-    polyline has the lowest energy (the problem's fitness: eq. 1-2, or the physical
-    watt-hours): (its column polyline, its simplified vertices)."""
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The best individual and the distinct final individuals, each as (its column polyline,
+    its simplified vertices), ordered by the energy of the simplified polyline (the
+    problem's fitness: eq. 1-2, or the physical watt-hours), lowest first; equal energies
+    keep the best individual first, then the individuals' lexicographic order."""
     w, physical = problem.energy, problem.physical
     heading = problem.frame.heading_rad
 
@@ -282,7 +284,7 @@ def _best_simplified(
             return physical.polyline_wh(v, heading)
         return sum(energy_terms(v, w))
 
-    best = (energy_of(vertices), nodes_pf, vertices)
+    found = [(energy_of(vertices), nodes_pf, vertices)]
     # the distinct individuals in np.unique(rows, axis=0)'s order (lexicographic), without
     # np.unique, which imports numpy.ma (about 20 ms of every plan)
     rows = population.reshape(population.shape[0], -1)
@@ -292,10 +294,9 @@ def _best_simplified(
     for nodes in rows[distinct]:
         pts = problem.node_points(nodes.reshape(-1, 2))
         v = pts[simplify(pts, problem.world)]
-        e = energy_of(v)
-        if e < best[0]:
-            best = (e, pts, v)
-    return best[1], best[2]
+        found.append((energy_of(v), pts, v))
+    found.sort(key=lambda c: c[0])  # stable: ties keep the order above
+    return [(pts, v) for _, pts, v in found]
 
 
 @dataclass(frozen=True, eq=False)
@@ -714,20 +715,30 @@ def _plan_leg(
     if res.termination is SearchEnd.INTERRUPTED:
         return _Unplanned(RouteFailure.INTERRUPTED, "interrupted", res, guide_s)
     wpf = problem.world
+    candidates: list[tuple[np.ndarray, np.ndarray]] = []
     if route_pf is None:
         nodes_pf = problem.node_points(res.best_nodes)
         vertices = nodes_pf
         if post.simplify:
             vertices = nodes_pf[simplify(nodes_pf, wpf)]
             if post.select == "population" and res.population is not None:
-                nodes_pf, vertices = _best_simplified(problem, res.population, nodes_pf, vertices)
+                candidates = _simplified_candidates(problem, res.population, nodes_pf, vertices)
+                nodes_pf, vertices = candidates[0]
     else:
         nodes_pf = vertices = route_pf
     if post.refine and problem.physical is None:
-        vertices = refine(vertices, wpf, cfg.energy)  # a pattern search on eq. 1-2
+        # a pattern search on eq. 1-2; with the population selection, of every candidate
+        if candidates:
+            chosen, vertices = refine_best([v for _, v in candidates], wpf, cfg.energy)
+            nodes_pf = candidates[chosen][0]
+        else:
+            vertices = refine(vertices, wpf, cfg.energy)
     elif post.tighten or post.refine or route_pf is not None:
         vertices = tighten(vertices, wpf)
-    smoothed = smooth_route(vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m)
+    smoothed = smooth_route(
+        vertices, wpf, smooth=post.smooth, step_m=post.sample_step_m,
+        weights=cfg.energy if problem.physical is None else None,
+    )  # fmt: skip
     waypoints_pf = resample_waypoints(smoothed, wpf, scenario.mission.spacing_m)
     frame = problem.frame
     path_enu = dedupe(frame.to_enu(smoothed.samples))

@@ -97,7 +97,9 @@ def postprocess(
     vertices = dedupe(raw)
     if post.simplify:
         vertices = vertices[simplify(vertices, world)]
-    smoothed = smooth_route(vertices, world, smooth=post.smooth, step_m=post.sample_step_m)
+    smoothed = smooth_route(
+        vertices, world, smooth=post.smooth, step_m=post.sample_step_m, weights=energy
+    )
     samples = dedupe(smoothed.samples)
     return float(sum(energy_terms(samples, energy))), samples
 

@@ -4,14 +4,17 @@
    later node reachable in a straight line (Figure 4).
 2. :func:`refine` and :func:`tighten` — ours, not the paper's. ``refine`` is a pattern search
    on the simplified polyline in continuous space: legs are subdivided, and each vertex in
-   turn moves to the best of its 26 neighbours at a step size that halves from 16 m to
-   1 m, whenever that lowers the energy and both legs keep the margin. ``tighten`` pulls
-   each interior vertex toward the chord of its neighbours as far as both legs stay clear
-   (string pulling); it can only lower every energy term.
+   turn moves to the best of its 26 neighbours at a step size that halves from 64 m to
+   1 m, whenever that lowers the energy and both legs keep the margin. :func:`refine_best`
+   runs it on several candidate polylines (the final population's) and keeps the one it
+   brings lowest. ``tighten`` pulls each interior vertex toward the chord of its neighbours
+   as far as both legs stay clear (string pulling); it can only lower every energy term.
 3. :func:`smooth_route` — cubic spline through the vertices, parametrised by cumulative chord
    length; each leg between two vertices is a blend ``(1 − λ)·line + λ·spline`` and λ is
    halved on any leg whose dense samples come closer than the margin (λ = 0 is the straight,
-   feasible leg), so the smoothed curve keeps the margin.
+   feasible leg), so the smoothed curve keeps the margin. Given the energy weights, each
+   leg's λ is then the one (of 1, 1/2, …, 2⁻⁸, 0) that keeps the margin at the lowest energy,
+   so the curve never costs more than the polyline it smooths.
 4. :func:`resample_waypoints` — waypoints every ``spacing`` metres along the curve, vertices
    always kept; a straight leg that comes closer than the margin gets the curve's midpoint
    inserted until every leg is clear.
@@ -24,12 +27,14 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from uavplan._geom import _c
 from uavplan.config import EnergyWeights
+from uavplan.path.energy import energy_terms
 from uavplan.world import World
 
 #: halvings of λ before a leg falls back to the straight line
@@ -52,9 +57,14 @@ def simplify(points: np.ndarray, world: World) -> np.ndarray:
 #: unit moves of the pattern search: the 26 neighbours of a grid cell
 _MOVES = np.array([m for m in itertools.product((-1.0, 0.0, 1.0), repeat=3) if any(m)])
 _MOVES /= np.linalg.norm(_MOVES, axis=1)[:, None]
-REFINE_STEPS_M = (16.0, 4.0, 1.0)
+#: step sizes of the pattern search, halving from a few grid cells (a vertex can move to the
+#: other side of a building or a level down) to a metre
+REFINE_STEPS_M: tuple[float, ...] = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0)
 REFINE_PASSES = 3
 REFINE_LEG_M = 40.0
+#: :func:`refine_best`'s budget: subdivided vertices searched over all candidates (the first
+#: candidate is always searched); about 8 candidate routes of 50 km, every one of 2 km
+REFINE_BUDGET_VERTICES = 10_000
 
 
 def subdivide(vertices: np.ndarray, max_leg_m: float) -> np.ndarray:
@@ -76,13 +86,55 @@ def refine(vertices: np.ndarray, world: World, weights: EnergyWeights) -> np.nda
     moves to the neighbour (one of the 26 unit moves) that lowers the energy of its window of
     two vertices either side the most, among those whose two legs keep the margin; equal
     gains go to the first move. Compiled (:func:`uavplan._ckernels.refine_vertices`)."""
-    v = np.ascontiguousarray(subdivide(vertices, REFINE_LEG_M), dtype=float)
+    return tighten(_pattern_search(subdivide(vertices, REFINE_LEG_M), world, weights), world)
+
+
+def _pattern_search(v: np.ndarray, world: World, weights: EnergyWeights) -> np.ndarray:
+    """:func:`refine`'s pattern search on the subdivided polyline ``v``, simplified."""
+    v = np.ascontiguousarray(v, dtype=float)
     w = weights
     _c.refine_vertices(
         v, _MOVES, np.array(REFINE_STEPS_M), REFINE_PASSES, world.kernel_args,
         world.margin_m, (w.k0, w.k1 * w.mu0, w.k2),
     )  # fmt: skip
-    return tighten(v[simplify(v, world)], world)
+    return v[simplify(v, world)]
+
+
+def refine_best(
+    candidates: Sequence[np.ndarray],
+    world: World,
+    weights: EnergyWeights,
+    budget_vertices: int = REFINE_BUDGET_VERTICES,
+) -> tuple[int, np.ndarray]:
+    """:func:`refine` of the best of several feasible polylines: (its index, the result).
+
+    The candidates are taken in the order given (best first by the caller's measure) while
+    their subdivided vertices fit in ``budget_vertices`` (the first always); a candidate
+    equal to an earlier one is skipped. Each gets :func:`refine`'s pattern search, and the
+    one whose searched polyline has the lowest energy (eq. 1-2; ties: the earlier) is
+    tightened and returned. The search can move a vertex by tens of metres but cannot turn
+    one route class into another (over the clutter into through it); the final population
+    often holds both, and which is lower is known only once each is refined."""
+    best: tuple[float, int, np.ndarray] | None = None
+    seen: set[bytes] = set()
+    used = 0
+    for i, cand in enumerate(candidates):
+        v = np.ascontiguousarray(cand, dtype=float)
+        key = v.tobytes()
+        if key in seen:
+            continue
+        sub = subdivide(v, REFINE_LEG_M)
+        if best is not None and used + sub.shape[0] > budget_vertices:
+            break
+        seen.add(key)
+        used += sub.shape[0]
+        searched = _pattern_search(sub, world, weights)
+        e = float(sum(energy_terms(searched, weights)))
+        if best is None or e < best[0]:
+            best = (e, i, searched)
+    if best is None:
+        raise ValueError("refine_best: no candidate polyline")
+    return best[1], tighten(best[2], world)
 
 
 def tighten(vertices: np.ndarray, world: World, tol_m: float = 1e-3) -> np.ndarray:
@@ -190,10 +242,20 @@ def _leg_samples(
 
 
 def smooth_route(
-    vertices: np.ndarray, world: World, *, smooth: bool = True, step_m: float = 5.0
+    vertices: np.ndarray,
+    world: World,
+    *,
+    smooth: bool = True,
+    step_m: float = 5.0,
+    weights: EnergyWeights | None = None,
 ) -> SmoothRoute:
     """Cubic-spline smoothing of a feasible polyline, blended back where it would cut into
-    the margin (see module doc). With ``smooth=False`` the polyline itself is sampled."""
+    the margin (see module doc). With ``smooth=False`` the polyline itself is sampled.
+
+    With ``weights`` (eq. 1-2), each leg's blend is then chosen by energy
+    (:func:`_blend_by_energy`): a natural spline through unevenly spaced vertices swings
+    wide of them (a climb over what the polyline flies level, a detour beside a short leg),
+    and the straight leg, or a flatter blend, is then the cheaper route to fly."""
     v = np.asarray(vertices, dtype=float)
     m = v.shape[0]
     spline = None
@@ -210,10 +272,70 @@ def smooth_route(
                 break
             blend[i] = 0.0 if blend[i] <= 2.0**-MAX_BLEND_HALVINGS else blend[i] / 2.0
         legs.append(pts[:-1])
+    if spline is not None and weights is not None:
+        _blend_by_energy(v, spline, s, step_m, world, weights, blend, legs)
     samples = np.vstack([*legs, v[-1:]])
     counts = np.array([leg.shape[0] for leg in legs])
     vertex_index = np.concatenate([[0], np.cumsum(counts)])
     return SmoothRoute(v, blend, samples, vertex_index)
+
+
+#: the blends a leg may take: 1, 1/2, ..., 2^-MAX_BLEND_HALVINGS, and the straight leg
+BLENDS = (*(2.0**-k for k in range(MAX_BLEND_HALVINGS + 1)), 0.0)
+#: sweeps of :func:`_blend_by_energy` over the legs (it stops after one that changes nothing)
+BLEND_SWEEPS = 3
+
+
+def _blend_by_energy(
+    v: np.ndarray,
+    spline: NaturalSpline,
+    s: np.ndarray,
+    step_m: float,
+    world: World,
+    weights: EnergyWeights,
+    blend: np.ndarray,
+    legs: list[np.ndarray],
+) -> None:
+    """Lower the smoothed curve's energy leg by leg, in place (``blend``, ``legs``: each
+    leg's λ and samples, its end vertex excluded, as the margin rule left them).
+
+    In each of up to :data:`BLEND_SWEEPS` sweeps every leg in turn takes, of the blends
+    :data:`BLENDS`, the one of lowest energy whose samples keep the margin, the other legs
+    as they stand; the energy compared is exactly what changes (the leg's segments and the
+    turns at its samples and at both its vertices). Every change lowers the curve's energy.
+    Last, a curve that still costs more than the polyline itself is replaced by it (λ = 0
+    on every leg, always feasible)."""
+    m = v.shape[0]
+
+    def local(i: int, leg: np.ndarray) -> float:
+        before = legs[i - 1][-1:] if i > 0 else v[:0]
+        after = v[-1:] if i == m - 2 else np.vstack([legs[i + 1], v[i + 2 : i + 3]])[:2]
+        return float(sum(energy_terms(np.vstack([before, leg, after]), weights)))
+
+    for _ in range(BLEND_SWEEPS):
+        changed = False
+        for i in range(m - 1):
+            now = local(i, legs[i])
+            options = []
+            for lam in BLENDS:
+                if lam != blend[i]:
+                    leg = _leg_samples(v, spline, s, i, lam, step_m)
+                    options.append((local(i, leg), -lam, leg))
+            options.sort(key=lambda o: (o[0], o[1]))  # ties: the smoother blend
+            for e, neg_lam, leg in options:
+                if e >= now - 1e-9:
+                    break
+                pts = np.vstack([leg, v[i + 1]])
+                if neg_lam == 0.0 or world.segments_free(pts[:-1], pts[1:]).all():
+                    blend[i], legs[i] = -neg_lam, leg
+                    changed = True
+                    break
+        if not changed:
+            break
+    curve = float(sum(energy_terms(np.vstack([*legs, v[-1:]]), weights)))
+    if curve > float(sum(energy_terms(v, weights))):
+        blend[:] = 0.0
+        legs[:] = [_leg_samples(v, None, s, i, 0.0, step_m) for i in range(m - 1)]
 
 
 def resample_waypoints(route: SmoothRoute, world: World, spacing_m: float) -> np.ndarray:
