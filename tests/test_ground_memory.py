@@ -6,11 +6,15 @@ peak stays within a small multiple of the field itself."""
 from __future__ import annotations
 
 import tracemalloc
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from uavplan import ground
+from uavplan.rehearsal import padded_scenario
+from uavplan.scenario import load_scenario
 
 
 def _posts(rows: int, cols: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -53,3 +57,35 @@ def test_building_a_large_field_peaks_near_its_own_size() -> None:
     assert field.z.size > 400_000
     # every array of the field plus a few blocks' temporaries; all at once held 5.5 times it
     assert peak < 2.5 * size, f"peak {peak / 2**20:.0f} MiB for a field of {size / 2**20:.0f} MiB"
+
+
+RIDGE = Path(__file__).resolve().parent.parent / "missions" / "jacksboro-ridge.yaml"
+
+
+def test_a_wider_margin_over_the_same_posts_shares_the_field() -> None:
+    """``plan`` plans again with a wider margin (rehearsal.padded_scenario) while the first
+    scenario is still held: its ground is built of the same posts, so it holds the same
+    field instead of a second one beside it (the 20 x 20 km ridge: 55 MB more at the peak)."""
+    scn = load_scenario(RIDGE)
+    padded = padded_scenario(scn, 0.6)
+    a, b = scn.site.ground, padded.site.ground
+    assert a is not None and b is not None
+    assert b.margin_m == pytest.approx(a.margin_m + 0.6)  # a ground of its own ...
+    assert b.field is a.field  # ... over the one field
+    # a field of other posts is its own (the bounds narrowed by a few post spacings)
+    y0, y1 = scn.bounds.y_m
+    narrowed = replace(scn, bounds=replace(scn.bounds, y_m=(y0 + 300.0, y1)))
+    c = narrowed.site.ground
+    assert c is not None and c.field is not a.field
+    assert c.field.shape != a.field.shape
+
+
+def test_a_shared_field_is_the_one_built_alone() -> None:
+    scn = load_scenario(RIDGE)
+    shared = padded_scenario(scn, 0.6).site.ground
+    assert shared is not None
+    ground._FIELDS.clear()  # nothing to share: built again from the posts
+    alone = padded_scenario(load_scenario(RIDGE), 0.6).site.ground
+    assert alone is not None and alone.field is not shared.field
+    for name in FIELDS:
+        assert np.array_equal(getattr(alone.field, name), getattr(shared.field, name)), name

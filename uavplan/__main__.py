@@ -18,6 +18,15 @@ module of the package changes nothing in the process):
   and dicts that hold no cycles, and the frequent collections cost 10-25 % of the reading
   (CPU time to read a map of 20,000 obstacles, best of 6: 0.40 s at 700, 0.35 s at 20,000,
   0.34 s with the collector off).
+* glibc's malloc maps every block of :data:`MMAP_THRESHOLD_BYTES` or more on its own,
+  which goes back to the system when it is freed. Left to itself, glibc raises that
+  threshold to the size of the largest mapped block freed so far (up to 32 MB): after the
+  first large array is freed, the next ones (a planner's clearance table, a path problem's
+  memo, a height field's temporaries, each a few to 25 MB) come from the heap, and what is
+  freed there stays resident wherever a smaller block outlives it. Over a 20 km × 20 km
+  terrain area that left some 15 MiB more at the peak of ``plan`` (issue 26: 200 MB
+  everywhere); a fixed threshold turns the dynamic one off. The values computed are the
+  same; only where the memory comes from changes (:func:`fix_mmap_threshold`).
 
 Start-up builds some hundred thousand objects that live as long as the process (modules,
 classes, functions); the cyclic collector would walk them over and over while they are made,
@@ -55,6 +64,12 @@ SWITCH_INTERVAL_S = 1e-4
 GC_GEN0_THRESHOLD = 20_000
 
 
+#: glibc's malloc maps blocks of at least this many bytes on their own (its initial
+#: threshold, held fixed: see the module doc)
+MMAP_THRESHOLD_BYTES = 128 * 1024
+#: mallopt's parameter number for it (malloc.h M_MMAP_THRESHOLD)
+_M_MMAP_THRESHOLD = -3
+
 #: the exit status of an interrupted command (uavplan.errors.EXIT_INTERRUPTED, not imported:
 #: nothing is imported before the first Ctrl-C can be answered)
 EXIT_INTERRUPTED = 130
@@ -75,6 +90,26 @@ class _EarlyCtrlC:
         raise KeyboardInterrupt
 
 
+def fix_mmap_threshold() -> bool:
+    """Hold glibc's mmap threshold at :data:`MMAP_THRESHOLD_BYTES` (see the module doc);
+    False where the C library is not glibc (nothing changed)."""
+    try:
+        glibc = os.confstr("CS_GNU_LIBC_VERSION")
+    except (ValueError, OSError, AttributeError):  # no such name here, or no confstr
+        glibc = None
+    if not glibc:
+        return False
+    import ctypes  # 1.5 ms of the start-up
+
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    mallopt.restype = ctypes.c_int
+    return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES))
+
+
 def run() -> None:
     """Run the ``uavplan`` command line on ``sys.argv``."""
     try:
@@ -88,6 +123,7 @@ def run() -> None:
             atexit.register(gc.freeze)
             os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
             sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
+            fix_mmap_threshold()
             from uavplan import cli
 
             cli.resume_collector_at_start()

@@ -27,8 +27,10 @@ volume's floor are arguments, so a scenario copied with another margin gets anot
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
@@ -450,7 +452,7 @@ def build_ground(
     :class:`~uavplan.sources.dem.TerrainError`) where the DEM does not cover the bounds."""
     xy, z_amsl, centres = on_datum.posts_around(bounds.x_m, bounds.y_m, margin_m)
     datum = datum_amsl_m
-    field = HeightField.from_posts(xy, z_amsl - datum, centres)
+    field = _field_of(xy, z_amsl - datum, centres)
 
     def ground_z(points_xy: Any) -> Any:
         return on_datum.height_m(points_xy) - datum
@@ -464,6 +466,31 @@ def build_ground(
         floor_agl_m=bounds.z_m[0],
         source=str(on_datum.source),
     )
+
+
+#: the height fields alive, by a digest of the posts they were built from: a copy of a
+#: scenario with another margin or ceiling (``plan`` plans again with a wider margin while
+#: the first scenario is still held) gets the same field when its posts are the same, instead
+#: of a second one (some 45 MB for a 20 km × 20 km area) built beside it
+_FIELDS: weakref.WeakValueDictionary[bytes, HeightField] = weakref.WeakValueDictionary()
+
+
+def _field_of(xy: Any, z: Any, centres: Any) -> HeightField:
+    """:meth:`HeightField.from_posts` of these posts, shared with a field of the very same
+    posts still alive (the field is a pure function of them)."""
+    import numpy as np
+
+    digest = hashlib.blake2b(digest_size=32)
+    for a in (xy, z, centres):
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        digest.update(repr(a.shape).encode())
+        digest.update(a.data)
+    key = digest.digest()
+    field = _FIELDS.get(key)
+    if field is None:
+        field = HeightField.from_posts(xy, z, centres)
+        _FIELDS[key] = field
+    return field
 
 
 # ---------------------------------------------------------------------------------------------

@@ -178,10 +178,12 @@ class CheckSite:
         frame = self.frame
         home_frame = EnuFrame.at(home)
         home_z = float(ground.z_at(frame.to_enu_xy([home.lat_deg], [home.lon_deg]))[0])
-        cache: dict[tuple[float, float], float] = {}
+        # keyed by the point to the cm as one complex (a 25 km flight asks some 30,000
+        # points: a tuple of two floats per key held twice the memory, left in the arenas)
+        cache: dict[complex, float] = {}
 
         def ground_z(x: float, y: float) -> float:
-            key = (round(x, 2), round(y, 2))
+            key = complex(round(x, 2), round(y, 2))
             if key not in cache:
                 lat, lon, _ = home_frame.to_geodetic(np.array([x, y, 0.0]))
                 cache[key] = float(ground.z_at(frame.to_enu_xy(lat, lon))[0]) - home_z

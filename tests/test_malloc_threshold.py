@@ -1,0 +1,60 @@
+"""The command line holds glibc's mmap threshold fixed (uavplan/__main__.py, issue 26): large
+arrays freed after a larger one go back to the system even where smaller blocks outlive
+them, instead of staying resident in the heap."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+CHILD = r"""
+import sys
+import numpy as np
+import uavplan.__main__ as entry
+
+if sys.argv[1] == "fixed":
+    assert entry.fix_mmap_threshold()
+
+def rss_kb():
+    for line in open("/proc/self/status"):
+        if line.startswith("VmRSS"):
+            return int(line.split()[1])
+
+gone = np.ones(1 << 20)  # 8 MB, mapped and unmapped: glibc would raise its threshold to it
+del gone
+before = rss_kb()
+big, small = [], []
+for _ in range(64):
+    big.append(np.ones(1 << 16))  # 512 KB each, 32 MB in all
+    small.append(np.ones(1 << 12))  # 32 KB each, outliving the big ones
+del big
+print(rss_kb() - before)
+"""
+
+
+def _glibc() -> bool:
+    try:
+        return bool(os.confstr("CS_GNU_LIBC_VERSION"))
+    except (ValueError, OSError, AttributeError):
+        return False
+
+
+def _kept_kib(mode: str) -> int:
+    out = subprocess.run([sys.executable, "-c", CHILD, mode], capture_output=True, text=True,
+                         check=True, timeout=60)  # fmt: skip
+    return int(out.stdout.strip())
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not _glibc(), reason="glibc only")
+def test_freed_large_arrays_go_back_to_the_system() -> None:
+    kept = _kept_kib("fixed")
+    assert kept < 8 * 1024, f"{kept} KiB of 32 MiB freed still resident"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not _glibc(), reason="glibc only")
+def test_without_it_they_stay() -> None:
+    """The measure can fail: glibc's own dynamic threshold keeps them resident."""
+    assert _kept_kib("dynamic") > 16 * 1024
