@@ -7,7 +7,7 @@ and the ceiling: of 30 individuals one or two reach the goal, the deadlocked one
 replaced by copies of them, and the swarm "searches" from copies of one wandering path. It
 used to plan such a leg anyway, well above the grid search's route that the planner flies
 when the swarm cannot start. Here, on a synthetic ridge field in the same regime (a few
-seconds), a search with fewer than half its population initialised is no search: the
+seconds), a search with fewer than a quarter of its population initialised is no search: the
 leg goes to the guide search and, when the swarm cannot start along the guide either, flies
 the grid search's route.
 """

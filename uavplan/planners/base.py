@@ -32,8 +32,10 @@ INIT_MAX_ATTEMPTS = 25
 #: a search needs at least this share of its population initialised: the deadlocked
 #: individuals are replaced by copies of the initialised ones, and a population of copies of
 #: a few paths does not search (over terrain, one wandering path of 30 flew a 25 km crossing
-#: 8 % above the grid search's route: docs/algorithm.md, "Long routes and large volumes")
-INIT_MIN_SHARE = 0.5
+#: 8 % above the grid search's route: docs/algorithm.md, "Long routes and large volumes").
+#: The bundled scenarios initialise 17 or more of 30 (narrow-gap, seeds 1-20), the failing
+#: terrain cases 0-4
+INIT_MIN_SHARE = 0.25
 #: the clearance table is exact below the margin + this (m); the terrain's clearances above
 #: it may be lower bounds (see ``K.clearance_table``)
 TABLE_EXACT_PAD_M = 1.0
