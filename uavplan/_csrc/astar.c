@@ -4,6 +4,13 @@
 
 enum { A_FOUND = 0, A_NO_PATH = 1, A_INVALID_START = 2, A_INVALID_GOAL = 3 };
 
+/* node indices in the search's table: int32 (a grid of more than 2**31 nodes is refused) */
+typedef int32_t idx_t;
+/* a node's state byte */
+#define CLOSED 1
+#define BLOCKED 2
+#define LINKED 4
+
 static double node_clearance(double px, double py, double pz, const World *w, double cap) {
     double eps = 1e-9;
     if (pz < w->zlim[0] - eps || pz > w->zlim[1] + eps) return -1.0;
@@ -37,16 +44,19 @@ PyObject *py_node_clearance(PyObject *self, PyObject *args) {
     return PyFloat_FromDouble(r);
 }
 
-static inline int before(int64_t a, int64_t b, const double *f, const double *h) {
-    if (f[a] != f[b]) return f[a] < f[b];
+/* f = g + h is not stored: computed here, it is the very double the search used to store
+ * (every f was set as g + h, the goal's with h = 0), so the order is unchanged */
+static inline int before(idx_t a, idx_t b, const double *g, const double *h) {
+    double fa = g[a] + h[a], fb = g[b] + h[b];
+    if (fa != fb) return fa < fb;
     return h[a] < h[b];
 }
 
-static void sift_up(int64_t *heap, int64_t *pos, int64_t i, const double *f, const double *h) {
-    int64_t v = heap[i];
+static void sift_up(idx_t *heap, idx_t *pos, idx_t i, const double *g, const double *h) {
+    idx_t v = heap[i];
     while (i > 0) {
-        int64_t p = (i - 1) >> 1;
-        if (!before(v, heap[p], f, h)) break;
+        idx_t p = (i - 1) >> 1;
+        if (!before(v, heap[p], g, h)) break;
         heap[i] = heap[p];
         pos[heap[i]] = i;
         i = p;
@@ -55,19 +65,18 @@ static void sift_up(int64_t *heap, int64_t *pos, int64_t i, const double *f, con
     pos[v] = i;
 }
 
-static int64_t heap_pop(int64_t *heap, int64_t *pos, int64_t size, const double *f,
-                        const double *h) {
-    int64_t top = heap[0];
+static idx_t heap_pop(idx_t *heap, idx_t *pos, idx_t size, const double *g, const double *h) {
+    idx_t top = heap[0];
     pos[top] = -1;
     size -= 1;
     if (size > 0) {
-        int64_t v = heap[size];
-        int64_t i = 0;
+        idx_t v = heap[size];
+        idx_t i = 0;
         for (;;) {
-            int64_t c = 2 * i + 1;
+            idx_t c = 2 * i + 1;
             if (c >= size) break;
-            if (c + 1 < size && before(heap[c + 1], heap[c], f, h)) c += 1;
-            if (!before(heap[c], v, f, h)) break;
+            if (c + 1 < size && before(heap[c + 1], heap[c], g, h)) c += 1;
+            if (!before(heap[c], v, g, h)) break;
             heap[i] = heap[c];
             pos[heap[i]] = i;
             i = c;
@@ -150,30 +159,25 @@ PyObject *py_astar_kernel(PyObject *self, PyObject *args) {
     double dx = steps[0], dy = steps[1], dz = steps[2];
     int64_t n_moves = dim(&bm, 0);
     size_t nn = (size_t)n_nodes + 1;
-    /* one block: clear (n), g, f, h (n + 1), goal_link (n), parent, heap, pos (n + 1),
-     * closed (n + 1 bytes) */
-    mem = malloc(sizeof(double) * (2 * (size_t)n_nodes + 3 * nn) + sizeof(int64_t) * 3 * nn +
-                 nn);
+    if (need(n_nodes + 2 < (int64_t)INT32_MAX, "astar: more than 2**31 grid nodes") < 0)
+        goto done;
+    /* one block, ASTAR_NODE_BYTES a node: clear (n), g, h (n + 1) as doubles; parent, heap,
+     * pos (n + 1) as int32; state (n + 1 bytes: 1 closed, 2 blocked, 4 linked to the goal) */
+    mem = malloc(sizeof(double) * ((size_t)n_nodes + 2 * nn) + sizeof(idx_t) * 3 * nn + nn);
     if (mem == NULL) {
         PyErr_NoMemory();
         goto done;
     }
     double *clear = mem;
     double *g = clear + n_nodes;
-    double *f = g + nn;
-    double *h = f + nn;
-    double *goal_link = h + nn;
-    int64_t *parent = (int64_t *)(goal_link + n_nodes);
-    int64_t *heap = parent + nn;
-    int64_t *pos = heap + nn;
+    double *h = g + nn;
+    idx_t *parent = (idx_t *)(h + nn);
+    idx_t *heap = parent + nn;
+    idx_t *pos = heap + nn;
     unsigned char *closed = (unsigned char *)(pos + nn);
-    for (int64_t i = 0; i < n_nodes; i++) {
-        clear[i] = NAN;
-        goal_link[i] = INFINITY;
-    }
+    for (int64_t i = 0; i < n_nodes; i++) clear[i] = NAN;
     for (size_t i = 0; i < nn; i++) {
         g[i] = INFINITY;
-        f[i] = INFINITY;
         h[i] = 0.0;
         parent[i] = -1;
         closed[i] = 0;
@@ -189,7 +193,14 @@ PyObject *py_astar_kernel(PyObject *self, PyObject *args) {
                        buf_node, buf_cost, 343, k0, k2);
         if (n_goal > 0) break;
     }
-    for (int64_t i = 0; i < n_goal; i++) goal_link[buf_node[i]] = buf_cost[i];
+    /* the goal's links (at most 343): kept apart, their nodes flagged */
+    idx_t goal_node[343];
+    double goal_cost[343];
+    for (int64_t i = 0; i < n_goal; i++) {
+        goal_node[i] = (idx_t)buf_node[i];
+        goal_cost[i] = buf_cost[i];
+        closed[buf_node[i]] |= LINKED;
+    }
     if (n_goal == 0) {
         ret = Py_BuildValue("(iy#Ld)", A_INVALID_GOAL, "", (Py_ssize_t)0, 0LL, INFINITY);
         goto done;
@@ -214,11 +225,10 @@ PyObject *py_astar_kernel(PyObject *self, PyObject *args) {
         double ez = (double)(c + lo[2]) * dz - gz;
         g[v] = buf_cost[i];
         h[v] = k0 * sqrt(ex * ex + ey * ey + ez * ez) + k2 * fabs(ez);
-        f[v] = g[v] + h[v];
-        parent[v] = start_id;
-        heap[size] = v;
+        parent[v] = (idx_t)start_id;
+        heap[size] = (idx_t)v;
         size += 1;
-        sift_up(heap, pos, size - 1, f, h);
+        sift_up(heap, pos, (idx_t)(size - 1), g, h);
     }
     double mxv[64], myv[64], mzv[64], mcost[64], mlen[64];
     if (need(n_moves <= 64, "astar: at most 64 moves") < 0) goto done;
@@ -232,24 +242,32 @@ PyObject *py_astar_kernel(PyObject *self, PyObject *args) {
     int64_t expanded = 0;
     int found = 0;
     while (size > 0) {
-        int64_t u = heap_pop(heap, pos, size, f, h);
+        int64_t u = heap_pop(heap, pos, (idx_t)size, g, h);
         size -= 1;
         if (u == goal_id) {
             found = 1;
             break;
         }
-        closed[u] = 1;
+        closed[u] |= CLOSED;
         expanded += 1;
-        if (goal_link[u] < INFINITY && g[u] + goal_link[u] < g[goal_id]) {
-            g[goal_id] = g[u] + goal_link[u];
-            f[goal_id] = g[goal_id];
-            parent[goal_id] = u;
+        double link = INFINITY;
+        if (closed[u] & LINKED) {
+            for (int64_t i = 0; i < n_goal; i++) {
+                if (goal_node[i] == u) {
+                    link = goal_cost[i];
+                    break;
+                }
+            }
+        }
+        if (link < INFINITY && g[u] + link < g[goal_id]) {
+            g[goal_id] = g[u] + link;
+            parent[goal_id] = (idx_t)u;
             if (pos[goal_id] < 0) {
-                heap[size] = goal_id;
-                pos[goal_id] = size;
+                heap[size] = (idx_t)goal_id;
+                pos[goal_id] = (idx_t)size;
                 size += 1;
             }
-            sift_up(heap, pos, pos[goal_id], f, h);
+            sift_up(heap, pos, pos[goal_id], g, h);
         }
         int64_t c = u % nz;
         int64_t b = (u / nz) % ny;
@@ -264,7 +282,7 @@ PyObject *py_astar_kernel(PyObject *self, PyObject *args) {
             int64_t c2 = c + moves[3 * m + 2];
             if (a2 < 0 || a2 >= nj || b2 < 0 || b2 >= ny || c2 < 0 || c2 >= nz) continue;
             int64_t v = (a2 * ny + b2) * nz + c2;
-            if (closed[v]) continue;
+            if (closed[v] & (CLOSED | BLOCKED)) continue;
             double ng = g[u] + mcost[m];
             if (ng >= g[v]) continue;
             double vx = ux + mxv[m];
@@ -276,26 +294,24 @@ PyObject *py_astar_kernel(PyObject *self, PyObject *args) {
                 clear[v] = dv;
             }
             if (dv < lim) {
-                closed[v] = 2;
+                closed[v] |= BLOCKED;
                 continue;
             }
             if (du + dv - mlen[m] < 2.0 * lim) {
                 if (!segment_free(ux, uy, uz, vx, vy, vz, w, margin)) continue;
             }
             g[v] = ng;
-            parent[v] = u;
+            parent[v] = (idx_t)u;
             if (pos[v] < 0) {
                 double ex = vx - gx;
                 double ey = vy - gy;
                 double ez = vz - gz;
                 h[v] = k0 * sqrt(ex * ex + ey * ey + ez * ez) + k2 * fabs(ez);
-                f[v] = ng + h[v];
-                heap[size] = v;
+                heap[size] = (idx_t)v;
                 size += 1;
-                sift_up(heap, pos, size - 1, f, h);
+                sift_up(heap, pos, (idx_t)(size - 1), g, h);
             } else {
-                f[v] = ng + h[v];
-                sift_up(heap, pos, pos[v], f, h);
+                sift_up(heap, pos, pos[v], g, h);
             }
         }
     }

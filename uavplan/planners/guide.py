@@ -35,9 +35,9 @@ from uavplan.world import World
 
 #: grid refinements tried, as multiples of the planner's grid steps (coarse first)
 GUIDE_SCALES = (2.0, 1.0, 0.5)
-#: a grid search holds about 70 bytes a node: no grid of more nodes than this is searched
-#: (about 140 MB). The first, coarsest grid is coarsened further until it fits; a finer one
-#: is not tried when it would not fit.
+#: a grid search holds 37 bytes a node (uavplan/_csrc/astar.c): no grid of more nodes than
+#: this is searched (about 74 MB). The first, coarsest grid is coarsened further until it
+#: fits; a finer one is not tried when it would not fit.
 MAX_GUIDE_NODES = 2_000_000
 
 

@@ -6,7 +6,7 @@ path frame: one column every ``dx`` along the leg, nodes every ``dy`` across and
 up, over the flight volume (over a DEM from the datum to the highest ground plus the ceiling:
 the volume the planner flies, :attr:`uavplan.scenario.Scenario.site`). Every node of the
 leg's columns gets an exact clearance (8 bytes each), and a global grid search over the whole
-volume (the guide search, the A* reference) holds about 70 bytes a node at twice the steps
+volume (the guide search, the A* reference) holds 37 bytes a node at twice the steps
 and more. :func:`path_grid` counts those nodes; :func:`fitted_grid` is the grid a scenario
 that does not set ``planner.grid`` is planned on: the default steps, scaled up by the
 smallest factor of :data:`FIT_FACTORS` that brings the count under :data:`FIT_GRID_CELLS`,
