@@ -30,7 +30,7 @@ def _posts(rows: int, cols: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray,
     return xy, z, centres
 
 
-FIELDS = ("xy", "z", "subdivision", "twist_gap_m", "warp_m", "lattice", "slack", "per_m", "cell")
+FIELDS = ("xy", "z", "subdivision", "twist_gap_m", "warp_m", "lattice", "slack", "per_m", "slope")
 
 
 def test_the_field_does_not_depend_on_the_block(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -53,7 +53,7 @@ def test_building_a_large_field_peaks_near_its_own_size() -> None:
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    size = field.xy.nbytes + field.z.nbytes + field.cell.nbytes
+    size = field.xy.nbytes + field.z.nbytes + field.slope.nbytes
     assert field.z.size > 400_000
     # every array of the field plus a few blocks' temporaries; all at once held 5.5 times it
     assert peak < 2.5 * size, f"peak {peak / 2**20:.0f} MiB for a field of {size / 2**20:.0f} MiB"

@@ -91,7 +91,7 @@ def measure(name: str, scn: Scenario, load_s: float, seeds: int) -> dict:
         "scenario": name,
         "obstacles": len(scn.obstacles),
         # the terrain's height field: its cells (each quad of posts cut s x s)
-        "ground": 0 if scn.site.ground is None else int(scn.site.ground.field.cell[..., 0].size),
+        "ground": 0 if scn.site.ground is None else int(scn.site.ground.field.slope.size),
         "load_s": load_s,
         "world_s": world_s,
         "core_s": statistics.median(core),

@@ -72,7 +72,7 @@ class KernelWorld:
     ymax, zmax); bounds: half-planes ``hp`` (nhp, 3) and ``zlim`` (2,); the cell grid of
     :func:`build_cells`: ``gmeta``, ``cell_start``, ``cell_items``, ``piece_cells``; the
     terrain's height field (:class:`uavplan.ground.HeightField`): ``hf_xy`` (nr, nc, 2),
-    ``hf_z`` (nr, nc), ``hf_cell`` (nr − 1, nc − 1, 2), ``hf_meta`` (``FIELD_META``,): empty
+    ``hf_z`` (nr, nc), ``hf_slope`` (nr − 1, nc − 1), ``hf_meta`` (``FIELD_META``,): empty
     arrays over flat ground. Arrays are brought to the kernels' dtypes once, here
     (:func:`kernel_fields`)."""
 
@@ -89,7 +89,7 @@ class KernelWorld:
     piece_cells: np.ndarray
     hf_xy: np.ndarray
     hf_z: np.ndarray
-    hf_cell: np.ndarray
+    hf_slope: np.ndarray
     hf_meta: np.ndarray
 
     def __post_init__(self) -> None:

@@ -104,7 +104,7 @@ static const Field WORLD_FIELDS[WORLD_BUFS] = {
     F(world, piece_cells, T_I64, 2, 0),
     F(world, hf_xy, T_F64, 3, 0),
     F(world, hf_z, T_F64, 2, 0),
-    F(world, hf_cell, T_F64, 3, 0),
+    F(world, hf_slope, T_F64, 2, 0),
     F(world, hf_meta, T_F64, 1, 0),
 };
 #define WORLD_FIELD0 11 /* the height field's first field */
@@ -270,14 +270,14 @@ void world_release(WorldBufs *wb) { values_release(wb->v, WORLD_BUFS); }
 /* The height field of a world whose field arrays are held (an empty field: none). */
 static int field_get(WorldBufs *wb) {
     const Buf *bxy = &wb->v[WORLD_FIELD0].buf, *bz = &wb->v[WORLD_FIELD0 + 1].buf,
-              *bc = &wb->v[WORLD_FIELD0 + 2].buf, *bm = &wb->v[WORLD_FIELD0 + 3].buf;
+              *bs = &wb->v[WORLD_FIELD0 + 2].buf, *bm = &wb->v[WORLD_FIELD0 + 3].buf;
     HField *f = &wb->w.f;
     memset(f, 0, sizeof(*f));
     Py_ssize_t nr = dim(bz, 0), nc = dim(bz, 1);
     if (need(dim(bxy, 0) == nr && dim(bxy, 1) == nc && dim(bxy, 2) == 2 &&
                  dim(bm, 0) == FIELD_META &&
                  (nr < 2 || nc < 2 ||
-                  (dim(bc, 0) == nr - 1 && dim(bc, 1) == nc - 1 && dim(bc, 2) == 3)),
+                  (dim(bs, 0) == nr - 1 && dim(bs, 1) == nc - 1)),
              "world: inconsistent height field arrays") < 0) {
         world_release(wb);
         return -1;
@@ -286,7 +286,7 @@ static int field_get(WorldBufs *wb) {
     const double *m = F64(*bm);
     f->xy = F64(*bxy);
     f->z = F64(*bz);
-    f->cell = F64(*bc);
+    f->slope = F64(*bs);
     f->nr = nr;
     f->nc = nc;
     f->ox = m[0];

@@ -216,13 +216,14 @@ static inline double lat_h(const HField *f, int kind, int64_t i, int64_t j) {
 
 /* The highest corner of cell (i, j) of surface ``kind``. */
 static inline double cell_top(const HField *f, int kind, int64_t i, int64_t j) {
-    const double *c = f->cell + 3 * (i * (f->nc - 1) + j);
-    return kind == 0 ? c[0] + f->lift : -c[1] - f->roof;
+    const double *r0 = f->z + i * f->nc + j, *r1 = r0 + f->nc;
+    if (kind == 0) return dmax(dmax(r0[0], r0[1]), dmax(r1[0], r1[1])) + f->lift;
+    return -dmin(dmin(r0[0], r0[1]), dmin(r1[0], r1[1])) - f->roof;
 }
 
 /* The steepest slope of any triangle of cell (i, j) (either diagonal). */
 static inline double cell_slope(const HField *f, int64_t i, int64_t j) {
-    return f->cell[3 * (i * (f->nc - 1) + j) + 2];
+    return f->slope[i * (f->nc - 1) + j];
 }
 
 /* The highest point of surface ``kind``. */

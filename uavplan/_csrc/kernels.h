@@ -159,8 +159,8 @@ PyObject *args_fields(void);
 typedef struct {
     const double *xy;   /* (nr, nc, 2) the lattice points' (x, y) in the field's frame */
     const double *z;    /* (nr, nc) their ground z */
-    const double *cell; /* (nr - 1, nc - 1, 3) each cell's highest and lowest corner z and
-                         * its steepest triangle (either diagonal) */
+    const double *slope; /* (nr - 1, nc - 1) each cell's steepest triangle (either diagonal);
+                          * its highest and lowest corner are read from z */
     int64_t nr, nc;
     double ox, oy, c, s; /* world frame -> field frame: X = ox + c x - s y, Y = oy + s x + c y */
     double aff[6];       /* field frame -> lattice: col = aff0 + aff1 X + aff2 Y, row = aff3 + ... */
