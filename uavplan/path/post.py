@@ -63,8 +63,10 @@ REFINE_STEPS_M: tuple[float, ...] = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0)
 REFINE_PASSES = 3
 REFINE_LEG_M = 40.0
 #: :func:`refine_best`'s budget: subdivided vertices searched over all candidates (the first
-#: candidate is always searched); about 8 candidate routes of 50 km, every one of 2 km
-REFINE_BUDGET_VERTICES = 10_000
+#: candidate is always searched); about 4 candidate routes of 50 km, every one of a 2 km
+#: route's population (67 × ~55). 10,000 cost the 13 km ridge crossing 0.23 s more core CPU
+#: for the same route (tools/bench_scale.py)
+REFINE_BUDGET_VERTICES = 5_000
 
 
 def subdivide(vertices: np.ndarray, max_leg_m: float) -> np.ndarray:
