@@ -14,6 +14,7 @@ the grid search's route.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -88,3 +89,8 @@ def test_the_ridge_crossing_flies_no_worse_than_its_reference(ridge_scenario: Sc
     reference = planning.reference_energy(scn, world)
     assert res.energy <= 1.02 * reference
     assert res.legs[0].planner.iterations == 0  # no swarm ran on copies
+    # the note says why the swarm did not fly it, in the guide's frame and without the
+    # straight frame's direction
+    note = next(n for n in res.notes if "grid search's route" in n)
+    assert "could not start along the guide" in note and "start→goal direction" not in note
+    assert re.search(r"\(only \d+ of \d+ initial paths reached the goal", note), note

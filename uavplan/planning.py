@@ -667,6 +667,13 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray, *, dense: bool = F
     return notes
 
 
+def _why_not_started(message: str) -> str:
+    """A planner's "no path" message as a note says it of one frame (its direction left out:
+    the note names the frame)."""
+    why = message.removesuffix(" along the start→goal direction")
+    return why or "no initial path reached the goal"
+
+
 def _plan_leg(
     scenario: Scenario,
     world: World,
@@ -689,7 +696,9 @@ def _plan_leg(
     guide_s = 0.0
     route_pf: np.ndarray | None = None
     if not res.solved:
-        # the straight start→goal columns cannot hold a path: search the whole volume
+        # the straight start→goal columns hold no path to start the swarm from (none, or too
+        # few: base.INIT_MIN_SHARE): search the whole volume
+        straight_why = _why_not_started(res.message)
         from uavplan.planners.guide import GuideSpace, find_guide, problem_along
 
         space = GuideSpace.of(problem)
@@ -704,13 +713,14 @@ def _plan_leg(
         if res.solved:
             notes.append(
                 f"planned along a guide route from a grid search ({len(guide.route_pf)} "
-                "vertices): the straight start→goal columns could not hold a path"
+                f"vertices): on the straight start→goal columns {straight_why}"
             )
         else:
             route_pf = guide.route_pf
             notes.append(
-                f"{cfg.algorithm} found no path even along the guide; flying the grid search's "
-                "route (shortened, smoothed and clearance-checked)"
+                f"{cfg.algorithm} could not start along the guide either "
+                f"({_why_not_started(res.message)}); flying the grid search's route "
+                "(shortened, smoothed and clearance-checked)"
             )
     if res.termination is SearchEnd.INTERRUPTED:
         return _Unplanned(RouteFailure.INTERRUPTED, "interrupted", res, guide_s)
