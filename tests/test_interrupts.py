@@ -77,10 +77,14 @@ def landed_before_uavplan(code: int, stderr: str) -> bool:
     ran: the process ended by the signal with nothing said (before Python's handler), or with
     a traceback none of whose frames is the package's but ``uavplan/__init__.py`` or the
     module level of ``uavplan/__main__.py`` (``site``, ``runpy``), or ``site`` reported the
-    interrupt in a .pth file and went on."""
+    interrupt in a .pth file and went on, or ``python -m`` could not import ``runpy``."""
     if code == -signal.SIGINT and not stderr:
         return True
     if "Error processing line" in stderr and ".pth" in stderr:
+        return True
+    if code == 1 and stderr.startswith("Could not import runpy module"):
+        # `python -m` could not even import runpy: the interpreter's own start-up (CPython's
+        # pymain_run_module), before any module of ours is looked up (seen once in CI)
         return True
     if "Traceback" not in stderr:
         return False
