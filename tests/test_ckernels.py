@@ -155,6 +155,64 @@ def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
     assert free[:300].any() and not free[:300].all() and free[300:].any()
 
 
+def _placed_beside(a: np.ndarray, b: np.ndarray, rng: np.random.Generator, gap: float):
+    """A box of random size and yaw beside the leg a→b (plan view), ``gap`` from it."""
+    from shapely.geometry import LineString, Polygon
+
+    size = (float(rng.uniform(4.0, 90.0)), float(rng.uniform(4.0, 30.0)))
+    yaw = float(rng.uniform(0.0, 180.0))
+    run = b[:2] - a[:2]
+    normal = np.array([-run[1], run[0]]) / np.linalg.norm(run) * rng.choice([-1.0, 1.0])
+    at = a[:2] + rng.uniform(0.0, 1.0) * run
+    leg = LineString([tuple(a[:2]), tuple(b[:2])])
+
+    def box(shift: float) -> BoxObstacle:
+        c = at + shift * normal
+        return BoxObstacle((float(c[0]), float(c[1])), size, 60.0, yaw)
+
+    lo, hi = 0.0, 200.0  # the footprint's distance from the leg grows with the shift
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        d = leg.distance(Polygon(box(mid).footprint()))
+        lo, hi = (mid, hi) if d < gap else (lo, mid)
+    return box(hi)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_long_leg_walks_its_corridor_and_misses_no_piece_within_the_margin(seed: int) -> None:
+    """A long leg over a crowded grid (its box spans far more cells than the pieces near it)
+    is tested against the cells along it only: a piece the leg passes within the margin,
+    just inside it on either side anywhere along the leg, in any direction and spanning
+    several cells, is still found; one just outside it is not (the leg keeps the margin).
+    The exact clearance over every piece (no grid) is the reference."""
+    rng = np.random.default_rng(100 + seed)
+    margin = 5.0
+    for _ in range(40):
+        a = rng.uniform((-280, -280, 20), (-150, 280, 40))
+        b = rng.uniform((150, -280, 20), (280, 280, 40))
+        if rng.random() < 0.5:
+            a, b = b, a
+        if rng.random() < 0.2:
+            b[0] = a[0] + rng.normal(0.0, 0.5)  # nearly north-south
+        run = b[:2] - a[:2]
+        gap = rng.uniform(0.5, 0.99) * margin if rng.random() < 0.5 else 1.01 * margin
+        near = _placed_beside(a, b, rng, gap)
+        # clutter away from the leg: small pieces everywhere, so the leg's box spans
+        # hundreds of cells while its corridor holds a few dozen
+        clutter = []
+        while len(clutter) < 1500:
+            c = rng.uniform(-290.0, 290.0, 2)
+            s = a[:2] + np.clip(np.dot(c - a[:2], run) / np.dot(run, run), 0, 1) * run
+            if np.linalg.norm(c - s) > 3 * margin + 4.0:
+                clutter.append(CylinderObstacle((float(c[0]), float(c[1])), 2.0, 60.0))
+        w = World.build([*clutter, near], bounds_xyz=BOUNDS, margin_m=margin)
+        assert w.kernel_args.gmeta[3] > 20 and w.kernel_args.gmeta[4] > 20
+        free = bool(_geom.segments_free(a[None, :], b[None, :], w.kernel_args, margin)[0])
+        dist, _ = _geom.segments_clearance(a[None, :], b[None, :], w.kernel_args)
+        assert dist[0] == pytest.approx(gap, abs=1e-6)
+        assert free == (gap >= margin), (a, b, gap)
+
+
 def ref_farthest_visible(p: np.ndarray, w: World) -> list[int]:
     """Node simplification as first written: test every later node, jump to the largest
     free one (the next node when none is)."""

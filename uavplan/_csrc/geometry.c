@@ -129,10 +129,47 @@ static inline void cell_range(double lo, double hi, double origin, double cell, 
     *b_out = b;
 }
 
+/* The rows [*lo, *hi] of grid column ``cx`` (clipped to [cy0, cy1]) whose cells can hold a
+ * point within ``m`` of the segment's plan view a→b: the segment's points whose x lies within
+ * ``m`` of the column give its y range, grown by ``m`` (a point within m of the segment is
+ * within m of one of them in x and in y). Empty when *lo > *hi. */
+static inline void corridor_rows(double ax, double ay, double bx, double by, double m, int64_t cx,
+                                 double gx0, double gy0, double cell, int64_t ny, int64_t cy0,
+                                 int64_t cy1, int64_t *lo, int64_t *hi) {
+    double x0 = gx0 + (double)cx * cell - m;
+    double x1 = gx0 + (double)(cx + 1) * cell + m;
+    double dx = bx - ax;
+    double t0 = 0.0, t1 = 1.0;
+    if (dx != 0.0) {
+        double u = (x0 - ax) / dx;
+        double v = (x1 - ax) / dx;
+        t0 = dmax(0.0, dmin(u, v));
+        t1 = dmin(1.0, dmax(u, v));
+    } else if (ax < x0 || ax > x1) {
+        t0 = 1.0, t1 = 0.0;
+    }
+    if (t0 > t1) {
+        *lo = 1, *hi = 0;
+        return;
+    }
+    double ya = ay + t0 * (by - ay);
+    double yb = ay + t1 * (by - ay);
+    cell_range(dmin(ya, yb) - m, dmax(ya, yb) + m, gy0, cell, ny, lo, hi);
+    *lo = imax(*lo, cy0);
+    *hi = imin(*hi, cy1);
+}
+
+/* A segment whose box spans more than this many cells walks the cells along it (its corridor)
+ * rather than every cell of its box: a long diagonal leg meets a few cells per column. */
+#define CORRIDOR_MIN_CELLS 16
+
 /* Whether the segment a→b keeps ``margin`` from every piece and stays inside the bounds.
  * ``hint`` (may be NULL): a piece to test first, and where the blocking piece is left when
  * the segment is not free (consecutive queries along a polyline are often blocked by the same
- * piece). The pieces tested are always the same set, so the answer does not depend on it. */
+ * piece). Which pieces are tested depends on the segment only: every piece whose cells meet
+ * the segment's box grown by the margin, or (a long segment) its corridor, the cells within
+ * the margin of it; a piece left out is farther than the margin from the segment in plan
+ * view, so the answer is the same either way and does not depend on the hint. */
 static int segment_free_h(double ax, double ay, double az, double bx, double by, double bz,
                           const World *w, double margin, int64_t *hint) {
     if (!(inside_bounds(ax, ay, az, w) && inside_bounds(bx, by, bz, w))) return 0;
@@ -162,10 +199,49 @@ static int segment_free_h(double ax, double ay, double az, double bx, double by,
         first = *hint;
         if (seg_piece_dist(ax, ay, az, bx, by, bz, first, w, thr) < thr) return 0;
     }
+    int64_t box_cells = nx == 0 ? 0 : (cx1 - cx0 + 1) * (cy1 - cy0 + 1);
+    if (box_cells > CORRIDOR_MIN_CELLS) {
+        /* a long segment: the cells of its corridor, each piece in the first of them (in
+         * column, then row order) that it covers; unless they outnumber the pieces */
+        double m = margin + 1e-6;
+        int64_t corridor = 0;
+        for (int64_t cx = cx0; cx <= cx1 && corridor <= (int64_t)npieces; cx++) {
+            int64_t lo, hi;
+            corridor_rows(ax, ay, bx, by, m, cx, gx0, gy0, cell, ny, cy0, cy1, &lo, &hi);
+            if (lo <= hi) corridor += hi - lo + 1;
+        }
+        if (corridor <= (int64_t)npieces) {
+            for (int64_t cx = cx0; cx <= cx1; cx++) {
+                int64_t lo, hi;
+                corridor_rows(ax, ay, bx, by, m, cx, gx0, gy0, cell, ny, cy0, cy1, &lo, &hi);
+                for (int64_t cy = lo; cy <= hi; cy++) {
+                    int64_t c = cx * ny + cy;
+                    for (int64_t t = w->cell_start[c]; t < w->cell_start[c + 1]; t++) {
+                        int64_t k = w->cell_items[t];
+                        const int64_t *pc = w->piece_cells + 4 * k;
+                        if (k == first || cy != imax(lo, pc[2])) continue;
+                        int earlier = 0; /* the piece met the corridor in an earlier column */
+                        for (int64_t e = imax(cx0, pc[0]); e < cx && !earlier; e++) {
+                            int64_t l2, h2;
+                            corridor_rows(ax, ay, bx, by, m, e, gx0, gy0, cell, ny, cy0, cy1,
+                                          &l2, &h2);
+                            earlier = l2 <= h2 && l2 <= pc[3] && h2 >= pc[2];
+                        }
+                        if (earlier) continue;
+                        if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) {
+                            if (hint != NULL) *hint = k;
+                            return 0;
+                        }
+                    }
+                }
+            }
+            return 1;
+        }
+    }
     /* No grid, or a segment whose box spans more cells than there are pieces (a long leg):
      * walk the pieces in index order instead of the cells, testing the same pieces; "free"
      * does not depend on the order of the tests. */
-    if (nx == 0 || (cx1 - cx0 + 1) * (cy1 - cy0 + 1) > (int64_t)npieces) {
+    if (nx == 0 || box_cells > (int64_t)npieces) {
         for (int64_t k = 0; k < npieces; k++) {
             if (k == first || !SF_TESTED(k)) continue;
             if (seg_piece_dist(ax, ay, az, bx, by, bz, k, w, thr) < thr) {
