@@ -498,3 +498,25 @@ def test_largest_free_fraction_is_the_bisection_over_segments_free() -> None:
         assert got == reference(p, step, a, b, 24)
         kinds.add(0.0 if got == 0.0 else 1.0 if got == 1.0 else 0.5)
     assert kinds == {0.0, 0.5, 1.0}
+
+
+def test_worlds_of_one_obstacle_tuple_share_its_pieces_and_a_list_is_split_afresh() -> None:
+    """One plan builds the world of its obstacles several times (search, rehearsal, way
+    home): the same tuple's pieces are split once and shared, read-only; an equal tuple or a
+    list gets pieces equal to them."""
+    obstacles = (BOX, CYL, L_SHAPE, U_SHAPE)
+    a = World.build(obstacles, bounds_xyz=BOUNDS, margin_m=10.0)
+    b = World.build(obstacles, bounds_xyz=BOUNDS, margin_m=5.0)
+    assert a.poly_xy is b.poly_xy and a.owner is b.owner
+    assert not a.poly_xy.flags.writeable and not a.circ.flags.writeable
+    with pytest.raises(ValueError):
+        a.poly_h[0] = 1.0
+    for other in (tuple(list(obstacles)), list(obstacles)):
+        c = World.build(other, bounds_xyz=BOUNDS, margin_m=10.0)
+        assert c.poly_xy is not a.poly_xy
+        for name in ("poly_xy", "poly_n", "poly_h", "circ", "owner", "box"):
+            assert np.array_equal(getattr(c, name), getattr(a, name))
+    # the world's answers do not depend on which build split the pieces
+    p0 = np.array([[-50.0, -20.0, 10.0], [150.0, 40.0, 20.0]])
+    p1 = np.array([[50.0, 20.0, 10.0], [260.0, -40.0, 20.0]])
+    assert np.array_equal(a.segments_free(p0, p1), c.segments_free(p0, p1))

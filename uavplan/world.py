@@ -51,6 +51,52 @@ def _convex_pieces(obstacle: BoxObstacle | PrismObstacle) -> list[list[tuple[flo
     return convex_pieces(obstacle.footprint(), MAX_VERTS)
 
 
+#: the obstacle tuples whose pieces were computed last, with their pieces: one plan builds
+#: the world of the same obstacles several times (the search, the rehearsal, the way home),
+#: and splitting 5,000 footprints into convex pieces takes about 0.1 s
+_PIECES_MEMO: list[tuple[tuple[Obstacle, ...], tuple[np.ndarray, ...]]] = []
+_PIECES_MEMO_SIZE = 4
+
+
+def _pieces_of(
+    obstacles: Sequence[Obstacle],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The kernels' piece arrays of ``obstacles``: (poly_xy, poly_n, poly_h, circ, owner),
+    read-only (worlds share them). A tuple (immutable) is remembered by identity."""
+    if isinstance(obstacles, tuple):
+        for seen, arrays in _PIECES_MEMO:
+            if seen is obstacles:
+                return arrays  # type: ignore[return-value]
+    polys: list[tuple[list[tuple[float, float]], float, int]] = []
+    circles: list[tuple[float, float, float, float, int]] = []
+    for i, obs in enumerate(obstacles):
+        if isinstance(obs, CylinderObstacle):
+            circles.append((*obs.center_m, obs.radius_m, obs.height_m, i))
+        elif isinstance(obs, BoxObstacle | PrismObstacle):
+            for piece in _convex_pieces(obs):
+                polys.append((piece, obs.height_m, i))
+        else:  # pragma: no cover - the scenario layer only makes these three
+            raise TypeError(f"unknown obstacle {obs!r}")
+    poly_xy = np.zeros((len(polys), MAX_VERTS, 2))
+    poly_n = np.zeros(len(polys), dtype=np.int64)
+    poly_h = np.zeros(len(polys))
+    owner = []
+    for k, (piece, h, i) in enumerate(polys):
+        poly_xy[k, : len(piece)] = piece
+        poly_n[k] = len(piece)
+        poly_h[k] = h
+        owner.append(i)
+    circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
+    owner.extend(c[4] for c in circles)
+    arrays = (poly_xy, poly_n, poly_h, circ, np.array(owner, dtype=np.int64))
+    for a in arrays:
+        a.setflags(write=False)
+    if isinstance(obstacles, tuple):
+        _PIECES_MEMO.insert(0, (obstacles, arrays))
+        del _PIECES_MEMO[_PIECES_MEMO_SIZE:]
+    return arrays
+
+
 @dataclass(frozen=True, eq=False)
 class World:
     """Obstacles split into convex pieces, plus convex bounds, in one metric frame.
@@ -92,27 +138,7 @@ class World:
         """The world of ``obstacles`` (each from below the ground up to its height) inside
         the bounds, keeping ``margin_m``; with ``ground``, the margin holds from the terrain
         (its height field) as from any obstacle, and from the ceiling over it."""
-        polys: list[tuple[list[tuple[float, float]], float, int]] = []
-        circles: list[tuple[float, float, float, float, int]] = []
-        for i, obs in enumerate(obstacles):
-            if isinstance(obs, CylinderObstacle):
-                circles.append((*obs.center_m, obs.radius_m, obs.height_m, i))
-            elif isinstance(obs, BoxObstacle | PrismObstacle):
-                for piece in _convex_pieces(obs):
-                    polys.append((piece, obs.height_m, i))
-            else:  # pragma: no cover - the scenario layer only makes these three
-                raise TypeError(f"unknown obstacle {obs!r}")
-        poly_xy = np.zeros((len(polys), MAX_VERTS, 2))
-        poly_n = np.zeros(len(polys), dtype=np.int64)
-        poly_h = np.zeros(len(polys))
-        owner = []
-        for k, (piece, h, i) in enumerate(polys):
-            poly_xy[k, : len(piece)] = piece
-            poly_n[k] = len(piece)
-            poly_h[k] = h
-            owner.append(i)
-        circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
-        owner.extend(c[4] for c in circles)
+        poly_xy, poly_n, poly_h, circ, owner = _pieces_of(obstacles)
         (x0, x1), (y0, y1), (z0, z1) = bounds_xyz
         hp = np.array([[1.0, 0.0, x1], [-1.0, 0.0, -x0], [0.0, 1.0, y1], [0.0, -1.0, -y0]])
         return cls._assemble(
@@ -120,7 +146,7 @@ class World:
             poly_n,
             poly_h,
             circ,
-            np.array(owner, dtype=np.int64),
+            owner,
             hp,
             np.array([z0, z1], dtype=float),
             float(margin_m),
