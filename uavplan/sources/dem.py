@@ -211,6 +211,42 @@ class Terrain:
         out[~inside] = np.nan
         return np.asarray(out, dtype=np.float64)
 
+    @cached_property
+    def _to_pixel(self) -> Any:
+        return ~self.transform
+
+    def height_at(self, x: float, y: float) -> float:
+        """Ground height AMSL at one ENU point: :meth:`height_m` in scalar arithmetic, for
+        callers that ask one point at a time (a simulated flight's ground); the same value to
+        about 1e-9 m (tests/test_sources_dem.py)."""
+        lat, lon, _ = self.frame.to_geodetic_point(float(x), float(y), 0.0)
+        cx, cy = self._to_crs.transform(lon, lat)
+        t = self._to_pixel
+        col, row = t.a * cx + t.b * cy + t.c, t.d * cx + t.e * cy + t.f
+        z = self.posts_amsl_m
+        nrows, ncols = z.shape
+        h = math.nan
+        if 0.0 <= col <= ncols and 0.0 <= row <= nrows:
+            u = min(max(col - 0.5, 0.0), ncols - 1.0)
+            v = min(max(row - 0.5, 0.0), nrows - 1.0)
+            j0 = min(max(math.floor(u), 0), max(ncols - 2, 0))
+            i0 = min(max(math.floor(v), 0), max(nrows - 2, 0))
+            j1, i1 = min(j0 + 1, ncols - 1), min(i0 + 1, nrows - 1)
+            tu, tv = u - j0, v - i0
+            h = float(
+                z[i0, j0] * (1 - tu) * (1 - tv)
+                + z[i0, j1] * tu * (1 - tv)
+                + z[i1, j0] * (1 - tu) * tv
+                + z[i1, j1] * tu * tv
+            )
+        if not math.isfinite(h):
+            raise TerrainError(
+                f"the DEM does not cover ENU point ({x:.1f}, {y:.1f}) m "
+                "(1 of 1 points outside it or on nodata)",
+                file=self.source,
+            )
+        return h
+
     def covers(self, points_xy: ArrayLike) -> NDArray[np.bool_]:
         """Whether the DEM gives a height at each ENU point ``(n, 2)``."""
         return np.isfinite(self._bilinear(points_xy))
