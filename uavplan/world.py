@@ -23,10 +23,12 @@ from functools import cached_property
 import numpy as np
 
 from uavplan import _geom
-from uavplan.geometry2d import convex_pieces
+from uavplan.geometry2d import COLLINEAR_TOL, convex_pieces
 from uavplan.ground import FIELD_META, Ground
 from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 
+#: a batch of segment tests at least this long is shared among the kernels' threads
+SEGMENTS_PARALLEL_MIN = 256
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
 GROUND = -2  # what the terrain's ground is, where an obstacle index would be
 CEILING = -3  # and the ceiling above it (bounds.z max above the ground)
@@ -51,6 +53,33 @@ def _convex_pieces(obstacle: BoxObstacle | PrismObstacle) -> list[list[tuple[flo
     return convex_pieces(obstacle.footprint(), MAX_VERTS)
 
 
+def _box_footprints(boxes: Sequence[BoxObstacle]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The footprints of ``boxes`` at once: corners x and y ``(n, 4)`` with the arithmetic of
+    :meth:`BoxObstacle.footprint` (the same floats), and whether each is, as
+    :func:`~uavplan.geometry2d.convex_pieces` would find it, its own single convex
+    counter-clockwise piece (a degenerate box is not: it takes the general path)."""
+    n = len(boxes)
+    cx = np.array([o.center_m[0] for o in boxes], dtype=float).reshape(n)
+    cy = np.array([o.center_m[1] for o in boxes], dtype=float).reshape(n)
+    hx = np.array([o.size_m[0] / 2.0 for o in boxes], dtype=float).reshape(n)
+    hy = np.array([o.size_m[1] / 2.0 for o in boxes], dtype=float).reshape(n)
+    yaw = [math.radians(o.yaw_deg) for o in boxes]
+    c = np.array([math.cos(a) for a in yaw], dtype=float).reshape(n, 1)
+    s = np.array([math.sin(a) for a in yaw], dtype=float).reshape(n, 1)
+    u = np.stack([-hx, hx, hx, -hx], axis=1)
+    v = np.stack([-hy, -hy, hy, hy], axis=1)
+    x = cx[:, None] + c * u - s * v
+    y = cy[:, None] + s * u + c * v
+    # convex_pieces' tests, term by term: the signed area's sign, then every turn
+    nx, ny = np.roll(x, -1, axis=1), np.roll(y, -1, axis=1)
+    terms = x * ny - nx * y
+    twice_area = terms[:, 0] + terms[:, 1] + terms[:, 2] + terms[:, 3]
+    ax, ay = np.roll(x, -2, axis=1), np.roll(y, -2, axis=1)
+    turns = (nx - x) * (ay - ny) - (ny - y) * (ax - nx)
+    whole = (twice_area >= 0) & np.all(turns >= -COLLINEAR_TOL, axis=1) & (MAX_VERTS >= 4)
+    return x, y, whole
+
+
 #: the obstacle tuples whose pieces were computed last, with their pieces: one plan builds
 #: the world of the same obstacles several times (the search, the rehearsal, the way home),
 #: and splitting 5,000 footprints into convex pieces takes about 0.1 s
@@ -67,25 +96,43 @@ def _pieces_of(
         for seen, arrays in _PIECES_MEMO:
             if seen is obstacles:
                 return arrays  # type: ignore[return-value]
-    polys: list[tuple[list[tuple[float, float]], float, int]] = []
+    boxes = [o for o in obstacles if isinstance(o, BoxObstacle)]
+    box_x, box_y, box_whole = _box_footprints(boxes)
+    # each piece: a row of the box footprints (an int), or a list of vertices
+    pieces: list[int | list[tuple[float, float]]] = []
+    heights: list[float] = []
+    owner: list[int] = []
     circles: list[tuple[float, float, float, float, int]] = []
+    b = 0
     for i, obs in enumerate(obstacles):
         if isinstance(obs, CylinderObstacle):
             circles.append((*obs.center_m, obs.radius_m, obs.height_m, i))
-        elif isinstance(obs, BoxObstacle | PrismObstacle):
-            for piece in _convex_pieces(obs):
-                polys.append((piece, obs.height_m, i))
-        else:  # pragma: no cover - the scenario layer only makes these three
+            continue
+        if isinstance(obs, BoxObstacle):
+            b += 1
+            if box_whole[b - 1]:
+                pieces.append(b - 1)
+                heights.append(obs.height_m)
+                owner.append(i)
+                continue
+        elif not isinstance(obs, PrismObstacle):  # pragma: no cover - only these three exist
             raise TypeError(f"unknown obstacle {obs!r}")
-    poly_xy = np.zeros((len(polys), MAX_VERTS, 2))
-    poly_n = np.zeros(len(polys), dtype=np.int64)
-    poly_h = np.zeros(len(polys))
-    owner = []
-    for k, (piece, h, i) in enumerate(polys):
-        poly_xy[k, : len(piece)] = piece
-        poly_n[k] = len(piece)
-        poly_h[k] = h
-        owner.append(i)
+        for piece in _convex_pieces(obs):
+            pieces.append(piece)
+            heights.append(obs.height_m)
+            owner.append(i)
+    poly_xy = np.zeros((len(pieces), MAX_VERTS, 2))
+    poly_n = np.zeros(len(pieces), dtype=np.int64)
+    poly_h = np.array(heights, dtype=float).reshape(-1)
+    rows = [k for k, row in enumerate(pieces) if isinstance(row, int)]
+    which = [row for row in pieces if isinstance(row, int)]
+    poly_xy[rows, :4, 0] = box_x[which]
+    poly_xy[rows, :4, 1] = box_y[which]
+    poly_n[rows] = 4
+    for k, ring in enumerate(pieces):
+        if not isinstance(ring, int):
+            poly_xy[k, : len(ring)] = ring
+            poly_n[k] = len(ring)
     circ = np.array([c[:4] for c in circles], dtype=float).reshape(-1, 4)
     owner.extend(c[4] for c in circles)
     arrays = (poly_xy, poly_n, poly_h, circ, np.array(owner, dtype=np.int64))
@@ -273,11 +320,13 @@ class World:
     def segments_free(
         self, p0: np.ndarray, p1: np.ndarray, margin_m: float | None = None
     ) -> np.ndarray:
-        """(n,) bool: segment p0[i]→p1[i] inside the bounds and ≥ margin from all obstacles."""
+        """(n,) bool: segment p0[i]→p1[i] inside the bounds and ≥ margin from all obstacles
+        (a long batch shared among :func:`~uavplan._geom.kernel_threads` threads)."""
         p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
         p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
         margin = self.margin_m if margin_m is None else float(margin_m)
-        return _geom.segments_free(p0, p1, self.kernel_args, margin)
+        threads = _geom.kernel_threads() if p0.shape[0] >= SEGMENTS_PARALLEL_MIN else 1
+        return _geom.segments_free(p0, p1, self.kernel_args, margin, threads)
 
     def farthest_visible(self, points: np.ndarray, margin_m: float | None = None) -> np.ndarray:
         """Indices of the greedy farthest-reachable chain through the polyline ``points``
