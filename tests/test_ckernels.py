@@ -155,6 +155,25 @@ def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
     assert free[:300].any() and not free[:300].all() and free[300:].any()
 
 
+def test_a_long_batch_of_segment_tests_shared_among_threads_gives_the_same_answers() -> None:
+    rng = np.random.default_rng(12)
+    centres = rng.uniform(-260.0, 260.0, (300, 2))
+    w = World.build(
+        [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres],
+        bounds_xyz=BOUNDS,
+        margin_m=5.0,
+    )
+    p0 = rng.uniform((-280, -280, 1), (280, 280, 100), (1001, 3))
+    p1 = rng.uniform((-280, -280, 1), (280, 280, 100), (1001, 3))
+    one = _geom.segments_free(p0, p1, w.kernel_args, 5.0, 1)
+    assert one.any() and not one.all()
+    for threads in (2, 3, 8, 50):
+        assert np.array_equal(_geom.segments_free(p0, p1, w.kernel_args, 5.0, threads), one)
+    assert np.array_equal(w.segments_free(p0, p1), one)
+    short = _geom.segments_free(p0[:10], p1[:10], w.kernel_args, 5.0, 4)
+    assert np.array_equal(short, one[:10])
+
+
 def _placed_beside(a: np.ndarray, b: np.ndarray, rng: np.random.Generator, gap: float):
     """A box of random size and yaw beside the leg a→b (plan view), ``gap`` from it."""
     from shapely.geometry import LineString, Polygon

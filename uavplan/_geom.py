@@ -15,6 +15,7 @@ nothing here knows about files, YAML or MAVLink.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +35,33 @@ except ImportError as exc:  # pragma: no cover - a source tree that was never bu
 GOLD: float = _c.GOLD
 DIST_TOL_M: float = _c.DIST_TOL_M
 FAR: float = _c.FAR
+
+#: the most threads :func:`kernel_threads` picks on its own (the SPSA step's phases are
+#: short: more threads were not measured)
+THREADS_AUTO_MAX = 2
+#: the most threads a kernel runs (the kernels' own limit)
+THREADS_MAX: int = _c.STEP_MAX_THREADS
+#: whether this build of the kernels has helper threads (POSIX threads and gcc's / clang's
+#: atomics); without them every kernel runs on its caller's thread alone
+HAVE_THREADS: bool = bool(_c.HAVE_THREADS)
+
+
+def kernel_threads() -> int:
+    """Threads for the kernels that share their work (the SPSA step, long batches of segment
+    tests): ``UAVPLAN_THREADS`` when it is set to a whole number (1 turns threading off; at
+    most :data:`THREADS_MAX`), else the CPUs this process may run on, at most
+    :data:`THREADS_AUTO_MAX` (one CPU, e.g. under ``taskset -c 0``: 1). Always 1 on a build
+    without threads (:data:`HAVE_THREADS`)."""
+    if not HAVE_THREADS:
+        return 1
+    text = os.environ.get("UAVPLAN_THREADS", "").strip()
+    if text.isdigit() and int(text) >= 1:
+        return min(int(text), THREADS_MAX)
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, THREADS_AUTO_MAX))
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -162,11 +190,14 @@ def segment_free(
     )  # fmt: skip
 
 
-def segments_free(p0: np.ndarray, p1: np.ndarray, W: KernelWorld, margin: float) -> np.ndarray:
-    """Batch of :func:`segment_free`; ``p0``, ``p1``: (n, 3)."""
+def segments_free(
+    p0: np.ndarray, p1: np.ndarray, W: KernelWorld, margin: float, threads: int = 1
+) -> np.ndarray:
+    """Batch of :func:`segment_free`; ``p0``, ``p1``: (n, 3). A long batch is shared among
+    ``threads`` threads (the same answers)."""
     p0 = _f64(p0)
     out = np.empty(p0.shape[0], dtype=np.bool_)
-    _c.segments_free(p0, _f64(p1), W, float(margin), out)
+    _c.segments_free(p0, _f64(p1), W, float(margin), out, int(threads))
     return out
 
 

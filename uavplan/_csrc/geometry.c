@@ -405,13 +405,38 @@ PyObject *py_segment_free(PyObject *self, PyObject *args) {
     return PyBool_FromLong(r);
 }
 
-/* segments_free(p0, p1, W, margin, out) */
+/* A batch of segment tests, rows [lo, hi) of p0 → p1 (one thread's share). */
+typedef struct {
+    const double *p0, *p1;
+    unsigned char *out;
+    Py_ssize_t lo, hi;
+    const World *w;
+    double margin;
+} SegmentsJob;
+
+static void *segments_run(void *arg) {
+    const SegmentsJob *j = (const SegmentsJob *)arg;
+    for (Py_ssize_t i = j->lo; i < j->hi; i++)
+        j->out[i] = (unsigned char)segment_free(j->p0[3 * i], j->p0[3 * i + 1], j->p0[3 * i + 2],
+                                                j->p1[3 * i], j->p1[3 * i + 1], j->p1[3 * i + 2],
+                                                j->w, j->margin);
+    return NULL;
+}
+
+/* A batch shorter than this runs on the caller's thread alone (a thread costs tens of µs). */
+#define SEGMENTS_PARALLEL_MIN 256
+
+/* segments_free(p0, p1, W, margin, out[, threads]): out[i] = segment p0[i] → p1[i] is free.
+ * With threads > 1 a long batch is shared among that many threads (the caller's and helpers
+ * started for it; fewer if the system refuses one): each answer is the same. The GIL is
+ * released meanwhile. */
 PyObject *py_segments_free(PyObject *self, PyObject *args) {
     PyObject *o0, *o1, *wt, *oo;
     double margin;
+    int threads = 1;
     Buf b0 = {0}, b1 = {0}, bo = {0};
     WorldBufs wb;
-    if (!PyArg_ParseTuple(args, "OOOdO", &o0, &o1, &wt, &margin, &oo)) return NULL;
+    if (!PyArg_ParseTuple(args, "OOOdO|i", &o0, &o1, &wt, &margin, &oo, &threads)) return NULL;
     if (world_get(wt, &wb, 11) < 0) return NULL;
     PyObject *ret = NULL;
     if (get_buf(o0, &b0, T_F64, 2, 0, "p0") < 0 || get_buf(o1, &b1, T_F64, 2, 0, "p1") < 0 ||
@@ -421,11 +446,35 @@ PyObject *py_segments_free(PyObject *self, PyObject *args) {
     if (need(dim(&b0, 1) == 3 && dim(&b1, 1) == 3 && dim(&b1, 0) == n && dim(&bo, 0) == n,
              "segments_free: p0, p1 (n, 3), out (n,)") < 0)
         goto done;
-    const double *p0 = F64(b0), *p1 = F64(b1);
-    unsigned char *out = BOOL(bo);
-    for (Py_ssize_t i = 0; i < n; i++)
-        out[i] = (unsigned char)segment_free(p0[3 * i], p0[3 * i + 1], p0[3 * i + 2], p1[3 * i],
-                                             p1[3 * i + 1], p1[3 * i + 2], &wb.w, margin);
+    if (threads > STEP_MAX_THREADS) threads = STEP_MAX_THREADS;
+    if (threads < 1 || n < SEGMENTS_PARALLEL_MIN || !HAVE_THREADS) threads = 1;
+    SegmentsJob jobs[STEP_MAX_THREADS];
+    for (int t = 0; t < threads; t++) {
+        jobs[t].p0 = F64(b0);
+        jobs[t].p1 = F64(b1);
+        jobs[t].out = BOOL(bo);
+        jobs[t].lo = n * t / threads;
+        jobs[t].hi = n * (t + 1) / threads;
+        jobs[t].w = &wb.w;
+        jobs[t].margin = margin;
+    }
+    Py_BEGIN_ALLOW_THREADS
+#if HAVE_THREADS
+    pthread_t helper[STEP_MAX_THREADS];
+    int started[STEP_MAX_THREADS] = {0};
+    for (int t = 1; t < threads; t++)
+        started[t] = pthread_create(&helper[t], NULL, segments_run, &jobs[t]) == 0;
+    segments_run(&jobs[0]);
+    for (int t = 1; t < threads; t++) {
+        if (started[t])
+            pthread_join(helper[t], NULL);
+        else
+            segments_run(&jobs[t]); /* no thread for it: the caller does its share */
+    }
+#else
+    segments_run(&jobs[0]);
+#endif
+    Py_END_ALLOW_THREADS
     ret = Py_NewRef(Py_None);
 done:
     rel(&b0);

@@ -23,12 +23,12 @@ from the module.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from uavplan import _geom
 from uavplan._geom import KernelWorld, _c, kernel_fields
 from uavplan.path.energy import EnergyArgs
 
@@ -503,32 +503,23 @@ def spsa_step(
     _c.spsa_step(x, f, osc_fixed, counts, setup, draws)
 
 
-#: the most threads :func:`step_threads` picks on its own (the step's phases are short: more
-#: threads were not measured)
-STEP_THREADS_AUTO_MAX = 2
-#: the most threads the kernel runs (the kernels' own limit)
-STEP_THREADS_MAX: int = _c.STEP_MAX_THREADS
+#: the most threads :func:`step_threads` picks on its own, and the kernels' limit
+STEP_THREADS_AUTO_MAX = _geom.THREADS_AUTO_MAX
+STEP_THREADS_MAX: int = _geom.THREADS_MAX
 #: whether this build of the kernels has helper threads (POSIX threads and gcc's / clang's
 #: atomics); without them the step runs on its caller's thread alone and says so
 #: (:func:`step_threads` is then 1, and the planner, ``bench`` and ``bench_core`` report it)
-HAVE_THREADS: bool = bool(_c.HAVE_THREADS)
+HAVE_THREADS: bool = _geom.HAVE_THREADS
 
 
 def step_threads() -> int:
-    """Threads for the fused SPSA step: ``UAVPLAN_THREADS`` when it is set to a whole number
-    (1 turns threading off; at most :data:`STEP_THREADS_MAX`), else the CPUs this process may
-    run on, at most :data:`STEP_THREADS_AUTO_MAX` (one CPU, e.g. under ``taskset -c 0``: 1).
-    Always 1 on a build without threads (:data:`HAVE_THREADS`)."""
+    """Threads for the fused SPSA step (:func:`uavplan._geom.kernel_threads`):
+    ``UAVPLAN_THREADS`` when it is set to a whole number (1 turns threading off; at most
+    :data:`STEP_THREADS_MAX`), else the CPUs this process may run on, at most
+    :data:`STEP_THREADS_AUTO_MAX`. Always 1 on a build without threads (:data:`HAVE_THREADS`)."""
     if not HAVE_THREADS:
         return 1
-    text = os.environ.get("UAVPLAN_THREADS", "").strip()
-    if text.isdigit() and int(text) >= 1:
-        return min(int(text), STEP_THREADS_MAX)
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):  # not on Linux
-        cpus = os.cpu_count() or 1
-    return max(1, min(cpus, STEP_THREADS_AUTO_MAX))
+    return _geom.kernel_threads()
 
 
 def step_threads_note() -> str:
