@@ -27,6 +27,7 @@ from terrain_helpers import (  # noqa: E402
 from uavplan import _ckernels  # noqa: E402
 from uavplan.cli import main  # noqa: E402
 from uavplan.geo import EnuFrame  # noqa: E402
+from uavplan.ground import FIELD_BLOCK  # noqa: E402
 from uavplan.planners import _kernels as K  # noqa: E402
 from uavplan.planning import build_problem, build_world  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
@@ -165,6 +166,62 @@ def test_kernel_distances_are_the_numpy_distances(rough_world) -> None:
         dd, _ = world.points_clearance(p + t * (q - p))
         assert dd.min() - 0.05 <= d <= dd.min() + 1e-9
         assert not ok or d >= world.margin_m - 1e-9
+
+
+def test_long_segments_over_the_terrain_skip_only_what_they_cannot_come_near(
+    rough_world,
+) -> None:
+    """Long segments across the rough field (many blocks of cells: the walk skips a block
+    whose highest corner it clears, and a simplification's chords are probed at points along
+    them first): the kernel's distance is the least of its points' (numpy's exact point
+    distance, sampled every 3 m: the true least lies within 1.5 m of a sample's), and "free"
+    and the simplification agree with it."""
+    scn, world, bilinear = rough_world
+    ground = scn.site.ground
+    field = ground.field
+    assert FIELD_BLOCK == _ckernels.FIELD_BLOCK
+    b = FIELD_BLOCK
+    assert field.blocks.shape[:2] == tuple(-(-(n - 1) // b) for n in field.z.shape)
+    cases = [(0, 0), (1, 2), (2, 1)]
+    for (i, j), (hi, lo) in zip(cases, field.blocks[[0, 1, 2], [0, 2, 1]], strict=True):
+        corners = field.z[i * b : i * b + b + 1, j * b : j * b + b + 1]
+        assert (hi, lo) == (corners.max(), corners.min())
+    assert field.blocks.shape[0] > 2 and field.blocks.shape[1] > 2
+    rng = np.random.default_rng(8)
+    n = 14
+    a_xy = rng.uniform(-650, 650, (n, 2))
+    b_xy = rng.uniform(-650, 650, (n, 2))
+    # from just clear of the ground (or the ceiling) to well above it (below it)
+    a = np.column_stack([a_xy, bilinear(a_xy) + rng.choice([8.0, 30.0, 100.0, 112.0], n)])
+    b = np.column_stack([b_xy, bilinear(b_xy) + rng.choice([8.0, 30.0, 100.0, 112.0], n)])
+    d_seg, _ = world.segments_clearance(a, b)
+    free = world.segments_free(a, b)
+    # every segment's sample points in one numpy call
+    counts = [max(2, int(np.linalg.norm(q - p) / 3.0)) for p, q in zip(a, b, strict=True)]
+    pts = np.vstack(
+        [
+            p + np.linspace(0.0, 1.0, k)[:, None] * (q - p)
+            for p, q, k in zip(a, b, counts, strict=True)
+        ]
+    )
+    dd, _, _ = field.distance(pts, lift=ground.lift_m, roof=ground.roof_m, reach=60.0)
+    least = np.minimum.reduceat(np.minimum(dd, 60.0), np.cumsum([0, *counts[:-1]]))
+    for d, ok, low in zip(d_seg, free, least, strict=True):
+        assert low - 1.5 <= min(d, 60.0) <= low + 1e-9
+        if abs(d - world.margin_m) > 1e-6:
+            assert ok == (d >= world.margin_m)
+    assert free.any() and not free.all()
+    # the simplification (probed chords) keeps what the unprobed tests keep
+    line = np.column_stack([np.linspace(-650, 650, 60), 300 * np.sin(np.linspace(0, 6, 60))])
+    line = np.column_stack([line, bilinear(line) + 40.0])
+    keep, i = [0], 0
+    while i < len(line) - 1:
+        later = np.arange(i + 1, len(line))
+        ok = world.segments_free(np.repeat(line[i : i + 1], later.size, axis=0), line[later])
+        i = int(later[ok].max()) if ok.any() else i + 1
+        keep.append(i)
+    assert world.farthest_visible(line).tolist() == keep
+    assert 2 < len(keep) < len(line)
 
 
 def test_the_clearance_table_is_exact_where_the_rule_reads_it(rough_world) -> None:

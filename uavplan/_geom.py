@@ -100,8 +100,9 @@ class KernelWorld:
     ymax, zmax); bounds: half-planes ``hp`` (nhp, 3) and ``zlim`` (2,); the cell grid of
     :func:`build_cells`: ``gmeta``, ``cell_start``, ``cell_items``, ``piece_cells``; the
     terrain's height field (:class:`uavplan.ground.HeightField`): ``hf_xy`` (nr, nc, 2),
-    ``hf_z`` (nr, nc), ``hf_slope`` (nr − 1, nc − 1), ``hf_meta`` (``FIELD_META``,): empty
-    arrays over flat ground. Arrays are brought to the kernels' dtypes once, here
+    ``hf_z`` (nr, nc), ``hf_slope`` (nr − 1, nc − 1), ``hf_meta`` (``FIELD_META``,),
+    ``hf_blocks`` (nbr, nbc, 2) (:attr:`~uavplan.ground.HeightField.blocks`): empty arrays
+    over flat ground. Arrays are brought to the kernels' dtypes once, here
     (:func:`kernel_fields`)."""
 
     poly_xy: np.ndarray
@@ -119,6 +120,7 @@ class KernelWorld:
     hf_z: np.ndarray
     hf_slope: np.ndarray
     hf_meta: np.ndarray
+    hf_blocks: np.ndarray
 
     def __post_init__(self) -> None:
         kernel_fields(self, "world")

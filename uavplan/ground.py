@@ -33,6 +33,7 @@ import math
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
@@ -53,6 +54,9 @@ MAX_SUBDIVISION = 12
 BLOCK_CELLS = 32_768
 #: the kernels' metadata vector's length (kernels.h FIELD_META)
 FIELD_META = 16
+#: the side, in cells, of the blocks whose highest and lowest corner the kernels hold
+#: (kernels.h FIELD_BLOCK): a segment well clear of a block's corners skips its cells
+FIELD_BLOCK = 8
 #: a leg flown over the ground (a terrain-frame leg) is checked as the polyline through
 #: samples of it: at every crossing of a row or column of DEM posts, where the ground's slope
 #: jumps, and between them so close that the flown curve departs from the chords by at most
@@ -160,6 +164,30 @@ class HeightField:
     @property
     def shape(self) -> tuple[int, int]:
         return (int(self.z.shape[0]), int(self.z.shape[1]))
+
+    @cached_property
+    def blocks(self) -> NDArray[Any]:
+        """``(nbr, nbc, 2)``: the highest and the lowest ``z`` of the corners of each block of
+        :data:`FIELD_BLOCK` × :data:`FIELD_BLOCK` cells (the last ones cut short), for the
+        kernels' walk along a segment to skip a block its cells could not come near."""
+        import numpy as np
+
+        z = self.z
+        nr, nc = z.shape
+        b = FIELD_BLOCK
+        nbr, nbc = max(0, -(-(nr - 1) // b)), max(0, -(-(nc - 1) // b))
+        out = np.empty((nbr, nbc, 2))
+        if nbr == 0 or nbc == 0:
+            return out
+        starts = np.arange(nbc) * b
+        last = np.minimum(starts + b, nc - 1)
+        for bi in range(nbr):
+            # the corners of block (bi, bj): rows bi*b .. bi*b + b, columns bj*b .. bj*b + b
+            rows = z[bi * b : bi * b + b + 1]
+            top, bottom = rows.max(axis=0), rows.min(axis=0)
+            out[bi, :, 0] = np.maximum(np.maximum.reduceat(top[: nc - 1], starts), top[last])
+            out[bi, :, 1] = np.minimum(np.minimum.reduceat(bottom[: nc - 1], starts), bottom[last])
+        return out
 
     @property
     def zmax(self) -> float:

@@ -34,7 +34,13 @@ GROUND = -2  # what the terrain's ground is, where an obstacle index would be
 CEILING = -3  # and the ceiling above it (bounds.z max above the ground)
 CEILING_TOP = 1e300  # bounding-box top of a ceiling piece (height −b: solid from b up)
 #: the kernels' empty height field (a world over flat ground)
-_NO_FIELD = (np.zeros((0, 0, 2)), np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(FIELD_META))
+_NO_FIELD = (
+    np.zeros((0, 0, 2)),
+    np.zeros((0, 0)),
+    np.zeros((0, 0)),
+    np.zeros(FIELD_META),
+    np.zeros((0, 0, 2)),
+)
 
 
 def _cell_size(box: np.ndarray) -> float:
@@ -293,11 +299,11 @@ class World:
     def kernel_args(self) -> _geom.KernelWorld:
         """The world as the kernels of :mod:`uavplan._geom` read it, by name (checked once)."""
         gmeta, cell_start, cell_items, piece_cells = self.cells
-        hf_xy, hf_z, hf_slope, hf_meta = _NO_FIELD
+        hf_xy, hf_z, hf_slope, hf_meta, hf_blocks = _NO_FIELD
         if self.ground is not None:
             ox, oy, c, s = self.field_frame
             field = self.ground.field
-            hf_xy, hf_z, hf_slope = field.xy, field.z, field.slope
+            hf_xy, hf_z, hf_slope, hf_blocks = field.xy, field.z, field.slope, field.blocks
             hf_meta = self.ground.kernel_meta((ox, oy), (c, s))
         return _geom.KernelWorld(
             poly_xy=self.poly_xy,
@@ -315,6 +321,7 @@ class World:
             hf_z=hf_z,
             hf_slope=hf_slope,
             hf_meta=hf_meta,
+            hf_blocks=hf_blocks,
         )
 
     def segments_free(

@@ -89,7 +89,7 @@ typedef struct {
 #define F(s, n, kind, ndim, writable) {#n, #s "." #n, kind, ndim, writable}
 
 /* uavplan._geom.KernelWorld. A kernel reads the first 5 (pieces), 7 (and the bounds) or 11
- * (and the cell grid), and always the last 4 (the height field). */
+ * (and the cell grid), and always the last 5 (the height field). */
 static const Field WORLD_FIELDS[WORLD_BUFS] = {
     F(world, poly_xy, T_F64, 3, 0),
     F(world, poly_n, T_I64, 1, 0),
@@ -106,6 +106,7 @@ static const Field WORLD_FIELDS[WORLD_BUFS] = {
     F(world, hf_z, T_F64, 2, 0),
     F(world, hf_slope, T_F64, 2, 0),
     F(world, hf_meta, T_F64, 1, 0),
+    F(world, hf_blocks, T_F64, 3, 0),
 };
 #define WORLD_FIELD0 11 /* the height field's first field */
 
@@ -270,14 +271,17 @@ void world_release(WorldBufs *wb) { values_release(wb->v, WORLD_BUFS); }
 /* The height field of a world whose field arrays are held (an empty field: none). */
 static int field_get(WorldBufs *wb) {
     const Buf *bxy = &wb->v[WORLD_FIELD0].buf, *bz = &wb->v[WORLD_FIELD0 + 1].buf,
-              *bs = &wb->v[WORLD_FIELD0 + 2].buf, *bm = &wb->v[WORLD_FIELD0 + 3].buf;
+              *bs = &wb->v[WORLD_FIELD0 + 2].buf, *bm = &wb->v[WORLD_FIELD0 + 3].buf,
+              *bb = &wb->v[WORLD_FIELD0 + 4].buf;
     HField *f = &wb->w.f;
     memset(f, 0, sizeof(*f));
     Py_ssize_t nr = dim(bz, 0), nc = dim(bz, 1);
     if (need(dim(bxy, 0) == nr && dim(bxy, 1) == nc && dim(bxy, 2) == 2 &&
-                 dim(bm, 0) == FIELD_META &&
+                 dim(bm, 0) == FIELD_META && dim(bb, 2) == 2 &&
                  (nr < 2 || nc < 2 ||
-                  (dim(bs, 0) == nr - 1 && dim(bs, 1) == nc - 1)),
+                  (dim(bs, 0) == nr - 1 && dim(bs, 1) == nc - 1 &&
+                   dim(bb, 0) == (nr - 2) / FIELD_BLOCK + 1 &&
+                   dim(bb, 1) == (nc - 2) / FIELD_BLOCK + 1)),
              "world: inconsistent height field arrays") < 0) {
         world_release(wb);
         return -1;
@@ -287,8 +291,11 @@ static int field_get(WorldBufs *wb) {
     f->xy = F64(*bxy);
     f->z = F64(*bz);
     f->slope = F64(*bs);
+    f->blk = F64(*bb);
     f->nr = nr;
     f->nc = nc;
+    f->nbr = dim(bb, 0);
+    f->nbc = dim(bb, 1);
     f->ox = m[0];
     f->oy = m[1];
     f->c = m[2];

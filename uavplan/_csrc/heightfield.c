@@ -350,7 +350,18 @@ static double surface_walk(const HField *f, int kind, const double *a, const dou
         if (umax < 0.0 || umin > (double)ncc) continue;
         int64_t j0 = floor_in(umin, 0, ncc - 1), j1 = floor_in(umax, 0, ncc - 1);
         double zlo = dmin(a[2] + t0 * dz, a[2] + t1 * dz);
+        const double *blk_row = f->blk + 2 * (i / FIELD_BLOCK) * f->nbc;
         for (int64_t j = j0; j <= j1; j++) {
+            if (j == j0 || j % FIELD_BLOCK == 0) {
+                /* a block whose highest corner is clear of this row's stretch by ``best``:
+                 * each of its cells would be skipped below, so skip them all */
+                const double *bk = blk_row + 2 * (j / FIELD_BLOCK);
+                double btop = kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
+                if (zlo - btop >= best) {
+                    j = imin(j1, (j / FIELD_BLOCK + 1) * FIELD_BLOCK - 1);
+                    continue;
+                }
+            }
             double top = cell_top(f, kind, i, j);
             if (zlo - top >= best) continue;
             if (fabs(du) >= 1e-300) { /* the part of the row's stretch near this column */
@@ -394,9 +405,48 @@ static inline void ends_in(const HField *f, int kind, double ax, double ay, doub
     b[2] = kind == 0 ? bz : -bz;
 }
 
-/* Whether the segment keeps ``thr`` from both solids (world frame). */
+/* Interior points of a segment at most this many (a look along it before the walk) ... */
+#define PROBE_POINTS 31
+/* ... on a segment at least this long (lattice units) */
+#define PROBE_MIN_CELLS 4.0
+
+/* The k-th of ``n`` = 2^m - 1 interior points along a segment, coarse to fine (1/2, 1/4, 3/4,
+ * 1/8, ...): a hill the segment cuts through is met early. */
+static inline double probe_t(int k, int n) {
+    int level = 0;
+    while ((2 << level) - 1 <= k) level++;
+    int first = (1 << level) - 1;     /* points before this level */
+    int slot = 2 * (k - first) + 1;   /* odd numerator at this level */
+    (void)n;
+    return (double)slot / (double)(2 << level);
+}
+
+/* Whether a point along the segment a-b (field frame, kind's z) lies less than ``thr`` above
+ * surface ``kind``: then the surface point below it is that close, and the segment is not
+ * free (what the walk would find, sooner). Looked at for long segments only. */
+static int probe_blocked(const HField *f, int kind, const double *a, const double *b,
+                         double thr) {
+    double ua, va, ub, vb;
+    to_lattice(f, a[0], a[1], &ua, &va);
+    to_lattice(f, b[0], b[1], &ub, &vb);
+    double cells = dmax(fabs(ub - ua), fabs(vb - va));
+    if (!(cells >= PROBE_MIN_CELLS)) return 0;
+    int n = PROBE_POINTS;
+    while (n > 1 && (double)n > cells) n = (n - 1) / 2; /* about one point a cell at most */
+    for (int k = 0; k < n; k++) {
+        double t = probe_t(k, n);
+        double z = a[2] + t * (b[2] - a[2]);
+        double h = surface_at(f, kind, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]));
+        if (z - h < thr - 1e-9) return 1; /* NaN (off the field): no */
+    }
+    return 0;
+}
+
+/* Whether the segment keeps ``thr`` from both solids (world frame). With ``probe``, a long
+ * segment is first looked at in points along it (a cheap proof of "not free" for the long
+ * chords a simplification tries; the answer is the same). */
 int field_segment_free(const HField *f, double ax, double ay, double az, double bx, double by,
-                       double bz, double thr) {
+                       double bz, double thr, int probe) {
     for (int kind = 0; kind < 2; kind++) {
         if (kind == 1 && !(f->roof < INFINITY)) break;
         double a[3], b[3];
@@ -407,6 +457,7 @@ int field_segment_free(const HField *f, double ax, double ay, double az, double 
             double h = surface_at(f, kind, a[0], a[1]);
             if (a[2] < h) return 0; /* starts inside the solid */
         }
+        if (probe && probe_blocked(f, kind, a, b, thr)) return 0;
         if (surface_walk(f, kind, a, b, thr, 1, NULL) < thr) return 0;
     }
     return 1;

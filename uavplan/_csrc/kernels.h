@@ -161,7 +161,9 @@ typedef struct {
     const double *z;    /* (nr, nc) their ground z */
     const double *slope; /* (nr - 1, nc - 1) each cell's steepest triangle (either diagonal);
                           * its highest and lowest corner are read from z */
-    int64_t nr, nc;
+    const double *blk;   /* (nbr, nbc, 2) the highest and lowest z of the corners of each block
+                          * of FIELD_BLOCK x FIELD_BLOCK cells (surface_walk skips blocks) */
+    int64_t nr, nc, nbr, nbc;
     double ox, oy, c, s; /* world frame -> field frame: X = ox + c x - s y, Y = oy + s x + c y */
     double aff[6];       /* field frame -> lattice: col = aff0 + aff1 X + aff2 Y, row = aff3 + ... */
     double slack;        /* lattice units: how far a lattice point lies from where aff puts it */
@@ -176,7 +178,7 @@ typedef struct {
 #define FIELD_META 16
 
 int field_segment_free(const HField *f, double ax, double ay, double az, double bx, double by,
-                       double bz, double thr);
+                       double bz, double thr, int probe);
 double field_segment_dist(const HField *f, double ax, double ay, double az, double bx, double by,
                           double bz, double cap, int *kind_out, double *where);
 double field_point_dist(const HField *f, double x, double y, double z, double cap);
@@ -217,7 +219,7 @@ typedef struct {
 
 /* the world's fields: 5 pieces, 2 bounds, 4 cell grid, then the 4 of the height field, which
  * world_get always reads */
-#define WORLD_BUFS 15
+#define WORLD_BUFS 16
 
 typedef struct {
     World w;

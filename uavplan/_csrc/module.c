@@ -66,6 +66,7 @@ static int add_constants(PyObject *m) {
         {"DRAW_NORMAL", DRAW_NORMAL},       {"MEMO_BITS", MEMO_BITS},
         {"MEMO_PROBES", MEMO_PROBES},       {"STEP_MAX_THREADS", STEP_MAX_THREADS},
         {"HAVE_THREADS", HAVE_THREADS},     {"FIELD_META", FIELD_META},
+        {"FIELD_BLOCK", FIELD_BLOCK},
     };
     static const struct {
         const char *name;
