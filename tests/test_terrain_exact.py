@@ -211,6 +211,18 @@ def test_long_segments_over_the_terrain_skip_only_what_they_cannot_come_near(
         if abs(d - world.margin_m) > 1e-6:
             assert ok == (d >= world.margin_m)
     assert free.any() and not free.all()
+    # many more segments: "free" (walked block by block) against the distance just checked
+    # (walked row by row), from on the ground to well above it
+    n = 3000
+    a_xy = rng.uniform(-650, 650, (n, 2))
+    b_xy = rng.uniform(-650, 650, (n, 2))
+    a = np.column_stack([a_xy, bilinear(a_xy) + rng.uniform(0.0, 125.0, n)])
+    b = np.column_stack([b_xy, bilinear(b_xy) + rng.uniform(0.0, 125.0, n)])
+    d_seg, _ = world.segments_clearance(a, b)
+    free = world.segments_free(a, b)
+    away = np.abs(d_seg - world.margin_m) > 1e-6
+    assert np.array_equal(free[away], (d_seg >= world.margin_m)[away])
+    assert 0.05 < free.mean() < 0.95
     # the simplification (probed chords) keeps what the unprobed tests keep
     line = np.column_stack([np.linspace(-650, 650, 60), 300 * np.sin(np.linspace(0, 6, 60))])
     line = np.column_stack([line, bilinear(line) + 40.0])

@@ -308,6 +308,118 @@ static double surface_at(const HField *f, int kind, double X, double Y) {
     return NAN;
 }
 
+/* A walk of segment a-b (field frame, z of kind 1 already mirrored) over the cells within
+ * ``reach`` lattice units of its outline. */
+typedef struct {
+    const double *a, *b;
+    double ua, va, du, dv, dz, reach;
+    int64_t ncr, ncc;
+} Walk;
+
+/* The part [*t0, *t1] of the segment within ``reach`` of lattice rows [r0, r1] (their band
+ * lo = r0 - reach .. hi = r1 + 1 + reach); 0 when it has none. */
+static inline int band_t(const Walk *w, int64_t r0, int64_t r1, double *t0, double *t1) {
+    double lo = (double)r0 - w->reach, hi = (double)(r1 + 1) + w->reach;
+    *t0 = 0.0;
+    *t1 = 1.0;
+    if (fabs(w->dv) < 1e-300) return !(w->va < lo || w->va > hi);
+    double u = (lo - w->va) / w->dv, v = (hi - w->va) / w->dv;
+    if (u > v) {
+        double tmp = u;
+        u = v;
+        v = tmp;
+    }
+    *t0 = dmax(u, 0.0);
+    *t1 = dmin(v, 1.0);
+    return *t0 <= *t1;
+}
+
+/* Row ``i`` of a walk, its cells in columns [jmin, jmax] (the whole row: 0, ncc - 1): each
+ * cell whose highest corner lies within ``*best`` of the segment's stretch near it has its
+ * triangles measured, ``*best`` lowered to any distance below it (the surface point to
+ * ``near``, when not NULL). With ``skip``, a block of cells whose highest corner is clear of
+ * the row's stretch by ``*best`` is passed over whole. Returns 1 when ``first`` and a
+ * distance below ``*best`` was found (the walk stops there). */
+static inline int walk_row(const HField *f, int kind, const Walk *w, int64_t i, int64_t jmin,
+                           int64_t jmax, int skip, double *best, int first, double *near) {
+    double t0, t1;
+    if (!band_t(w, i, i, &t0, &t1)) return 0;
+    const double *a = w->a, *b = w->b;
+    double u0 = w->ua + t0 * w->du, u1 = w->ua + t1 * w->du;
+    double umin = dmin(u0, u1) - w->reach, umax = dmax(u0, u1) + w->reach;
+    if (umax < 0.0 || umin > (double)w->ncc) return 0;
+    int64_t j0 = imax(floor_in(umin, 0, w->ncc - 1), jmin);
+    int64_t j1 = imin(floor_in(umax, 0, w->ncc - 1), jmax);
+    double zlo = dmin(a[2] + t0 * w->dz, a[2] + t1 * w->dz);
+    const double *blk_row = f->blk + 2 * (i / FIELD_BLOCK) * f->nbc;
+    double t[18], q[3];
+    for (int64_t j = j0; j <= j1; j++) {
+        if (skip && (j == j0 || j % FIELD_BLOCK == 0)) {
+            /* a block whose highest corner is clear of this row's stretch by ``best``: each
+             * of its cells would be skipped below, so skip them all */
+            const double *bk = blk_row + 2 * (j / FIELD_BLOCK);
+            double btop = kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
+            if (zlo - btop >= *best) {
+                j = imin(j1, (j / FIELD_BLOCK + 1) * FIELD_BLOCK - 1);
+                continue;
+            }
+        }
+        double top = cell_top(f, kind, i, j);
+        if (zlo - top >= *best) continue;
+        if (fabs(w->du) >= 1e-300) { /* the part of the row's stretch near this column */
+            double c0 = ((double)j - w->reach - w->ua) / w->du;
+            double c1 = ((double)(j + 1) + w->reach - w->ua) / w->du;
+            double lo_t = dmax(t0, dmin(c0, c1)), hi_t = dmin(t1, dmax(c0, c1));
+            if (lo_t > hi_t) continue;
+            if (dmin(a[2] + lo_t * w->dz, a[2] + hi_t * w->dz) - top >= *best) continue;
+        }
+        cell_triangles(f, kind, i, j, t);
+        for (int k = 0; k < 2; k++) {
+            const double *tri = t + 9 * k;
+            /* the triangle's plane is no farther than the triangle: both ends on one side of
+             * it, at least ``best`` away, and the triangle is too */
+            double e1[3], e2[3], nrm[3], pa[3], pb[3];
+            sub3(e1, tri + 3, tri);
+            sub3(e2, tri + 6, tri);
+            cross3(nrm, e1, e2);
+            sub3(pa, a, tri);
+            sub3(pb, b, tri);
+            double sa = dot3(pa, nrm), sb = dot3(pb, nrm);
+            if (sa * sb > 0.0 && dmin(sa * sa, sb * sb) >= *best * *best * dot3(nrm, nrm))
+                continue;
+            double d = segment_triangle_dist(a, b, tri, q);
+            if (d < *best) {
+                *best = d;
+                if (near != NULL) memcpy(near, q, sizeof(q));
+                if (first) return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* Sets up the walk of a-b within ``search``; 0 when no cell can be within it. */
+static int walk_init(const HField *f, const double *a, const double *b, double search, Walk *w,
+                     int64_t *i0, int64_t *i1) {
+    if (!(search > 0.0)) return 0;
+    double ub, vb;
+    w->a = a;
+    w->b = b;
+    to_lattice(f, a[0], a[1], &w->ua, &w->va);
+    to_lattice(f, b[0], b[1], &ub, &vb);
+    w->ncr = f->nr - 1;
+    w->ncc = f->nc - 1;
+    w->reach = search * f->per_m + f->slack + 1e-9;
+    double cap = (double)(w->ncr + w->ncc + 2);
+    if (!(w->reach < cap)) w->reach = cap;
+    w->du = ub - w->ua;
+    w->dv = vb - w->va;
+    w->dz = b[2] - a[2];
+    *i0 = floor_in(dmin(w->va, vb) - w->reach, 0, w->ncr - 1);
+    *i1 = floor_in(dmax(w->va, vb) + w->reach, 0, w->ncr - 1);
+    return !(dmax(w->va, vb) + w->reach < 0.0 || dmin(w->va, vb) - w->reach > (double)w->ncr);
+}
+
 /* The smallest distance below ``search`` from segment a-b (field frame, z of kind 1 already
  * mirrored) to the triangles of surface ``kind``, or ``search`` when none is closer; with
  * ``first``, the first distance found below ``search`` (not necessarily the smallest). The
@@ -316,84 +428,53 @@ static double surface_at(const HField *f, int kind, double X, double Y) {
 static double surface_walk(const HField *f, int kind, const double *a, const double *b,
                            double search, int first, double *near) {
     double best = search;
-    if (!(search > 0.0)) return best;
-    double ua, va, ub, vb;
-    to_lattice(f, a[0], a[1], &ua, &va);
-    to_lattice(f, b[0], b[1], &ub, &vb);
-    int64_t ncr = f->nr - 1, ncc = f->nc - 1;
-    double reach = search * f->per_m + f->slack + 1e-9;
-    double cap = (double)(ncr + ncc + 2);
-    if (!(reach < cap)) reach = cap;
-    double du = ub - ua, dv = vb - va, dz = b[2] - a[2];
-    int64_t i0 = floor_in(dmin(va, vb) - reach, 0, ncr - 1);
-    int64_t i1 = floor_in(dmax(va, vb) + reach, 0, ncr - 1);
-    if (dmax(va, vb) + reach < 0.0 || dmin(va, vb) - reach > (double)ncr) return best;
-    double t[18], q[3];
-    for (int64_t i = i0; i <= i1; i++) {
-        double lo = (double)i - reach, hi = (double)(i + 1) + reach, t0 = 0.0, t1 = 1.0;
-        if (fabs(dv) < 1e-300) {
-            if (va < lo || va > hi) continue;
-        } else {
-            t0 = (lo - va) / dv;
-            t1 = (hi - va) / dv;
-            if (t0 > t1) {
-                double tmp = t0;
-                t0 = t1;
-                t1 = tmp;
-            }
-            t0 = dmax(t0, 0.0);
-            t1 = dmin(t1, 1.0);
-            if (t0 > t1) continue;
-        }
-        double u0 = ua + t0 * du, u1 = ua + t1 * du;
-        double umin = dmin(u0, u1) - reach, umax = dmax(u0, u1) + reach;
-        if (umax < 0.0 || umin > (double)ncc) continue;
-        int64_t j0 = floor_in(umin, 0, ncc - 1), j1 = floor_in(umax, 0, ncc - 1);
-        double zlo = dmin(a[2] + t0 * dz, a[2] + t1 * dz);
-        const double *blk_row = f->blk + 2 * (i / FIELD_BLOCK) * f->nbc;
-        for (int64_t j = j0; j <= j1; j++) {
-            if (j == j0 || j % FIELD_BLOCK == 0) {
-                /* a block whose highest corner is clear of this row's stretch by ``best``:
-                 * each of its cells would be skipped below, so skip them all */
-                const double *bk = blk_row + 2 * (j / FIELD_BLOCK);
-                double btop = kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
-                if (zlo - btop >= best) {
-                    j = imin(j1, (j / FIELD_BLOCK + 1) * FIELD_BLOCK - 1);
-                    continue;
-                }
-            }
-            double top = cell_top(f, kind, i, j);
-            if (zlo - top >= best) continue;
-            if (fabs(du) >= 1e-300) { /* the part of the row's stretch near this column */
-                double c0 = ((double)j - reach - ua) / du, c1 = ((double)(j + 1) + reach - ua) / du;
-                double lo_t = dmax(t0, dmin(c0, c1)), hi_t = dmin(t1, dmax(c0, c1));
+    Walk w;
+    int64_t i0, i1;
+    if (!walk_init(f, a, b, search, &w, &i0, &i1)) return best;
+    for (int64_t i = i0; i <= i1; i++)
+        if (walk_row(f, kind, &w, i, 0, w.ncc - 1, 1, &best, first, near)) return best;
+    return best;
+}
+
+/* Whether a triangle of surface ``kind`` lies within ``thr`` of segment a-b (field frame, z
+ * of kind 1 mirrored): surface_walk's first distance below ``thr``, found block by block. A
+ * block of FIELD_BLOCK x FIELD_BLOCK cells whose highest corner is clear by ``thr`` of the
+ * part of the segment near it is passed over whole: every cell of it would be skipped (its
+ * corners are no higher, and the part of the segment near a cell lies within that part), so
+ * the answer is surface_walk's; a long segment high over the ground looks at a few blocks
+ * instead of hundreds of rows of cells. */
+static int surface_near(const HField *f, int kind, const double *a, const double *b, double thr) {
+    double best = thr;
+    Walk w;
+    int64_t i0, i1;
+    if (!walk_init(f, a, b, thr, &w, &i0, &i1)) return 0;
+    const int64_t B = FIELD_BLOCK;
+    for (int64_t bi = i0 / B; bi <= i1 / B; bi++) {
+        int64_t r0 = imax(i0, bi * B), r1 = imin(i1, bi * B + B - 1);
+        double t0, t1;
+        if (!band_t(&w, r0, r1, &t0, &t1)) continue;
+        double u0 = w.ua + t0 * w.du, u1 = w.ua + t1 * w.du;
+        double umin = dmin(u0, u1) - w.reach, umax = dmax(u0, u1) + w.reach;
+        if (umax < 0.0 || umin > (double)w.ncc) continue;
+        int64_t jb0 = floor_in(umin, 0, w.ncc - 1) / B, jb1 = floor_in(umax, 0, w.ncc - 1) / B;
+        for (int64_t bj = jb0; bj <= jb1; bj++) {
+            double lo_t = t0, hi_t = t1;
+            if (fabs(w.du) >= 1e-300) { /* the part of the band's stretch near these columns */
+                double c0 = ((double)(bj * B) - w.reach - w.ua) / w.du;
+                double c1 = ((double)(bj * B + B) + w.reach - w.ua) / w.du;
+                lo_t = dmax(t0, dmin(c0, c1));
+                hi_t = dmin(t1, dmax(c0, c1));
                 if (lo_t > hi_t) continue;
-                if (dmin(a[2] + lo_t * dz, a[2] + hi_t * dz) - top >= best) continue;
             }
-            cell_triangles(f, kind, i, j, t);
-            for (int k = 0; k < 2; k++) {
-                const double *tri = t + 9 * k;
-                /* the triangle's plane is no farther than the triangle: both ends on one side
-                 * of it, at least ``best`` away, and the triangle is too */
-                double e1[3], e2[3], nrm[3], pa[3], pb[3];
-                sub3(e1, tri + 3, tri);
-                sub3(e2, tri + 6, tri);
-                cross3(nrm, e1, e2);
-                sub3(pa, a, tri);
-                sub3(pb, b, tri);
-                double sa = dot3(pa, nrm), sb = dot3(pb, nrm);
-                if (sa * sb > 0.0 && dmin(sa * sa, sb * sb) >= best * best * dot3(nrm, nrm))
-                    continue;
-                double d = segment_triangle_dist(a, b, tri, q);
-                if (d < best) {
-                    best = d;
-                    if (near != NULL) memcpy(near, q, sizeof(q));
-                    if (first) return best;
-                }
-            }
+            const double *bk = f->blk + 2 * (bi * f->nbc + bj);
+            double btop = kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
+            if (dmin(a[2] + lo_t * w.dz, a[2] + hi_t * w.dz) - btop >= best) continue;
+            int64_t jmax = imin(bj * B + B - 1, w.ncc - 1);
+            for (int64_t i = r0; i <= r1; i++)
+                if (walk_row(f, kind, &w, i, bj * B, jmax, 0, &best, 1, NULL)) return 1;
         }
     }
-    return best;
+    return 0;
 }
 
 /* The segment's ends in the field's frame, z mirrored for the ceiling. */
@@ -458,7 +539,7 @@ int field_segment_free(const HField *f, double ax, double ay, double az, double 
             if (a[2] < h) return 0; /* starts inside the solid */
         }
         if (probe && probe_blocked(f, kind, a, b, thr)) return 0;
-        if (surface_walk(f, kind, a, b, thr, 1, NULL) < thr) return 0;
+        if (surface_near(f, kind, a, b, thr)) return 0;
     }
     return 1;
 }
