@@ -132,17 +132,22 @@ def test_segments_free_agrees_with_exact_clearance() -> None:
     assert one == list(free[:20])
 
 
+def cylinder_field(rng: np.random.Generator, count: int) -> World:
+    """``count`` cylinders 3-12 m in radius, 60 m tall, anywhere in the sample bounds."""
+    centres = rng.uniform(-260.0, 260.0, (count, 2))
+    return World.build(
+        [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres],
+        bounds_xyz=BOUNDS,
+        margin_m=5.0,
+    )
+
+
 def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
     """Many pieces on a cell grid: short segments go through the cells, long ones (a box
     over more cells than there are pieces) through the pieces; both agree with the exact
     clearance."""
     rng = np.random.default_rng(11)
-    centres = rng.uniform(-260.0, 260.0, (80, 2))
-    w = World.build(
-        [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres],
-        bounds_xyz=BOUNDS,
-        margin_m=5.0,
-    )
+    w = cylinder_field(rng, 80)
     assert w.kernel_args.gmeta[3] > 1  # a cell grid is in use
     p0 = rng.uniform((-280, -280, 1), (280, 280, 100), (600, 3))
     p1 = np.vstack([rng.uniform((-280, -280, 1), (280, 280, 100), (300, 3)),
@@ -157,12 +162,7 @@ def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
 
 def test_a_long_batch_of_segment_tests_shared_among_threads_gives_the_same_answers() -> None:
     rng = np.random.default_rng(12)
-    centres = rng.uniform(-260.0, 260.0, (300, 2))
-    w = World.build(
-        [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres],
-        bounds_xyz=BOUNDS,
-        margin_m=5.0,
-    )
+    w = cylinder_field(rng, 300)
     p0 = rng.uniform((-280, -280, 1), (280, 280, 100), (1001, 3))
     p1 = rng.uniform((-280, -280, 1), (280, 280, 100), (1001, 3))
     one = _geom.segments_free(p0, p1, w.kernel_args, 5.0, 1)
