@@ -334,3 +334,43 @@ def test_the_mavlink_package_imports_only_the_mission_model_and_errors() -> None
     for path in (ROOT / "uavplan" / "mavlink").glob("*.py"):
         ours = {n for n in _imports(path) if n.startswith("uavplan")}
         assert all(n.startswith(allowed) for n in ours), (path.name, ours)
+
+
+def _rmem_max() -> int:
+    try:
+        return int(Path("/proc/sys/net/core/rmem_max").read_text())
+    except (OSError, ValueError):
+        return 0
+
+
+@pytest.mark.skipif(_rmem_max() < 2 * 1024 * 1024, reason="the system caps UDP buffers lower")
+@pytest.mark.parametrize("kind", ["udpin", "udpout"])
+def test_a_udp_endpoint_keeps_a_burst_it_has_not_read_yet(kind: str) -> None:
+    """A reader that pauses (a loaded machine, a simulated vehicle at 100 times real time)
+    finds every datagram of a 2,000-message burst waiting: the default 208 KiB buffer kept
+    a few hundred of them and the rest were lost."""
+    if kind == "udpin":
+        endpoint = open_transport(ConnectionSpec("udpin", "127.0.0.1", 0))
+        port = endpoint.local_address[1]  # type: ignore[attr-defined]
+        sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        target = ("127.0.0.1", port)
+    else:
+        sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sender.bind(("127.0.0.1", 0))
+        endpoint = open_transport(ConnectionSpec("udpout", "127.0.0.1", sender.getsockname()[1]))
+        endpoint.send(b"hello")  # the endpoint's own port, as the sender sees it
+        sender.settimeout(5.0)
+        _, target = sender.recvfrom(64)
+        target = ("127.0.0.1", target[1])
+    try:
+        burst = 2000
+        for k in range(burst):
+            sender.sendto(k.to_bytes(4, "big") + bytes(60), target)
+        got: list[bytes] = []
+        deadline = time.monotonic() + 5.0
+        while len(got) < burst and time.monotonic() < deadline:
+            got += endpoint.recv(0.2)
+        assert len(got) == burst
+    finally:
+        sender.close()
+        endpoint.close()

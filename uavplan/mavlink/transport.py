@@ -188,6 +188,19 @@ def _wait_readable(socks: list[socket.socket] | list[int], timeout_s: float) -> 
     return readable
 
 
+#: the receive buffer asked for on a UDP socket (bytes; the system may give less: Linux caps it
+#: at net.core.rmem_max). A simulated vehicle at 100 times real time sends hundreds of
+#: telemetry messages a second; on a loaded machine a reader that pauses for a second
+#: overflowed the default 208 KiB and lost positions (gaps in a flown track)
+UDP_RECEIVE_BUFFER_BYTES = 4 * 1024 * 1024
+
+
+def _roomy(sock: socket.socket) -> None:
+    """Ask for a receive buffer of :data:`UDP_RECEIVE_BUFFER_BYTES` (what the system allows)."""
+    with contextlib.suppress(OSError):
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, UDP_RECEIVE_BUFFER_BYTES)
+
+
 class UdpServer(Transport):
     """Listen on HOST:PORT; answer every peer heard from recently."""
 
@@ -207,6 +220,7 @@ class UdpServer(Transport):
                     "packets)",
                 ) from None
             raise
+        _roomy(self._sock)
         self._sock.setblocking(False)
         self._peers: dict[tuple[str, int], float] = {}
         bound = self._sock.getsockname()
@@ -259,6 +273,7 @@ class UdpClient(Transport):
         except OSError:
             self._sock.close()
             raise
+        _roomy(self._sock)
         self._sock.setblocking(False)
         self.description = f"udpout:{host}:{port}"
 
