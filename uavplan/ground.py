@@ -379,7 +379,7 @@ class Ground:
     ``field``: the DEM as a :class:`HeightField` (the kernels' ground and ceiling);
     ``height_fn`` maps ENU ``(n, 2)`` points to the ground's z in this frame (the DEM's
     bilinear surface): for heights above the ground, home altitudes and independent checks;
-    ``point_fn`` (optional) the same for one point ``(x, y)``, without numpy's per-call cost.
+    ``point_fn`` the same for one point ``(x, y)``, without numpy's per-call cost.
     ``ceiling_agl_m``: the highest a route may fly above the ground beneath it (the bounds' z
     maximum), ``floor_agl_m`` the lowest (the bounds' z minimum; the margin holds in any case),
     ``margin_m`` the margin the solids are built for.
@@ -388,11 +388,11 @@ class Ground:
     datum_amsl_m: float
     field: HeightField
     height_fn: Callable[[Any], Any]
+    point_fn: Callable[[float, float], float]
     ceiling_agl_m: float
     margin_m: float
     floor_agl_m: float = 0.0
     source: str = ""
-    point_fn: Callable[[float, float], float] | None = None
 
     @property
     def lift_m(self) -> float:
@@ -420,11 +420,9 @@ class Ground:
         return np.asarray(self.height_fn(p), dtype=np.float64)
 
     def z_at_point(self, x: float, y: float) -> float:
-        """Ground z at one ENU point: :meth:`z_at` for one point, as fast as the surface
-        allows (a simulated flight asks one point per step)."""
-        if self.point_fn is not None:
-            return float(self.point_fn(x, y))
-        return float(self.z_at([[x, y]])[0])
+        """Ground z at one ENU point: :meth:`z_at` for one point, without numpy's per-call
+        cost (a simulated flight asks one point per step)."""
+        return float(self.point_fn(x, y))
 
     def kernel_meta(self, origin_xy: tuple[float, float], cos_sin: tuple[float, float]) -> Any:
         """The field's metadata for the kernels, seen from a world frame (see

@@ -27,8 +27,6 @@ from uavplan.geometry2d import COLLINEAR_TOL, convex_pieces
 from uavplan.ground import FIELD_META, Ground
 from uavplan.obstacles import BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 
-#: a batch of segment tests at least this long is shared among the kernels' threads
-SEGMENTS_PARALLEL_MIN = 256
 MAX_VERTS = 16  # convex pieces with more vertices are split into triangles
 GROUND = -2  # what the terrain's ground is, where an obstacle index would be
 CEILING = -3  # and the ceiling above it (bounds.z max above the ground)
@@ -82,7 +80,7 @@ def _box_footprints(boxes: Sequence[BoxObstacle]) -> tuple[np.ndarray, np.ndarra
     twice_area = terms[:, 0] + terms[:, 1] + terms[:, 2] + terms[:, 3]
     ax, ay = np.roll(x, -2, axis=1), np.roll(y, -2, axis=1)
     turns = (nx - x) * (ay - ny) - (ny - y) * (ax - nx)
-    whole = (twice_area >= 0) & np.all(turns >= -COLLINEAR_TOL, axis=1) & (MAX_VERTS >= 4)
+    whole = (twice_area >= 0) & np.all(turns >= -COLLINEAR_TOL, axis=1)
     return x, y, whole
 
 
@@ -109,15 +107,15 @@ def _pieces_of(
     heights: list[float] = []
     owner: list[int] = []
     circles: list[tuple[float, float, float, float, int]] = []
-    b = 0
+    box_row = iter(range(len(boxes)))
     for i, obs in enumerate(obstacles):
         if isinstance(obs, CylinderObstacle):
             circles.append((*obs.center_m, obs.radius_m, obs.height_m, i))
             continue
         if isinstance(obs, BoxObstacle):
-            b += 1
-            if box_whole[b - 1]:
-                pieces.append(b - 1)
+            row = next(box_row)
+            if box_whole[row]:
+                pieces.append(row)
                 heights.append(obs.height_m)
                 owner.append(i)
                 continue
@@ -130,8 +128,8 @@ def _pieces_of(
     poly_xy = np.zeros((len(pieces), MAX_VERTS, 2))
     poly_n = np.zeros(len(pieces), dtype=np.int64)
     poly_h = np.array(heights, dtype=float).reshape(-1)
-    rows = [k for k, row in enumerate(pieces) if isinstance(row, int)]
-    which = [row for row in pieces if isinstance(row, int)]
+    rows = [k for k, piece in enumerate(pieces) if isinstance(piece, int)]
+    which = [piece for piece in pieces if isinstance(piece, int)]
     poly_xy[rows, :4, 0] = box_x[which]
     poly_xy[rows, :4, 1] = box_y[which]
     poly_n[rows] = 4
@@ -328,12 +326,12 @@ class World:
         self, p0: np.ndarray, p1: np.ndarray, margin_m: float | None = None
     ) -> np.ndarray:
         """(n,) bool: segment p0[i]→p1[i] inside the bounds and ≥ margin from all obstacles
-        (a long batch shared among :func:`~uavplan._geom.kernel_threads` threads)."""
+        (a long batch shared among :func:`~uavplan._geom.kernel_threads` threads; the kernel
+        keeps a short one on the caller's)."""
         p0 = np.ascontiguousarray(np.atleast_2d(p0), dtype=float)
         p1 = np.ascontiguousarray(np.atleast_2d(p1), dtype=float)
         margin = self.margin_m if margin_m is None else float(margin_m)
-        threads = _geom.kernel_threads() if p0.shape[0] >= SEGMENTS_PARALLEL_MIN else 1
-        return _geom.segments_free(p0, p1, self.kernel_args, margin, threads)
+        return _geom.segments_free(p0, p1, self.kernel_args, margin, _geom.kernel_threads())
 
     def farthest_visible(self, points: np.ndarray, margin_m: float | None = None) -> np.ndarray:
         """Indices of the greedy farthest-reachable chain through the polyline ``points``

@@ -308,6 +308,13 @@ static double surface_at(const HField *f, int kind, double X, double Y) {
     return NAN;
 }
 
+/* The highest corner of surface ``kind`` over block (bi, bj) of FIELD_BLOCK x FIELD_BLOCK cells:
+ * no cell of the block has a higher one (cell_top). */
+static inline double block_top(const HField *f, int kind, int64_t bi, int64_t bj) {
+    const double *bk = f->blk + 2 * (bi * f->nbc + bj);
+    return kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
+}
+
 /* A walk of segment a-b (field frame, z of kind 1 already mirrored) over the cells within
  * ``reach`` lattice units of its outline. */
 typedef struct {
@@ -351,15 +358,12 @@ static inline int walk_row(const HField *f, int kind, const Walk *w, int64_t i, 
     int64_t j0 = imax(floor_in(umin, 0, w->ncc - 1), jmin);
     int64_t j1 = imin(floor_in(umax, 0, w->ncc - 1), jmax);
     double zlo = dmin(a[2] + t0 * w->dz, a[2] + t1 * w->dz);
-    const double *blk_row = f->blk + 2 * (i / FIELD_BLOCK) * f->nbc;
     double t[18], q[3];
     for (int64_t j = j0; j <= j1; j++) {
         if (skip && (j == j0 || j % FIELD_BLOCK == 0)) {
             /* a block whose highest corner is clear of this row's stretch by ``best``: each
              * of its cells would be skipped below, so skip them all */
-            const double *bk = blk_row + 2 * (j / FIELD_BLOCK);
-            double btop = kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
-            if (zlo - btop >= *best) {
+            if (zlo - block_top(f, kind, i / FIELD_BLOCK, j / FIELD_BLOCK) >= *best) {
                 j = imin(j1, (j / FIELD_BLOCK + 1) * FIELD_BLOCK - 1);
                 continue;
             }
@@ -421,23 +425,22 @@ static int walk_init(const HField *f, const double *a, const double *b, double s
 }
 
 /* The smallest distance below ``search`` from segment a-b (field frame, z of kind 1 already
- * mirrored) to the triangles of surface ``kind``, or ``search`` when none is closer; with
- * ``first``, the first distance found below ``search`` (not necessarily the smallest). The
- * closest surface point goes to ``near`` when one was found. Walks the cells within
- * ``search`` of the segment's outline, row by row. */
+ * mirrored) to the triangles of surface ``kind``, or ``search`` when none is closer. The
+ * closest surface point goes to ``near`` (may be NULL) when one was found. Walks the cells
+ * within ``search`` of the segment's outline, row by row (so among equal distances the one
+ * reported is always the same). */
 static double surface_walk(const HField *f, int kind, const double *a, const double *b,
-                           double search, int first, double *near) {
+                           double search, double *near) {
     double best = search;
     Walk w;
     int64_t i0, i1;
     if (!walk_init(f, a, b, search, &w, &i0, &i1)) return best;
-    for (int64_t i = i0; i <= i1; i++)
-        if (walk_row(f, kind, &w, i, 0, w.ncc - 1, 1, &best, first, near)) return best;
+    for (int64_t i = i0; i <= i1; i++) walk_row(f, kind, &w, i, 0, w.ncc - 1, 1, &best, 0, near);
     return best;
 }
 
 /* Whether a triangle of surface ``kind`` lies within ``thr`` of segment a-b (field frame, z
- * of kind 1 mirrored): surface_walk's first distance below ``thr``, found block by block. A
+ * of kind 1 mirrored): whether surface_walk would find a distance below ``thr``, found block by block. A
  * block of FIELD_BLOCK x FIELD_BLOCK cells whose highest corner is clear by ``thr`` of the
  * part of the segment near it is passed over whole: every cell of it would be skipped (its
  * corners are no higher, and the part of the segment near a cell lies within that part), so
@@ -466,9 +469,8 @@ static int surface_near(const HField *f, int kind, const double *a, const double
                 hi_t = dmin(t1, dmax(c0, c1));
                 if (lo_t > hi_t) continue;
             }
-            const double *bk = f->blk + 2 * (bi * f->nbc + bj);
-            double btop = kind == 0 ? bk[0] + f->lift : -bk[1] - f->roof;
-            if (dmin(a[2] + lo_t * w.dz, a[2] + hi_t * w.dz) - btop >= best) continue;
+            double zlo = dmin(a[2] + lo_t * w.dz, a[2] + hi_t * w.dz);
+            if (zlo - block_top(f, kind, bi, bj) >= best) continue;
             int64_t jmax = imin(bj * B + B - 1, w.ncc - 1);
             for (int64_t i = r0; i <= r1; i++)
                 if (walk_row(f, kind, &w, i, bj * B, jmax, 0, &best, 1, NULL)) return 1;
@@ -491,14 +493,13 @@ static inline void ends_in(const HField *f, int kind, double ax, double ay, doub
 /* ... on a segment at least this long (lattice units) */
 #define PROBE_MIN_CELLS 4.0
 
-/* The k-th of ``n`` = 2^m - 1 interior points along a segment, coarse to fine (1/2, 1/4, 3/4,
- * 1/8, ...): a hill the segment cuts through is met early. */
-static inline double probe_t(int k, int n) {
+/* The k-th interior point along a segment, coarse to fine (1/2, 1/4, 3/4, 1/8, ...): the
+ * first 2^m - 1 of them halve it evenly, and a hill the segment cuts through is met early. */
+static inline double probe_t(int k) {
     int level = 0;
     while ((2 << level) - 1 <= k) level++;
-    int first = (1 << level) - 1;     /* points before this level */
-    int slot = 2 * (k - first) + 1;   /* odd numerator at this level */
-    (void)n;
+    int first = (1 << level) - 1;   /* points before this level */
+    int slot = 2 * (k - first) + 1; /* odd numerator at this level */
     return (double)slot / (double)(2 << level);
 }
 
@@ -515,7 +516,7 @@ static int probe_blocked(const HField *f, int kind, const double *a, const doubl
     int n = PROBE_POINTS;
     while (n > 1 && (double)n > cells) n = (n - 1) / 2; /* about one point a cell at most */
     for (int k = 0; k < n; k++) {
-        double t = probe_t(k, n);
+        double t = probe_t(k);
         double z = a[2] + t * (b[2] - a[2]);
         double h = surface_at(f, kind, a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]));
         if (z - h < thr - 1e-9) return 1; /* NaN (off the field): no */
@@ -572,7 +573,7 @@ double field_segment_dist(const HField *f, double ax, double ay, double az, doub
             }
             if (p[2] - h < search) search = (p[2] - h) * (1.0 + 1e-12) + 1e-12;
         }
-        double d = surface_walk(f, kind, a, b, search, 0, q);
+        double d = surface_walk(f, kind, a, b, search, q);
         if (d < search && d < best) {
             best = d;
             which = kind;
@@ -637,7 +638,7 @@ static void column_exact(const HField *f, int kind, double X, double Y, double z
         if (kind == 1) p[2] = -p[2];
         double best = search[l];
         if (overflow) {
-            best = surface_walk(f, kind, p, p, best, 0, NULL);
+            best = surface_walk(f, kind, p, p, best, NULL);
         } else {
             for (int64_t t = 0; t < nt; t++) {
                 const double *tri = tris + 9 * t, *nrm = normals + 4 * t;
@@ -765,7 +766,7 @@ void field_column(const HField *f, const FieldBlocks *fb, double x, double y, do
             }
             double r = out[k];
             if (p[2] - h < r) r = (p[2] - h) * (1.0 + 1e-12) + 1e-12;
-            double d = surface_walk(f, kind, p, p, r, 0, NULL);
+            double d = surface_walk(f, kind, p, p, r, NULL);
             if (d < out[k]) out[k] = d;
         }
     }

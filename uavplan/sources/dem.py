@@ -184,7 +184,7 @@ class Terrain:
         enu = np.column_stack((p, np.zeros(len(p))))
         lat, lon, _ = self.frame.to_geodetic(enu)
         x, y = self._to_crs.transform(lon, lat)
-        col, row = _apply(~self.transform, np.asarray(x), np.asarray(y))
+        col, row = _apply(self._to_pixel, np.asarray(x), np.asarray(y))
         return np.asarray(col, dtype=np.float64), np.asarray(row, dtype=np.float64)
 
     # -- queries -----------------------------------------------------------------------------
@@ -240,12 +240,15 @@ class Terrain:
                 + z[i1, j1] * tu * tv
             )
         if not math.isfinite(h):
-            raise TerrainError(
-                f"the DEM does not cover ENU point ({x:.1f}, {y:.1f}) m "
-                "(1 of 1 points outside it or on nodata)",
-                file=self.source,
-            )
+            raise self._not_covered(x, y, 1, 1)
         return h
+
+    def _not_covered(self, x: float, y: float, bad: int, of: int) -> TerrainError:
+        return TerrainError(
+            f"the DEM does not cover ENU point ({x:.1f}, {y:.1f}) m "
+            f"({bad} of {of} points outside it or on nodata)",
+            file=self.source,
+        )
 
     def covers(self, points_xy: ArrayLike) -> NDArray[np.bool_]:
         """Whether the DEM gives a height at each ENU point ``(n, 2)``."""
@@ -257,11 +260,7 @@ class Terrain:
         bad = ~np.isfinite(h)
         if np.any(bad):
             p = np.atleast_2d(np.asarray(points_xy, dtype=np.float64))[np.argmax(bad)]
-            raise TerrainError(
-                f"the DEM does not cover ENU point ({p[0]:.1f}, {p[1]:.1f}) m "
-                f"({int(bad.sum())} of {bad.size} points outside it or on nodata)",
-                file=self.source,
-            )
+            raise self._not_covered(p[0], p[1], int(bad.sum()), bad.size)
         return h
 
     def check_covers(
