@@ -132,14 +132,14 @@ def test_segments_free_agrees_with_exact_clearance() -> None:
     assert one == list(free[:20])
 
 
-def cylinder_field(rng: np.random.Generator, count: int) -> World:
+def cylinders(rng: np.random.Generator, count: int) -> list[CylinderObstacle]:
     """``count`` cylinders 3-12 m in radius, 60 m tall, anywhere in the sample bounds."""
     centres = rng.uniform(-260.0, 260.0, (count, 2))
-    return World.build(
-        [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres],
-        bounds_xyz=BOUNDS,
-        margin_m=5.0,
-    )
+    return [CylinderObstacle(tuple(c), float(rng.uniform(3.0, 12.0)), 60.0) for c in centres]
+
+
+def cylinder_field(rng: np.random.Generator, count: int) -> World:
+    return World.build(cylinders(rng, count), bounds_xyz=BOUNDS, margin_m=5.0)
 
 
 def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
@@ -158,6 +158,28 @@ def test_segments_free_long_and_short_legs_in_a_crowded_world() -> None:
     clear = np.abs(dist - 5.0) > 1e-6
     assert np.array_equal(free[clear], (dist >= 5.0)[clear])
     assert free[:300].any() and not free[:300].all() and free[300:].any()
+
+
+def test_segment_clearances_are_the_least_over_every_piece_and_name_the_first_of_them() -> None:
+    """The exact clearance starts from the pieces in the segment's own cells: the distance
+    and the nearest piece (the first in index order among equal ones, here a row of equal
+    boxes) are still the least over every piece, short and long segments alike."""
+    rng = np.random.default_rng(13)
+    row = [BoxObstacle((x, 290.0), (10.0, 10.0), 55.0) for x in (-200.0, -100.0, 0.0, 100.0)]
+    w = World.build([*row, *cylinders(rng, 120)], bounds_xyz=BOUNDS, margin_m=5.0)
+    p0 = rng.uniform((-280, -280, 1), (280, 280, 100), (150, 3))
+    p1 = np.vstack([p0[:75] + rng.normal(0.0, 20.0, (75, 3)),
+                    rng.uniform((-280, -280, 1), (280, 280, 100), (75, 3))])  # fmt: skip
+    # a segment high over the row of equal boxes, as far from each of them
+    p0 = np.vstack([p0, [[-250.0, 290.0, 70.0]]])
+    p1 = np.vstack([p1, [[250.0, 290.0, 70.0]]])
+    dist, which = _geom.segments_clearance(p0, p1, w.kernel_args)
+    args = (w.poly_xy, w.poly_n, w.poly_h, w.circ, w.box)
+    for i in range(len(p0)):
+        d = [_geom.seg_piece_dist(*p0[i], *p1[i], k, *args, -1.0) for k in range(len(w.box))]
+        assert dist[i] == min(d)
+        assert which[i] == int(np.argmin(d))
+    assert dist[-1] == pytest.approx(15.0) and w.owner[which[-1]] == 0
 
 
 def test_a_long_batch_of_segment_tests_shared_among_threads_gives_the_same_answers() -> None:

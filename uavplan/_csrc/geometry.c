@@ -744,12 +744,38 @@ done:
     return ret;
 }
 
+/* A segment whose box spans at most this many grid cells gets a first bound from their pieces */
+#define SEED_MAX_CELLS 64
+
+/* An upper bound on the distance from segment a-b to the pieces: the least distance to the
+ * pieces in the grid cells its box meets (INFINITY when there is no grid, the box spans more
+ * than SEED_MAX_CELLS cells, or they hold none). Started from it, the exact search over every
+ * piece skips at once the many whose boxes lie farther. */
+static double seed_nearest(const World *w, double ax, double ay, double az, double bx, double by,
+                           double bz) {
+    double best = INFINITY;
+    int64_t nx = (int64_t)w->gmeta[3], ny = (int64_t)w->gmeta[4];
+    if (nx == 0) return best;
+    double gx0 = w->gmeta[0], gy0 = w->gmeta[1], cell = w->gmeta[2];
+    int64_t cx0, cx1, cy0, cy1;
+    cell_range(dmin(ax, bx), dmax(ax, bx), gx0, cell, nx, &cx0, &cx1);
+    cell_range(dmin(ay, by), dmax(ay, by), gy0, cell, ny, &cy0, &cy1);
+    if (cx1 < cx0 || cy1 < cy0 || (cx1 - cx0 + 1) * (cy1 - cy0 + 1) > SEED_MAX_CELLS) return best;
+    for (int64_t cx = cx0; cx <= cx1; cx++)
+        for (int64_t cy = cy0; cy <= cy1; cy++) {
+            int64_t c = cx * ny + cy;
+            for (int64_t t = w->cell_start[c]; t < w->cell_start[c + 1]; t++)
+                best = dmin(best, seg_piece_dist(ax, ay, az, bx, by, bz, w->cell_items[t], w, -1.0));
+        }
+    return best;
+}
+
 PyObject *py_segments_clearance(PyObject *self, PyObject *args) {
     PyObject *o0, *o1, *wt, *od, *ow;
     Buf b0 = {0}, b1 = {0}, bd = {0}, bw = {0};
     WorldBufs wb;
     if (!PyArg_ParseTuple(args, "OOOOO", &o0, &o1, &wt, &od, &ow)) return NULL;
-    if (world_get(wt, &wb, 5) < 0) return NULL;
+    if (world_get(wt, &wb, 11) < 0) return NULL;
     PyObject *ret = NULL;
     if (get_buf(o0, &b0, T_F64, 2, 0, "p0") < 0 || get_buf(o1, &b1, T_F64, 2, 0, "p1") < 0 ||
         get_buf(od, &bd, T_F64, 1, 1, "dist") < 0 || get_buf(ow, &bw, T_I64, 1, 1, "which") < 0)
@@ -769,6 +795,10 @@ PyObject *py_segments_clearance(PyObject *self, PyObject *args) {
         double x0 = dmin(ax, bx), x1 = dmax(ax, bx);
         double y0 = dmin(ay, by), y1 = dmax(ay, by);
         double z0 = dmin(az, bz), z1 = dmax(az, bz);
+        /* a little above the nearest piece near it: the search below finds that piece (or a
+         * nearer one) again, the first of the least in index order, as it would from dist[i] */
+        double seed = seed_nearest(w, ax, ay, az, bx, by, bz);
+        if (seed < dist[i]) dist[i] = dmin(dist[i], seed * (1.0 + 1e-12) + 1e-12);
         for (int64_t k = 0; k < w->npieces; k++) {
             if (box_gap(x0, x1, y0, y1, z0, z1, k, w) >= dist[i]) continue;
             double d = seg_piece_dist(ax, ay, az, bx, by, bz, k, w, -1.0);
