@@ -10,6 +10,10 @@ A failure names the user's path, never the temporary file: it raises
 and an :class:`~uavplan.errors.InputError` (exit 2, one line). :func:`check_writable` asks the
 same questions before any long work starts, so a command can refuse a bad output path before
 it plans for a minute (and before it writes any of its other outputs).
+
+A path that is a symbolic link is written through: the file the link points to gets the new
+content and the link stays a link (:func:`write_target`). :class:`InputFile` names a file a
+command reads, which none of its outputs may name (:func:`same_file`, through links).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import errno
 import os
 import secrets
 import stat
+from dataclasses import dataclass
 from pathlib import Path
 
 from uavplan.errors import InputError
@@ -43,6 +48,37 @@ class OutputFileError(InputError, OSError):
         return self.message
 
 
+@dataclass(frozen=True)
+class InputFile:
+    """A file a command reads (its scenario, the map the scenario names, a DEM, the mission
+    file it was given): ``role`` says what it is in a message (``"the scenario"``,
+    ``"the map of missions/x.yaml"``)."""
+
+    path: str
+    role: str = "an input"
+
+
+def write_target(path: str | os.PathLike[str]) -> Path:
+    """The file a write to ``path`` changes: ``path`` itself, or where it leads when it is a
+    symbolic link (every link of a chain resolved): a link is written through, never
+    replaced, and a dangling link's target is created."""
+    named = Path(os.fspath(path))
+    return Path(os.path.realpath(named)) if named.is_symlink() else named
+
+
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Do ``a`` and ``b`` name one file: the same path once links are resolved, or (both
+    existing) the same inode, as a hard link or another spelling on a case-insensitive file
+    system gives?"""
+    real_a, real_b = os.path.realpath(os.fspath(a)), os.path.realpath(os.fspath(b))
+    if os.path.normcase(real_a) == os.path.normcase(real_b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
 def check_writable(path: str | os.PathLike[str]) -> None:
     """Raise :class:`OutputFileError` (an InputError, exit 2) unless ``path`` can be written.
 
@@ -59,7 +95,7 @@ def check_writable(path: str | os.PathLike[str]) -> None:
         raise OutputFileError("empty output file name", file="''")
     if "\x00" in shown:
         raise OutputFileError("the file name contains a NUL byte", file=repr(shown))
-    target = Path(shown)
+    target = write_target(shown)
     folder = target.parent
     try:
         info = os.stat(target)
@@ -136,14 +172,14 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
 
     Raises :class:`OutputFileError` (an ``OSError`` naming ``path``) on failure. A new file
     gets the usual permissions (0o666 minus the umask); an existing file keeps its
-    permission bits.
+    permission bits. A symbolic link is written through (:func:`write_target`).
     """
-    target = Path(path)
     shown = os.fspath(path)
     if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
         shown = shown.decode(errors="replace")
     if "\x00" in shown:
         raise OutputFileError("the file name contains a NUL byte", file=repr(shown))
+    target = write_target(shown)
     directory = target.parent
     try:
         st_mode: int | None = os.stat(target).st_mode

@@ -52,6 +52,7 @@ def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
     polled between jobs) and write the outputs into ``out_dir``: checked before the first
     run, written as one set once every run is done (an interrupt leaves nothing)."""
     outputs = OutputSet(feedback.interrupts)
+    outputs.reads(*request.scenarios, role="a scenario to bench")
     folder = outputs.folder(request.out_dir) if request.out_dir else None
     outputs.check()
     budget = None
@@ -74,6 +75,8 @@ def run_bench(request: BenchRequest, feedback: Feedback) -> BenchOutcome:
     if any(v.algorithm in OMPL_PLANNERS for v in variants) and not ompl_available():
         raise InputError(OMPL_MISSING.removesuffix("; they were skipped"), key="--algorithms")
     loaded = [load_scenario_file(path, "bench") for path in request.scenarios]
+    for scn in loaded:
+        outputs.reads(*scn.files)
     for path, scn in zip(request.scenarios, loaded, strict=True):
         if scn.planner.fitness != "paper":  # the references and tables are eq. 1-2's
             raise InputError(

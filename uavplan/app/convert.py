@@ -45,6 +45,8 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
     output is checked before anything is read, and written whole or not at all."""
     out_format = format_for(request.output)  # an unknown extension fails before reading
     outputs = OutputSet(None if feedback is None else feedback.interrupts)
+    outputs.reads(request.source, role="the mission to convert")
+    outputs.reads(request.scenario, role="the scenario of --scenario")
     output = outputs.file(request.output)
     outputs.check()
     autopilot = Autopilot.from_name(request.autopilot) if request.autopilot else None
@@ -71,8 +73,10 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
         from uavplan.planning import export_extras
         from uavplan.scenario import load_scenario
 
+        scenario = load_scenario(request.scenario)
+        outputs.reads(*scenario.files)
         try:
-            extras = export_extras(load_scenario(request.scenario), plan=plan)
+            extras = export_extras(scenario, plan=plan)
         except ValueError as err:  # an item's altitude cannot be placed
             raise InputError(str(err), file=request.source) from None
     elif out_format.dumps_extras is not None and _terrain_frame_items(plan):

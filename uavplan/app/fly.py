@@ -30,9 +30,10 @@ from pathlib import Path
 import numpy as np
 
 from uavplan.app.feedback import Feedback
+from uavplan.app.outputs import check_output
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, LinkError
-from uavplan.fileio import check_writable
+from uavplan.fileio import InputFile
 from uavplan.flight import Flight, TrackCheck, check_flight
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mavlink.flightclient import FlightClient
@@ -149,7 +150,7 @@ def fly(request: FlyRequest, feedback: Feedback) -> FlyOutcome:
         raise InputError(f"--on-interrupt is hold, rtl or land, not {request.on_interrupt!r}")
     if request.track:
         check_track_path(request.track)
-        check_writable(request.track)
+        check_output(request.track, InputFile(request.mission, "the mission to fly"))
     plan = load_mission(request.mission)
     if plan.home is None:
         raise InputError(
@@ -157,9 +158,10 @@ def fly(request: FlyRequest, feedback: Feedback) -> FlyOutcome:
             "vehicle's home before the flight",
             file=request.mission,
         )
-    site = (
-        None if request.scenario is None else CheckSite.of_scenario(load_scenario(request.scenario))
-    )
+    scenario = None if request.scenario is None else load_scenario(request.scenario)
+    if scenario is not None and request.track:  # nor any file of the scenario
+        check_output(request.track, *scenario.files)
+    site = None if scenario is None else CheckSite.of_scenario(scenario)
     link = VehicleLink.connect(
         request.conn,
         target_system=request.target_system,

@@ -71,6 +71,7 @@ def import_map(request: ImportRequest, feedback: Feedback | None = None) -> Impo
     if Path(output).suffix.lower() not in (".yaml", ".yml"):
         raise InputError("the map is YAML: name the output *.yaml", file=output)
     outputs = OutputSet(None if feedback is None else feedback.interrupts)
+    outputs.reads(source, role="the file to import")
     map_file = outputs.file(output)
     outputs.check()
     result: ImportResult | None = None

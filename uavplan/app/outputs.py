@@ -7,6 +7,14 @@ file, the path is not a folder (``bench --out``: not a file), no two outputs are
 A bad path is then an :class:`~uavplan.fileio.OutputFileError` (exit 2) before anything has
 been planned, run or written.
 
+Outputs never overwrite inputs: the use case names the files it reads
+(:meth:`OutputSet.reads`: the scenario, the map it names, its obstacle files and DEM, the
+mission file it was given), and an output that is one of them (through symbolic links, hard
+links or another spelling of the path) is refused with the other checks, exit 2. Inputs
+found only once the work has begun (a scenario's map, known once the scenario is read) are
+checked as they are named, still before the long work. An output that is a symbolic link is
+written through: its target gets the content, the link stays (:func:`~uavplan.fileio.write_target`).
+
 Each output is made into a hidden temporary file next to its target (same folder, so the
 same file system) as the work goes; a folder that does not exist yet is made as a hidden
 temporary folder next to where it goes. Only when every declared output is made does
@@ -38,12 +46,15 @@ from types import TracebackType
 from uavplan.app.feedback import Interrupts
 from uavplan.errors import InputError
 from uavplan.fileio import (
+    InputFile,
     OutputFileError,
     check_folder,
     check_writable,
     create_temp,
     fsync_directory,
     output_error,
+    same_file,
+    write_target,
 )
 
 
@@ -120,7 +131,7 @@ class OutputFolder:
         if not name or Path(name).name != name or name in (".", ".."):
             raise ValueError(f"not a file name: {name!r}")
         target = self._folder.target / name
-        return self._owner._add(_File(target, str(target), self._folder))
+        return self._owner._add(_File(write_target(target), str(target), self._folder))
 
 
 @dataclass(eq=False)
@@ -128,8 +139,11 @@ class OutputSet:
     """Every output of one command (see the module doc). Use it as a context manager::
 
     outputs = OutputSet(feedback.interrupts)
+    outputs.reads(request.source, role="the scenario")   # no output may be an input
     mission = outputs.file(request.output)
     outputs.check()                 # exit 2 now, before any long work
+    scenario = load_scenario(request.source)
+    outputs.reads(*scenario.files)  # its map, obstacle files, DEM: checked at once
     with outputs:                   # leaving without a commit removes every temporary
         ...                         # the long work
         mission.write_text(text)
@@ -139,6 +153,8 @@ class OutputSet:
     interrupts: Interrupts | None = None
     _files: list[_File] = field(default_factory=list)
     _folders: list[_Folder] = field(default_factory=list)
+    _inputs: list[InputFile] = field(default_factory=list)
+    _checked: bool = False
     _committed: bool = False
 
     # -- declaring and checking ----------------------------------------------------------
@@ -148,7 +164,25 @@ class OutputSet:
         shown = os.fspath(path)
         if isinstance(shown, bytes):  # pragma: no cover - the CLI passes str
             shown = shown.decode(errors="replace")
-        return self._add(_File(Path(shown), shown))
+        return self._add(_File(write_target(shown), shown))
+
+    def reads(
+        self, *files: str | os.PathLike[str] | InputFile | None, role: str = "an input"
+    ) -> None:
+        """Name files the command reads (a plain path is ``role``; an
+        :class:`~uavplan.fileio.InputFile` says what it is; None is skipped): no output may
+        be one of them. Named after :meth:`check`, they are checked at once
+        (:class:`~uavplan.fileio.OutputFileError`, exit 2)."""
+        named: list[InputFile] = []
+        for item in files:
+            if isinstance(item, InputFile):
+                named.append(item)
+            elif item is not None:
+                named.append(InputFile(str(os.fspath(item)), role))
+        self._inputs.extend(named)
+        if self._checked:
+            for entry in self._files:
+                _refuse_input(entry, named)
 
     def folder(self, path: str | os.PathLike[str]) -> OutputFolder:
         """Declare the output folder ``path`` (made at the commit if it does not exist)."""
@@ -162,23 +196,29 @@ class OutputSet:
     def _add(self, entry: _File) -> Output:
         if self._committed:
             raise RuntimeError("the outputs are already committed")
+        if self._checked:  # a folder's file named late: it may not be an input either
+            _refuse_input(entry, self._inputs)
         self._files.append(entry)
         return Output(self, entry)
 
     def check(self) -> None:
         """Raise :class:`~uavplan.fileio.OutputFileError` (exit 2) for the first output that
-        cannot be written, and :class:`~uavplan.errors.InputError` when two outputs are one
-        file. Call it before the long work; it leaves nothing behind."""
+        cannot be written or that is a file the command reads (:meth:`reads`), and
+        :class:`~uavplan.errors.InputError` when two outputs are one file. Call it before the
+        long work; it leaves nothing behind."""
         for folder in self._folders:
             folder.existed = check_folder(folder.target)
-        seen: dict[str, str] = {}
         for entry in self._files:
+            _refuse_input(entry, self._inputs)
+        for index, entry in enumerate(self._files):
             if entry.folder is None:
-                check_writable(entry.target)
-            key = os.path.normcase(os.path.realpath(entry.target))
-            if key in seen:
-                raise InputError(f"{seen[key]} and {entry.shown} are the same file: name two files")
-            seen[key] = entry.shown
+                check_writable(entry.shown)
+            for earlier in self._files[:index]:
+                if same_file(earlier.target, entry.target):
+                    raise InputError(
+                        f"{earlier.shown} and {entry.shown} are the same file: name two files"
+                    )
+        self._checked = True
 
     # -- making ----------------------------------------------------------------------------
 
@@ -294,6 +334,38 @@ class OutputSet:
     ) -> None:
         if not self._committed:
             self.discard()
+
+
+def check_output(
+    path: str | os.PathLike[str], *reads: str | os.PathLike[str] | InputFile | None
+) -> None:
+    """The checks of :meth:`OutputSet.check` for one output a use case writes its own way
+    (``fly`` and ``simulate`` write their tracks whatever the flight's ending): it can be
+    written, and it is none of the files the command ``reads`` (exit 2)."""
+    outputs = OutputSet()
+    outputs.reads(*reads)
+    outputs.file(path)
+    outputs.check()
+
+
+def check_report_name(path: str | None) -> None:
+    """``--report`` writes JSON: a name that does not end in ``.json`` (a scenario's
+    ``.yaml``, a ``.plan`` typed where the report goes) is refused, exit 2."""
+    if path is not None and Path(path).suffix.lower() != ".json":
+        raise InputError("--report writes a JSON report; name the file *.json", file=path)
+
+
+def _refuse_input(entry: _File, inputs: list[InputFile]) -> None:
+    """Raise :class:`~uavplan.fileio.OutputFileError` (exit 2) when the output ``entry``
+    is one of ``inputs`` (through links: :func:`~uavplan.fileio.same_file`)."""
+    for source in inputs:
+        if same_file(entry.shown, source.path):
+            shown_source = "" if source.path == entry.shown else f" ({source.path})"
+            raise OutputFileError(
+                f"is {source.role}{shown_source}, which this command reads: an output never "
+                "overwrites an input; name another file",
+                file=entry.shown,
+            )
 
 
 _O_BINARY = getattr(os, "O_BINARY", 0)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
 from uavplan.app.inputs import load_scenario_file
-from uavplan.app.outputs import Output, OutputSet
+from uavplan.app.outputs import Output, OutputSet, check_report_name
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
@@ -148,6 +148,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     outputs, mission_out, report_out, plot_out = _outputs(request, feedback)
     import_in_background()  # the mission writer's pyproj loads on another core during the search
     scn = request.options.apply(load_scenario_file(request.source, "plan"))
+    outputs.reads(*scn.files)  # its map, obstacle files, DEM: no output may overwrite one
     if request.autopilot:
         autopilot = Autopilot.from_name(request.autopilot)
         scn = replace(scn, mission=replace(scn.mission, autopilot=autopilot))
@@ -340,6 +341,7 @@ def _outputs(
     out_format = format_for(request.output)  # fail on an unknown extension before planning
     if request.plot and Path(request.plot).suffix.lower() != ".png":
         raise InputError("--plot writes a PNG picture; name the file *.png", file=request.plot)
+    check_report_name(request.report)
     if (
         request.fence
         and out_format.dumps_extras is None
@@ -349,6 +351,7 @@ def _outputs(
             "a geofence needs a .plan (or .geojson / .kml) output", file=request.output
         )
     outputs = OutputSet(feedback.interrupts)
+    outputs.reads(request.source, role="the scenario")
     mission = outputs.file(request.output)
     report = outputs.file(request.report) if request.report else None
     plot = outputs.file(request.plot) if request.plot else None

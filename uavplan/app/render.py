@@ -60,15 +60,19 @@ def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
     if Path(request.output).suffix.lower() != ".png":
         raise InputError("render writes a PNG picture; name the file *.png", file=request.output)
     outputs = OutputSet(feedback.interrupts)
+    outputs.reads(request.scenario, role="the scenario (or mission) to draw")
+    outputs.reads(request.mission, role="the mission of --mission")
+    outputs.reads(request.track, role="the track of --track")
     picture = outputs.file(request.output)
     outputs.check()
     with outputs:
         if mission_kind(request.scenario) == "plan" and request.mission is None:
             outcome = _render_plan(request)
         elif request.no_plan and request.mission is None:
-            outcome = _render_scenario(request, feedback)
+            outcome = _render_scenario(request, feedback, outputs)
         else:
             scn = load_scenario_file(request.scenario, "render")
+            outputs.reads(*scn.files)
             if request.mission is not None:
                 outcome = _render_mission(scn, request)
             else:
@@ -167,7 +171,7 @@ def _with_track(
     return layers, f"{subtitle}; {text}" if subtitle else text
 
 
-def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
+def _render_scenario(request: RenderRequest, feedback: Feedback, outputs: OutputSet) -> _Drawn:
     """``--no-plan``: the scenario alone, also when its route points are not valid (the
     picture is how a user finds valid ones): then the subtitle and a warning say why."""
     try:
@@ -176,6 +180,7 @@ def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
         if not _about_the_route(err):
             raise
         around = load_surroundings(request.scenario)
+        outputs.reads(*around.files)
         if around.start_m is None or around.goal_m is None:
             raise
         feedback.warn(f"warning: {err}; drawn as it is")
@@ -185,6 +190,7 @@ def _render_scenario(request: RenderRequest, feedback: Feedback) -> _Drawn:
             f"{list(around.goal_m)}: NOT PLANNABLE: {err.key}: {err.reason}"
         )
         return _draw(scene_around(around), request, None, subtitle, summary="scenario only")
+    outputs.reads(*scn.files)
     subtitle = (
         f"{plural(len(scn.obstacles), 'obstacle')}, safety margin {scn.safety_margin_m:g} m, "
         f"start {list(scn.start_m)}, goal {list(scn.goal_m)}"

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 from uavplan.airspace import OUTSIDE_INCLUSION, Airspace
 from uavplan.app.feedback import Feedback, PlannerOptions, plural
-from uavplan.app.outputs import OutputSet
+from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.config import PlannerConfig
 from uavplan.errors import InputError, NoPathError
 from uavplan.mission.io import load_mission, mission_text
@@ -93,13 +93,18 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
             )
     if request.plot and Path(request.plot).suffix.lower() != ".png":
         raise InputError("--plot writes a PNG picture; name the file *.png", file=request.plot)
+    check_report_name(request.report)
     outputs = OutputSet(feedback.interrupts)
+    outputs.reads(request.source, role="the mission to reroute")
+    outputs.reads(request.scenario, role="the scenario of --scenario")
     plan_out = outputs.file(request.output)
     report_out = outputs.file(request.report) if request.report else None
     plot_out = outputs.file(request.plot) if request.plot else None
     outputs.check()
     plan = load_mission(request.source)
     base = None if request.scenario is None else load_surroundings(request.scenario)
+    if base is not None:
+        outputs.reads(*base.files)
     if base is not None:
         base = replace(base, planner=request.options.apply_to(base.planner))
     planner = base.planner if base is not None else request.options.apply_to(PlannerConfig())

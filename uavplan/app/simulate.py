@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from uavplan.app.feedback import Feedback
+from uavplan.app.outputs import check_output
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError
-from uavplan.fileio import check_writable
+from uavplan.fileio import InputFile
 from uavplan.flight import TrackCheck
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan
@@ -83,7 +84,7 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
     mission's part of the track comes closer than the margin or leaves the flight volume."""
     if request.track:
         check_track_path(request.track)
-        check_writable(request.track)
+        check_output(request.track, InputFile(request.mission, "the mission to fly"))
     plan = load_mission(request.mission)
     if plan.home is None:
         raise InputError(
@@ -104,7 +105,10 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         raise InputError(str(err), key="--param") from None
     site: CheckSite | None = None
     if request.scenario is not None:
-        site = CheckSite.of_scenario(load_scenario(request.scenario))
+        scenario = load_scenario(request.scenario)
+        if request.track:  # nor any file of the scenario
+            check_output(request.track, *scenario.files)
+        site = CheckSite.of_scenario(scenario)
     else:
         site = CheckSite.of_plan(plan, file=request.mission)
     if site is not None:

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from uavplan.config import PlannerConfig, type_name
+from uavplan.fileio import InputFile
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.obstacles import Bounds, Obstacle
 from uavplan.scenario.checker import Checker
@@ -78,8 +79,9 @@ def load_map(path: str | Path) -> tuple[GeoPoint | None, Bounds | None, tuple[Ob
 
 def _read_map(
     path: str | Path,
-) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...], Any]:
-    """:func:`load_map` plus the map's raw ``terrain`` value (None without one)."""
+) -> tuple[GeoPoint | None, Bounds | None, tuple[Obstacle, ...], Any, list[InputFile]]:
+    """:func:`load_map` plus the map's raw ``terrain`` value (None without one) and the
+    obstacle files it read."""
     path = Path(path)
     chk = Checker(str(path))
     raw = read_yaml(path, "map")
@@ -89,11 +91,26 @@ def _read_map(
     origin = read_origin(chk, raw["origin"]) if "origin" in raw else None
     bounds = read_bounds(chk, raw["bounds"]) if "bounds" in raw else None
     obstacles = read_obstacles(chk, raw.get("obstacles", []))
+    files: list[InputFile] = []
     if raw.get("obstacle_files"):
         if origin is None:
             raise chk.fail("obstacle_files", "needs origin in the same map file")
         obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
-    return origin, bounds, obstacles, raw.get("terrain")
+        files = _obstacle_file_inputs(raw["obstacle_files"], path)
+    return origin, bounds, obstacles, raw.get("terrain"), files
+
+
+def _obstacle_file_inputs(raw: Any, path: Path) -> list[InputFile]:
+    """The files of an ``obstacle_files`` list that was read (so every entry is valid)."""
+    from uavplan.sources.base import ObstacleFileSpec
+
+    if not isinstance(raw, list):
+        return []
+    return [
+        InputFile(str(ObstacleFileSpec.from_mapping(item, path.parent).path),
+                  f"an obstacle file of {path}")
+        for item in raw
+    ]  # fmt: skip
 
 
 def _obstacle_files(
@@ -138,10 +155,13 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
     map_terrain: Any = None
     map_path = path
     map_chk = chk
+    # every file read, for the outputs' check that none of them is overwritten
+    files = [InputFile(str(path), "the scenario")]
     if "map" in raw:
         map_path = read_map_path(chk, raw["map"], path)
-        map_origin, map_bounds, map_obstacles, map_terrain = _read_map(map_path)
+        map_origin, map_bounds, map_obstacles, map_terrain, map_files = _read_map(map_path)
         map_chk = Checker(str(map_path))
+        files += [InputFile(str(map_path), f"the map of {path}"), *map_files]
 
     if "origin" in raw:
         origin = read_origin(chk, raw["origin"])
@@ -161,10 +181,13 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         terrain = _terrain(chk, raw["terrain"], path, origin, bounds)
     elif map_terrain is not None:
         terrain = _terrain(map_chk, map_terrain, map_path, origin, bounds)
+    if terrain is not None:
+        files.append(InputFile(str(terrain.source), "the DEM (terrain) of " + str(path)))
     inline = read_obstacles(chk, raw.get("obstacles", []))
     obstacles = map_obstacles + inline
     if raw.get("obstacle_files"):
         obstacles += _obstacle_files(chk, raw["obstacle_files"], path, origin, bounds)
+        files += _obstacle_file_inputs(raw["obstacle_files"], path)
     if len(obstacles) > MAX_OBSTACLES:
         raise chk.fail(
             "obstacles", f"map and scenario hold {len(obstacles):,} (at most {MAX_OBSTACLES:,})"
@@ -203,4 +226,5 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         terrain=terrain,
         obstacle_sources=ObstacleSources(len(map_obstacles), raw.get("map"), len(inline)),
         wind=wind,
+        files=tuple(files),
     )

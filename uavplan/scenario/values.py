@@ -34,6 +34,7 @@ from uavplan.config import (
     resolved_planner,
 )
 from uavplan.errors import InputError
+from uavplan.fileio import InputFile
 from uavplan.geo import GeoPoint
 from uavplan.obstacles import Bounds, Obstacle
 from uavplan.scenario.checker import Checker
@@ -87,6 +88,9 @@ class Scenario:
     obstacle_sources: ObstacleSources = field(default_factory=ObstacleSources)
     #: ``wind:`` (None: calm), for the flight estimates and the physical fitness
     wind: Wind | None = None
+    #: every file it was read from (the scenario, its map, obstacle files, DEM): no output
+    #: of a command may overwrite one (:meth:`uavplan.app.outputs.OutputSet.reads`)
+    files: tuple[InputFile, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         _check(self)
@@ -194,6 +198,8 @@ class Surroundings:
     goal_m: Point3 | None = None
     via_m: tuple[Point3, ...] = ()
     wind: Wind | None = None
+    #: every file it was read from (:attr:`Scenario.files`)
+    files: tuple[InputFile, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         _check_surroundings(Checker(self.source or self.name), self)
