@@ -85,6 +85,11 @@ class FlyRequest:
     max_deviation_m: float = 10.0
     on_interrupt: str = "hold"
     home_tolerance_m: tuple[float, float] = HOME_TOLERANCE_M
+    #: ``--set-params``: set the parameters the mission relies on (read back) before it flies
+    set_params: bool = False
+    #: ``--accept-vehicle-params``: fly with the vehicle's values once the flight, proven
+    #: again with them in ``scenario``, keeps the margin
+    accept_vehicle_params: bool = False
     target_system: int | None = None
     heartbeat_timeout_s: float = 5.0
     link_timeout_s: float = 5.0
@@ -213,6 +218,7 @@ def _fly_on(
         )
     _check_home(plan, pre.home, request.home_tolerance_m)
     feedback.say("pre-flight: ready to arm, home matches the plan")
+    _vehicle_parameters(link, plan, request, feedback)
     uploaded = _mission_on_board(link, plan, autopilot, request, feedback)
 
     # the reference: the flight model flying this mission as this vehicle's flavour
@@ -338,6 +344,47 @@ def _check_home(
             f"{horizontal:g} m, {vertical:g} m): move the vehicle or plan from where it stands",
             step="pre-flight: home",
         )
+
+
+#: what ``fly`` says to do about a parameter the vehicle holds another value of
+FLY_PARAMS_ADVICE = (
+    "Nothing was moved. Set them with --set-params (each read back), or fly with the "
+    "vehicle's values once the flight is proven again with them: --accept-vehicle-params "
+    "(with --scenario)"
+)
+
+
+def _vehicle_parameters(
+    link: VehicleLink, plan: MissionPlan, request: FlyRequest, feedback: Feedback
+) -> None:
+    """The pre-flight parameter step (issue 37): the vehicle must hold every parameter the
+    plan relies on before anything is uploaded or armed. Read each one; one that differs
+    refuses the flight (exit 4, naming it, the vehicle's value and what the mission needs)
+    unless ``--set-params`` (set, read back) or ``--accept-vehicle-params`` (the flight
+    proven again with the vehicle's values must keep the margin):
+    :func:`uavplan.app.vehicle_params.enforce_parameters`."""
+    from uavplan.app.vehicle_params import ParamPolicy, enforce_parameters
+    from uavplan.mavlink.parameters import ParamTimeouts
+
+    policy = ParamPolicy.CHECK
+    if request.set_params:
+        policy = ParamPolicy.SET
+    elif request.accept_vehicle_params:
+        policy = ParamPolicy.ACCEPT
+    check = enforce_parameters(
+        link,
+        plan,
+        policy,
+        timeouts=ParamTimeouts(),
+        advice=FLY_PARAMS_ADVICE,
+        file=request.mission,
+        scenario=request.scenario,
+    )
+    for line in check.lines():
+        if line.startswith("warning:"):
+            feedback.warn(line)
+        else:
+            feedback.say(f"pre-flight: {line}")
 
 
 def _mission_on_board(

@@ -21,12 +21,12 @@ from typing import TYPE_CHECKING
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet
+from uavplan.app.vehicle_params import ParameterCheck, ParamPolicy, enforce_parameters
 from uavplan.errors import InputError
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
 
 if TYPE_CHECKING:
     from uavplan.mavlink.link import VehicleLink
-    from uavplan.mavlink.parameters import ParamResult
     from uavplan.mavlink.protocol import MissionClient
     from uavplan.mavlink.transfer import PlanTransferReport
 
@@ -93,13 +93,24 @@ def _counts(mission: int, fence: int | None, rally: int | None, home: bool) -> s
 @dataclass(frozen=True)
 class UploadRequest:
     """``uavplan upload MISSION``: the mission file (with a .plan's fence and rally points);
-    ``verify``: read every plan type back and compare it item for item; ``set_params``:
-    first make the vehicle hold the parameters the .plan says the mission relies on."""
+    ``verify``: read every plan type back and compare it item for item. The parameters the
+    .plan says the mission relies on are read first (:mod:`uavplan.app.vehicle_params`):
+    one the vehicle holds another value of refuses the upload (exit 4, nothing sent) unless
+    ``set_params`` (set and read back) or ``accept_vehicle_params`` (the flight proven again
+    in ``scenario`` with the vehicle's values). ``clear``: an empty mission is sent (it
+    clears the vehicle's); without it an empty mission is refused. ``max_items``: the
+    vehicle's storage, the mission's limit or (mission, fence, rally) items, checked before
+    anything is sent (None: the flavour's defaults,
+    :data:`~uavplan.mavlink.transfer.DEFAULT_STORAGE`)."""
 
     mission: str
     link: LinkOptions
     verify: bool = True
     set_params: bool = False
+    accept_vehicle_params: bool = False
+    scenario: str | None = None
+    clear: bool = False
+    max_items: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,8 +118,8 @@ class UploadOutcome:
     plan: MissionPlan
     report: PlanTransferReport
     vehicle: str
-    #: what ``--set-params`` did to each parameter (empty without it)
-    parameters: tuple[ParamResult, ...] = ()
+    #: what was found (and with ``--set-params`` done) about each relied-upon parameter
+    parameters: ParameterCheck | None = None
 
     def summary(self) -> str:
         counts = self.report.item_counts
@@ -118,31 +129,70 @@ class UploadOutcome:
         what = _counts(mission, counts.get(MissionType.FENCE), counts.get(MissionType.RALLY), home)
         return f"uploaded {what} to {self.vehicle}; {checked} ({self.report.elapsed_s:.2f} s)"
 
-    def parameter_summary(self) -> str | None:
-        """``parameters: RTL_ALT 1500 → 4500, FENCE_ENABLE 1 (kept)`` (None without any)."""
-        if not self.parameters:
-            return None
-        changed = sum(1 for r in self.parameters if r.old != r.new)
-        return f"parameters ({changed} changed, read back): " + ", ".join(
-            r.describe() for r in self.parameters
-        )
+    def parameter_lines(self) -> list[str]:
+        """``parameters (1 changed, read back): RTL_ALT 1500 → 23000, ...``; with
+        ``--set-params`` on a mission that relies on none, that it relies on none."""
+        check = self.parameters
+        if check is None or (not check.results and check.policy is ParamPolicy.CHECK):
+            return []
+        return check.lines()
+
+
+#: what ``upload`` and ``fly`` say to do about a parameter the vehicle holds another value of
+UPLOAD_PARAMS_ADVICE = (
+    "Set them with --set-params (each read back), or fly with the vehicle's values after "
+    "proving the flight again with them: --accept-vehicle-params --scenario S"
+)
 
 
 def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
-    """Read the mission file, check that it fits the wire, connect and upload it."""
-    from uavplan.mavlink.transfer import check_plan_fits_wire, upload_plan
+    """Read the mission file, check that it fits the wire and the vehicle's storage,
+    connect, check (or set) the parameters it relies on and upload it."""
+    from uavplan.mavlink.parameters import ParamTimeouts
+    from uavplan.mavlink.transfer import (
+        check_plan_fits_storage,
+        check_plan_fits_wire,
+        layout_autopilot,
+        storage_limits,
+        upload_plan,
+    )
     from uavplan.mission.io import load_mission
 
     plan = load_mission(request.mission)
     check_plan_fits_wire(plan, file=request.mission)
-    if request.set_params and not plan.parameters:
+    if not plan.items and not request.clear:
         raise InputError(
-            "--set-params: the file names no parameters the mission relies on (a .plan "
-            "written by uavplan plan holds them)",
+            "the mission has no items: uploading it would clear the vehicle's mission; give "
+            "--clear to do that (or uavplan clear --type mission)",
             file=request.mission,
         )
+    limits = storage_limits(plan.autopilot, request.max_items)
+    check_plan_fits_storage(plan, plan.autopilot, limits, file=request.mission)
+    if request.accept_vehicle_params and request.scenario is None:
+        raise InputError(
+            "--accept-vehicle-params proves the flight again with the vehicle's parameter "
+            "values, in the scenario it was planned for: give --scenario"
+        )
+    policy = ParamPolicy.CHECK
+    if request.set_params:
+        policy = ParamPolicy.SET
+    elif request.accept_vehicle_params:
+        policy = ParamPolicy.ACCEPT
     with _connect(request.link) as link:
-        parameters = _set_parameters(link, plan, request) if request.set_params else ()
+        # laid out for the vehicle's flavour (ArduPilot's home item takes a slot)
+        flavour = layout_autopilot(link.vehicle.autopilot, plan.autopilot)
+        if flavour is not plan.autopilot:
+            limits = storage_limits(flavour, request.max_items)
+            check_plan_fits_storage(plan, flavour, limits, file=request.mission)
+        parameters = enforce_parameters(
+            link,
+            plan,
+            policy,
+            timeouts=ParamTimeouts(request.link.timeout_s, request.link.retries),
+            advice=UPLOAD_PARAMS_ADVICE,
+            file=request.mission,
+            scenario=request.scenario,
+        )
         try:
             report = upload_plan(
                 _client(link, request.link),
@@ -158,35 +208,6 @@ def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
             if feedback.progress is not None:
                 feedback.progress.close()
         return UploadOutcome(plan, report, _vehicle(link), parameters)
-
-
-def _set_parameters(
-    link: VehicleLink, plan: MissionPlan, request: UploadRequest
-) -> tuple[ParamResult, ...]:
-    """Make the vehicle hold ``plan``'s parameters (read, set, read back), before the
-    mission that relies on them goes up; a parameter it does not end up holding is a
-    :class:`~uavplan.mavlink.parameters.ParameterError` (exit 4) naming it."""
-    from uavplan.mavlink.parameters import (
-        ParamClient,
-        ParameterError,
-        ParamRequest,
-        ParamTimeouts,
-    )
-
-    vehicle = link.vehicle.autopilot
-    if plan.autopilot not in (vehicle, Autopilot.GENERIC):
-        raise InputError(
-            f"--set-params: the parameters are {plan.autopilot.label}'s and the vehicle is "
-            f"{vehicle.label}: plan the mission for it (plan --autopilot {vehicle.label})",
-            file=request.mission,
-        )
-    client = ParamClient(link, ParamTimeouts(request.link.timeout_s, request.link.retries))
-    results = client.apply(
-        [ParamRequest(p.name, p.value, p.at_least, p.at_most) for p in plan.parameters]
-    )
-    if not all(r.ok for r in results):
-        raise ParameterError(results)
-    return tuple(results)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -178,6 +178,9 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         mission, built = _mission(scn, route, request, feedback)
         if way is not None:
             mission = replace(mission, parameters=way.parameters)
+        from uavplan.mavlink.transfer import check_storage  # the vehicle's storage
+
+        check_storage(mission, scn.mission.max_items, file=request.output)
         summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
         mission_out.write_text(
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))

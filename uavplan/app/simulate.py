@@ -25,7 +25,7 @@ from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearse
 from uavplan.scenario import load_scenario
-from uavplan.sim.params import Parameters, UnknownParameter
+from uavplan.sim.params import ParameterValueError, parameters_from
 
 
 @dataclass(frozen=True)
@@ -97,11 +97,9 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         autopilot = Autopilot.from_name(request.autopilot)
     if autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
         raise InputError("the file names no autopilot: give --autopilot px4 or ardupilot")
-    try:
-        params = Parameters(autopilot, dict(request.params))
-    except UnknownParameter as err:
-        raise InputError(str(err), key="--param") from None
-    except ValueError as err:
+    try:  # the one reading of --param, as mock-vehicle's
+        params = parameters_from(autopilot, request.params)
+    except ParameterValueError as err:
         raise InputError(str(err), key="--param") from None
     site: CheckSite | None = None
     if request.scenario is not None:

@@ -75,6 +75,19 @@ def _tolerance(_ctx: object, _param: object, value: str) -> tuple[float, float]:
     "(vertically) from the plan's planned home.",
 )
 @click.option(
+    "--set-params",
+    is_flag=True,
+    help="Before the flight, set the vehicle parameters the .plan says the mission relies "
+    "on (RTL altitude, fence, ...), each read back. Without it (or --accept-vehicle-params) "
+    "fly refuses a vehicle that holds another value of one (exit 4).",
+)
+@click.option(
+    "--accept-vehicle-params",
+    is_flag=True,
+    help="Fly with the vehicle's own values of those parameters, once the flight proven "
+    "again with them (in --scenario) still keeps the margin; else exit 4.",
+)
+@click.option(
     "--target-system",
     type=click.IntRange(1, 255),
     default=None,
@@ -107,6 +120,8 @@ def fly_command(
     max_deviation_m: float,
     on_interrupt: str,
     home_tolerance: tuple[float, float],
+    set_params: bool,
+    accept_vehicle_params: bool,
     target_system: int | None,
     heartbeat_timeout_s: float,
     link_timeout_s: float,
@@ -114,8 +129,10 @@ def fly_command(
 ) -> None:
     """Fly MISSION on the vehicle at CONN: check it, start it, follow it to the landing.
 
-    Before the flight it checks that the vehicle can arm, that its home is the plan's and
-    that it holds this mission (uploading and verifying it if not). It starts the mission
+    Before the flight it checks that the vehicle can arm, that its home is the plan's,
+    that it holds the parameters the mission relies on (--set-params sets them,
+    --accept-vehicle-params proves the flight with the vehicle's) and that it holds this
+    mission (uploading and verifying it if not). It starts the mission
     the way PX4 or ArduPilot expects, shows the progress on a terminal and warns when the
     vehicle strays from the route or, with --scenario, comes closer than the margin.
     Exit 0: mission complete and landed; 130: Ctrl-C (the vehicle holds); 4: the vehicle
@@ -126,6 +143,13 @@ def fly_command(
       uavplan fly env1.plan --conn udpout:127.0.0.1:14560 --scenario missions/paper-env1.yaml
       uavplan fly env1.plan --conn udp:127.0.0.1:14540 --track flown.csv --on-interrupt rtl
     """
+    if set_params and accept_vehicle_params:
+        raise click.UsageError("--set-params and --accept-vehicle-params exclude each other")
+    if accept_vehicle_params and scenario_path is None:
+        raise click.UsageError(
+            "--accept-vehicle-params proves the flight again with the vehicle's parameter "
+            "values, in the scenario it was planned for: give --scenario"
+        )
     request = FlyRequest(
         mission,
         conn,
@@ -135,6 +159,8 @@ def fly_command(
         max_deviation_m=max_deviation_m,
         on_interrupt=on_interrupt,
         home_tolerance_m=home_tolerance,
+        set_params=set_params,
+        accept_vehicle_params=accept_vehicle_params,
         target_system=target_system,
         heartbeat_timeout_s=heartbeat_timeout_s,
         link_timeout_s=link_timeout_s,

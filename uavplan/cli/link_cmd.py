@@ -28,6 +28,7 @@ from uavplan.app.link import (
 )
 from uavplan.cli import main
 from uavplan.cli.common import feedback, handle_errors, interruptible
+from uavplan.cli.options import ITEM_LIMITS, PARAM
 from uavplan.errors import InputError
 
 _CONN_HELP = (
@@ -121,7 +122,35 @@ def _link(
     "--set-params",
     is_flag=True,
     help="First set the vehicle parameters the .plan says the mission relies on (RTL "
-    "altitude, fence ceiling, fence on: written by plan), each read back; prints old → new.",
+    "altitude, fence ceiling, fence on: written by plan), each read back; prints old → new. "
+    "Without it a parameter the vehicle holds another value of refuses the upload (exit 4).",
+)
+@click.option(
+    "--accept-vehicle-params",
+    is_flag=True,
+    help="Keep the vehicle's values of the parameters the mission relies on, once the "
+    "flight proven again with them (in --scenario) still keeps the margin.",
+)
+@click.option(
+    "--scenario",
+    "scenario_path",
+    type=click.Path(dir_okay=False),
+    help="The scenario the mission was planned in (for --accept-vehicle-params).",
+)
+@click.option(
+    "--clear",
+    "clear_empty",
+    is_flag=True,
+    help="Allow a mission with no items: uploading it clears the vehicle's mission.",
+)
+@click.option(
+    "--max-items",
+    "max_items",
+    type=ITEM_LIMITS,
+    default=None,
+    metavar="M[,F,R]",
+    help="The vehicle's storage: M mission items (ArduPilot's home included), and F fence "
+    "items and R rally points (default: the flavour's, PX4 500,63,7, ArduPilot 718,70,46).",
 )
 @handle_errors
 def upload_cmd(
@@ -136,24 +165,42 @@ def upload_cmd(
     quiet: bool,
     no_verify: bool,
     set_params: bool,
+    accept_vehicle_params: bool,
+    scenario_path: str | None,
+    clear_empty: bool,
+    max_items: tuple[int, ...] | None,
 ) -> None:
     """Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).
 
+    First it reads the vehicle parameters the .plan says the mission relies on: one the
+    vehicle holds another value of refuses the upload (exit 4) unless --set-params sets it
+    or --accept-vehicle-params keeps it (the flight proven again with it in --scenario).
     Succeeds only when the vehicle accepts every plan type and, unless --no-verify, the
-    read-back matches item for item.
+    read-back matches item for item. A mission larger than the vehicle's storage, or an
+    empty one without --clear, is refused before anything is sent (exit 2).
     """
+    if set_params and accept_vehicle_params:
+        raise click.UsageError("--set-params and --accept-vehicle-params exclude each other")
     link = _link(
         conn, timeout_s, retries, target_system, heartbeat_timeout_s, source_system,
         source_component,
     )  # fmt: skip
     with interruptible() as interrupts:
-        request = UploadRequest(mission, link, not no_verify, set_params)
+        request = UploadRequest(
+            mission,
+            link,
+            not no_verify,
+            set_params,
+            accept_vehicle_params=accept_vehicle_params,
+            scenario=scenario_path,
+            clear=clear_empty,
+            max_items=max_items,
+        )
         outcome = upload(request, feedback(quiet, interrupts))
         for note in outcome.report.notes:
             click.echo(f"note: {note}", err=True)
-        params = outcome.parameter_summary()
-        if params is not None:
-            click.echo(params)
+        for line in outcome.parameter_lines():
+            click.echo(line, err=line.startswith("warning:"))
         click.echo(outcome.summary())
 
 
@@ -249,19 +296,6 @@ def _parse_wind(text: str | None) -> tuple[float, float]:
     return (east, north)
 
 
-def _parse_params(pairs: tuple[str, ...]) -> dict[str, float]:
-    values: dict[str, float] = {}
-    for pair in pairs:
-        name, sep, value = pair.partition("=")
-        try:
-            if not sep:
-                raise ValueError
-            values[name.strip()] = float(value)
-        except ValueError:
-            raise InputError(f"expected NAME=VALUE, got {pair!r}", key="--param") from None
-    return values
-
-
 @main.command("mock-vehicle")
 @click.option("--conn", required=True, metavar="CONN", help=_CONN_HELP)
 @click.option(
@@ -319,10 +353,11 @@ def _parse_params(pairs: tuple[str, ...]) -> dict[str, float]:
 @click.option(
     "--param",
     "param_pairs",
-    metavar="NAME=VALUE",
+    type=PARAM,
     multiple=True,
     help="Start with this autopilot parameter changed (repeatable; WPNAV_SPEED=500, "
-    "MPC_XY_CRUISE=8, ...: docs/flight-model.md lists them).",
+    "MPC_XY_CRUISE=8, RTL_ALT=23000, ...: docs/flight-model.md lists them). Without it the "
+    "vehicle holds the firmware's defaults.",
 )
 @click.option(
     "--firmware-timing",
@@ -349,7 +384,7 @@ def mock_vehicle_cmd(
     speedup: float,
     wind: str | None,
     profile_name: str,
-    param_pairs: tuple[str, ...],
+    param_pairs: tuple[tuple[str, float], ...],
     firmware_timing: bool,
     preload: str | None,
 ) -> None:
@@ -365,7 +400,7 @@ def mock_vehicle_cmd(
     from uavplan.mission.items import Autopilot, MissionType
     from uavplan.sim.faults import Faults
     from uavplan.sim.mock import MockVehicle
-    from uavplan.sim.params import UnknownParameter
+    from uavplan.sim.params import ParameterValueError, parameters_from
     from uavplan.sim.power import spec_for
     from uavplan.sim.vehicle import VehicleConfig
     from uavplan.vehicle import resolve
@@ -377,22 +412,21 @@ def mock_vehicle_cmd(
     stand_at = _parse_home(home)
     if stand_at is None and plan is not None:
         stand_at = plan.home
-    try:
-        config = VehicleConfig(
-            autopilot=flavour,
-            system_id=system_id,
-            home=stand_at,
-            firmware_timing=firmware_timing,
-            faults=Faults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
-            params=_parse_params(param_pairs),
-            speedup=speedup,
-            wind_en_m_s=_parse_wind(wind),
-            vehicle=spec_for(resolve({"profile": profile_name})),
-        )
-    except UnknownParameter as err:
+    try:  # the one reading of --param, as simulate's
+        params = parameters_from(flavour, param_pairs)
+    except ParameterValueError as err:
         raise InputError(str(err), key="--param") from None
-    except ValueError as err:
-        raise InputError(str(err), key="--param") from None
+    config = VehicleConfig(
+        autopilot=flavour,
+        system_id=system_id,
+        home=stand_at,
+        firmware_timing=firmware_timing,
+        faults=Faults(drop_rate=loss, duplicate_rate=duplicate, seed=seed),
+        params=dict(params.values),
+        speedup=speedup,
+        wind_en_m_s=_parse_wind(wind),
+        vehicle=spec_for(resolve({"profile": profile_name})),
+    )
     vehicle = MockVehicle(conn, config)
     try:
         if plan is not None:

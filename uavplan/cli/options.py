@@ -110,7 +110,34 @@ class ParamAssignmentType(click.ParamType):
         return "NAME=VALUE"
 
 
+class ItemLimitsType(click.ParamType):
+    """``M`` or ``M,F,R``: the most mission items, fence items and rally points a vehicle
+    stores (``--max-items 2000`` or ``--max-items 2000,64,32``)."""
+
+    name = "items"
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> tuple[int, ...]:
+        if isinstance(value, tuple):
+            return value
+        try:
+            numbers = tuple(int(v) for v in str(value).split(","))
+        except ValueError:
+            self.fail(f"expected M or M,F,R (whole numbers), got {value!r}", param, ctx)
+        if len(numbers) not in (1, 3) or not all(0 <= n <= 65534 for n in numbers):
+            self.fail(f"expected M or M,F,R, each 0..65534, got {value!r}", param, ctx)
+        if numbers[0] < 1:
+            self.fail("a vehicle stores at least one mission item", param, ctx)
+        return numbers
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "M[,F,R]"
+
+
 #: ``--wind`` of ``simulate``
 WIND = WindType()
-#: ``--param`` of ``simulate``
+#: ``--param`` of ``simulate`` and ``mock-vehicle``
 PARAM = ParamAssignmentType()
+#: ``--max-items`` of ``upload``
+ITEM_LIMITS = ItemLimitsType()

@@ -22,6 +22,10 @@ For each :class:`ParamRequest`:
    again, *refused* (with the vehicle's STATUSTEXT, e.g. ArduPilot's ``Param write denied
    (NAME)``).
 
+With ``set_values=False`` the machine only reads: a value the request does not accept ends
+that parameter as *differs* (nothing is sent but PARAM_REQUEST_READ), which is how ``fly``
+and ``upload`` check the vehicle before they change anything.
+
 Each step is re-sent after ``timeouts.reply_s`` without an answer, ``timeouts.retries``
 times; a step never answered ends that parameter as *unanswered* (a name the vehicle does
 not know: ArduPilot stays silent, PX4 says ``[pm] unknown param: NAME``; or a link that lost
@@ -108,6 +112,18 @@ class ParamRequest:
         if not self.accepts(self.value):
             raise ValueError(f"{self.name}: {self.value:g} is outside its own bounds")
 
+    def needed(self) -> str:
+        """What the mission needs, in words: ``23000``, ``23000..24800``, ``23000 or more``."""
+        if self.at_least is None and self.at_most is None:
+            return _num(self.value)
+        if self.at_least is not None and self.at_most is not None:
+            if same_value(self.at_least, self.at_most):
+                return _num(self.at_least)
+            return f"{_num(self.at_least)}..{_num(self.at_most)}"
+        if self.at_least is not None:
+            return f"{_num(self.at_least)} or more"
+        return f"{_num(self.at_most)} or less"
+
     def accepts(self, current: float) -> bool:
         """Is ``current`` a value the mission can fly with?"""
         if self.at_least is None and self.at_most is None:
@@ -152,6 +168,7 @@ class ParamStatus(enum.Enum):
     CHANGED = "changed"  # set, and read back as set
     REFUSED = "refused"  # set, and read back as something else
     UNANSWERED = "unanswered"  # no PARAM_VALUE for it after every retry
+    DIFFERS = "differs"  # read only: the vehicle holds a value the mission does not accept
 
     @property
     def ok(self) -> bool:
@@ -169,6 +186,8 @@ class ParamResult:
     new: float | None = None
     step: str = ""
     statustext: str | None = None
+    #: what the mission needs (:meth:`ParamRequest.needed`), for the messages
+    needed: str = ""
 
     @property
     def ok(self) -> bool:
@@ -180,6 +199,10 @@ class ParamResult:
             return f"{self.name} {_num(self.old)} → {_num(self.new)}"
         if self.status is ParamStatus.KEPT:
             return f"{self.name} {_num(self.old)} (kept)"
+        if self.status is ParamStatus.DIFFERS:
+            return (
+                f"{self.name} is {_num(self.old)} on the vehicle, the mission needs {self.needed}"
+            )
         said = f' [vehicle: "{self.statustext}"]' if self.statustext else ""
         if self.status is ParamStatus.REFUSED:
             return (
@@ -213,10 +236,12 @@ class ParamMachine:
         *,
         bytewise: bool,
         timeouts: ParamTimeouts | None = None,
+        set_values: bool = True,
     ) -> None:
         self.target = target
         self.requests = tuple(requests)
         self.bytewise = bytewise
+        self.set_values = set_values
         self.timeouts = timeouts or ParamTimeouts()
         self.results: list[ParamResult] = []
         self.deadline = math.inf
@@ -254,20 +279,33 @@ class ParamMachine:
         value = decode_value(message.param_value, message.param_type, bytewise=self.bytewise)
         if self._step is _Step.READ:
             self._old, self._type = value, message.param_type
+            needed = request.needed()
             if request.accepts(value):
-                return self._done(ParamResult(request.name, ParamStatus.KEPT, value, value), now)
+                result = ParamResult(request.name, ParamStatus.KEPT, value, value, needed=needed)
+                return self._done(result, now)
+            if not self.set_values:
+                result = ParamResult(request.name, ParamStatus.DIFFERS, value, None, needed=needed)
+                return self._done(result, now)
             return self._go(_Step.SET, now)
         if self._step is _Step.SET:
             return self._go(_Step.VERIFY, now)
         if same_value(value, self._wanted()):
-            result = ParamResult(request.name, ParamStatus.CHANGED, self._old, value)
+            result = ParamResult(
+                request.name, ParamStatus.CHANGED, self._old, value, needed=request.needed()
+            )
             return self._done(result, now)
         if self._set_rounds < SET_ROUNDS:
             # the read-back shows the old value: the PARAM_SET may have been lost after a
             # late reply to an earlier read was taken for its answer; set it once more
             return self._go(_Step.SET, now)
         result = ParamResult(
-            request.name, ParamStatus.REFUSED, value, self._wanted(), _Step.SET.value, self._text
+            request.name,
+            ParamStatus.REFUSED,
+            value,
+            self._wanted(),
+            _Step.SET.value,
+            self._text,
+            request.needed(),
         )
         return self._done(result, now)
 
@@ -283,6 +321,7 @@ class ParamMachine:
                 None,
                 f"{1 + self.timeouts.retries} × {self._step.value}",
                 self._text,
+                request.needed(),
             )
             return self._done(result, now)
         return self._send(now)
@@ -372,12 +411,21 @@ class ParamClient:
     def apply(self, requests: Sequence[ParamRequest]) -> list[ParamResult]:
         """Make the vehicle hold ``requests``; what happened to each (nothing raised for a
         refusal: see :meth:`ParamResult.ok`, :class:`ParameterError`)."""
+        return self._run(requests, set_values=True)
+
+    def read(self, requests: Sequence[ParamRequest]) -> list[ParamResult]:
+        """Read the vehicle's value of each of ``requests``, changing nothing: *kept* where
+        the request accepts it, *differs* where not, *unanswered* where no PARAM_VALUE came."""
+        return self._run(requests, set_values=False)
+
+    def _run(self, requests: Sequence[ParamRequest], *, set_values: bool) -> list[ParamResult]:
         vehicle = self.link.vehicle
         machine = ParamMachine(
             (vehicle.system_id, vehicle.component_id),
             requests,
             bytewise=self.bytewise,
             timeouts=self.timeouts,
+            set_values=set_values,
         )
         self._send_all(machine.start(self.clock()))
         while not machine.finished:

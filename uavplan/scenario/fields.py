@@ -290,7 +290,7 @@ def wind(chk: Checker, raw: Any) -> Wind:
 
 
 def mission(chk: Checker, raw: Any) -> MissionConfig:
-    chk.mapping(raw, "mission", {"autopilot", "spacing", "end", "altitude"})
+    chk.mapping(raw, "mission", {"autopilot", "spacing", "end", "altitude", "max_items"})
     autopilot = MissionConfig.autopilot
     if "autopilot" in raw:
         name = chk.string(raw["autopilot"], "mission.autopilot", ("px4", "ardupilot"))
@@ -309,7 +309,13 @@ def mission(chk: Checker, raw: Any) -> MissionConfig:
     altitude = MissionConfig.altitude
     if "altitude" in raw:
         altitude = chk.string(raw["altitude"], "mission.altitude", ALTITUDE_MODES)
-    return MissionConfig(autopilot, spacing, end, altitude)
+    max_items = None
+    if "max_items" in raw:
+        value = raw["max_items"]
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise chk.fail("mission.max_items", f"must be a whole number, got {type_name(value)}")
+        max_items = int(chk.number(value, "mission.max_items", minimum=1, maximum=65534))
+    return MissionConfig(autopilot, spacing, end, altitude, max_items=max_items)
 
 
 def obstacles(chk: Checker, raw: Any) -> tuple[Obstacle, ...]:

@@ -71,8 +71,13 @@ class MissionConfig:
     #: the route begins with the take-off climb from the ground below the start; False: it
     #: begins in the air at the start (a rerouted stretch of a user's plan). Not a file key.
     takeoff: bool = True
+    #: the vehicle's mission storage: the most mission items it holds (ArduPilot's home
+    #: included); None: the autopilot's default (uavplan.mavlink.transfer.DEFAULT_STORAGE)
+    max_items: int | None = None
 
     def __post_init__(self) -> None:
+        if self.max_items is not None and not 1 <= self.max_items <= 65534:
+            raise ValueError("mission max_items must be within 1..65534")
         if self.end not in END_ACTIONS:
             raise ValueError(f"mission end must be one of {', '.join(END_ACTIONS)}")
         if self.altitude not in ALTITUDE_MODES:

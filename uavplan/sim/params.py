@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 
 from uavplan.config import Autopilot
@@ -32,10 +32,12 @@ __all__ = [
     "FlightLimits",
     "ParamSpec",
     "ParamType",
+    "ParameterValueError",
     "Parameters",
     "UnknownParameter",
     "flight_limits",
     "param_table",
+    "parameters_from",
 ]
 
 _AP = "https://github.com/ArduPilot/ardupilot/blob/Copter-4.5/"
@@ -587,6 +589,29 @@ class Parameters:
             if spec.name == name:
                 return index
         raise UnknownParameter(name, self.autopilot)
+
+
+class ParameterValueError(ValueError):
+    """A parameter given by name (``--param NAME=VALUE``) that the flavour's table does not
+    hold, or a value outside the parameter's documented range."""
+
+
+def parameters_from(
+    autopilot: Autopilot, assignments: Iterable[tuple[str, float]] | Mapping[str, float]
+) -> Parameters:
+    """The one reading of parameters given by name (``simulate --param``, ``mock-vehicle
+    --param``): the flavour's defaults with ``assignments`` applied (the last of a name
+    wins), each name checked against :func:`param_table` and each value against the
+    parameter's range (:meth:`ParamSpec.check`). Raises :class:`ParameterValueError`."""
+    pairs = assignments.items() if isinstance(assignments, Mapping) else assignments
+    values = {name: value for name, value in pairs}
+    try:
+        return Parameters(autopilot, values)
+    except UnknownParameter as err:
+        names = ", ".join(spec.name for spec in param_table(autopilot))
+        raise ParameterValueError(f"{err} (it has {names})") from None
+    except ValueError as err:
+        raise ParameterValueError(str(err)) from None
 
 
 @dataclass(frozen=True)
