@@ -377,6 +377,7 @@ def _vehicle_parameters(
         policy,
         timeouts=ParamTimeouts(),
         advice=FLY_PARAMS_ADVICE,
+        step="pre-flight: parameters",
         file=request.mission,
         scenario=request.scenario,
     )

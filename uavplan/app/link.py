@@ -140,8 +140,8 @@ class UploadOutcome:
 
 #: what ``upload`` and ``fly`` say to do about a parameter the vehicle holds another value of
 UPLOAD_PARAMS_ADVICE = (
-    "Set them with --set-params (each read back), or fly with the vehicle's values after "
-    "proving the flight again with them: --accept-vehicle-params --scenario S"
+    "Nothing was sent. Set them with --set-params (each read back), or keep the vehicle's "
+    "values once the flight is proven again with them: --accept-vehicle-params --scenario S"
 )
 
 
@@ -190,6 +190,7 @@ def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
             policy,
             timeouts=ParamTimeouts(request.link.timeout_s, request.link.retries),
             advice=UPLOAD_PARAMS_ADVICE,
+            step="check parameters",
             file=request.mission,
             scenario=request.scenario,
         )

@@ -54,14 +54,14 @@ class ParametersDiffer(LinkError):
     """The vehicle holds values of relied-upon parameters the mission does not accept
     (exit 4): ``results`` names each; nothing was changed on the vehicle."""
 
-    def __init__(self, results: Sequence[ParamResult], advice: str) -> None:
+    def __init__(self, results: Sequence[ParamResult], advice: str, step: str) -> None:
         self.results = tuple(results)
         wrong = [r for r in self.results if not r.ok]
         super().__init__(
             "the vehicle does not hold the parameters the mission relies on: "
             + "; ".join(r.describe() for r in wrong)
             + f". {advice}",
-            step="pre-flight: parameters",
+            step=step,
         )
 
 
@@ -126,13 +126,14 @@ def enforce_parameters(
     *,
     timeouts: ParamTimeouts,
     advice: str,
+    step: str,
     file: str | None = None,
     scenario: Scenario | str | None = None,
 ) -> ParameterCheck:
     """Make sure the vehicle on ``link`` holds what ``plan`` relies on, as ``policy`` says
     (the module doc); ``advice`` ends the refusal's message (how to fix it, in the command's
-    own options). Raises :class:`ParametersDiffer`, :class:`ReproofFailed`,
-    :class:`~uavplan.mavlink.parameters.ParameterError` (exit 4) or
+    own options), ``step`` names the step in it. Raises :class:`ParametersDiffer`,
+    :class:`ReproofFailed`, :class:`~uavplan.mavlink.parameters.ParameterError` (exit 4) or
     :class:`~uavplan.errors.InputError` (exit 2: the parameters are another firmware's, or
     ``--accept-vehicle-params`` without a scenario to prove the flight in). ``scenario``
     (or its file, read only when the flight must be proven again): where the mission was
@@ -168,7 +169,7 @@ def enforce_parameters(
     if not differing:
         return ParameterCheck(tuple(results), policy)
     if policy is ParamPolicy.CHECK:
-        raise ParametersDiffer(results, advice)
+        raise ParametersDiffer(results, advice, step)
     assert scenario is not None
     if isinstance(scenario, str):
         from uavplan.scenario import load_scenario
@@ -181,8 +182,9 @@ def enforce_parameters(
         held = ", ".join(f"{r.name} {_num(r.old)}" for r in differing)
         raise ReproofFailed(
             f"--accept-vehicle-params: with the vehicle's {held} the flight does not keep the "
-            f"margin: {'; '.join(problems)}. Set the planned values (--set-params) instead",
-            step="pre-flight: parameters",
+            f"margin: {'; '.join(problems)}. Nothing was changed; set the planned values with "
+            "--set-params instead",
+            step=step,
         )
     return ParameterCheck(tuple(results), policy, differing)
 

@@ -175,10 +175,10 @@ MAX_WIRE_COUNT = 65534
 #:   the same layout. Boards with more storage or missions on the SD card hold more.
 DEFAULT_STORAGE: dict[Autopilot, StorageLimits] = {
     Autopilot.PX4: StorageLimits(
-        500, 63, 7, "PX4 v1.14-v1.16 defaults (dataman: NUM_MISSION_ITEMS_SUPPORTED 500)"
+        500, 63, 7, "PX4 v1.14-v1.16 defaults: dataman's NUM_MISSION_ITEMS_SUPPORTED 500"
     ),
     Autopilot.ARDUPILOT: StorageLimits(
-        718, 70, 46, "ArduPilot Copter on a board with 16 KiB of storage (StorageManager.cpp)"
+        718, 70, 46, "ArduPilot Copter on a board with 16 KiB of storage, StorageManager.cpp"
     ),
 }
 
