@@ -267,6 +267,7 @@ def test_a_bundled_mission_flies_to_the_end_keeping_the_margin(
     assert code == 0, out  # the flight model's track keeps the margin
     with running_mock(config(plan, autopilot, speedup=100.0)) as vehicle:
         flown_args = [str(planned), "--conn", client_conn(vehicle), "--track", str(track)]
+        flown_args += ["--set-params"]  # the vehicle starts with the firmware's defaults
         if scenario is not None:
             flown_args += ["--scenario", str(scenario)]
         code, out = fly(*flown_args)
