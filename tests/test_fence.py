@@ -619,12 +619,19 @@ def test_mavsdk_imports_the_fence(fenced_plan: tuple[Path, Path, str]) -> None:
 def test_the_fence_round_trips_through_the_mock_vehicle(
     autopilot: Autopilot, fenced_plan: tuple[Path, Path, str], tmp_path: Path
 ) -> None:
+    from dataclasses import replace
+
     from mavlink_helpers import client_conn, running_mock
 
+    from uavplan.mission.io import save_mission
     from uavplan.sim.vehicle import VehicleConfig
 
     _, plan_path, _ = fenced_plan
-    plan = load_mission(plan_path)
+    # the fence round trip alone: the parameters the plan relies on are its flavour's (upload
+    # refuses them on the other), and are not what is tested here
+    plan = replace(load_mission(plan_path), parameters=())
+    plan_path = tmp_path / "fenced.plan"
+    save_mission(plan, plan_path)
     runner = CliRunner()
     back_path = tmp_path / "back.plan"
     with running_mock(VehicleConfig(autopilot=autopilot, home=plan.home)) as vehicle:

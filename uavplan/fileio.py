@@ -63,7 +63,11 @@ def write_target(path: str | os.PathLike[str]) -> Path:
     symbolic link (every link of a chain resolved): a link is written through, never
     replaced, and a dangling link's target is created."""
     named = Path(os.fspath(path))
-    return Path(os.path.realpath(named)) if named.is_symlink() else named
+    try:
+        linked = named.is_symlink()
+    except OSError:  # a name too long, a folder that cannot be read: the checks say so
+        return named
+    return Path(os.path.realpath(named)) if linked else named
 
 
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:

@@ -178,7 +178,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         mission, built = _mission(scn, route, request, feedback)
         if way is not None:
             mission = replace(mission, parameters=way.parameters)
-        from uavplan.mavlink.transfer import check_storage  # the vehicle's storage
+        from uavplan.mavlink.storage import check_storage  # the vehicle's storage
 
         check_storage(mission, scn.mission.max_items, file=request.output)
         summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
