@@ -150,7 +150,7 @@ def _link(
     default=None,
     metavar="M[,F,R]",
     help="The vehicle's storage: M mission items (ArduPilot's home included), and F fence "
-    "items and R rally points (default: the flavour's, PX4 500,63,7, ArduPilot 718,70,46).",
+    "items and R rally points (default: the flavour's, PX4 500,63,7, ArduPilot 650,70,46).",
 )
 @handle_errors
 def upload_cmd(

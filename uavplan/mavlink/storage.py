@@ -54,26 +54,29 @@ class StorageLimits:
 #: MISSION_COUNT's count is a uint16, and 65535 is no count a vehicle accepts
 MAX_WIRE_COUNT = 65534
 
-#: what each firmware stores by default (docs/flying.md, "The vehicle's mission storage"):
+#: what each firmware stores by default (docs/flying.md, "Before you fly"):
 #:
 #: - PX4 v1.14-v1.16: mission items CONFIG_NUM_MISSION_ITEMS_SUPPORTED, 500 unless the board
-#:   configures more (src/modules/dataman/Kconfig); fence DM_KEY_FENCE_POINTS_MAX 64 and rally
-#:   DM_KEY_SAFE_POINTS_MAX, of which v1.14 keeps the first slot for its statistics (63 and
-#:   7 usable, src/modules/mavlink/mavlink_mission.h MAX_COUNT) and v1.15 on, with the
-#:   statistics in a key of their own, all (64 fence items and 32 rally points: PX4 v1.16
-#:   SITL answers MISSION_COUNT 65 and 33 with NO_SPACE, 64 and 32 with a request). The
-#:   defaults are v1.14's, the smallest of the three.
-#: - ArduPilot Copter: commands of 15 bytes in the storage areas StorageMission of
+#:   configures more (src/modules/dataman/Kconfig; PX4 v1.16 SITL, px4_sitl_default, holds
+#:   10,000: measured); fence DM_KEY_FENCE_POINTS_MAX 64 and rally DM_KEY_SAFE_POINTS_MAX, of
+#:   which v1.14 keeps the first slot for its statistics (63 and 7 usable,
+#:   src/modules/mavlink/mavlink_mission.h MAX_COUNT) and v1.15 on, with the statistics in a
+#:   key of their own, all (64 fence items and 32 rally points: PX4 v1.16 SITL answers
+#:   MISSION_COUNT 65 and 33 with NO_SPACE, 64 and 32 with a request). The defaults are
+#:   v1.14's, the smallest of the three.
+#: - ArduPilot Copter: commands of 15 bytes in the StorageMission areas of
 #:   libraries/StorageManager/StorageManager.cpp (layout_copter), less 4 bytes of header
-#:   (AP_Mission::num_commands_max): 718 on a board with 16 KiB of storage (Pixhawk 1,
-#:   fmuv2/v3: 2422 + 2132 + 6228 bytes); rally points (15 bytes) 46 and fence points 70 in
-#:   the same layout. Boards with more storage or missions on the SD card hold more.
+#:   (AP_Mission::num_commands_max): on a board with 16 KiB of storage 2422 + 2132 + 5204
+#:   bytes, 650 items (home included); fence points 70 and rally points 46 in the same
+#:   layout. ArduPilot Copter SITL (4.7.0-dev) answers exactly 650, 70 and 46 (measured:
+#:   NO_SPACE one above each). Boards with more storage, or missions on the SD card, hold
+#:   more; in older releases (Copter 3.x) the third area was 6228 bytes: 718 items.
 DEFAULT_STORAGE: dict[Autopilot, StorageLimits] = {
     Autopilot.PX4: StorageLimits(
         500, 63, 7, "PX4 v1.14-v1.16 defaults: dataman's NUM_MISSION_ITEMS_SUPPORTED 500"
     ),
     Autopilot.ARDUPILOT: StorageLimits(
-        718, 70, 46, "ArduPilot Copter on a board with 16 KiB of storage, StorageManager.cpp"
+        650, 70, 46, "ArduPilot Copter on a board with 16 KiB of storage, StorageManager.cpp"
     ),
 }
 
