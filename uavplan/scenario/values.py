@@ -57,6 +57,7 @@ from uavplan.scenario.size import DEFAULT_GRID, fitted_grid, path_grid
 
 if TYPE_CHECKING:
     from uavplan.ground import Surface
+    from uavplan.scenario.zones import ZoneSet
     from uavplan.vehicle.wind import Wind
 
 Point3 = tuple[float, float, float]
@@ -87,6 +88,9 @@ class Scenario:
     obstacle_sources: ObstacleSources = field(default_factory=ObstacleSources)
     #: ``wind:`` (None: calm), for the flight estimates and the physical fitness
     wind: Wind | None = None
+    #: ``airspace:``: every zone read and what became of it (its constraints' solids are the
+    #: last obstacles); None without the key
+    airspace: ZoneSet | None = None
 
     def __post_init__(self) -> None:
         _check(self)
@@ -194,6 +198,7 @@ class Surroundings:
     goal_m: Point3 | None = None
     via_m: tuple[Point3, ...] = ()
     wind: Wind | None = None
+    airspace: ZoneSet | None = None
 
     def __post_init__(self) -> None:
         _check_surroundings(Checker(self.source or self.name), self)
