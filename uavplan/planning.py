@@ -45,7 +45,7 @@ from uavplan.world import World
 
 if TYPE_CHECKING:
     from uavplan.mission.export import ExportExtras
-    from uavplan.mission.fence import FenceBuild
+    from uavplan.mission.fence import FenceBuild, Footprint
     from uavplan.mission.items import MissionPlan
     from uavplan.planners.astar import GridRoute
     from uavplan.render import Scene
@@ -156,6 +156,7 @@ class RouteResult:
             "guide_s": self.guide_s,
             "legs": [leg.summary() for leg in self.legs],
             **self._flight_entries(),
+            **({} if scenario.airspace is None else {"airspace": scenario.airspace.report()}),
             "config": {
                 **resolved_config(scenario, self.algorithm),
                 "post_applied": vars(self.post),
@@ -785,9 +786,14 @@ def fence_for(
     from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
 
     site = scenario.site
+    obstacles: Sequence[Obstacle | Footprint] = site.obstacles
+    if scenario.airspace is not None:  # zones' outlines simplified outward to fit the items
+        from uavplan.mission.zonefence import zone_footprints
+
+        obstacles = zone_footprints(site.obstacles, scenario.airspace.first_obstacle)
     built = geofence_for_route(
         route,
-        site.obstacles,
+        obstacles,
         site.bounds,
         max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
     )

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, timedelta
 from pathlib import Path
@@ -213,6 +214,10 @@ class ZoneSet:
         if 0 <= k < len(self.obstacle_zone):
             return self.decisions[self.obstacle_zone[k]]
         return None
+
+    def fence_groups(self) -> list[tuple[str, tuple[int, ...]]]:
+        """Each constraint's title and the indices of its solids (for the fence's lines)."""
+        return [(zone_title(d), d.obstacles) for d in self.constraints]
 
     def report(self) -> dict[str, Any]:
         """The report's ``airspace`` section: the settings and every zone considered."""
@@ -761,3 +766,61 @@ def titles(zset: ZoneSet) -> tuple[str, ...]:
     return tuple(zone_title(zset.decisions[k]) for k in zset.obstacle_zone)
 
 
+
+
+def infringements(
+    zset: ZoneSet, site_obstacles: Sequence[Obstacle], points_enu: Any, margin_m: float
+) -> list[tuple[ZoneDecision, float]]:
+    """Every constraint the polyline ``points_enu`` ``(n, 3)`` (in the site's frame, where
+    the solids stand) comes closer to than ``margin_m``, with its distance (0: enters it):
+    the exact distance from each point, on the polyline sampled every metre, to the zone's
+    solids (a solid standing on the ground: the horizontal distance to its footprint and the
+    height above its top)."""
+    import numpy as np
+
+    from uavplan.geometry2d import points_polygon_distance
+
+    pts = np.asarray(points_enu, dtype=np.float64)
+    if len(pts) >= 2:
+        seg = np.diff(pts, axis=0)
+        n = np.maximum(np.ceil(np.linalg.norm(seg, axis=1)), 1).astype(int)
+        t = np.concatenate([np.arange(k) / k for k in n])
+        base = np.repeat(pts[:-1], n, axis=0)
+        pts = np.vstack([base + np.repeat(seg, n, axis=0) * t[:, None], pts[-1:]])
+    out = []
+    for d in zset.constraints:
+        best = math.inf
+        for i in d.obstacles:
+            o = site_obstacles[i]
+            if isinstance(o, CylinderObstacle):
+                dh = np.hypot(pts[:, 0] - o.center_m[0], pts[:, 1] - o.center_m[1]) - o.radius_m
+            else:
+                ring = np.asarray(o.footprint(), dtype=np.float64)
+                lo, hi = ring.min(axis=0) - margin_m, ring.max(axis=0) + margin_m
+                near = np.all((pts[:, :2] >= lo) & (pts[:, :2] <= hi), axis=1)
+                dh = np.full(len(pts), np.inf)
+                if near.any():
+                    dh[near] = points_polygon_distance(pts[near, :2], ring)
+            dz = np.maximum(pts[:, 2] - o.height_m, 0.0)
+            dist = np.hypot(np.maximum(dh, 0.0), dz)
+            best = min(best, float(dist.min()))
+        if best < margin_m - 1e-6:
+            out.append((d, best))
+    return out
+
+
+def infringement_text(scenario: Any, points_enu: Any) -> str:
+    """``; airspace: zone 'X' (R, restricted) of zones.txt entered, …`` for a message (empty
+    when the flight keeps the margin from every zone). ``scenario``: a
+    :class:`~uavplan.scenario.Scenario` with an airspace; ``points_enu`` in its site."""
+    zset = scenario.airspace
+    if zset is None:
+        return ""
+    hits = infringements(zset, scenario.site.obstacles, points_enu, scenario.safety_margin_m)
+    if not hits:
+        return ""
+    parts = [
+        f"{zone_title(d)} {'entered' if dist <= 0 else f'{dist:.1f} m away'}"
+        for d, dist in hits
+    ]
+    return f"; airspace infringed: {'; '.join(parts)}"
