@@ -790,7 +790,7 @@ def fence_for(
     if scenario.airspace is not None:  # zones' outlines simplified outward to fit the items
         from uavplan.mission.zonefence import zone_footprints
 
-        obstacles = zone_footprints(site.obstacles, scenario.airspace.first_obstacle)
+        obstacles = zone_footprints(site.obstacles, scenario.airspace.solid_groups())
     built = geofence_for_route(
         route,
         obstacles,

@@ -71,18 +71,53 @@ def simplify_outward(
 
 
 def zone_footprints(
-    obstacles: Sequence[Obstacle], first_zone: int, max_vertices: int = ZONE_FENCE_VERTICES
+    obstacles: Sequence[Obstacle],
+    groups: Sequence[Sequence[int]],
+    max_vertices: int = ZONE_FENCE_VERTICES,
 ) -> tuple[Footprint, ...]:
-    """The footprints the fence is built from: the obstacles' own, with the zones' (from
-    index ``first_zone`` on) simplified outward (:func:`simplify_outward`)."""
+    """The footprints the fence is built from: the obstacles' own, but each zone's solids
+    (``groups``: the obstacle indices of one zone; a zone over a DEM is several tiles) as
+    one outline, their union, simplified outward (:func:`simplify_outward`), as tall as the
+    tallest of them, under the index of the zone's first solid."""
     out = list(footprints_of(obstacles))
-    for i in range(first_zone, len(out)):
-        fp = out[i]
-        if fp.ring_enu is None or len(fp.ring_enu) <= max_vertices:
+    drop: set[int] = set()
+    for indices in groups:
+        if not indices:
             continue
-        ring, _ = simplify_outward(np.asarray(fp.ring_enu), max_vertices)
-        out[i] = Footprint(fp.index, fp.kind, fp.height_m, ring_enu=tuple(map(tuple, ring)))
-    return tuple(out)
+        first = indices[0]
+        ring = _union_ring(out, indices)
+        if ring is None:
+            for i in indices:  # a circle, or pieces apart: each its own (simplified)
+                fp = out[i]
+                if fp.ring_enu is not None and len(fp.ring_enu) > max_vertices:
+                    r, _ = simplify_outward(np.asarray(fp.ring_enu), max_vertices)
+                    out[i] = Footprint(fp.index, fp.kind, fp.height_m, ring_enu=_tuples(r))
+            continue
+        ring, _ = simplify_outward(ring, max_vertices)
+        height = max(out[i].height_m for i in indices)
+        out[first] = Footprint(first, out[first].kind, height, ring_enu=_tuples(ring))
+        drop.update(indices[1:])
+    return tuple(fp for i, fp in enumerate(out) if i not in drop)
+
+
+def _tuples(ring: NDArray[np.float64]) -> tuple[tuple[float, float], ...]:
+    return tuple((float(x), float(y)) for x, y in ring)
+
+
+def _union_ring(prints: Sequence[Footprint], indices: Sequence[int]) -> Any:
+    """The one hole-free outline of these polygon footprints' union, or None (a circle,
+    pieces apart, a hole)."""
+    import shapely
+
+    if any(prints[i].ring_enu is None for i in indices):
+        return None
+    if len(indices) == 1:
+        return np.asarray(prints[indices[0]].ring_enu, dtype=np.float64)
+    union = shapely.union_all([shapely.Polygon(prints[i].ring_enu) for i in indices])
+    union = union.buffer(1e-6).buffer(-1e-6)  # tiles that touch: one outline
+    if union.geom_type != "Polygon" or union.interiors:
+        return None
+    return np.asarray(union.exterior.coords, dtype=np.float64)[:-1]
 
 
 def zone_fence_lines(
@@ -103,8 +138,9 @@ def zone_fence_lines(
         kinds = {z.status for z in got}
         if kinds == {ZoneStatus.EXCLUDED}:
             error = 0.0
-            for i in indices:
-                ring = prints[i].ring_enu
+            whole = _union_ring(prints, indices)
+            rings = [whole] if whole is not None else [prints[i].ring_enu for i in indices]
+            for ring in rings:
                 if ring is not None and len(ring) > max_vertices:
                     error = max(error, simplify_outward(np.asarray(ring), max_vertices)[1])
             shapes = _count(len(got), "exclusion zone")
@@ -116,25 +152,31 @@ def zone_fence_lines(
             )
             lines.append(f"airspace: {title} fenced as {shapes}{extra}")
             continue
-        over = [z for z in got if z.status is ZoneStatus.FLOWN_OVER]
+        # the route horizontally within the margin of a zone it keeps the margin from in 3-D
+        # flies over it (a solid of a tiled zone may stand higher than the part flown over)
+        over = [
+            z
+            for z in got
+            if z.status is ZoneStatus.FLOWN_OVER
+            or (z.status is ZoneStatus.TOO_CLOSE and z.route_distance_m < built.margin_m)
+        ]
         if over:
-            lowest = min(z.height_above_top_m or 0.0 for z in over)
             lines.append(
                 f"airspace: {title} cannot be expressed in the fence: the route flies over it "
-                f"(at least {lowest:.1f} m above its top) and an autopilot's exclusion zone has "
-                "no floor or ceiling: it would forbid the route's own airspace"
+                "and an autopilot's exclusion zone has no floor or ceiling: it would forbid the "
+                "route's own airspace"
             )
         if any(z.status is ZoneStatus.OVER_LIMIT for z in got):
             lines.append(
                 f"airspace: {title} left out of the fence: the {built.max_items}-item limit is "
                 "full (zones nearer the route come first)"
             )
-        if any(z.status is ZoneStatus.TOO_CLOSE for z in got):
+        if any(z.status is ZoneStatus.TOO_CLOSE and z not in over for z in got):
             lines.append(
                 f"airspace: {title} not in the fence: no room for an exclusion zone between it "
                 "and the route"
             )
-        if any(z.status is ZoneStatus.EXCLUDED for z in got):
+        if any(z.status is ZoneStatus.EXCLUDED for z in got) and len(kinds) > 1:
             lines.append(f"airspace: {title} partly fenced ({_parts(got)})")
     return lines
 

@@ -215,6 +215,10 @@ class ZoneSet:
             return self.decisions[self.obstacle_zone[k]]
         return None
 
+    def solid_groups(self) -> list[tuple[int, ...]]:
+        """The obstacle indices of each constraint's solids."""
+        return [d.obstacles for d in self.constraints]
+
     def fence_groups(self) -> list[tuple[str, tuple[int, ...]]]:
         """Each constraint's title and the indices of its solids (for the fence's lines)."""
         return [(zone_title(d), d.obstacles) for d in self.constraints]

@@ -24,6 +24,7 @@ import re
 from dataclasses import dataclass, field
 
 from uavplan.sources.zones import (
+    CHORD_ERROR_M,
     FOOT_M,
     MAX_FILE_VERTICES,
     MAX_RADIUS_M,
@@ -38,6 +39,7 @@ from uavplan.sources.zones import (
     Reference,
     Zone,
     ZoneFileError,
+    corridor,
     geodesic_inverse,
     outline,
     parse_datetime,
@@ -209,6 +211,11 @@ def _finish(d: _Draft, file: str, fail: object) -> Zone:
     if not d.pieces:
         raise fail(d.line, f"zone {name!r} (AC at line {d.line}) has no shape (DP, DA, DB or DC)")
     ring, error = outline(d.pieces)
+    notes: tuple[str, ...] = ()
+    if len(ring) == 2:  # a cable or a line obstacle (Swiss files): a narrow corridor
+        ring = corridor(ring[0], ring[1], CHORD_ERROR_M)
+        error = max(error, CHORD_ERROR_M)
+        notes = (f"a line, not an area: taken as a corridor {2 * CHORD_ERROR_M:g} m wide",)
     if len(ring) < 3:
         raise fail(
             d.line,
@@ -217,7 +224,9 @@ def _finish(d: _Draft, file: str, fail: object) -> Zone:
         )
     if len(ring) > MAX_ZONE_VERTICES:
         raise fail(d.line, f"zone {name!r} has more than {MAX_ZONE_VERTICES:,} vertices")
-    return Zone(**common, ring_lonlat=ring, chord_error_m=error)  # type: ignore[arg-type]
+    return Zone(  # type: ignore[arg-type]
+        **common, ring_lonlat=ring, chord_error_m=error, notes=notes
+    )
 
 
 def parse_altitude(text: str) -> Limit:
@@ -320,7 +329,8 @@ def _coord_pair(text: str, number: int, fail: object) -> tuple[float, float]:
         deg = float(m.group("deg"))
         minutes = float(m.group("min") or 0)
         seconds = float(m.group("sec") or 0)
-        if (m.group("min") and "." in m.group("deg")) or minutes >= 60 or seconds >= 60:
+        # 60 is written for 59.99… rounded up in real files (France: 001:25:60 E)
+        if (m.group("min") and "." in m.group("deg")) or minutes > 60 or seconds > 60:
             raise fail(number, f"cannot read the position {text.strip()!r}: minutes or seconds")
         value = deg + minutes / 60 + seconds / 3600
         axis = "lat" if hem in "NS" else "lon"

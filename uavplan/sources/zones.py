@@ -409,6 +409,22 @@ def _unclosed(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     return out
 
 
+def corridor(
+    a: tuple[float, float], b: tuple[float, float], half_width_m: float
+) -> tuple[tuple[float, float], ...]:
+    """The rectangle (lon, lat) around the segment a → b, ``half_width_m`` to either side and
+    beyond either end: a line zone (a cable) as an area."""
+    az, _ = geodesic_inverse(a, b)
+    g = _geod()
+    out = []
+    for (lon, lat), ahead in ((a, az + 180.0), (b, az)):
+        lon2, lat2, _ = g.fwd(lon, lat, ahead, half_width_m)
+        for side in (-90.0, 90.0) if ahead == az else (90.0, -90.0):
+            x, y, _ = g.fwd(lon2, lat2, az + side, half_width_m)
+            out.append((float(x), float(y)))
+    return tuple(out)
+
+
 def geodesic_inverse(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
     """(bearing from a to b in degrees, distance in metres) on WGS84."""
     az, _, dist = _geod().inv(a[0], a[1], b[0], b[1])
