@@ -358,7 +358,7 @@ def test_bundled_route_keeps_the_margin_from_the_reserve_independently(bundled) 
     scn, points, _ = bundled
     site = scn.site
     frame = EnuFrame.at(site.origin)
-    doc = json.loads((ROOT / "missions" / "airspace" / "zurich-zones.json").read_text())
+    doc = json.loads((ROOT / "missions" / "zurich-zones.json").read_text())
     coords = np.asarray(
         doc["features"][0]["geometry"][0]["horizontalProjection"]["coordinates"][0]
     )

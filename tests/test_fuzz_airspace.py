@@ -27,7 +27,7 @@ COUNT = int(os.environ.get("UAVPLAN_FUZZ_AIRSPACE", "200")) // 2
 
 pytestmark = pytest.mark.timeout(max(600, 6 * COUNT))
 
-OPENAIR_SEED = (ROOT / "missions" / "airspace" / "zurich-zones.txt").read_text() + """
+OPENAIR_SEED = (ROOT / "missions" / "zurich-zones.txt").read_text() + """
 AC Q
 AN LINE
 AL 2000ft
@@ -45,7 +45,7 @@ DA 0.3, 270, 90
 DB 47:23:40N 008:33:10E, 47:24:00N 008:33:10E
 DP 47:23:30N 008:33:00E
 """
-ED269_SEED = json.loads((ROOT / "missions" / "airspace" / "zurich-zones.json").read_text())
+ED269_SEED = json.loads((ROOT / "missions" / "zurich-zones.json").read_text())
 ED318_SEED = {
     "type": "FeatureCollection",
     "features": [
