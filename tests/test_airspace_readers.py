@@ -5,6 +5,7 @@ bad file naming the file and the line or the feature."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from datetime import UTC, datetime
@@ -14,13 +15,13 @@ import pytest
 from pyproj import Geod
 
 from uavplan.sources.openair import parse_altitude, parse_openair
+from uavplan.sources.zonefiles import read_zone_file
 from uavplan.sources.zones import (
     CHORD_ERROR_M,
     FOOT_M,
     NAUTICAL_MILE_M,
     Reference,
     ZoneFileError,
-    read_zone_file,
 )
 
 GEOD = Geod(ellps="WGS84")
@@ -83,9 +84,11 @@ def test_altitudes(text: str, value_m: float, reference: Reference) -> None:
     assert limit.text == text
 
 
-@pytest.mark.parametrize("text", ["", "high", "FL", "100 furlongs", "-5 ft", "1e9 ft", "10ft AGL/50m"])
+@pytest.mark.parametrize(
+    "text", ["", "high", "FL", "100 furlongs", "-5 ft", "1e9 ft", "10ft AGL/50m"]
+)
 def test_bad_altitudes(text: str) -> None:
-    with pytest.raises(ValueError, match="altitude|within"):
+    with pytest.raises(ValueError, match=r"altitude|within"):
         parse_altitude(text)
 
 
@@ -111,8 +114,10 @@ def test_polygon_and_coordinates() -> None:
 
 
 def test_southern_western_hemispheres() -> None:
-    z = _one("AC P\nAN S\nAL GND\nAH UNL\nDP 33:52:00S 151:12:00E\nDP 33:53:00S 151:12:00E\n"
-             "DP 33:53:00S 151:13:00W\n")
+    z = _one(
+        "AC P\nAN S\nAL GND\nAH UNL\nDP 33:52:00S 151:12:00E\nDP 33:53:00S 151:12:00E\n"
+        "DP 33:53:00S 151:13:00W\n"
+    )
     assert list(z.ring_lonlat[0]) == pytest.approx([151.2, -33.866666667])
     assert list(z.ring_lonlat[2]) == pytest.approx([-151.216666667, -33.883333333])
 
@@ -168,7 +173,7 @@ def test_da_counter_clockwise() -> None:
     bearings = [b for b, _ in arc]
     assert bearings[0] == pytest.approx(180.0, abs=1e-6)
     assert bearings[-1] == pytest.approx(90.0, abs=1e-6)
-    assert all(a > b for a, b in zip(bearings, bearings[1:], strict=False))  # decreasing
+    assert all(a > b for a, b in itertools.pairwise(bearings))  # decreasing
 
 
 def test_concave_arc_vertices_on_the_circle() -> None:
@@ -191,7 +196,10 @@ def test_concave_arc_vertices_on_the_circle() -> None:
 
 def test_db_arc_both_directions_ends_exact() -> None:
     a, b = "47:29:00N 008:30:00E", "47:30:00N 008:31:28.6E"
-    text = "AC R\nAN DB\nAL GND\nAH 1000ft AGL\nV X=47:30:00N 008:30:00E\n{d}DB {a}, {b}\nDP 47:28:00N 008:32:00E\n"
+    text = (
+        "AC R\nAN DB\nAL GND\nAH 1000ft AGL\nV X=47:30:00N 008:30:00E\n{d}DB {a}, {b}\n"
+        "DP 47:28:00N 008:32:00E\n"
+    )
     cw = _one(text.format(d="", a=a, b=b))
     ccw = _one(text.format(d="V D=-\n", a=a, b=b))
     for z in (cw, ccw):
@@ -218,8 +226,10 @@ def test_direction_resets_at_each_zone() -> None:
 
 
 def test_line_zone_becomes_a_corridor() -> None:
-    z = _one("AC Q\nAN KABEL\nAL 6627 ft\nAH 6627 ft\nDP 47:14:18 N 009:24:49 E\n"
-             "DP 47:14:13 N 009:24:42 E\n")
+    z = _one(
+        "AC Q\nAN KABEL\nAL 6627 ft\nAH 6627 ft\nDP 47:14:18 N 009:24:49 E\n"
+        "DP 47:14:13 N 009:24:42 E\n"
+    )
     assert len(z.ring_lonlat) == 4
     assert any("corridor" in n for n in z.notes)
 
@@ -253,10 +263,13 @@ def test_activation_windows() -> None:
     assert act.active_during(t("2026-12-06T23:00"), t("2026-12-06T23:10"))
     assert not act.active_during(t("2026-12-07T00:00:01"), t("2026-12-07T01:00"))
     unknown = _one("AC R\nAN N\nAL GND\nAH 100ft AGL\nAA NONE\nV X=47:30:00N 008:30:00E\nDC 1\n")
-    assert unknown.activity.unknown and unknown.activity.active_during(t("2000-01-01T00:00"),
-                                                                       t("2000-01-01T00:01"))
-    open_end = _one("AC R\nAN O\nAL GND\nAH 100ft AGL\nAA 2026-12-05T08:00Z/NONE\n"
-                    "V X=47:30:00N 008:30:00E\nDC 1\n")
+    assert unknown.activity.unknown and unknown.activity.active_during(
+        t("2000-01-01T00:00"), t("2000-01-01T00:01")
+    )
+    open_end = _one(
+        "AC R\nAN O\nAL GND\nAH 100ft AGL\nAA 2026-12-05T08:00Z/NONE\n"
+        "V X=47:30:00N 008:30:00E\nDC 1\n"
+    )
     assert open_end.activity.active_during(t("2030-01-01T00:00"), t("2030-01-01T00:01"))
     assert not open_end.activity.active_during(t("2026-12-05T07:00"), t("2026-12-05T07:59"))
 
@@ -268,7 +281,11 @@ def test_activation_windows() -> None:
 @pytest.mark.parametrize(
     ("text", "line", "words"),
     [
-        ("AC R\nAN A\nAL GND\nAH 1000ft AGL\nDP 47:30:00N garbage\n", 5, "cannot read the position"),
+        (
+            "AC R\nAN A\nAL GND\nAH 1000ft AGL\nDP 47:30:00N garbage\n",
+            5,
+            "cannot read the position",
+        ),
         ("AC R\nAN A\nAL GND\nAH 1000ft AGL\nDA 1, 90, 180\n", 5, "needs a centre"),
         ("AC R\nAN A\nAL GND\nAH high\n", 4, "cannot read the altitude"),
         ("AC R\nAN A\nAL GND\nDP 47:30:00N 008:30:00E\n", 1, "no ceiling"),
@@ -282,8 +299,11 @@ def test_activation_windows() -> None:
         ("AC R\nAN A\nAL GND\nAH UNL\nDP 95:00:00N 008:30:00E\n", 5, "beyond"),
         ("AC R\nAN A\nAL GND\nAH UNL\nV D=x\n", 5, "V D="),
         ("AC R\nAN A\nAL GND\nAH UNL\nAA tomorrow\n", 5, "AA"),
-        ("AC R\nAN A\nAL GND\nAH UNL\nDP 47:30:00N 008:30:00E\nDP 47:30:00N 008:30:00E\n", 1,
-         "distinct"),
+        (
+            "AC R\nAN A\nAL GND\nAH UNL\nDP 47:30:00N 008:30:00E\nDP 47:30:00N 008:30:00E\n",
+            1,
+            "distinct",
+        ),
         ("AC R\nAN A\nAL GND\nAH UNL\nDY 1\n", 5, "DY"),
     ],
 )
@@ -299,7 +319,9 @@ def test_openair_errors_name_the_line(tmp_path: Path, text: str, line: int, word
 
 def test_latin1_and_bom(tmp_path: Path) -> None:
     f = tmp_path / "de.txt"
-    f.write_bytes(b"\xef\xbb\xbfAC R\nAN M\xfcnchen\nAL GND\nAH UNL\nV X=48:00:00N 011:00:00E\nDC 1\n")
+    f.write_bytes(
+        b"\xef\xbb\xbfAC R\nAN M\xfcnchen\nAL GND\nAH UNL\nV X=48:00:00N 011:00:00E\nDC 1\n"
+    )
     assert read_zone_file(f)[0].name == "München" or read_zone_file(f)[0].name.startswith("M")
     g = tmp_path / "bin.txt"
     g.write_bytes(b"AC R\x00\x01")
@@ -333,11 +355,19 @@ def _read(tmp_path: Path, doc: dict, name: str = "z.json"):
 
 
 def test_ed269_circle_in_feet(tmp_path: Path) -> None:
-    (z,) = _read(tmp_path, _ed269({
-        "uomDimensions": "FT", "lowerLimit": 0, "lowerVerticalReference": "AGL",
-        "upperLimit": 400, "upperVerticalReference": "AGL",
-        "horizontalProjection": {"type": "Circle", "center": [8.5, 47.5], "radius": 500},
-    }))
+    (z,) = _read(
+        tmp_path,
+        _ed269(
+            {
+                "uomDimensions": "FT",
+                "lowerLimit": 0,
+                "lowerVerticalReference": "AGL",
+                "upperLimit": 400,
+                "upperVerticalReference": "AGL",
+                "horizontalProjection": {"type": "Circle", "center": [8.5, 47.5], "radius": 500},
+            }
+        ),
+    )
     assert z.circle == (8.5, 47.5, 500.0)  # the radius is metres whatever uomDimensions says
     assert z.floor.reference is Reference.GND
     assert z.ceiling.reference is Reference.AGL and z.ceiling.value_m == pytest.approx(121.92)
@@ -345,16 +375,37 @@ def test_ed269_circle_in_feet(tmp_path: Path) -> None:
 
 
 def test_ed269_polygon_amsl_metres(tmp_path: Path) -> None:
-    (z,) = _read(tmp_path, _ed269({
-        "uomDimensions": "M", "lowerLimit": 300, "lowerVerticalReference": "AMSL",
-        "upperLimit": 900, "upperVerticalReference": "AMSL",
-        "horizontalProjection": {"type": "Polygon",
-                                 "coordinates": [[[8.5, 47.5], [8.6, 47.5], [8.6, 47.6], [8.5, 47.5]]]},
-    }, restriction="REQ_AUTHORISATION", applicability=[{
-        "permanent": "NO", "startDateTime": "2026-12-01T08:00:00.00Z",
-        "endDateTime": "2026-12-31T18:00:00.00Z",
-        "schedule": [{"day": ["MON", "TUE"], "startTime": "08:00:00.00Z", "endTime": "12:00:00.00Z"}],
-    }]))
+    (z,) = _read(
+        tmp_path,
+        _ed269(
+            {
+                "uomDimensions": "M",
+                "lowerLimit": 300,
+                "lowerVerticalReference": "AMSL",
+                "upperLimit": 900,
+                "upperVerticalReference": "AMSL",
+                "horizontalProjection": {
+                    "type": "Polygon",
+                    "coordinates": [[[8.5, 47.5], [8.6, 47.5], [8.6, 47.6], [8.5, 47.5]]],
+                },
+            },
+            restriction="REQ_AUTHORISATION",
+            applicability=[
+                {
+                    "permanent": "NO",
+                    "startDateTime": "2026-12-01T08:00:00.00Z",
+                    "endDateTime": "2026-12-31T18:00:00.00Z",
+                    "schedule": [
+                        {
+                            "day": ["MON", "TUE"],
+                            "startTime": "08:00:00.00Z",
+                            "endTime": "12:00:00.00Z",
+                        }
+                    ],
+                }
+            ],
+        ),
+    )
     assert z.ring_lonlat == ((8.5, 47.5), (8.6, 47.5), (8.6, 47.6))
     assert (z.floor.value_m, z.floor.reference) == (300.0, Reference.AMSL)
     assert (z.ceiling.value_m, z.ceiling.reference) == (900.0, Reference.AMSL)
@@ -367,9 +418,14 @@ def test_ed269_polygon_amsl_metres(tmp_path: Path) -> None:
 
 
 def test_ed269_several_volumes(tmp_path: Path) -> None:
-    v = {"uomDimensions": "M", "lowerLimit": 0, "lowerVerticalReference": "AGL",
-         "upperLimit": 50, "upperVerticalReference": "AGL",
-         "horizontalProjection": {"type": "Circle", "center": [8.5, 47.5], "radius": 100}}
+    v = {
+        "uomDimensions": "M",
+        "lowerLimit": 0,
+        "lowerVerticalReference": "AGL",
+        "upperLimit": 50,
+        "upperVerticalReference": "AGL",
+        "horizontalProjection": {"type": "Circle", "center": [8.5, 47.5], "radius": 100},
+    }
     doc = _ed269(v)
     doc["features"][0]["geometry"].append({**v, "lowerLimit": 50, "upperLimit": 120})
     a, b = _read(tmp_path, doc)
@@ -383,28 +439,82 @@ def test_ed269_several_volumes(tmp_path: Path) -> None:
         ({"restriction": 5}, "restriction"),
         ({"geometry": []}, "geometry"),
         ({"geometry": [{"uomDimensions": "KM"}]}, "uomDimensions"),
-        ({"geometry": [{"uomDimensions": "M", "lowerLimit": "low", "lowerVerticalReference": "AGL",
-                        "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": 5}}]},
-         "lowerLimit"),
-        ({"geometry": [{"uomDimensions": "M", "upperLimit": 5, "upperVerticalReference": "QNH",
-                        "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": 5}}]},
-         "upperVerticalReference"),
-        ({"geometry": [{"uomDimensions": "M",
-                        "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": -5}}]},
-         "radius"),
-        ({"geometry": [{"uomDimensions": "M",
-                        "horizontalProjection": {"type": "Circle", "center": [1, 200], "radius": 5}}]},
-         "center"),
-        ({"geometry": [{"uomDimensions": "M",
-                        "horizontalProjection": {"type": "Polygon", "coordinates": [[[1, 2], [1, 2]]]}}]},
-         "3 distinct"),
-        ({"geometry": [{"uomDimensions": "M", "horizontalProjection": {"type": "Line"}}]}, "Circle or Polygon"),
+        (
+            {
+                "geometry": [
+                    {
+                        "uomDimensions": "M",
+                        "lowerLimit": "low",
+                        "lowerVerticalReference": "AGL",
+                        "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": 5},
+                    }
+                ]
+            },
+            "lowerLimit",
+        ),
+        (
+            {
+                "geometry": [
+                    {
+                        "uomDimensions": "M",
+                        "upperLimit": 5,
+                        "upperVerticalReference": "QNH",
+                        "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": 5},
+                    }
+                ]
+            },
+            "upperVerticalReference",
+        ),
+        (
+            {
+                "geometry": [
+                    {
+                        "uomDimensions": "M",
+                        "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": -5},
+                    }
+                ]
+            },
+            "radius",
+        ),
+        (
+            {
+                "geometry": [
+                    {
+                        "uomDimensions": "M",
+                        "horizontalProjection": {"type": "Circle", "center": [1, 200], "radius": 5},
+                    }
+                ]
+            },
+            "center",
+        ),
+        (
+            {
+                "geometry": [
+                    {
+                        "uomDimensions": "M",
+                        "horizontalProjection": {
+                            "type": "Polygon",
+                            "coordinates": [[[1, 2], [1, 2]]],
+                        },
+                    }
+                ]
+            },
+            "3 distinct",
+        ),
+        (
+            {"geometry": [{"uomDimensions": "M", "horizontalProjection": {"type": "Line"}}]},
+            "Circle or Polygon",
+        ),
         ({"applicability": [{"permanent": "NO", "startDateTime": "soon"}]}, "startDateTime"),
     ],
 )
 def test_ed269_errors_name_the_feature(tmp_path: Path, change: dict, words: str) -> None:
-    doc = _ed269({"uomDimensions": "M", "horizontalProjection": {"type": "Circle",
-                                                                  "center": [1, 2], "radius": 5}})
+    doc = _ed269(
+        {
+            "uomDimensions": "M",
+            "horizontalProjection": {"type": "Circle", "center": [1, 2], "radius": 5},
+        }
+    )
     doc["features"].insert(0, doc["features"][0])
     doc["features"][1] = {**doc["features"][1], **change}
     f = tmp_path / "bad.json"
@@ -435,23 +545,43 @@ def test_bad_json(tmp_path: Path) -> None:
 def _ed318(geometry: dict, **props) -> dict:
     return {
         "type": "FeatureCollection",
-        "features": [{
-            "type": "Feature",
-            "properties": {"identifier": "A1", "country": "FIN", "name": [{"text": "Prison", "lang": "en-GB"}],
-                           "type": "PROHIBITED", "variant": "COMMON", **props},
-            "geometry": geometry,
-        }],
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {
+                    "identifier": "A1",
+                    "country": "FIN",
+                    "name": [{"text": "Prison", "lang": "en-GB"}],
+                    "type": "PROHIBITED",
+                    "variant": "COMMON",
+                    **props,
+                },
+                "geometry": geometry,
+            }
+        ],
     }
 
 
 def test_ed318_polygon_layer(tmp_path: Path) -> None:
-    (z,) = _read(tmp_path, _ed318({
-        "type": "Polygon",
-        "coordinates": [[[24.9, 60.1], [25.0, 60.1], [25.0, 60.2], [24.9, 60.1]],
-                        [[24.95, 60.12], [24.96, 60.12], [24.96, 60.13], [24.95, 60.12]]],
-        "layer": {"upper": 120, "upperReference": "AGL", "lower": 0, "lowerReference": "AGL",
-                  "uom": "m"},
-    }))
+    (z,) = _read(
+        tmp_path,
+        _ed318(
+            {
+                "type": "Polygon",
+                "coordinates": [
+                    [[24.9, 60.1], [25.0, 60.1], [25.0, 60.2], [24.9, 60.1]],
+                    [[24.95, 60.12], [24.96, 60.12], [24.96, 60.13], [24.95, 60.12]],
+                ],
+                "layer": {
+                    "upper": 120,
+                    "upperReference": "AGL",
+                    "lower": 0,
+                    "lowerReference": "AGL",
+                    "uom": "m",
+                },
+            }
+        ),
+    )
     assert z.name == "Prison" and z.classes == ("PROHIBITED",)
     assert z.ring_lonlat == ((24.9, 60.1), (25.0, 60.1), (25.0, 60.2))
     assert z.ceiling.value_m == 120.0 and z.ceiling.reference is Reference.AGL
@@ -459,14 +589,30 @@ def test_ed318_polygon_layer(tmp_path: Path) -> None:
 
 
 def test_ed318_point_circle_wgs84_feet_and_applicability(tmp_path: Path) -> None:
-    (z,) = _read(tmp_path, _ed318(
-        {"type": "Point", "coordinates": [24.9, 60.1], "extent": {"subType": "Circle", "radius": 750},
-         "layer": {"upper": 1000, "upperReference": "WGS84", "lower": 200, "lowerReference": "AMSL",
-                   "uom": "ft"}},
-        type="REQ_AUTHORIZATION",
-        limitedApplicability=[{"startDateTime": "2026-12-01T10:00:00Z",
-                               "endDateTime": "2026-12-01T11:00:00+01:00"}],
-    ))
+    (z,) = _read(
+        tmp_path,
+        _ed318(
+            {
+                "type": "Point",
+                "coordinates": [24.9, 60.1],
+                "extent": {"subType": "Circle", "radius": 750},
+                "layer": {
+                    "upper": 1000,
+                    "upperReference": "WGS84",
+                    "lower": 200,
+                    "lowerReference": "AMSL",
+                    "uom": "ft",
+                },
+            },
+            type="REQ_AUTHORIZATION",
+            limitedApplicability=[
+                {
+                    "startDateTime": "2026-12-01T10:00:00Z",
+                    "endDateTime": "2026-12-01T11:00:00+01:00",
+                }
+            ],
+        ),
+    )
     assert z.circle == (24.9, 60.1, 750.0)
     assert z.floor.value_m == pytest.approx(200 * FOOT_M) and z.floor.reference is Reference.AMSL
     assert z.ceiling.value_m == pytest.approx(1000 * FOOT_M)
@@ -479,8 +625,19 @@ def test_ed318_point_circle_wgs84_feet_and_applicability(tmp_path: Path) -> None
 
 def test_ed318_multipolygon_and_errors(tmp_path: Path) -> None:
     layer = {"upper": 50, "upperReference": "AGL", "lower": 0, "lowerReference": "AGL"}
-    a, b = _read(tmp_path, _ed318({"type": "MultiPolygon", "layer": layer, "coordinates": [
-        [[[1, 1], [1.1, 1], [1.1, 1.1], [1, 1]]], [[[2, 2], [2.1, 2], [2.1, 2.1], [2, 2]]]]}))
+    a, b = _read(
+        tmp_path,
+        _ed318(
+            {
+                "type": "MultiPolygon",
+                "layer": layer,
+                "coordinates": [
+                    [[[1, 1], [1.1, 1], [1.1, 1.1], [1, 1]]],
+                    [[[2, 2], [2.1, 2], [2.1, 2.1], [2, 2]]],
+                ],
+            }
+        ),
+    )
     assert a.name == "Prison part 1" and b.ring_lonlat[0] == (2.0, 2.0)
     with pytest.raises(ZoneFileError, match=r"feature 0 \(ID 'A1'\): geometry.layer"):
         _read(tmp_path, _ed318({"type": "Polygon", "coordinates": [[[1, 1], [2, 1], [2, 2]]]}))

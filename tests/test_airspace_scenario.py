@@ -181,7 +181,9 @@ def test_start_inside_a_zone_is_refused_naming_it(tmp_path: Path) -> None:
 )
 def test_key_errors(tmp_path: Path, airspace: str, words: str) -> None:
     with pytest.raises(ScenarioError, match=words):
-        Scenario.from_file(_scenario(tmp_path, _zone("A", "R", "GND", "UNL", (0, 0, 1, 1)), airspace))
+        Scenario.from_file(
+            _scenario(tmp_path, _zone("A", "R", "GND", "UNL", (0, 0, 1, 1)), airspace)
+        )
 
 
 def test_bad_zone_file_is_one_message(tmp_path: Path) -> None:
@@ -237,12 +239,12 @@ def test_validate_names_each_infringed_zone(tmp_path: Path) -> None:
     mission = tmp_path / "straight.plan"
     result = CliRunner().invoke(main, ["plan", str(plain), "-o", str(mission), "-q"])
     assert result.exit_code == 0, result.stderr
-    result = CliRunner().invoke(
-        main, ["validate", str(mission), "--scenario", str(path)]
-    )
+    result = CliRunner().invoke(main, ["validate", str(mission), "--scenario", str(path)])
     assert result.exit_code == 3
-    assert "airspace infringed: zone 'FIRST' (R, restricted) of zones.txt entered; zone 'SECOND'" \
+    assert (
+        "airspace infringed: zone 'FIRST' (R, restricted) of zones.txt entered; zone 'SECOND'"
         " (P, prohibited) of zones.txt entered" in result.stderr
+    )
 
 
 def test_plan_prints_the_zones_and_why(tmp_path: Path) -> None:
@@ -313,15 +315,19 @@ def _independent_ctr(frame: EnuFrame) -> shapely.Polygon:
     around the ARP (geodesic points every 0.25°: inside the true arc by at most
     r (1 - cos 0.125°) = 0.015 m) and the two points to the north."""
     bearings = np.arange(90.0, 270.0 + 1e-9, 0.25)
-    lon, lat, _ = GEOD.fwd(np.full(len(bearings), ARP[0]), np.full(len(bearings), ARP[1]),
-                           bearings, np.full(len(bearings), 3.5 * 1852.0))
+    lon, lat, _ = GEOD.fwd(
+        np.full(len(bearings), ARP[0]),
+        np.full(len(bearings), ARP[1]),
+        bearings,
+        np.full(len(bearings), 3.5 * 1852.0),
+    )
     north = np.array([[8 + 27 / 60 + 50 / 3600, 47.55], [8 + 38 / 60 + 5 / 3600, 47.55]])
     ring = np.vstack([np.column_stack([lon, lat]), north])
     return _enu_ring(frame, ring)
 
 
 def test_bundled_zone_decisions(bundled) -> None:
-    scn, _, report = bundled
+    _, _, report = bundled
     use = {z["name"]: z["use"] for z in report["airspace"]["zones"]}
     assert use == {
         "ZURICH CTR (test)": "constraint",
@@ -359,9 +365,7 @@ def test_bundled_route_keeps_the_margin_from_the_reserve_independently(bundled) 
     site = scn.site
     frame = EnuFrame.at(site.origin)
     doc = json.loads((ROOT / "missions" / "zurich-zones.json").read_text())
-    coords = np.asarray(
-        doc["features"][0]["geometry"][0]["horizontalProjection"]["coordinates"][0]
-    )
+    coords = np.asarray(doc["features"][0]["geometry"][0]["horizontalProjection"]["coordinates"][0])
     reserve = _enu_ring(frame, coords)
     with rasterio.open(ROOT / "maps" / "zurich-north-synthetic-dem.tif") as src:
         z = src.read(1).astype(float)
@@ -387,9 +391,16 @@ def test_bundled_route_keeps_the_margin_from_the_reserve_independently(bundled) 
     top = ground_site(grid) + 50.0
     samples = np.column_stack([grid, top])
     # densify the route near the reserve (0.5 m steps) and measure to the top surface
-    seg = [(a, b) for a, b, n in zip(points[:-1], points[1:], near[:-1] | near[1:], strict=True) if n]
-    dense = np.vstack([a + (b - a) * s for a, b in seg
-                       for s in np.linspace(0, 1, max(2, int(np.linalg.norm(b - a) / 0.5)))[:, None]])
+    seg = [
+        (a, b) for a, b, n in zip(points[:-1], points[1:], near[:-1] | near[1:], strict=True) if n
+    ]
+    dense = np.vstack(
+        [
+            a + (b - a) * s
+            for a, b in seg
+            for s in np.linspace(0, 1, max(2, int(np.linalg.norm(b - a) / 0.5)))[:, None]
+        ]
+    )
     dist, _ = cKDTree(samples).query(dense)
     above = dense[:, 2] >= ground_site(dense[:, :2]) + 50.0  # no point is inside the volume
     inside_xy = shapely.contains_xy(reserve, dense[:, 0], dense[:, 1])
@@ -408,9 +419,17 @@ def test_bundled_route_crosses_the_zones_that_do_not_bind(bundled) -> None:
         d, m, s = (float(v) for v in text[:-1].split(":"))
         return d + m / 60 + s / 3600
 
-    r_area = _enu_ring(frame, np.array([
-        [dms("008:31:40E"), dms("47:24:58N")], [dms("008:31:40E"), dms("47:24:14N")],
-        [dms("008:32:10E"), dms("47:24:14N")], [dms("008:32:10E"), dms("47:24:58N")]]))
+    r_area = _enu_ring(
+        frame,
+        np.array(
+            [
+                [dms("008:31:40E"), dms("47:24:58N")],
+                [dms("008:31:40E"), dms("47:24:14N")],
+                [dms("008:32:10E"), dms("47:24:14N")],
+                [dms("008:32:10E"), dms("47:24:58N")],
+            ]
+        ),
+    )
     tra_c = frame.to_enu_xy([dms("47:24:27.5N")], [dms("008:32:25.1E")])[0]
     tra = shapely.Point(*tra_c).buffer(0.2 * 1852.0)
     assert track.intersects(r_area)

@@ -27,7 +27,9 @@ COUNT = int(os.environ.get("UAVPLAN_FUZZ_AIRSPACE", "200")) // 2
 
 pytestmark = pytest.mark.timeout(max(600, 6 * COUNT))
 
-OPENAIR_SEED = (ROOT / "missions" / "zurich-zones.txt").read_text() + """
+OPENAIR_SEED = (
+    (ROOT / "missions" / "zurich-zones.txt").read_text()
+    + """
 AC Q
 AN LINE
 AL 2000ft
@@ -45,6 +47,7 @@ DA 0.3, 270, 90
 DB 47:23:40N 008:33:10E, 47:24:00N 008:33:10E
 DP 47:23:30N 008:33:00E
 """
+)
 ED269_SEED = json.loads((ROOT / "missions" / "zurich-zones.json").read_text())
 ED318_SEED = {
     "type": "FeatureCollection",
@@ -56,16 +59,24 @@ ED318_SEED = {
                 "name": [{"text": "Prison (test)"}],
                 "type": "PROHIBITED",
                 "limitedApplicability": [
-                    {"startDateTime": "2026-12-01T08:00:00Z", "endDateTime": "2026-12-01T18:00:00Z",
-                     "schedule": [{"day": ["TUE"], "startTime": "08:00", "endTime": "12:00"}]}
+                    {
+                        "startDateTime": "2026-12-01T08:00:00Z",
+                        "endDateTime": "2026-12-01T18:00:00Z",
+                        "schedule": [{"day": ["TUE"], "startTime": "08:00", "endTime": "12:00"}],
+                    }
                 ],
             },
             "geometry": {
                 "type": "Point",
                 "coordinates": [8.548, 47.401],
                 "extent": {"subType": "Circle", "radius": 150},
-                "layer": {"upper": 120, "upperReference": "AGL", "lower": 0,
-                          "lowerReference": "AGL", "uom": "m"},
+                "layer": {
+                    "upper": 120,
+                    "upperReference": "AGL",
+                    "lower": 0,
+                    "lowerReference": "AGL",
+                    "uom": "m",
+                },
             },
         }
     ],
@@ -79,8 +90,29 @@ goal: [2200, 100, 40]
 airspace: {files: [%s], at: 2026-12-01T09:00:00Z}
 """
 
-WILD = ["", "-1", "0", "1e308", "nan", "inf", "999999999", "-0.0", "x", "FL", "UNL", "GND",
-        "47:99:99N", "181:00:00E", "2026-13-45T99:00Z", ",", "=", "V X=", "+", "AGL", "\x7f"]
+WILD = [
+    "",
+    "-1",
+    "0",
+    "1e308",
+    "nan",
+    "inf",
+    "999999999",
+    "-0.0",
+    "x",
+    "FL",
+    "UNL",
+    "GND",
+    "47:99:99N",
+    "181:00:00E",
+    "2026-13-45T99:00Z",
+    ",",
+    "=",
+    "V X=",
+    "+",
+    "AGL",
+    "\x7f",
+]
 
 
 def mutate_text(text: str, rng: random.Random) -> str:
@@ -125,8 +157,26 @@ def _paths(node: Any, prefix: tuple = ()) -> list[tuple]:
     return out
 
 
-WILD_JSON: list[Any] = [None, True, -1, 0, 1e300, -1e300, "x", "", [], {}, [[[]]], [1, 2],
-                        "2026-02-30T00:00:00Z", "AGL", "WGS84", "Polygon", "Circle", 10**30]
+WILD_JSON: list[Any] = [
+    None,
+    True,
+    -1,
+    0,
+    1e300,
+    -1e300,
+    "x",
+    "",
+    [],
+    {},
+    [[[]]],
+    [1, 2],
+    "2026-02-30T00:00:00Z",
+    "AGL",
+    "WGS84",
+    "Polygon",
+    "Circle",
+    10**30,
+]
 
 
 def mutate_json(doc: Any, rng: random.Random) -> str:

@@ -96,8 +96,13 @@ def national_openair(zones: int = 500, seed: int = 34) -> str:
 
     def polygon(x: float, y: float, r: float, n: int, arc: bool = False) -> None:
         angles = sorted(rng.uniform(0, 2 * math.pi) for _ in range(n))
-        pts = [(x + r * rng.uniform(0.6, 1.0) * math.sin(a), y + r * rng.uniform(0.6, 1.0) *
-                math.cos(a)) for a in angles]  # clockwise (bearings increase)
+        pts = [
+            (
+                x + r * rng.uniform(0.6, 1.0) * math.sin(a),
+                y + r * rng.uniform(0.6, 1.0) * math.cos(a),
+            )
+            for a in angles
+        ]  # clockwise (bearings increase)
         for px, py in pts:
             out.append(f"DP {_pos(*_offset(lat0, lon0, px, py))}")
         if arc:  # back to the first point along an arc around the centre
@@ -151,8 +156,9 @@ def national_openair(zones: int = 500, seed: int = 34) -> str:
         made += 1
     for k in range(round(counts["other"] * scale)):
         x, y = place(20_000)
-        cls, typ = rng.choice([("E", None), ("G", None), ("E", "RMZ"), ("E", "TMZ"),
-                               ("UNC", "GSEC")])
+        cls, typ = rng.choice(
+            [("E", None), ("G", None), ("E", "RMZ"), ("E", "TMZ"), ("UNC", "GSEC")]
+        )
         head(cls, f"{typ or cls} {k:03d}", "GND", rng.choice(["FL65", "2000ft AGL"]), typ)
         polygon(x, y, rng.uniform(5000, 20000), rng.randint(4, 9))
         made += 1
@@ -185,14 +191,15 @@ import json, sys, time
 t0 = time.process_time()
 from uavplan.scenario import Scenario
 from uavplan.planning import plan_route
-from uavplan.sources.zones import read_zone_file
+from uavplan.sources.zonefiles import read_zone_file
 t1 = time.process_time()
 scn = Scenario.from_file(sys.argv[1])
 t2 = time.process_time()
 result = plan_route(scn)
 t3 = time.process_time()
 print(json.dumps({"imports": t1 - t0, "read": t2 - t1, "plan": t3 - t2,
-                  "zones": len(scn.airspace.decisions), "constraints": len(scn.airspace.constraints),
+                  "zones": len(scn.airspace.decisions),
+                  "constraints": len(scn.airspace.constraints),
                   "solids": len(scn.obstacles), "length_m": result.length_m,
                   "collision_free": bool(result.collision_free)}))
 """
@@ -209,7 +216,8 @@ def whole_process(path: Path, out: Path) -> float:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     subprocess.run(
         [sys.executable, "-m", "uavplan", "plan", str(path), "-o", str(out), "-q"],
-        check=True, capture_output=True,
+        check=True,
+        capture_output=True,
     )
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -221,9 +229,13 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3, help="runs per row (medians)")
     ap.add_argument("--keep", type=Path, help="also write the zone file here")
     args = ap.parse_args()
-    print(f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} CPUs, python {sys.version.split()[0]}")
-    header = (f"{'zones':>6} {'constr':>6} {'solids':>6} {'read':>6} {'plan':>6} {'read+plan':>9} "
-              f"{'process':>7} {'length m':>8} {'free':>5} {'load':>5}")
+    print(
+        f"{time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} CPUs, python {sys.version.split()[0]}"
+    )
+    header = (
+        f"{'zones':>6} {'constr':>6} {'solids':>6} {'read':>6} {'plan':>6} {'read+plan':>9} "
+        f"{'process':>7} {'length m':>8} {'free':>5} {'load':>5}"
+    )
     print(header)
     print("-" * len(header))
     with tempfile.TemporaryDirectory() as tmp:
@@ -247,8 +259,10 @@ def main() -> int:
                 f"{'yes' if r0['collision_free'] else 'NO':>5} {load:5.2f}",
                 flush=True,
             )
-    print("CPU seconds, medians of the runs; read = Scenario.from_file (zones parsed, decided, "
-          "made solids), plan = plan_route, process = the whole `uavplan plan -q`")
+    print(
+        "CPU seconds, medians of the runs; read = Scenario.from_file (zones parsed, decided, "
+        "made solids), plan = plan_route, process = the whole `uavplan plan -q`"
+    )
     return 0
 
 

@@ -286,7 +286,9 @@ def read_spec(chk: Checker, raw: Any, base: Path) -> AirspaceSpec:
     if isinstance(files_raw, str):
         files_raw = [files_raw]
     if not isinstance(files_raw, list) or not files_raw:
-        raise chk.fail("airspace.files", f"must be a list of zone files, got {type_name(files_raw)}")
+        raise chk.fail(
+            "airspace.files", f"must be a list of zone files, got {type_name(files_raw)}"
+        )
     if len(files_raw) > MAX_FILES:
         raise chk.fail("airspace.files", f"{len(files_raw)} files (at most {MAX_FILES})")
     files = []
@@ -402,7 +404,7 @@ def build_zones(
     """Read ``spec``'s files and decide each zone (module doc); the constraints' solids in
     the scenario's frame (heights above the ground at their centre, as a file gives them),
     to be appended to the scenario's obstacles from index ``first_obstacle``."""
-    from uavplan.sources.zones import read_zone_file
+    from uavplan.sources.zonefiles import read_zone_file
 
     zones: list[Zone] = []
     for i, path in enumerate(spec.files):
@@ -426,9 +428,7 @@ def build_zones(
     return zset, tuple(solids)
 
 
-def _place(
-    origin: GeoPoint, bounds: Bounds, margin_m: float, terrain: Terrain | None
-) -> _Place:
+def _place(origin: GeoPoint, bounds: Bounds, margin_m: float, terrain: Terrain | None) -> _Place:
     frame = EnuFrame.at(origin)
     if terrain is None:
         return _Place(frame, origin.alt_m, bounds, margin_m)
@@ -518,7 +518,7 @@ def _decide(
         away = float(shapely.distance(shape, box)) if not shape.intersects(box) else 0.0
     floor_lo = floor_range(zone.floor)
     ceil_hi = ceiling_amsl(zone.ceiling)
-    base = dict(floor_amsl_m=floor_lo, ceiling_amsl_m=ceil_hi)
+    base: dict[str, Any] = dict(floor_amsl_m=floor_lo, ceiling_amsl_m=ceil_hi)
     if away > 0.0:
         return ZoneDecision(
             zone, ZoneUse.OUTSIDE, f"{away / 1000:,.1f} km from the flight area", **base
@@ -548,9 +548,10 @@ def _decide(
     else:
         assert shape is not None
         shape = shape.intersection(box)
-        extent = tuple(float(v) for v in shape.bounds)
+        bx0, by0, bx1, by1 = (float(v) for v in shape.bounds)
+        extent = (bx0, by0, bx1, by1)
     g_lo, g_hi = place.ground_range(extent)
-    zmin, zmax = place.bounds.z_m
+    zmax = place.bounds.z_m[1]
     margin = place.margin_m
     # the flight volume's top over the zone, metres AMSL (over a DEM: the highest ground
     # under the zone's piece plus the ceiling above the ground)
@@ -585,9 +586,7 @@ def _decide(
             **base,
         ), []
     parts = [_overlap_text(zone, flight_top, g_lo, zmax)]
-    if floor_lo is not None or (
-        zone.floor.reference is Reference.AGL and zone.floor.value_m > 0
-    ):
+    if floor_lo is not None or (zone.floor.reference is Reference.AGL and zone.floor.value_m > 0):
         parts.append(
             f"its floor {floor_text} is inside the flight band: modelled from the ground "
             "(flying under a zone is not modelled)"
@@ -600,9 +599,7 @@ def _decide(
         parts.append(f"arcs as polygon edges up to {zone.chord_error_m:g} m outside the arc")
     parts.extend(zone.notes)
     indices = tuple(range(next_index, next_index + len(made)))
-    return ZoneDecision(
-        zone, ZoneUse.CONSTRAINT, "; ".join(parts), obstacles=indices, **base
-    ), made
+    return ZoneDecision(zone, ZoneUse.CONSTRAINT, "; ".join(parts), obstacles=indices, **base), made
 
 
 def _allowance_text(limit: Limit, *, floor: bool) -> str:
@@ -654,7 +651,8 @@ def _solids(
             whole = shapely.Point(cx, cy).buffer(r / math.cos(math.pi / 256), quad_segs=64)
             whole = whole.intersection(shapely.box(*place.window()))
         for tile in _tiles(whole):
-            _, hi = place.ground_range(tuple(float(v) for v in tile.bounds))
+            tx0, ty0, tx1, ty1 = (float(v) for v in tile.bounds)
+            _, hi = place.ground_range((tx0, ty0, tx1, ty1))
             pieces.append((tile, min(hi + agl_value, top_cap)))
     else:
         assert ceil_hi is not None
@@ -770,8 +768,6 @@ def titles(zset: ZoneSet) -> tuple[str, ...]:
     return tuple(zone_title(zset.decisions[k]) for k in zset.obstacle_zone)
 
 
-
-
 def infringements(
     zset: ZoneSet, site_obstacles: Sequence[Obstacle], points_enu: Any, margin_m: float
 ) -> list[tuple[ZoneDecision, float]]:
@@ -824,7 +820,6 @@ def infringement_text(scenario: Any, points_enu: Any) -> str:
     if not hits:
         return ""
     parts = [
-        f"{zone_title(d)} {'entered' if dist <= 0 else f'{dist:.1f} m away'}"
-        for d, dist in hits
+        f"{zone_title(d)} {'entered' if dist <= 0 else f'{dist:.1f} m away'}" for d, dist in hits
     ]
     return f"; airspace infringed: {'; '.join(parts)}"

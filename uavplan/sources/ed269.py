@@ -76,9 +76,7 @@ def parse_ed_json(text: str, file: str) -> tuple[Zone, ...]:
     vertices = 0
     for i, feature in enumerate(features):
         where = f"feature {i}"
-        if isinstance(feature, dict) and isinstance(
-            _props(feature).get("identifier"), str | int
-        ):
+        if isinstance(feature, dict) and isinstance(_props(feature).get("identifier"), str | int):
             where += f" (ID {str(_props(feature)['identifier'])[:40]!r})"
 
         def fail(reason: str, where: str = where) -> ZoneFileError:
@@ -86,8 +84,10 @@ def parse_ed_json(text: str, file: str) -> tuple[Zone, ...]:
 
         if not isinstance(feature, dict):
             raise fail("must be a JSON object")
-        made = _ed318(feature, file, where, fail) if _is_ed318(feature) else _ed269(
-            feature, file, where, fail
+        made = (
+            _ed318(feature, file, where, fail)
+            if _is_ed318(feature)
+            else _ed269(feature, file, where, fail)
         )
         for z in made:
             vertices += len(z.ring_lonlat or ())
@@ -154,8 +154,10 @@ def _ed269(feature: Mapping[str, Any], file: str, where: str, fail: Fail) -> lis
             centre = _position(proj.get("center"), f"{key}.horizontalProjection.center", fail)
             radius = _number(proj.get("radius"), f"{key}.horizontalProjection.radius", fail)
             if not (0 < radius * 1.0 <= MAX_RADIUS_M):
-                raise fail(f"{key}.horizontalProjection.radius: must be > 0 m and at most "
-                           f"{MAX_RADIUS_M:,.0f} m, got {radius:g}")
+                raise fail(
+                    f"{key}.horizontalProjection.radius: must be > 0 m and at most "
+                    f"{MAX_RADIUS_M:,.0f} m, got {radius:g}"
+                )
             out.append(Zone(**common, circle=(centre[0], centre[1], radius)))
         elif kind == "Polygon":
             ring, notes = _polygon(proj.get("coordinates"), f"{key}.horizontalProjection", fail)
@@ -183,8 +185,9 @@ def _ed318(feature: Mapping[str, Any], file: str, where: str, fail: Fail) -> lis
     if layer is None and isinstance(raw_props, dict):
         layer = raw_props.get("verticalLayer")
     if not isinstance(layer, dict):
-        raise fail("geometry.layer: the vertical layer (upper, lower, their references, uom) "
-                   "is missing")
+        raise fail(
+            "geometry.layer: the vertical layer (upper, lower, their references, uom) is missing"
+        )
     uom = layer.get("uom", "m")
     if not isinstance(uom, str) or uom.lower() not in ("m", "ft"):
         raise fail(f"geometry.layer.uom: must be m or ft, got {uom!r}")
@@ -208,8 +211,10 @@ def _ed318(feature: Mapping[str, Any], file: str, where: str, fail: Fail) -> lis
             raise fail("geometry: a Point zone needs extent: {subType: Circle, radius}")
         radius = _number(extent.get("radius"), "geometry.extent.radius", fail)
         if not (0 < radius <= MAX_RADIUS_M):
-            raise fail(f"geometry.extent.radius: must be > 0 m and at most {MAX_RADIUS_M:,.0f} m, "
-                       f"got {radius:g}")
+            raise fail(
+                f"geometry.extent.radius: must be > 0 m and at most {MAX_RADIUS_M:,.0f} m, "
+                f"got {radius:g}"
+            )
         centre = _position(coords, "geometry.coordinates", fail)
         return [Zone(name=name, **common, circle=(centre[0], centre[1], radius))]
     if gtype == "Polygon":
@@ -233,8 +238,9 @@ def _ed318(feature: Mapping[str, Any], file: str, where: str, fail: Fail) -> lis
 
 def _token(value: Any, key: str, fail: Fail) -> str:
     if not isinstance(value, str) or not value.strip():
-        raise fail(f"{key}: must be a restriction such as PROHIBITED or REQ_AUTHORISATION, "
-                   f"got {value!r}")
+        raise fail(
+            f"{key}: must be a restriction such as PROHIBITED or REQ_AUTHORISATION, got {value!r}"
+        )
     return value.strip().upper()
 
 
@@ -314,7 +320,7 @@ def _polygon(
     distinct = [p for j, p in enumerate(ring) if j == 0 or p != ring[j - 1]]
     if len(distinct) < 3:
         raise fail(f"{key}.coordinates: a polygon needs at least 3 distinct positions")
-    notes = ()
+    notes: tuple[str, ...] = ()
     if len(value) > 1:
         notes = (f"{len(value) - 1} hole(s) filled (the zone is taken as the whole outer ring)",)
     return tuple(distinct), notes

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 from uavplan.sources.zones import (
     CHORD_ERROR_M,
@@ -196,7 +197,7 @@ def _finish(d: _Draft, file: str, fail: object) -> Zone:
     else:
         label = f"class {ac}"
     activity = Activity(tuple(d.periods) if d.periods else None, d.activation_unknown)
-    common = dict(
+    common: dict[str, Any] = dict(
         name=name,
         classes=tuple(dict.fromkeys(d.classes)),
         label=label,
@@ -207,7 +208,7 @@ def _finish(d: _Draft, file: str, fail: object) -> Zone:
         where=f"line {d.line}",
     )
     if d.circle is not None:
-        return Zone(**common, circle=d.circle)  # type: ignore[arg-type]
+        return Zone(**common, circle=d.circle)
     if not d.pieces:
         raise fail(d.line, f"zone {name!r} (AC at line {d.line}) has no shape (DP, DA, DB or DC)")
     ring, error = outline(d.pieces)
@@ -224,9 +225,7 @@ def _finish(d: _Draft, file: str, fail: object) -> Zone:
         )
     if len(ring) > MAX_ZONE_VERTICES:
         raise fail(d.line, f"zone {name!r} has more than {MAX_ZONE_VERTICES:,} vertices")
-    return Zone(  # type: ignore[arg-type]
-        **common, ring_lonlat=ring, chord_error_m=error, notes=notes
-    )
+    return Zone(**common, ring_lonlat=ring, chord_error_m=error, notes=notes)
 
 
 def parse_altitude(text: str) -> Limit:
@@ -308,7 +307,9 @@ def _variable(d: _Draft, rest: str, number: int, fail: object) -> None:
         d.centre = _coord_pair(value, number, fail)
     elif name == "D":
         if value not in ("+", "-"):
-            raise fail(number, f"V D= must be + (clockwise) or - (counter-clockwise), got {value!r}")
+            raise fail(
+                number, f"V D= must be + (clockwise) or - (counter-clockwise), got {value!r}"
+            )
         d.clockwise = value == "+"
     elif name in ("W", "Z", "T"):
         return

@@ -2,7 +2,8 @@
 each in its own vertical reference, the class or restriction, and when the zone is active.
 
 The readers (:mod:`~uavplan.sources.openair`, :mod:`~uavplan.sources.ed269`) turn a file into
-:class:`Zone` values; :func:`read_zone_file` picks the reader by the file's content. Nothing
+:class:`Zone` values; :func:`uavplan.sources.zonefiles.read_zone_file` picks the reader by the
+file's content (the readers import this module only, so the package has no import cycle). Nothing
 here knows a scenario: turning a floor into a height in a scenario's frame (over its DEM,
 through the standard atmosphere) is :mod:`uavplan.scenario.zones`' job.
 
@@ -22,7 +23,6 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, time, timedelta
-from pathlib import Path
 from typing import Any
 
 from uavplan.errors import InputError
@@ -233,39 +233,7 @@ class Zone:
 
 
 # ---------------------------------------------------------------------------------------------
-# Reading: one entry point, the format from the content
-
-
-def read_zone_file(path: str | Path) -> tuple[Zone, ...]:
-    """The zones of an OpenAir file (``.txt``, ``.openair``, any text that is not JSON) or an
-    ED-269 / ED-318 JSON file (content starting with ``{``). Any problem raises
-    :class:`ZoneFileError` naming the file and the line or feature."""
-    p = Path(path)
-    name = str(path)
-    try:
-        size = p.stat().st_size
-        if not p.is_file():
-            raise ZoneFileError("not a file", file=name)
-        if size > MAX_FILE_BYTES:
-            raise ZoneFileError(
-                f"{size / 2**20:.0f} MiB, larger than the {MAX_FILE_BYTES // 2**20} MiB a zone "
-                "file may be",
-                file=name,
-            )
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise ZoneFileError("file not found", file=name) from None
-    except OSError as err:
-        raise ZoneFileError(f"cannot be read ({err.strerror or err})", file=name) from None
-    text = decode_text(data, name)
-    head = text.lstrip()[:1]
-    if head in ("{", "["):
-        from uavplan.sources.ed269 import parse_ed_json
-
-        return parse_ed_json(text, name)
-    from uavplan.sources.openair import parse_openair
-
-    return parse_openair(text, name)
+# Text
 
 
 def decode_text(data: bytes, file: str) -> str:
@@ -318,11 +286,15 @@ def arc_steps(radius_m: float, sweep_rad: float, outside: bool, error_m: float) 
     ``r (1 - cos(step / 2))``), or tangent edges outside it (``r (1 / cos(step / 2) - 1)``)."""
     if radius_m <= error_m:
         return max(1, math.ceil(abs(sweep_rad) / (math.pi / 2)))
-    half = math.acos(radius_m / (radius_m + error_m)) if outside else math.acos(1 - error_m / radius_m)
+    half = (
+        math.acos(radius_m / (radius_m + error_m)) if outside else math.acos(1 - error_m / radius_m)
+    )
     return max(1, math.ceil(abs(sweep_rad) / (2.0 * half) - 1e-9))
 
 
-def arc_points(arc: Arc, outside: bool, error_m: float = CHORD_ERROR_M) -> list[tuple[float, float]]:
+def arc_points(
+    arc: Arc, outside: bool, error_m: float = CHORD_ERROR_M
+) -> list[tuple[float, float]]:
     """The arc's vertices (lon, lat), its start and end included. ``outside``: the zone lies
     inside the circle here (a convex arc), so the edges must pass outside the circle:
     tangent edges, their vertices at r / cos(half step); else chords, vertices on it."""
@@ -389,9 +361,7 @@ def outline(
     first = build({})
     clockwise_ring = _signed_area_lonlat(first) < 0
     outward = {
-        i: (p.sweep_deg > 0) == clockwise_ring
-        for i, p in enumerate(pieces)
-        if isinstance(p, Arc)
+        i: (p.sweep_deg > 0) == clockwise_ring for i, p in enumerate(pieces) if isinstance(p, Arc)
     }
     return tuple(build(outward)), error_m
 
@@ -402,9 +372,11 @@ def _unclosed(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     for p in points:
         if not out or abs(p[0] - out[-1][0]) > 1e-12 or abs(p[1] - out[-1][1]) > 1e-12:
             out.append(p)
-    while len(out) > 1 and abs(out[0][0] - out[-1][0]) <= 1e-12 and abs(
-        out[0][1] - out[-1][1]
-    ) <= 1e-12:
+    while (
+        len(out) > 1
+        and abs(out[0][0] - out[-1][0]) <= 1e-12
+        and abs(out[0][1] - out[-1][1]) <= 1e-12
+    ):
         out.pop()
     return out
 
