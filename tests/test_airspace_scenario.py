@@ -435,3 +435,28 @@ def test_bundled_route_crosses_the_zones_that_do_not_bind(bundled) -> None:
     assert track.intersects(r_area)
     assert track.intersects(tra)
     assert math.isfinite(track.length)
+
+
+def test_exports_and_pictures_name_the_zones(tmp_path: Path) -> None:
+    zones = _zone("CROSS", "R", "GND", "500ft AGL", (400, -300, 600, 300))
+    path = _scenario(tmp_path, zones)
+    out = tmp_path / "o.geojson"
+    result = CliRunner().invoke(main, ["plan", str(path), "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.stderr
+    features = json.loads(out.read_text())["features"]
+    zone = next(f["properties"] for f in features if f["properties"].get("kind") == "obstacle")
+    assert (zone["zone"], zone["zone_class"], zone["floor"], zone["ceiling"]) == (
+        "CROSS",
+        "R, restricted",
+        "GND",
+        "500ft AGL",
+    )
+    kml = tmp_path / "o.kml"
+    assert CliRunner().invoke(main, ["plan", str(path), "-o", str(kml), "-q"]).exit_code == 0
+    assert "<name>CROSS (R, restricted, GND–500ft AGL)</name>" in kml.read_text()
+    from uavplan.planning import scene_for
+
+    assert scene_for(Scenario.from_file(path)).zone_labels == {0: "CROSS\nGND–500ft AGL"}
+    png = tmp_path / "o.png"
+    result = CliRunner().invoke(main, ["render", str(path), "-o", str(png), "--iterations", "50"])
+    assert result.exit_code == 0, result.stderr

@@ -826,9 +826,15 @@ def export_extras(
             "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
             "ground_amsl_m": ground_amsl,
         }
+    labels = {} if scenario.airspace is None else scenario.airspace.labels()
     if route is not None:
         return ExportExtras.for_route(
-            route, site.obstacles, name=scenario.name, properties=properties, **terrain
+            route,
+            site.obstacles,
+            name=scenario.name,
+            properties=properties,
+            obstacle_labels=labels,
+            **terrain,
         )
     flown = None
     if ground is not None and plan is not None:  # the one reading of a mission over terrain
@@ -843,6 +849,7 @@ def export_extras(
         safety_margin_m=scenario.safety_margin_m,
         properties=dict(properties or {}),
         datum_amsl_m=site.datum_amsl_m,
+        obstacle_labels=labels,
         **terrain,
     )
 
@@ -871,7 +878,10 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
 
 def scene_for(scenario: Scenario) -> Scene:
     """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
-    return _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
+    scene = _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
+    if scenario.airspace is None:
+        return scene
+    return replace(scene, zone_labels=scenario.airspace.picture_labels())
 
 
 def _scene(name: str, site: Site, margin_m: float, written: Sequence[Obstacle]) -> Scene:

@@ -219,6 +219,29 @@ class ZoneSet:
         """The obstacle indices of each constraint's solids."""
         return [d.obstacles for d in self.constraints]
 
+    def labels(self) -> dict[int, dict[str, Any]]:
+        """Per solid's obstacle index: its zone's name, kind and limits as written (what the
+        map exports add to the obstacle)."""
+        out: dict[int, dict[str, Any]] = {}
+        for d in self.constraints:
+            for i in d.obstacles:
+                out[i] = {
+                    "zone": d.zone.name,
+                    "zone_class": d.zone.label,
+                    "floor": d.zone.floor.text,
+                    "ceiling": d.zone.ceiling.text,
+                    "zone_file": Path(d.zone.file).name,
+                }
+        return out
+
+    def picture_labels(self) -> dict[int, str]:
+        """Per constraint, on its first solid: ``NAME`` and ``floor–ceiling`` (two lines)."""
+        return {
+            d.obstacles[0]: f"{d.zone.name}\n{d.zone.vertical_text}"
+            for d in self.constraints
+            if d.obstacles
+        }
+
     def fence_groups(self) -> list[tuple[str, tuple[int, ...]]]:
         """Each constraint's title and the indices of its solids (for the fence's lines)."""
         return [(zone_title(d), d.obstacles) for d in self.constraints]
