@@ -460,3 +460,27 @@ def test_exports_and_pictures_name_the_zones(tmp_path: Path) -> None:
     png = tmp_path / "o.png"
     result = CliRunner().invoke(main, ["render", str(path), "-o", str(png), "--iterations", "50"])
     assert result.exit_code == 0, result.stderr
+
+
+def test_rerouting_a_plan_names_the_zones_it_crossed(tmp_path: Path) -> None:
+    zones = _zone("FIRST", "R", "GND", "500ft AGL", (300, -100, 400, 100)) + _zone(
+        "SECOND", "P", "GND", "500ft AGL", (900, -100, 1000, 100)
+    )
+    path = _scenario(tmp_path, zones)
+    plain = tmp_path / "plain.yaml"
+    text = path.read_text().replace("airspace: {files: [zones.txt]}\n", "")
+    plain.write_text(text + "mission: {spacing: 5000}\n")
+    straight = tmp_path / "straight.plan"
+    assert CliRunner().invoke(main, ["plan", str(plain), "-o", str(straight), "-q"]).exit_code == 0
+    out = tmp_path / "rerouted.plan"
+    result = CliRunner().invoke(
+        main, ["plan", str(straight), "--scenario", str(path), "-o", str(out)]
+    )
+    assert result.exit_code == 0, result.stderr
+    lines = result.output.splitlines()
+    assert "airspace: the plan as written enters zone 'FIRST' (R, restricted) of zones.txt" in lines
+    assert (
+        "airspace: the plan as written enters zone 'SECOND' (P, prohibited) of zones.txt" in lines
+    )
+    result = CliRunner().invoke(main, ["validate", str(out), "--scenario", str(path)])
+    assert result.exit_code == 0, result.stderr
