@@ -647,3 +647,14 @@ def test_ed318_multipolygon_and_errors(tmp_path: Path) -> None:
 
 def test_nautical_mile_and_foot() -> None:
     assert NAUTICAL_MILE_M == 1852.0 and FOOT_M == 0.3048
+
+
+def test_sixty_seconds_as_real_files_write_them() -> None:
+    # France's openAIP export writes 001:25:60 E for 001:26:00 E (it refused the file before)
+    z = _one(
+        "AC R\nAN S\nAL GND\nAH UNL\nDP 42:41:12 N 001:25:60 E\nDP 42:42:00 N 001:25:00 E\n"
+        "DP 42:42:00 N 001:27:00 E\n"
+    )
+    assert list(z.ring_lonlat[0]) == pytest.approx([1 + 26 / 60, 42 + 41 / 60 + 12 / 3600])
+    with pytest.raises(ZoneFileError, match="minutes or seconds"):
+        parse_openair("AC R\nAN S\nAL GND\nAH UNL\nDP 42:41:61 N 001:25:00 E\n", "t.txt")
