@@ -484,3 +484,20 @@ def test_rerouting_a_plan_names_the_zones_it_crossed(tmp_path: Path) -> None:
     )
     result = CliRunner().invoke(main, ["validate", str(out), "--scenario", str(path)])
     assert result.exit_code == 0, result.stderr
+
+
+def test_fly_and_simulate_check_name_the_zones(tmp_path: Path) -> None:
+    """``fly --scenario`` and ``simulate`` check the track in the scenario's CheckSite, whose
+    names are the scenario's: a zone's solid is named after its zone, so the live warning
+    ("the vehicle is 4.2 m from zone 'CROSS' (R, restricted) of zones.txt") names it."""
+    from uavplan.flight import Flight, check_flight
+    from uavplan.rehearsal import CheckSite
+
+    zones = _zone("CROSS", "R", "GND", "500ft AGL", (400, -300, 600, 300))
+    scn = Scenario.from_file(_scenario(tmp_path, zones))
+    site = CheckSite.of_scenario(scn)
+    assert site.name_of(0) == "zone 'CROSS' (R, restricted) of zones.txt"
+    line = np.array([[0.0, 0.0, 30.0], [395.0, 0.0, 30.0]])
+    check = check_flight(site.world, Flight(line, (0, 1)), name_of=site.name_of)
+    assert not check.keeps_margin
+    assert check.nearest == "zone 'CROSS' (R, restricted) of zones.txt"
