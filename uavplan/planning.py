@@ -45,7 +45,7 @@ from uavplan.world import World
 
 if TYPE_CHECKING:
     from uavplan.mission.export import ExportExtras
-    from uavplan.mission.fence import FenceBuild
+    from uavplan.mission.fence import FenceBuild, Footprint
     from uavplan.mission.items import MissionPlan
     from uavplan.planners.astar import GridRoute
     from uavplan.render import Scene
@@ -156,6 +156,7 @@ class RouteResult:
             "guide_s": self.guide_s,
             "legs": [leg.summary() for leg in self.legs],
             **self._flight_entries(),
+            **({} if scenario.airspace is None else {"airspace": scenario.airspace.report()}),
             "config": {
                 **resolved_config(scenario, self.algorithm),
                 "post_applied": vars(self.post),
@@ -785,9 +786,14 @@ def fence_for(
     from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
 
     site = scenario.site
+    obstacles: Sequence[Obstacle | Footprint] = site.obstacles
+    if scenario.airspace is not None:  # zones' outlines simplified outward to fit the items
+        from uavplan.mission.zonefence import zone_footprints
+
+        obstacles = zone_footprints(site.obstacles, scenario.airspace.solid_groups())
     built = geofence_for_route(
         route,
-        site.obstacles,
+        obstacles,
         site.bounds,
         max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
     )
@@ -820,9 +826,15 @@ def export_extras(
             "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
             "ground_amsl_m": ground_amsl,
         }
+    labels = {} if scenario.airspace is None else scenario.airspace.labels()
     if route is not None:
         return ExportExtras.for_route(
-            route, site.obstacles, name=scenario.name, properties=properties, **terrain
+            route,
+            site.obstacles,
+            name=scenario.name,
+            properties=properties,
+            obstacle_labels=labels,
+            **terrain,
         )
     flown = None
     if ground is not None and plan is not None:  # the one reading of a mission over terrain
@@ -837,6 +849,7 @@ def export_extras(
         safety_margin_m=scenario.safety_margin_m,
         properties=dict(properties or {}),
         datum_amsl_m=site.datum_amsl_m,
+        obstacle_labels=labels,
         **terrain,
     )
 
@@ -865,7 +878,10 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
 
 def scene_for(scenario: Scenario) -> Scene:
     """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
-    return _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
+    scene = _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
+    if scenario.airspace is None:
+        return scene
+    return replace(scene, zone_labels=scenario.airspace.picture_labels())
 
 
 def _scene(name: str, site: Site, margin_m: float, written: Sequence[Obstacle]) -> Scene:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import inspect
 import io
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -98,6 +98,9 @@ class Scene:
     #: over terrain: each obstacle's height above the ground it stands on (the scenario's
     #: own values), by obstacle index: what the colours and the colour bar show
     heights_agl_m: tuple[float, ...] | None = None
+    #: airspace zones: obstacle index → the label written on it in the top view (the zone's
+    #: name, floor and ceiling), on the first solid of each zone
+    zone_labels: Mapping[int, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -552,6 +555,31 @@ def _draw_top(
                 fontsize=7.5 * scale,
                 color="black",
                 zorder=3,
+                path_effects=halo,
+            )
+    if scene.zone_labels:  # airspace zones: name, floor and ceiling, inside the flight area
+        from matplotlib import patheffects
+
+        halo = [patheffects.withStroke(linewidth=2.0 * scale, foreground="white")]
+        (bx0, bx1), (by0, by1) = scene.bounds.x_m, scene.bounds.y_m
+        for fp in footprints:
+            label = scene.zone_labels.get(fp.index)
+            if label is None:
+                continue
+            ring = _outline(fp)
+            inside = ring[(ring[:, 0] >= bx0) & (ring[:, 0] <= bx1)]
+            inside = inside[(inside[:, 1] >= by0) & (inside[:, 1] <= by1)]
+            cx, cy = (inside if len(inside) else ring).mean(axis=0)
+            cx, cy = min(max(cx, bx0), bx1), min(max(cy, by0), by1)
+            ax.text(
+                cx,
+                cy,
+                label,
+                ha="center",
+                va="center",
+                fontsize=6.5 * scale,
+                color="#8b0000",
+                zorder=4,
                 path_effects=halo,
             )
     for zone in layers.fence:

@@ -45,6 +45,8 @@ class ScenarioCheck:
             f"{self.file}: ok — {scn.name}, {len(scn.obstacles)} obstacles, "
             f"margin {scn.safety_margin_m:g} m"
         )
+        if scn.airspace is not None:  # the zones read and why each is a constraint or not
+            line = "\n".join([line, *scn.airspace.summary_lines()])
         return line if self.estimate is None else f"{line}\n{self.estimate.summary()}"
 
 
@@ -136,6 +138,10 @@ def validate(
     checked = MissionCheck(file, plan, check_flight_in(scenario, flight))
     problem = checked.check.problem()
     if problem is not None:
+        if scenario.airspace is not None:  # every zone the flight enters or comes too close to
+            from uavplan.scenario.zones import infringement_text
+
+            problem += infringement_text(scenario, flight.points_enu)
         raise NoPathError(f"{file}: {problem}")
     from uavplan.estimate import DEFAULT_RESERVE_PCT
 

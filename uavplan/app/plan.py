@@ -158,6 +158,9 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             "which PX4 missions do not fly (ArduPilot does); use relative or amsl for PX4"
         )
     feedback.say(_announce(scn))
+    if scn.airspace is not None:  # the zones considered and why each is a constraint or not
+        for line in scn.airspace.summary_lines():
+            feedback.say(line)
     with outputs:
         with feedback.polled():
             result = _search(scn, feedback)
@@ -206,6 +209,12 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     if built is not None:
         for line in (built.summary(), *(f"note: {n}" for n in built.notes())):
             feedback.say(line)
+        if scn.airspace is not None:
+            from uavplan.mission.zonefence import zone_fence_lines
+
+            groups = scn.airspace.fence_groups()
+            for line in zone_fence_lines(built, groups, scn.site.obstacles):
+                feedback.say(line)
     if way is not None:
         for line in way.lines():
             feedback.say(line)

@@ -22,7 +22,9 @@ from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import load_surroundings
 
 if TYPE_CHECKING:
+    from uavplan.mission.items import MissionPlan
     from uavplan.render import Scene
+    from uavplan.scenario import Surroundings
 
 
 @dataclass(frozen=True)
@@ -108,6 +110,9 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
     if base is not None:
         base = replace(base, planner=request.options.apply_to(base.planner))
     planner = base.planner if base is not None else request.options.apply_to(PlannerConfig())
+    if base is not None and base.airspace is not None:  # each zone the plan as written infringes
+        for line in written_infringements(plan, base):
+            feedback.say(line)
     name = Path(request.source).stem
     bar = feedback.progress
     if bar is not None:
@@ -151,6 +156,35 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
     for note in result.notes:
         feedback.say(f"note: {note}")
     return RerouteOutcome(result, request.output, time.perf_counter() - t0)
+
+
+def written_infringements(plan: MissionPlan, base: Surroundings) -> list[str]:
+    """``airspace: the plan as written enters zone '…' (…) of FILE`` for each airspace zone of
+    ``base`` its flight (as the autopilot flies it, in the scenario's site) enters or comes
+    within the margin of: what the rerouting goes around."""
+    from uavplan.flight import flight_of_mission
+    from uavplan.planning import enu_frame
+    from uavplan.scenario.zones import infringements, zone_title
+
+    zset = base.airspace
+    assert zset is not None
+    site = base.site
+    ground = site.ground
+    try:
+        flight = flight_of_mission(
+            plan,
+            enu_frame(site),
+            None if ground is None else ground.z_at,
+            None if ground is None else ground.follow,
+        )
+    except ValueError:  # an item that cannot be placed: the rerouting says so itself
+        return []
+    hits = infringements(zset, site.obstacles, flight.points_enu, base.safety_margin_m)
+    return [f"airspace: the plan as written {_how_close(dist)} {zone_title(d)}" for d, dist in hits]
+
+
+def _how_close(distance_m: float) -> str:
+    return "enters" if distance_m <= 0 else f"comes {distance_m:.1f} m from"
 
 
 def fence_scene(

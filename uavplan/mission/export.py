@@ -101,6 +101,9 @@ class ExportExtras:
     ground_amsl_m: (
         Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]] | None
     ) = None
+    #: more properties of some obstacles, by index: an airspace zone's name, class, floor and
+    #: ceiling as its file writes them (``zone``, ``zone_class``, ``floor``, ``ceiling``)
+    obstacle_labels: Mapping[int, Mapping[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -126,6 +129,7 @@ class ExportExtras:
         heights_agl_m: tuple[float, ...] | None = None,
         ground_amsl_m: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
         | None = None,
+        obstacle_labels: Mapping[int, Mapping[str, Any]] | None = None,
     ) -> ExportExtras:
         """A planned route's frame, smoothed path, flown line and margin, plus obstacles
         (over terrain: their heights above the ground, and the ground's altitude)."""
@@ -140,6 +144,7 @@ class ExportExtras:
             datum_amsl_m=route.datum_amsl_m,
             heights_agl_m=heights_agl_m,
             ground_amsl_m=ground_amsl_m,
+            obstacle_labels=dict(obstacle_labels or {}),
         )
 
     @property
@@ -231,6 +236,7 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
                 props["radius_m"] = fp.radius_m
             if extras.safety_margin_m is not None:
                 props["safety_margin_m"] = extras.safety_margin_m
+            props.update(extras.obstacle_labels.get(fp.index, {}))
             ring = _xy_to_lonlat(fp.outline_enu(CIRCLE_SEGMENTS), extras.frame)
             top = fp.height_m if datum is None else datum + fp.height_m
             if datum is not None:
@@ -501,6 +507,10 @@ def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
         for area in obstacles:
             props = area.properties
             name = f"obstacle {props['index']} ({props['shape']}, {props['height_m']:g} m)"
+            if "zone" in props:  # an airspace zone's solid: its name, class and limits
+                name = (
+                    f"{props['zone']} ({props['zone_class']}, {props['floor']}–{props['ceiling']})"
+                )
             mark = _placemark(folder, name, "obstacle")
             _extended_data(mark, props)
             _polygon(mark, area.ring_lonlat, area.height_m, absolute=scene.absolute)

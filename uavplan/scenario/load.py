@@ -10,6 +10,7 @@ are relative to the file that names them. The values are checked key by key here
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -50,6 +51,7 @@ from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleCon
 from uavplan.scenario.yamlfile import read_yaml
 
 if TYPE_CHECKING:
+    from uavplan.scenario.zones import ZoneSet
     from uavplan.sources.dem import Terrain
 
 _SCENARIO_KEYS = {
@@ -68,6 +70,7 @@ _SCENARIO_KEYS = {
     "obstacle_files",
     "terrain",
     "wind",
+    "airspace",
 }
 _MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files", "terrain"}
 
@@ -210,6 +213,23 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
     planner = read_planner(chk, raw["planner"]) if "planner" in raw else PlannerConfig()
     mission = read_mission(chk, raw["mission"]) if "mission" in raw else MissionConfig()
     wind = read_wind(chk, raw["wind"]) if "wind" in raw else None
+    zones = None
+    sources = ObstacleSources(len(map_obstacles), raw.get("map"), len(inline))
+    if "airspace" in raw:
+        zones, solids = _airspace(
+            chk, raw["airspace"], path, origin, bounds, margin, terrain, vehicle, len(obstacles)
+        )
+        obstacles += solids
+        if len(obstacles) > MAX_OBSTACLES:
+            raise chk.fail(
+                "airspace",
+                f"the zones' solids bring the obstacles to {len(obstacles):,} "
+                f"(at most {MAX_OBSTACLES:,})",
+            )
+        from uavplan.scenario.zones import titles
+
+        sources = replace(sources, zones_from=zones.first_obstacle, zone_titles=titles(zones))
+        files += [InputFile(str(f), f"a zone file of {path}") for f in zones.spec.files]
     return dict(
         name=name,
         origin=origin,
@@ -224,7 +244,36 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         mission=mission,
         source=str(path),
         terrain=terrain,
-        obstacle_sources=ObstacleSources(len(map_obstacles), raw.get("map"), len(inline)),
+        obstacle_sources=sources,
         wind=wind,
         files=tuple(files),
+        airspace=zones,
+    )
+
+
+def _airspace(
+    chk: Checker,
+    raw: Any,
+    path: Path,
+    origin: GeoPoint,
+    bounds: Bounds,
+    margin: float,
+    terrain: Terrain | None,
+    vehicle: VehicleConfig,
+    first: int,
+) -> tuple[ZoneSet, tuple[Obstacle, ...]]:
+    """The ``airspace:`` zones (:mod:`uavplan.scenario.zones`): the zone readers, shapely and
+    pyproj load here, for a scenario that names zone files."""
+    from uavplan.scenario.zones import build_zones, read_spec
+
+    spec = read_spec(chk, raw, path)
+    return build_zones(
+        chk,
+        spec,
+        origin=origin,
+        bounds=bounds,
+        margin_m=margin,
+        terrain=terrain,
+        vehicle=vehicle,
+        first_obstacle=first,
     )

@@ -91,13 +91,18 @@ class MissionConfig:
 class ObstacleSources:
     """Where a scenario's obstacles came from, to name one in a message: the first ``n_map``
     from the map ``map_ref``, then ``n_inline`` from ``obstacles:``, the rest from
-    ``obstacle_files`` (``n_inline`` None: all after the map's are ``obstacles[i]``)."""
+    ``obstacle_files`` (``n_inline`` None: all after the map's are ``obstacles[i]``), and
+    from ``zones_from`` on the solids of the ``airspace:`` zones, named ``zone_titles``."""
 
     n_map: int = 0
     map_ref: str | None = None
     n_inline: int | None = None
+    zones_from: int | None = None
+    zone_titles: tuple[str, ...] = ()
 
     def name(self, index: int) -> str:
+        if self.zones_from is not None and 0 <= index - self.zones_from < len(self.zone_titles):
+            return self.zone_titles[index - self.zones_from]
         if index < self.n_map:
             return f"obstacle #{index} of map {self.map_ref}"
         if self.n_inline is not None and index >= self.n_map + self.n_inline:

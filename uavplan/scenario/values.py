@@ -58,6 +58,7 @@ from uavplan.scenario.size import DEFAULT_GRID, fitted_grid, path_grid
 
 if TYPE_CHECKING:
     from uavplan.ground import Surface
+    from uavplan.scenario.zones import ZoneSet
     from uavplan.vehicle.wind import Wind
 
 Point3 = tuple[float, float, float]
@@ -91,6 +92,9 @@ class Scenario:
     #: every file it was read from (the scenario, its map, obstacle files, DEM): no output
     #: of a command may overwrite one (:meth:`uavplan.app.outputs.OutputSet.reads`)
     files: tuple[InputFile, ...] = field(default=(), compare=False)
+    #: ``airspace:``: every zone read and what became of it (its constraints' solids are the
+    #: last obstacles); None without the key
+    airspace: ZoneSet | None = None
 
     def __post_init__(self) -> None:
         _check(self)
@@ -200,6 +204,7 @@ class Surroundings:
     wind: Wind | None = None
     #: every file it was read from (:attr:`Scenario.files`)
     files: tuple[InputFile, ...] = field(default=(), compare=False)
+    airspace: ZoneSet | None = None
 
     def __post_init__(self) -> None:
         _check_surroundings(Checker(self.source or self.name), self)
