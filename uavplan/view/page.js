@@ -287,7 +287,7 @@
       uirevision: "keep",
       scene: {
         aspectmode: "manual",
-        aspectratio: { x: 1.5 * rxm / wide, y: 1.5 * rym / wide, z: 1.5 * rzm * stretch / wide },
+        aspectratio: { x: 1.3 * rxm / wide, y: 1.3 * rym / wide, z: 1.3 * rzm * stretch / wide },
         xaxis: { title: { text: "x east (m)" }, range: [b.x[0], b.x[1]] },
         yaxis: { title: { text: "y north (m)" }, range: [b.y[0], b.y[1]] },
         zaxis: {
@@ -300,7 +300,9 @@
     };
     var config = { responsive: true, displaylogo: false, scrollZoom: true };
     var div3d = document.getElementById("scene3d");
-    var jobs = [Plotly.newPlot(div3d, traces, layout3d, config)];
+    var jobs = [Plotly.newPlot(div3d, traces, layout3d, config).then(function () {
+      turnWithoutPicking(div3d);
+    })];
     state.roles = roles;
 
     // --- legs table -----------------------------------------------------------------------
@@ -332,6 +334,19 @@
       state.ready = true;
       document.body.dataset.ready = "1";
     }).catch(fail);
+  }
+
+  function turnWithoutPicking(div) {
+    // While a button is down the view turns: no hover then. plotly.js would render its
+    // picking pass and read it back on every move, the most of a frame with a town's mesh.
+    var down = false;
+    function hover(mode) { return Plotly.relayout(div, { "scene.hovermode": mode }); }
+    div.addEventListener("mousedown", function () {
+      if (!down) { down = true; hover(false); }
+    }, true);
+    window.addEventListener("mouseup", function () {
+      if (down) { down = false; hover("closest"); }
+    }, true);
   }
 
   function stepXY(seg, s0, values) {
@@ -441,28 +456,26 @@
         hovertemplate: "minimum clearance %{y:.2f} m<extra></extra>",
       });
     }
-    if (fl) {
-      add("profile-vehicle", {
-        x: [fl.frames.s[0]], y: [fl.frames.z[0]], mode: "markers", name: "vehicle",
-        marker: { size: 9, color: "#00a0ff", symbol: "diamond" }, hoverinfo: "skip",
-      });
-    }
     var top = Math.max.apply(null, pl.z.concat(fl ? fl.profile.z : []).filter(function (q) { return q !== null; }));
     var clearTop = Math.max(3 * margin, Math.min(minV === Infinity ? 3 * margin : minV * 3, 8 * margin));
     var layout = {
-      margin: { l: 60, r: 20, t: 10, b: 40 },
-      xaxis: { title: { text: "distance along the planned route (m)" }, zeroline: false },
-      yaxis: { title: { text: "altitude (m AMSL)" }, domain: [0.42, 1], range: [lowest - 5, top + 10] },
+      margin: { l: 60, r: 20, t: 34, b: 40 },
+      xaxis: { title: { text: "distance along the planned route (m)" }, zeroline: false, anchor: "y2" },
+      yaxis: { title: { text: "altitude (m AMSL)" }, domain: [0.42, 1], range: [lowest - 5, top + 0.08 * (top - lowest) + 5] },
       yaxis2: { title: { text: "clearance (m)" }, domain: [0, 0.34], range: [0, clearTop], anchor: "x" },
       shapes: [{
         type: "line", xref: "paper", x0: 0, x1: 1, yref: "y2", y0: margin, y1: margin,
         line: { color: "#e00000", width: 1.5, dash: "dash" },
-      }],
+      }].concat(fl ? [{
+        // the replay's cursor: a shape moves without redrawing the traces
+        type: "line", xref: "x", x0: fl.frames.s[0], x1: fl.frames.s[0], yref: "paper",
+        y0: 0, y1: 1, line: { color: "#00a0ff", width: 2 },
+      }] : []),
       annotations: [{
         xref: "paper", x: 1, yref: "y2", y: margin, xanchor: "right", yanchor: "bottom",
         text: "margin " + margin + " m", showarrow: false, font: { color: "#e00000", size: 11 },
       }],
-      legend: { orientation: "h", y: 1.08 },
+      legend: { orientation: "h", x: 0, y: 1.0, yanchor: "bottom" },
       hovermode: "closest",
     };
     state.profileRoles = roles;
@@ -475,7 +488,6 @@
     var readout = document.getElementById("readout");
     var play = document.getElementById("play");
     var prof = document.getElementById("profile");
-    var pv = state.profileRoles["profile-vehicle"];
     document.getElementById("replay-box").hidden = false;
     slider.max = String(frames.t.length - 1);
     slider.value = "0";
@@ -490,7 +502,7 @@
         (frames.mode && frames.mode[n] ? " · " + frames.mode[n] : "");
       state.frame = n;
       var jobs = [Plotly.restyle(div3d, { x: [[frames.x[n]]], y: [[frames.y[n]]], z: [[frames.z[n]]] }, [vehicle])];
-      if (pv !== undefined) jobs.push(Plotly.restyle(prof, { x: [[frames.s[n]]], y: [[frames.z[n]]] }, [pv]));
+      jobs.push(Plotly.relayout(prof, { "shapes[1].x0": frames.s[n], "shapes[1].x1": frames.s[n] }));
       return Promise.all(jobs);
     }
     state.show = show;
@@ -502,14 +514,19 @@
       state.frame = n;
     });
     play.addEventListener("click", function () {
-      if (timer) { clearInterval(timer); timer = null; play.textContent = "▶ play"; return; }
+      if (timer) { timer = null; play.textContent = "▶ play"; return; }
       play.textContent = "❚❚ pause";
-      timer = setInterval(function () {
+      var token = timer = {};
+      // one position after the other, each once the last is drawn (a slow machine skips none
+      // and piles up nothing)
+      function next() {
+        if (timer !== token) return;
         var n = Number(slider.value) + 1;
-        if (n > Number(slider.max)) { clearInterval(timer); timer = null; play.textContent = "▶ play"; return; }
+        if (n > Number(slider.max)) { timer = null; play.textContent = "▶ play"; return; }
         slider.value = String(n);
-        show(n);
-      }, 80);
+        show(n).then(function () { setTimeout(next, 40); });
+      }
+      next();
     });
     show(0);
   }
