@@ -212,7 +212,7 @@ def test_view_writes_one_self_contained_page(env1_plan: Path, tmp_path: Path) ->
     assert "<link" not in own and "src=" not in own and "@import" not in own
     assert not re.search(r"<script[^>]+src=", html)
     doc = document_of(html)
-    assert doc["mission"]["flown"]["label"].startswith("flight model (ArduPilot")
+    assert doc["mission"]["flown"]["label"].startswith("flight model: ArduPilot")
     assert doc["mission"]["flown"]["frames"]["battery"][0] == 100.0
     assert doc["mission"]["flown"]["return_start"] is not None  # the way home flown
 
@@ -293,7 +293,7 @@ def test_plan_and_simulate_write_the_page(tmp_path: Path) -> None:
     result = run("simulate", mission, "--scenario", ENV1, "--view", sim)
     assert result.exit_code == 0, result.output  # type: ignore[attr-defined]
     flown = document_of(sim.read_text(encoding="utf-8"))["mission"]["flown"]
-    assert flown["label"] == "flight model (ArduPilot, as simulated)"
+    assert flown["label"] == "flight model: ArduPilot as simulated"
 
 
 def test_plan_and_simulate_check_the_page_before_the_work(tmp_path: Path) -> None:
@@ -321,3 +321,23 @@ def test_obstacle_mesh_is_one_mesh_of_every_obstacle() -> None:
     tops = mesh.vertices[:, 2] > 0
     heights = np.array([fp.height_m for fp in fps])
     assert np.allclose(mesh.vertices[tops, 2], heights[mesh.owner[tops]])
+
+
+def test_without_the_constrained_triangulation_every_top_is_still_drawn(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """shapely 2.0 (no constrained Delaunay): the tops come from the plain triangulation,
+    the triangles inside each footprint; every obstacle keeps a top at its height."""
+    import shapely
+
+    from uavplan.mission.fence import footprints_of
+    from uavplan.scenario import load_scenario
+    from uavplan.view.mesh import prism_mesh
+
+    monkeypatch.delattr(shapely, "constrained_delaunay_triangles", raising=False)
+    scn = load_scenario(ROOT / "missions" / "helsinki-centre.yaml")
+    fps = footprints_of(scn.site.obstacles)
+    mesh = prism_mesh(fps, 0.0, np.array([fp.height_m for fp in fps]))
+    walls = 2 * int(np.count_nonzero(mesh.vertices[:, 2] == 0.0))  # two triangles an edge
+    tops = mesh.triangles[walls:]
+    assert set(np.unique(mesh.owner[tops[:, 0]]).tolist()) == set(range(len(fps)))

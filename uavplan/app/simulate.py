@@ -170,6 +170,6 @@ def _write_view(
     from uavplan.view.build import FIRMWARE, flown_of_rehearsal
 
     name = FIRMWARE.get(rehearsal.autopilot, rehearsal.autopilot.label)
-    label = f"flight model ({name}, as simulated)"
+    label = f"flight model: {name} as simulated"
     flown = flown_of_rehearsal(rehearsal, label)
     atomic_write_text(path, mission_page(scenario, plan, source=source, flown=flown))

@@ -115,9 +115,9 @@ def fly_mission(
     values = {p.name: float(p.value) for p in plan.parameters if p.name in known}
     values.update(params or {})
     rehearsal = rehearse(plan, site, autopilot=flavour, params=values, **conditions_of(scenario))
-    where = "the plan's parameters" if values else "default parameters"
+    where = "the plan's parameters" if values else "its default parameters"
     name = FIRMWARE.get(flavour, flavour.label)
-    return flown_of_rehearsal(rehearsal, f"flight model ({name}, {where})")
+    return flown_of_rehearsal(rehearsal, f"flight model: {name} with {where}")
 
 
 def flown_of_rehearsal(rehearsal: Rehearsal, label: str) -> Flown:
