@@ -209,8 +209,12 @@ def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> lis
     """What the page says about the way home, each line with whether it is safe: the
     autopilot's return proven from every point of the mission's flight
     (:func:`uavplan.wayhome.prove_rtl`) against the RTL altitude the plan sets (or the
-    firmware's default), and the planned return when the mission has one."""
+    firmware's default), and the planned return when the mission has one. A direct return
+    that no RTL altitude makes safe is a problem unless the mission ends with a planned
+    return (as ``plan`` reports it: the mission's way home is that return; a failsafe's
+    settings are the operator's)."""
     from uavplan.mission.items import MavCmd
+    from uavplan.view.build import FIRMWARE
     from uavplan.wayhome import RTL_PARAMETERS, floor_world, prove_rtl, unsafe_returns
 
     autopilot = plan.autopilot
@@ -230,7 +234,8 @@ def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> lis
     )
     set_values = [p.value for p in plan.parameters if p.name == spec.name]
     setting = set_values[0] / spec.per_m if set_values else proof.default_altitude_m
-    whose = "the plan's" if set_values else f"{autopilot.label}'s default"
+    firmware = FIRMWARE.get(autopilot, autopilot.label)
+    whose = "the plan's" if set_values else f"{firmware}'s default"
     lines: list[tuple[bool, str]] = []
     planned_return = any(item.command == MavCmd.DO_LAND_START for item in plan.items)
     if planned_return:
@@ -241,13 +246,16 @@ def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> lis
         if proof.blocked is not None:
             (x, y, zz), what, d = proof.blocked
             where = f": from ({x:.0f}, {y:.0f}, {zz:.0f}) the return passes {d:.2f} m from {what}"
-        lines.append(
-            (
-                False,
-                f"way home: no RTL altitude up to the ceiling ({proof.ceiling_m:.0f} m above "
-                f"home) brings a failsafe return home within the margin{where}",
-            )
+        text = (
+            f"way home: no RTL altitude up to the ceiling ({proof.ceiling_m:.0f} m above "
+            f"home) brings a direct return home within the margin{where}"
         )
+        if planned_return:  # as `plan` reports it: the mission's own way home is planned
+            text += (
+                f"; the mission flies its planned return instead, a failsafe needs "
+                f"{firmware}'s settings for it (docs/way-home.md)"
+            )
+        lines.append((planned_return, text))
         return lines
     # the setting itself, checked from every point as the proof checks each altitude
     _, unsafe = unsafe_returns(

@@ -183,6 +183,21 @@
         name: "planned route (" + legs.length + " legs)",
         line: { color: COLORS.planned, width: 5 }, hoverinfo: "skip",
       });
+      // the planned return (the legs after DO_LAND_START), over the planned line
+      var px = [], py = [], pz = [];
+      for (var u = 0; u < pl.leg.length; u++) {
+        var pleg = legs[pl.leg[u]];
+        if (!pleg || !pleg.planned_return) continue;
+        px.push(pl.x[u], pl.x[u + 1], null); py.push(pl.y[u], pl.y[u + 1], null);
+        pz.push(pl.z[u], pl.z[u + 1], null);
+      }
+      if (px.length) {
+        add("planned-return", {
+          type: "scatter3d", mode: "lines", x: px, y: py, z: pz,
+          name: "the way home: the planned return", line: { color: COLORS.back, width: 6 },
+          hoverinfo: "skip",
+        });
+      }
       // every red leg, drawn over the planned line
       var rx = [], ry = [], rz = [], rleg = [];
       for (var s = 0; s < pl.leg.length; s++) {
@@ -213,7 +228,10 @@
         text: legs.map(function (l) { return String(l.leg); }), textposition: "top center",
         hovertext: wtext, hoverinfo: "text", name: "waypoints (" + legs.length + ")",
         marker: {
-          size: 4, color: legs.map(function (l) { return l.red ? COLORS.red : COLORS.waypoint; }),
+          size: 4,
+          color: legs.map(function (l) {
+            return l.red ? COLORS.red : l.planned_return ? COLORS.back : COLORS.waypoint;
+          }),
         },
         textfont: { size: 11, color: "#000" },
       });
@@ -425,27 +443,29 @@
         minV = pl.clearance[g]; minS = 0.5 * (pr.line_s[g] + pr.line_s[g + 1]); minWhat = "planned";
       }
     }
-    if (fl && fl.check) {
-      var ch = fl.check, sx = [], sy = [];
-      var sOf = {};
-      fl.frames.sample.forEach(function (smp, n) { sOf[smp] = fl.frames.s[n]; });
+    if (fl) {
       var along = fl.profile.s, samples = fl.profile.sample;
-      function sAt(sample) {
+      var sAt = function (sample) {
         // the sample's place along the line (the nearest drawn sample at or before it)
         var lo = 0, hi = samples.length - 1;
         while (lo < hi) { var mid = (lo + hi + 1) >> 1; if (samples[mid] <= sample) lo = mid; else hi = mid - 1; }
         return along[lo];
-      }
-      for (var c = 0; c < ch.clearance.length; c++) {
-        var a = sAt(ch.sample[c]), e = sAt(ch.sample[c + 1]);
-        sx.push(a, e, null); sy.push(ch.clearance[c], ch.clearance[c], null);
-        if (ch.clearance[c] !== null && ch.clearance[c] < minV) {
-          minV = ch.clearance[c]; minS = 0.5 * (a + e); minWhat = "as flown";
+      };
+      [["flown-clearance", fl.check, "as flown", "#ff7f0e"],
+        ["return-clearance", fl.return_check, "the way home", "#8e44ad"]].forEach(function (part) {
+        var ch = part[1], sx = [], sy = [];
+        if (!ch) return;
+        for (var c = 0; c < ch.clearance.length; c++) {
+          var a = sAt(ch.sample[c]), e = sAt(ch.sample[c + 1]);
+          sx.push(a, e, null); sy.push(ch.clearance[c], ch.clearance[c], null);
+          if (ch.clearance[c] !== null && ch.clearance[c] < minV) {
+            minV = ch.clearance[c]; minS = 0.5 * (a + e); minWhat = part[2];
+          }
         }
-      }
-      add("flown-clearance", {
-        x: sx, y: sy, yaxis: "y2", name: "clearance as flown", mode: "lines",
-        line: { color: "#ff7f0e", width: 1.5 }, hovertemplate: "%{y:.2f} m<extra>as flown</extra>",
+        add(part[0], {
+          x: sx, y: sy, yaxis: "y2", name: "clearance " + part[2], mode: "lines",
+          line: { color: part[3], width: 1.5 }, hovertemplate: "%{y:.2f} m<extra>" + part[2] + "</extra>",
+        });
       });
     }
     if (minS !== null) {
