@@ -341,3 +341,10 @@ def test_without_the_constrained_triangulation_every_top_is_still_drawn(
     walls = 2 * int(np.count_nonzero(mesh.vertices[:, 2] == 0.0))  # two triangles an edge
     tops = mesh.triangles[walls:]
     assert set(np.unique(mesh.owner[tops[:, 0]]).tolist()) == set(range(len(fps)))
+
+
+def test_a_rerouted_plan_has_no_view_of_its_own(env1_plan: Path, tmp_path: Path) -> None:
+    result = run("plan", env1_plan, "-o", tmp_path / "r.plan", "--view", tmp_path / "r.html")
+    assert result.exit_code == 2, result.output  # type: ignore[attr-defined]
+    assert "uavplan view OUT.plan --scenario S" in result.output  # type: ignore[attr-defined]
+    assert not (tmp_path / "r.plan").exists()

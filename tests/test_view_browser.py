@@ -204,6 +204,7 @@ def test_hover_texts(chromium: Browser, pages: dict[str, Path]) -> None:
         )
         assert obstacle.startswith("obstacle #0 of map ../maps/paper-env1.yaml")
         assert "above the ground, top" in obstacle
+        assert re.search(r"<br>box at -?\d+\.\d{7}, -?\d+\.\d{7}<br>", obstacle), obstacle
     finally:
         loaded.page.close()
 

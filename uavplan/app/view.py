@@ -180,6 +180,8 @@ def mission_document_for(
             flown = fly_mission(scenario, plan, site)
         except MissionRefused as err:
             notes.append(f"not flown through the flight model: {err}")
+        except ValueError as err:  # a parameter the plan carries that the model refuses
+            notes.append(f"not flown through the flight model: {err}")
     if flown is not None and feedback is not None:
         feedback.say(f"the flight as flown: {flown.label}")
     return mission_document(

@@ -170,17 +170,16 @@ def flown_of_track(track: Track, plan: MissionPlan, site: CheckSite, label: str)
 
 
 def _after(track: Track, start: int) -> Track:
-    n = len(track)
-    keep = np.arange(start, n)
+    """The samples from ``start`` on (the return)."""
     return Track(
-        track.time_s[keep],
-        track.lat_deg[keep],
-        track.lon_deg[keep],
-        track.alt_amsl_m[keep],
-        track.relative_alt_m[keep],
-        track.speed_m_s[keep],
-        track.current_seq[keep],
-        tuple(track.mode[start:]),
+        track.time_s[start:],
+        track.lat_deg[start:],
+        track.lon_deg[start:],
+        track.alt_amsl_m[start:],
+        track.relative_alt_m[start:],
+        track.speed_m_s[start:],
+        track.current_seq[start:],
+        track.mode[start:],
         track.source,
         track.autopilot,
     )
@@ -188,20 +187,6 @@ def _after(track: Track, start: int) -> Track:
 
 # ---------------------------------------------------------------------------------------------
 # legs and waypoints
-
-
-@dataclass(frozen=True)
-class Waypoint:
-    """A positional mission item the autopilot flies to: its index in ``plan.items``, its
-    command, where the mission check's line reaches it (``vertex``) and its position."""
-
-    item: int
-    command: int
-    vertex: int
-    enu: tuple[float, float, float]
-    lat_deg: float
-    lon_deg: float
-    planned_return: bool
 
 
 def mission_waypoints(plan: MissionPlan) -> list[tuple[int, int]]:
@@ -352,12 +337,15 @@ def _scene_doc(scenario: Scenario, z: _Z, plan: MissionPlan | None) -> dict[str,
         base = np.where(np.isfinite(base), base, 0.0)
     mesh = prism_mesh(footprints, base, tops)
     heights = [float(o.height_m) for o in scenario.obstacles]
+    lat, lon = _centres_geodetic(footprints, enu_frame(site))
     obstacles = [
         {
             "name": scenario.obstacle_name(i),
             "kind": fp.kind,
             "height_m": _num(heights[i] if i < len(heights) else fp.height_m, 1),
             "top_amsl_m": _num(float(z.amsl(fp.height_m)), 1),
+            "lat": _num(float(lat[i]), 7),
+            "lon": _num(float(lon[i]), 7),
         }
         for i, fp in enumerate(footprints)
     ]
@@ -387,6 +375,20 @@ def _scene_doc(scenario: Scenario, z: _Z, plan: MissionPlan | None) -> dict[str,
     if plan is not None:
         doc["fence"] = _fence_docs(plan, enu_frame(site), z, (z0, z1))
     return doc
+
+
+def _centres_geodetic(
+    footprints: Sequence[Footprint], frame: EnuFrame
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each footprint's centre (the mean of its outline's vertices) as latitude, longitude."""
+    if not footprints:
+        return np.empty(0), np.empty(0)
+    xy, ring_of = footprint_rings(footprints, tol_m=0.0)
+    count = np.bincount(ring_of, minlength=len(footprints)).astype(np.float64)
+    cx = np.bincount(ring_of, weights=xy[:, 0], minlength=len(footprints)) / np.maximum(count, 1)
+    cy = np.bincount(ring_of, weights=xy[:, 1], minlength=len(footprints)) / np.maximum(count, 1)
+    lat, lon, _ = frame.to_geodetic(np.column_stack((cx, cy, np.zeros(len(cx)))))
+    return lat, lon
 
 
 def _fence_docs(

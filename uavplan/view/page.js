@@ -101,8 +101,9 @@
       });
     }
     var texts = sc.obstacles.map(function (o, idx) {
-      var s = o.name + "<br>" + o.kind + ", " + fmt(o.height_m, 1) + " m above the ground, top " +
-        fmt(o.top_amsl_m, 1) + " m AMSL";
+      var s = o.name + "<br>" + o.kind + " at " + fmt(o.lat, 7) + ", " + fmt(o.lon, 7) +
+        "<br>" + fmt(o.height_m, 1) + " m above the ground, top " + fmt(o.top_amsl_m, 1) +
+        " m AMSL";
       if (o.nearest_m !== undefined && o.nearest_m !== null) {
         s += "<br>the route passes " + fmt(o.nearest_m, 2) + " m from it" +
           (close[idx] ? " (UNDER the " + margin + " m margin)" : "");
