@@ -71,6 +71,12 @@ _ADVICE = {
         "export": "a map export is written, not read; render a scenario (--mission draws a "
         ".plan or .waypoints mission over it)",
     },
+    "view": {
+        "waypoints": "view it in a scenario: uavplan view {file} --scenario S -o {stem}.html",
+        "plan": "view it in a scenario: uavplan view {file} --scenario S -o {stem}.html",
+        "export": "a map export is written, not read; view a scenario, or a mission file "
+        "with --scenario S",
+    },
     "bench": {
         "waypoints": "bench runs the planners on scenarios (YAML)",
         "plan": "bench runs the planners on scenarios (YAML)",

@@ -63,6 +63,8 @@ class PlanRequest:
     #: ``--reserve``: % of the usable battery left on landing (None: the default, 20 %, and a
     #: flight over it is refused only when the scenario names its vehicle)
     reserve_pct: float | None = None
+    #: ``--view``: the interactive page of the mission written (HTML, uavplan.app.view)
+    view: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,6 +122,11 @@ def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutco
     """Plan ``request.source`` as what it is (:func:`recognise`)."""
     kind = recognise(request.source)
     if kind is InputKind.QGC_PLAN:
+        if request.view is not None:
+            raise InputError(
+                "--view goes with a scenario; view a rerouted plan with uavplan view OUT.plan "
+                "--scenario S -o page.html"
+            )
         if request.reserve_pct is not None:
             raise InputError("--reserve goes with a scenario (a rerouted plan is not estimated)")
         return reroute_file(
@@ -146,6 +153,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     Notes go to ``feedback.say``; no route raises NoPathError."""
     t0 = time.perf_counter()
     outputs, mission_out, report_out, plot_out = _outputs(request, feedback)
+    view_out = _view_output(request, outputs)
     import_in_background()  # the mission writer's pyproj loads on another core during the search
     scn = request.options.apply(load_scenario_file(request.source, "plan"))
     outputs.reads(*scn.files)  # its map, obstacle files, DEM: no output may overwrite one
@@ -203,6 +211,10 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             )
             layers = RouteLayers.from_route(route, built)
             plot_out.write_bytes(render_png(scene_for(scn), layers, subtitle=subtitle))
+        if view_out is not None:
+            from uavplan.app.view import mission_page
+
+            view_out.write_text(mission_page(scn, mission, source=request.output))
         outputs.commit()
     for note in result.notes:
         feedback.say(f"note: {note}")
@@ -369,6 +381,21 @@ def _outputs(
     plot = outputs.file(request.plot) if request.plot else None
     outputs.check()
     return outputs, mission, report, plot
+
+
+def _view_output(request: PlanRequest, outputs: OutputSet) -> Output | None:
+    """``--view``: the page, declared and checked with the other outputs, and its drawing
+    library found, before any planning."""
+    if request.view is None:
+        return None
+    from uavplan.app.view import check_page_path
+    from uavplan.view.page import plotly_script
+
+    check_page_path(request.view)
+    plotly_script()
+    page = outputs.file(request.view)
+    outputs.check()
+    return page
 
 
 def _mission(

@@ -24,7 +24,7 @@ from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearse
-from uavplan.scenario import load_scenario
+from uavplan.scenario import Scenario, load_scenario
 from uavplan.sim.params import ParameterValueError, parameters_from
 
 
@@ -40,6 +40,8 @@ class SimulateRequest:
     track: str | None = None
     wind_en_m_s: tuple[float, float] = (0.0, 0.0)
     params: Mapping[str, float] = field(default_factory=dict)
+    #: ``--view``: the interactive page of the flight (HTML, needs ``scenario``)
+    view: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +87,8 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
     if request.track:
         check_track_path(request.track)
         check_output(request.track, InputFile(request.mission, "the mission to fly"))
+    if request.view:
+        _check_view(request)
     plan = load_mission(request.mission)
     if plan.home is None:
         raise InputError(
@@ -102,10 +106,13 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
     except ParameterValueError as err:
         raise InputError(str(err), key="--param") from None
     site: CheckSite | None = None
+    scenario = None
     if request.scenario is not None:
         scenario = load_scenario(request.scenario)
         if request.track:  # nor any file of the scenario
             check_output(request.track, *scenario.files)
+        if request.view:
+            check_output(request.view, *scenario.files)
         site = CheckSite.of_scenario(scenario)
     else:
         site = CheckSite.of_plan(plan, file=request.mission)
@@ -130,6 +137,9 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         )
     if rehearsal.flown.ended in ("no_headway", "timeout"):
         feedback.warn(f"warning: the flight did not finish ({rehearsal.flown.ended})")
+    if request.view and scenario is not None:  # written before a verdict of exit 3: it shows where
+        _write_view(request.view, scenario, plan, rehearsal, request.mission)
+        feedback.say(f"view: {request.view}")
     check = rehearsal.check
     if check is not None:
         problem = check.problem()
@@ -138,3 +148,33 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
                 f"{request.mission}: as {autopilot.label} flies it (flight model): {problem}"
             )
     return outcome
+
+
+def _check_view(request: SimulateRequest) -> None:
+    """``--view``: a page name, a scenario to show it in, the drawing library; before any
+    flying."""
+    from uavplan.app.view import check_page_path
+    from uavplan.view.page import plotly_script
+
+    assert request.view is not None
+    check_page_path(request.view)
+    if request.scenario is None:
+        raise InputError("--view shows the flight in a scenario: give --scenario S")
+    check_output(request.view, InputFile(request.mission, "the mission to fly"))
+    if request.track:
+        check_output(request.view, request.track)  # two outputs that are one file
+    plotly_script()
+
+
+def _write_view(
+    path: str, scenario: Scenario, plan: MissionPlan, rehearsal: Rehearsal, source: str
+) -> None:
+    """The page of this rehearsal (uavplan.app.view), written atomically."""
+    from uavplan.app.view import mission_page
+    from uavplan.fileio import atomic_write_text
+    from uavplan.view.build import FIRMWARE, flown_of_rehearsal
+
+    name = FIRMWARE.get(rehearsal.autopilot, rehearsal.autopilot.label)
+    label = f"flight model: {name} as simulated"
+    flown = flown_of_rehearsal(rehearsal, label)
+    atomic_write_text(path, mission_page(scenario, plan, source=source, flown=flown))

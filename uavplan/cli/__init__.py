@@ -70,6 +70,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Upload a .plan / .waypoints MISSION (with the .plan's geofence and rally points).",
     ),
     "validate": ("check_cmd", "Check a scenario file, or a mission file against a scenario."),
+    "view": (
+        "view_cmd",
+        "Write one interactive page of MISSION (with --scenario) or of a SCENARIO alone.",
+    ),
 }
 
 

@@ -74,6 +74,13 @@ from uavplan.cli.options import ALGORITHM
     "needs more exits 2 (default 20; without it, and without vehicle.profile in the "
     "scenario, only a warning).",
 )
+@click.option(
+    "--view",
+    "view_path",
+    type=click.Path(dir_okay=False),
+    help="Also write the interactive page of the mission (HTML, offline; needs the view "
+    "extra: pip install 'uavplan[view]').",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress output.")
 @handle_errors
 def plan_command(
@@ -89,6 +96,7 @@ def plan_command(
     fence: bool,
     scenario_path: str | None,
     reserve_pct: float | None,
+    view_path: str | None,
     quiet: bool,
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file.
@@ -113,6 +121,7 @@ def plan_command(
         fence=fence,
         scenario=scenario_path,
         reserve_pct=reserve_pct,
+        view=view_path,
     )
     check_threads_variable(warn)
     with interruptible() as interrupts:

@@ -39,6 +39,13 @@ from uavplan.cli.options import PARAM, WIND
     help="Fly with this autopilot parameter changed (repeatable; WPNAV_SPEED=500, "
     "RTL_RETURN_ALT=80, ...: docs/flight-model.md lists them).",
 )
+@click.option(
+    "--view",
+    "view_path",
+    type=click.Path(dir_okay=False),
+    help="Also write the interactive page of the flight (HTML, offline; needs --scenario and "
+    "the view extra: pip install 'uavplan[view]').",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No notes, only the result and warnings.")
 @handle_errors
 def simulate_command(
@@ -48,6 +55,7 @@ def simulate_command(
     track_path: str | None,
     wind: tuple[float, float] | None,
     param_pairs: tuple[tuple[str, float], ...],
+    view_path: str | None,
     quiet: bool,
 ) -> None:
     """Fly MISSION through the flight model, in simulated time, without a vehicle.
@@ -68,6 +76,7 @@ def simulate_command(
         track=track_path,
         wind_en_m_s=wind or (0.0, 0.0),
         params=dict(param_pairs),
+        view=view_path,
     )
     outcome = simulate_file(request, feedback(quiet, progress=False))
     click.echo(outcome.summary())
