@@ -71,8 +71,20 @@ from uavplan.cli.options import ALGORITHM
     "reserve_pct",
     type=click.FloatRange(0, 100, max_open=True),
     help="Battery (%% of the usable energy) that must be left on landing; a mission that "
-    "needs more exits 2 (default 20; without it, and without vehicle.profile in the "
-    "scenario, only a warning).",
+    "needs more exits 2 (default 20).",
+)
+@click.option(
+    "--allow-over-battery",
+    is_flag=True,
+    help="Write a mission that needs more than the usable battery minus the reserve "
+    "(a warning instead of exit 2).",
+)
+@click.option(
+    "--legal-ceiling",
+    metavar="M|none",
+    help="The highest a return to launch may fly above the ground (m; default: the "
+    "scenario's mission.legal_ceiling, 120): a safe RTL altitude above it is not advised, "
+    "the mission ends with a planned return instead. 'none': no limit.",
 )
 @click.option("--quiet", "-q", is_flag=True, help="No progress output.")
 @handle_errors
@@ -89,6 +101,8 @@ def plan_command(
     fence: bool,
     scenario_path: str | None,
     reserve_pct: float | None,
+    allow_over_battery: bool,
+    legal_ceiling: str | None,
     quiet: bool,
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file.
@@ -113,6 +127,8 @@ def plan_command(
         fence=fence,
         scenario=scenario_path,
         reserve_pct=reserve_pct,
+        allow_over_battery=allow_over_battery,
+        legal_ceiling=legal_ceiling,
     )
     check_threads_variable(warn)
     with interruptible() as interrupts:

@@ -290,7 +290,7 @@ def wind(chk: Checker, raw: Any) -> Wind:
 
 
 def mission(chk: Checker, raw: Any) -> MissionConfig:
-    chk.mapping(raw, "mission", {"autopilot", "spacing", "end", "altitude"})
+    chk.mapping(raw, "mission", {"autopilot", "spacing", "end", "altitude", "legal_ceiling"})
     autopilot = MissionConfig.autopilot
     if "autopilot" in raw:
         name = chk.string(raw["autopilot"], "mission.autopilot", ("px4", "ardupilot"))
@@ -309,7 +309,14 @@ def mission(chk: Checker, raw: Any) -> MissionConfig:
     altitude = MissionConfig.altitude
     if "altitude" in raw:
         altitude = chk.string(raw["altitude"], "mission.altitude", ALTITUDE_MODES)
-    return MissionConfig(autopilot, spacing, end, altitude)
+    legal = MissionConfig.legal_ceiling_m
+    if "legal_ceiling" in raw:
+        value = raw["legal_ceiling"]
+        if value is None:
+            legal = None  # no legal limit (a closed site, a permit)
+        else:
+            legal = chk.number(value, "mission.legal_ceiling", minimum=0.0, strict=True)
+    return MissionConfig(autopilot, spacing, end, altitude, legal_ceiling_m=legal)
 
 
 def obstacles(chk: Checker, raw: Any) -> tuple[Obstacle, ...]:

@@ -60,6 +60,11 @@ class VehicleConfig:
         return resolve(spec)
 
 
+#: the default legal ceiling (m above the ground): EU Regulation 2019/947's open category
+#: (120 m) and the FAA's Part 107 (400 ft, 121.9 m)
+DEFAULT_LEGAL_CEILING_M = 120.0
+
+
 @dataclass(frozen=True)
 class MissionConfig:
     autopilot: Autopilot = Autopilot.ARDUPILOT
@@ -71,6 +76,10 @@ class MissionConfig:
     #: the route begins with the take-off climb from the ground below the start; False: it
     #: begins in the air at the start (a rerouted stretch of a user's plan). Not a file key.
     takeoff: bool = True
+    #: ``legal_ceiling``: the highest a return to launch may fly above the ground (m): the
+    #: RTL altitude ``plan`` advises stays under it, else the mission ends with a planned
+    #: return (EU open category and FAA Part 107: 120 m / 400 ft; None: no limit)
+    legal_ceiling_m: float | None = DEFAULT_LEGAL_CEILING_M
 
     def __post_init__(self) -> None:
         if self.end not in END_ACTIONS:
@@ -80,6 +89,9 @@ class MissionConfig:
         lo, hi = SPACING_RANGE_M
         if not (math.isfinite(self.spacing_m) and lo <= self.spacing_m <= hi):
             raise ValueError(f"waypoint spacing must be in [{lo:g}, {hi:g}] m")
+        ceiling = self.legal_ceiling_m
+        if ceiling is not None and not (math.isfinite(ceiling) and ceiling > 0):
+            raise ValueError("the legal ceiling must be > 0 m")
 
 
 @dataclass(frozen=True)
