@@ -141,7 +141,7 @@ class FlightEstimate:
             if not allow_over_battery:
                 raise type(err)(
                     f"{err.reason}{vehicle}: {self.what} does not leave the reserve; "
-                    "--allow-over-battery writes it anyway",
+                    "--allow-over-battery lets it through",
                     key=err.key,
                     file=err.file,
                 ) from None

@@ -476,7 +476,7 @@ def judge_flight(
     check = site.check(track, lands=lands)
     wire = replace(plan, autopilot=flavour).wire_items(MissionType.MISSION)
     marks = _Marks.of(wire)
-    finding = _flight_finding(check, marks)
+    finding = _flight_finding(check, marks, site.world)
     end = marks.end
     fs: FailsafeCheck | None = None
     if failsafe:
@@ -517,9 +517,14 @@ class _Marks:
                 lands = True
         return cls(rtl, land_start, lands)
 
-    def phase(self, seq: int, sample: int, airborne: tuple[int, int], n: int) -> Phase:
+    def phase(
+        self, seq: int, sample: int, airborne: tuple[int, int], n: int, end: int | None = None
+    ) -> Phase:
+        """The phase of a segment from track sample ``sample`` (to ``end``, default the
+        next), flying to item ``seq``."""
         first, last = airborne
-        if sample < first:
+        end = sample + 1 if end is None else end
+        if end <= first:
             return Phase.TAKEOFF
         if sample >= last and last < n - 1:
             return Phase.LANDING
@@ -530,32 +535,67 @@ class _Marks:
         return Phase.ROUTE
 
 
-def _flight_finding(check: TrackCheck, marks: _Marks) -> Finding:
-    """The worst point of the whole track: its first point outside the volume, else its
-    least clearance."""
+#: the worst segment of a track is cut into this many pieces to place its closest point
+_PIECES = 32
+
+
+def _flight_finding(check: TrackCheck, marks: _Marks, world: World) -> Finding:
+    """The worst point of the whole track: its first point outside the volume, else the
+    point of its least clearance (the closest piece of the worst segment, its time and item
+    interpolated between the segment's samples)."""
     fc = check.check
     points = fc.flight.points_enu
     track = check.track
+    n = len(track)
+    if not len(points) or not len(check.samples):
+        return Finding(Phase.ROUTE, None, None, (0.0, 0.0, 0.0), "nothing", math.inf, fc.margin_m)
+    first = int(check.samples[fc.flight.airborne[0]])
+    last = int(check.samples[fc.flight.airborne[1]])
     if fc.outside is not None:
-        k, outside = fc.outside, True
+        k = fc.outside
+        sample = int(check.samples[k])
+        seq = int(track.current_seq[sample])
+        x, y, z = (float(v) for v in points[k])
         clearance = (
             float(fc.clearance_m[min(k, len(fc.clearance_m) - 1)])
             if fc.clearance_m.size
             else math.inf
         )
-        nearest = fc.nearest
-    else:
-        k, outside = fc.worst, False
-        clearance, nearest = fc.min_clearance_m, fc.nearest
-    sample = int(check.samples[min(k, len(check.samples) - 1)]) if len(check.samples) else 0
-    seq = int(track.current_seq[sample]) if len(track) else -1
-    # the whole track's airborne span, in track samples
-    first = int(check.samples[fc.flight.airborne[0]]) if len(check.samples) else 0
-    last = int(check.samples[fc.flight.airborne[1]]) if len(check.samples) else 0
-    phase = marks.phase(seq, sample, (first, last), len(track))
-    x, y, z = (float(v) for v in points[min(k, len(points) - 1)]) if len(points) else (0, 0, 0)
-    time_s = float(track.time_s[sample]) if len(track) else None
-    return Finding(phase, time_s, seq, (x, y, z), nearest, clearance, fc.margin_m, outside)
+        return Finding(
+            marks.phase(seq, sample, (first, last), n),
+            float(track.time_s[sample]),
+            seq,
+            (x, y, z),
+            fc.nearest,
+            clearance,
+            fc.margin_m,
+            outside=True,
+        )
+    k = fc.worst
+    a, b = points[k], points[min(k + 1, len(points) - 1)]
+    s0, s1 = int(check.samples[k]), int(check.samples[min(k + 1, len(check.samples) - 1)])
+    # the closest piece of the segment: where, and when (between its two samples)
+    f = np.linspace(0.0, 1.0, _PIECES + 1)
+    cuts = a + f[:, None] * (b - a)
+    space = world if first <= s0 and s1 <= last else world.without_ground()
+    dist, _ = space.segments_nearest(cuts[:-1], cuts[1:])
+    j = int(np.argmin(dist))
+    t = 0.5 * (f[j] + f[j + 1])
+    x, y, z = (float(v) for v in a + t * (b - a))
+    # the track is thinned to 1 cm: a long straight stretch is one segment, so the time is
+    # interpolated along it and the item read from the sample nearest that time
+    time_s = float(track.time_s[s0] + t * (track.time_s[s1] - track.time_s[s0]))
+    sample = int(np.clip(np.searchsorted(track.time_s, time_s), s0, s1))
+    seq = int(track.current_seq[sample])
+    return Finding(
+        marks.phase(seq, max(s0, min(sample, s1 - 1)), (first, last), n, s1),
+        time_s,
+        seq,
+        (x, y, z),
+        fc.nearest,
+        fc.min_clearance_m,
+        fc.margin_m,
+    )
 
 
 def _failsafe(
@@ -609,7 +649,18 @@ def _failsafe(
             describe=False,
         )
         lowest = proof.safe_altitude_m
-    return FailsafeCheck(FailsafeKind.RTL, autopilot, returns, lowest, ceiling, legal, param_text)
+    return FailsafeCheck(
+        FailsafeKind.RTL,
+        autopilot,
+        returns,
+        lowest,
+        ceiling,
+        legal,
+        param_text,
+        samples,
+        home_xyz,
+        limits,
+    )
 
 
 def _floor_world(site: CheckSite) -> World:
@@ -655,7 +706,7 @@ def _held_text(
     if autopilot is Autopilot.PX4 and params["RTL_TYPE"] != 0:
         parts.append(f"RTL_TYPE {params['RTL_TYPE']:g} ({source('RTL_TYPE')})")
     if not rtl_only:
-        other = [n for n in (*relied, *given) if n not in (spec.name, "RTL_TYPE")]
+        other = {n for n in (*relied, *given) if n not in (spec.name, "RTL_TYPE")}
         if other:
-            parts.append(f"{len(other)} more set")
+            return ", ".join(parts) + f" and {len(other)} more parameters set"
     return ", ".join(parts)
