@@ -231,7 +231,7 @@ def test_a_route_at_the_margin_still_keeps_it_after_file_rounding(tmp_path: Path
         runner = CliRunner()
         save_mission(mission_for(scenario, route), out)
         # the straight legs, read back from the file, keep the margin (validate's first check)
-        plan, flight = read_mission_flight(str(out), scenario)
+        _, flight = read_mission_flight(str(out), scenario)
         straight = check_flight_in(scenario, flight)
         assert straight.ok and f"{straight.min_clearance_m:.2f}".startswith("10.0")
         # ... but a route at the margin is not safe as flown (the autopilot cuts its corners,
