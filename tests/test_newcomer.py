@@ -56,13 +56,11 @@ def run(*args: str) -> tuple[int, str]:
 
 
 def set_params(plan_path: Path, plan: MissionPlan, conn: str) -> tuple[int, str]:
-    """``upload PLAN --conn CONN --set-params``, as both documents write it. Until issue 37's
-    vehicle side lands (Deliver 3, the ``params`` branch: "--set-params on a mission that
-    relies on no parameter says so and succeeds"), a mission without parameters is uploaded
-    without the flag; remove this branch at integration."""
+    """``upload PLAN --conn CONN --set-params``, as both documents write it (a mission that
+    relies on no parameter says so and uploads)."""
     code, out = run("upload", str(plan_path), "--conn", conn, "--set-params")
-    if code != 0 and not plan.parameters and "no parameters" in out:
-        code, out = run("upload", str(plan_path), "--conn", conn)
+    if not plan.parameters:
+        assert "relies on no parameter" in out, out
     return code, out
 
 

@@ -300,10 +300,14 @@ def test_upload_exits_4_when_every_reply_is_lost(plan_with_parameters: Path) -> 
 def test_upload_set_params_needs_parameters_and_the_right_firmware(
     tmp_path: Path, plan_with_parameters: Path
 ) -> None:
+    # issue 37: a mission that relies on no parameter (the safest: a planned return) says so
+    # and uploads (the README's Quick start runs exactly that)
     bare = tmp_path / "bare.plan"
     save_mission(synthetic_mission(5, seed=1), bare)
-    result = run("upload", str(bare), "--conn", "udpout:127.0.0.1:9", "--set-params")
-    assert result.exit_code == 2 and "names no parameters" in result.stderr
+    with running_mock(VehicleConfig(autopilot=PX4)) as vehicle:
+        result = run("upload", str(bare), "--conn", client_conn(vehicle), "--set-params")
+    assert result.exit_code == 0, result.output
+    assert "relies on no parameter" in result.output
     with running_mock(VehicleConfig(autopilot=PX4)) as vehicle:
         result = run("upload", str(plan_with_parameters), "--conn", client_conn(vehicle),
                      "--set-params")  # fmt: skip

@@ -148,10 +148,6 @@ def one(
     try:
         if set_params:
             code, out = sh("upload", str(planned), "--conn", conn, "--set-params")
-            if code != 0 and not plan.parameters and "no parameters" in out:
-                # until issue 37's Deliver 3 (the params branch): a mission that relies on
-                # no parameter is uploaded without the flag
-                code, out = sh("upload", str(planned), "--conn", conn)
             row["upload"] = code
         fly_args = ["fly", str(planned), "--conn", conn, "--track", str(track), "-q"]
         if scenario is not None:

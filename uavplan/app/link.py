@@ -136,13 +136,13 @@ def upload(request: UploadRequest, feedback: Feedback) -> UploadOutcome:
     plan = load_mission(request.mission)
     check_plan_fits_wire(plan, file=request.mission)
     if request.set_params and not plan.parameters:
-        raise InputError(
-            "--set-params: the file names no parameters the mission relies on (a .plan "
-            "written by uavplan plan holds them)",
-            file=request.mission,
-        )
+        # issue 37: the safest missions (a planned return, no fence) rely on no parameter;
+        # --set-params then has nothing to set, says so and uploads (the params branch
+        # owns this step: reconcile at integration)
+        feedback.say(f"{request.mission}: --set-params: the mission relies on no parameter")
     with _connect(request.link) as link:
-        parameters = _set_parameters(link, plan, request) if request.set_params else ()
+        setting = request.set_params and bool(plan.parameters)
+        parameters = _set_parameters(link, plan, request) if setting else ()
         try:
             report = upload_plan(
                 _client(link, request.link),

@@ -262,13 +262,13 @@ class FenceBuild:
             and z.offset_m < self.margin_m - 1e-9
         ]
         if shrunk:
-            reach = (
-                f"{min(shrunk):.1f}-{max(shrunk):.1f}" if len(shrunk) > 1 else f"{shrunk[0]:.1f}"
-            )
+            lo, hi = min(shrunk), max(shrunk)
+            reach = f"{lo:.1f}-{hi:.1f}" if f"{lo:.1f}" != f"{hi:.1f}" else f"{hi:.1f}"
             notes.append(
-                f"the route passes close to {_count(len(shrunk), 'fenced obstacle')}: "
+                f"the flight passes close to {_count(len(shrunk), 'fenced obstacle')}: "
                 f"{'their zones reach' if len(shrunk) > 1 else 'its zone reaches'} {reach} m "
-                f"beyond the footprint, less than the {self.margin_m:g} m margin"
+                f"beyond the footprint, less than the {self.margin_m:g} m margin (a zone keeps "
+                "the margin from the flown track)"
             )
         if self.ceiling_m is not None:
             notes.append(
