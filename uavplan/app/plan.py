@@ -189,8 +189,10 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             if result.interrupted or way.interrupted:
                 return PlanOutcome(scn, result, request.output, way=way)
             route = require_route(scn, result)
-            if result.flight is not None and result.flight.flown is not None:
-                # the failsafe from every point of that mission, its planned return included
+            if not way.switched and result.flight is not None and result.flight.flown is not None:
+                # end: return: the failsafe from every point of that mission, its planned
+                # return included (a switched return replaces an RTL the outbound flight
+                # already proved unusable: more points cannot make it usable)
                 way = way.proven_on(scn, result.flight.flown)
         mission = mission_for(scn, route)
         if way is not None:

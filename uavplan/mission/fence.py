@@ -347,13 +347,15 @@ def build_geofence(
             zones[i] = ObstacleZone(fp.index, status, distance, height_above_top_m=lowest)
 
     # The fence item budget: zones nearest the route first (they matter most). A zone is
-    # built only while the budget could still hold it (a circle is one item, a polygon at
-    # least three); the rest are left out unbuilt.
+    # built only while the budget could still hold it (a circle is one item, a box's polygon
+    # at least four, any polygon at least three); the rest are left out unbuilt.
     budget = max_items - inclusion.shape[0]
     far = np.flatnonzero(~near)
     for i in far[np.lexsort((far, distances[far]))]:
         fp, distance = footprints[i], float(distances[i])
-        if budget < (1 if fp.is_circle else 3):
+        # the fewest items its zone can take (a circle 1, a polygon its footprint's convex
+        # hull's corners): a zone that cannot fit is left out unbuilt
+        if budget < _fewest_items(fp, budget):
             zones[i] = _left_out(fp, distance, margin_m, route_gap_m)
             continue
         zone = _zone(fp, distance, seg_a, seg_b, margin_m, route_gap_m)
@@ -394,6 +396,19 @@ def geofence_for_route(
 
 def _replace_status(zone: ObstacleZone, status: ZoneStatus) -> ObstacleZone:
     return replace(zone, status=status)
+
+
+def _fewest_items(fp: Footprint, budget: int) -> int:
+    """A lower bound on the fence items ``fp``'s zone takes: 1 for a circle; for a polygon
+    3, and, once the budget is small, its convex hull's corner count (an offset ring has at
+    least its ring's corners, the hull fallback the hull's)."""
+    if fp.is_circle:
+        return 1
+    if fp.kind == "box":
+        return 4
+    if budget >= 8 or fp.ring_enu is None:
+        return 3
+    return len(g2.convex_hull(fp.outline_enu()))
 
 
 def _segment_samples(a: _Arr, b: _Arr, step_m: float) -> _Arr:

@@ -785,7 +785,10 @@ class _Describer:
             return None
         bad, _ = self.returns.least(check.altitude_m, bad)
         if len(bad) > WORST_EXACT:
-            bad = self._closest(check.altitude_m, bad)
+            if self.world.has_ground:
+                bad = self._closest(check.altitude_m, bad)
+            else:  # the bisection converged: all within 1 cm of the least, the first few
+                bad = bad[:WORST_NEIGHBOURS]
         clearance, leg, owner, spaces = self.returns.clearances(check.altitude_m, bad)
         k = int(np.argmin(clearance))
         return self.at(
