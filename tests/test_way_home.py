@@ -248,7 +248,8 @@ def test_plan_finds_the_rtl_altitude_that_clears_the_building(
     parameters = {p.name: p for p in plan.parameters}
     if autopilot == "ardupilot":
         rtl = parameters["RTL_ALT"]
-        assert (rtl.at_least, rtl.unit) == (6500.0, "cm")
+        # the whole metre at least 0.5 m above the lowest safe altitude (65.01 m)
+        assert (rtl.at_least, rtl.unit) == (6600.0, "cm")
         assert parameters["FENCE_ALT_MAX"].value == 150.0
         assert parameters["FENCE_ENABLE"].value == 1.0
         # the legal ceiling (120 m above the ground), under the ceiling less FENCE_MARGIN
@@ -257,7 +258,7 @@ def test_plan_finds_the_rtl_altitude_that_clears_the_building(
         rtl = parameters["RTL_RETURN_ALT"]
         # PX4 flies home up to NAV_MC_ALT_RAD (0.8 m) under its return altitude
         assert data["rtl_safe_altitude_m"] == pytest.approx(65.8, abs=0.02)
-        assert (rtl.at_least, rtl.at_most, rtl.unit) == (66.0, 120.0, "m")  # the legal ceiling
+        assert (rtl.at_least, rtl.at_most, rtl.unit) == (67.0, 120.0, "m")  # the legal ceiling
         assert parameters["GF_MAX_VER_DIST"].value == 150.0
     assert "way home:" in result.output and "does not" in result.output
     # the simulated vehicle, sent home from the middle of the last leg: at the advised

@@ -120,11 +120,11 @@ def env1_rtl(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_simulate_judges_the_return_at_the_altitude_the_vehicle_holds(env1_rtl: Path) -> None:
-    """The plan's RTL_ALT (23000 cm) is what the vehicle will hold: simulate flies it, the
+    """The plan's RTL_ALT (23100 cm) is what the vehicle will hold: simulate flies it, the
     return keeps the margin; with the firmware's 15 m (--param) the same mission flies its
     return through buildings, exit 3 naming it (before: a warning, exit 0)."""
     plan = load_mission(env1_rtl)
-    assert {p.name: p.value for p in plan.parameters}["RTL_ALT"] == 23000.0
+    assert {p.name: p.value for p in plan.parameters}["RTL_ALT"] == 23100.0  # 230.01 m + 0.5
     code, text = run("simulate", env1_rtl, "--scenario", ENV1, "-q")
     assert code == 0, text
     assert "warning" not in text
@@ -196,7 +196,7 @@ def test_the_rtl_advice_keeps_the_ceilings_and_simulate_agrees(
         rtl = params["RTL_ALT"]
         ceiling = 120.0 if not legal else 148.0  # the legal one, or the fence's less 2 m
         assert rtl.at_most is not None and rtl.at_most <= ceiling * 100.0
-        assert rtl.at_least == pytest.approx(6500.0, abs=100.0)
+        assert rtl.at_least == 6600.0  # 65.01 m needed, and half a metre more
         assert way["planned_return"] is False
     else:
         assert "RTL_ALT" not in params
@@ -250,7 +250,7 @@ def test_the_estimate_flies_the_rtl_altitude_the_mission_relies_on(env1_rtl: Pat
     scn = load_scenario(ENV1)
     plan = load_mission(env1_rtl)
     held, relied, _ = held_parameters(plan, AP)
-    assert "RTL_ALT" in relied and held["RTL_ALT"] == 23000.0
+    assert "RTL_ALT" in relied and held["RTL_ALT"] == 23100.0
     verdict = judge_flight(plan, CheckSite.of_scenario(scn), **conditions_of(scn))
     assert verdict.rehearsal is not None
     assert data["flight_time_s"] == pytest.approx(verdict.rehearsal.flight_time_s, abs=0.05)

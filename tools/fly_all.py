@@ -3,8 +3,8 @@ simulate it, fly it, check the whole flown track (issue 37).
 
 For each of missions/*.yaml and missions/qgc-inspection.plan, as PX4 and as ArduPilot:
 
-1. ``uavplan plan --fence`` (the .plan is rerouted; jacksboro-ridge is flown with AMSL
-   altitudes: PX4 flies no terrain frames, and the simulated vehicle has no terrain
+1. ``uavplan plan --fence`` (the .plan is rerouted in its own geofence; jacksboro-ridge is
+   flown with AMSL altitudes: PX4 flies no terrain frames, and the simulated vehicle has no terrain
    database, so it would fly ArduPilot's terrain-frame altitudes over flat ground; the
    bundled terrain-frame mission is planned and simulated over the DEM in a row of its own);
 2. ``uavplan simulate --scenario``: the whole flight's verdict (exit 0: the flight keeps the
@@ -117,9 +117,9 @@ def one(
     is_qgc = source.suffix == ".plan"
     scenario = None if is_qgc else (source if as_bundled else scenario_for(source, autopilot, work))
     args = ["plan", str(source if is_qgc else scenario), "-o", str(planned), "-q",
-            "--report", str(report), "--fence", *extra]  # fmt: skip
-    if not is_qgc:
-        args += ["--autopilot", autopilot.label]
+            "--report", str(report), *extra]  # fmt: skip
+    if not is_qgc:  # a .plan keeps its own flavour and geofence
+        args += ["--autopilot", autopilot.label, "--fence"]
     code, out = sh(*args)
     row["plan"] = code
     if code != 0:

@@ -278,9 +278,7 @@ def rtl_parameter(proof: RtlProof) -> VehicleParameter | None:
         return None
     spec = proof.parameter
     low = _rtl_value(proof)
-    high = math.floor(proof.highest_m + 1e-9) * spec.per_m
-    if high < low:
-        high = low  # a ceiling that is not a whole number of metres above the safe one
+    high = math.floor(proof.highest_m + 1e-9) * spec.per_m  # >= low: the proof is usable
     value = min(max(proof.default_altitude_m * spec.per_m, low), high)
     legal = (
         ""

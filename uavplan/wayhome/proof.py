@@ -94,6 +94,8 @@ __all__ = [
 
 #: the bisection stops when the safe and the unsafe altitude are this close (m)
 RESOLUTION_M = 0.01
+#: the RTL altitude advised is the least whole metre at least this far above the lowest safe one
+RTL_SLACK_M = 0.5
 #: returns are checked from points at most this far apart along the flown line (m) ...
 SAMPLE_STEP_M = 1.0
 #: ... or as many as this on a long route (the step grows with the route's length)
@@ -344,7 +346,7 @@ class RtlProof:
     samples: int
     step_m: float
     margin_m: float
-    #: the least whole metre at or above the safe altitude found safe (what to set)
+    #: the least whole metre RTL_SLACK_M or more above the safe altitude (what to set)
     setting_m: float | None = None
     blocked: Where | None = None
     default_blocked: Where | None = None
@@ -359,10 +361,11 @@ class RtlProof:
 
     @property
     def usable(self) -> bool:
-        """A safe RTL altitude exists that may also be flown (at most the legal ceiling)."""
+        """A safe RTL altitude exists that may also be flown: its setting (a whole metre)
+        at most the ceiling and the legal ceiling."""
         if self.setting_m is None:
             return False
-        return self.legal_ceiling_m is None or self.setting_m <= self.legal_ceiling_m + 1e-9
+        return self.setting_m <= self.highest_m + 1e-9
 
     @property
     def highest_m(self) -> float:
@@ -512,12 +515,10 @@ def prove_rtl(
     final = checker.at(safe, unsafe_low)
     if not final.safe:  # pragma: no cover - monotonicity holds (tests/test_way_home.py)
         raise AssertionError(f"the return at {safe} m is not safe after the bisection")
-    # the whole metre to advise: the one just below the bisection's answer when that is
-    # safe too (the answer lies up to RESOLUTION_M above the exact lowest), else the next
-    whole = float(math.ceil(safe - 1e-9))
-    below = whole - 1.0
-    if safe - below <= RESOLUTION_M + 1e-9 and checker.at(below, unsafe_low).safe:
-        whole = below
+    # the whole metre to advise: at least RTL_SLACK_M above the lowest safe altitude (at the
+    # lowest, the worst return passes exactly the margin: a flown track's telemetry, rounded
+    # to a centimetre, then reads it a hair inside)
+    whole = float(math.ceil(safe + RTL_SLACK_M - 1e-9))
     return RtlProof(
         safe_altitude_m=round(safe, 2),
         setting_m=whole,
