@@ -456,11 +456,7 @@ def judge_flight(
         held, relied, given = held_parameters(plan, flavour, params)
     rehearsal = None
     if track is None:
-        if (
-            flown is not None
-            and flown.autopilot == flavour
-            and dict(flown.params.values) == dict(held.values)
-        ):
+        if flown is not None and flown.autopilot == flavour and _same_flight(flown, held, plan):
             rehearsal = rehearsal_of(flown)
         else:
             kwargs: dict[str, Any] = {"wind_en_m_s": wind_en_m_s}
@@ -485,6 +481,19 @@ def judge_flight(
         flavour, held, relied, given, track, check, finding, fs, rehearsal, ended,
         site.label, end,
     )  # fmt: skip
+
+
+def _same_flight(flown: FlownTrack, held: Parameters, plan: MissionPlan) -> bool:
+    """Would the flight model fly ``plan`` with ``held`` as it flew ``flown``? The same
+    parameters, or ones that differ only in the altitude fence (the flight model honours
+    it only in a return to launch, which a mission without NAV_RETURN_TO_LAUNCH never flies
+    unless a failsafe sends it: the fence parameters ``plan --fence`` writes)."""
+    if dict(flown.params.values) == dict(held.values):
+        return True
+    if any(item.command == MavCmd.NAV_RETURN_TO_LAUNCH for item in plan.items):
+        return False
+    before = replace(flight_limits(flown.params), fence_ceiling_m=None, fence_margin_m=0.0)
+    return before == replace(flight_limits(held), fence_ceiling_m=None, fence_margin_m=0.0)
 
 
 @dataclass(frozen=True)
