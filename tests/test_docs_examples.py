@@ -23,8 +23,11 @@ A document says in an HTML comment before a block (or table) what the test canno
 A marker with a command prefix in backticks (``<!-- docs-test: skip `uavplan fly` (...) -->``)
 applies only to the block's commands starting with it. Every other command must exit 0, and
 in a transcript (``$ command`` and what it printed) every line shown after a command must
-still be printed by it, its numbers aside (they are masked: times vary, and a figure's
-freshness is tools/docs_figures.py's business); ``...`` stands for lines left out.
+still be printed by it, with its numbers: each number shown must agree with the one printed
+in its place within one unit of its last digit or 0.2 % of it, whichever is more (issue 37: a
+document's figures are checked, not masked). A number the document writes with a ``~`` in
+front (``planned in ~0.50 s``) is one that varies from run to run (a time on the wall
+clock): only its place is compared. ``...`` stands for lines left out.
 
 MAVLink: ``uavplan mock-vehicle`` (``&`` or not) starts in the background and serves the
 document's later commands; ``kill %N`` stops it. A command whose ``--conn`` no such vehicle
@@ -410,8 +413,8 @@ class DocRunner:
             if not first.startswith(ex.shown[0]):
                 problem = f"printed {first!r}, the document shows {ex.shown[0]!r}"
         else:
-            printed = {_shape(ln) for ln in output.splitlines()}
-            stale = [ln for ln in ex.shown if _shape(ln) not in printed]
+            printed = output.splitlines()
+            stale = [ln for ln in ex.shown if not any(_matches(ln, got) for got in printed)]
             if stale:
                 problem = f"the document shows a line it no longer prints: {stale[0]!r}"
         return Outcome(ex, command, done.returncode, output, problem)
@@ -431,9 +434,41 @@ def _serving(job: subprocess.Popen[bytes], timeout: float = 60.0) -> bool:
     return bool(line) and job.poll() is None
 
 
+#: a number as the documents and uavplan print it (a thousands comma allowed)
+NUMBER = re.compile(r"(?P<vary>~?)(?P<value>-?\d+(?:[.,]\d+)*)")
+
+
 def _shape(line: str) -> str:
-    """A printed line with its numbers masked: what a transcript must still match."""
-    return re.sub(r"-?\d+(?:[.,]\d+)*", "#", line.strip())
+    """A printed line with its numbers masked (and a document's ``~`` marks dropped)."""
+    return NUMBER.sub("#", line.strip())
+
+
+def _matches(shown: str, printed: str) -> bool:
+    """Does ``printed`` say what the document ``shown`` says: the same words, and every
+    number within one unit of its last digit or 0.2 % (``~`` numbers: their place only)?"""
+    if _shape(shown) != _shape(printed):
+        return False
+    ours = NUMBER.finditer(shown.strip())
+    theirs = NUMBER.finditer(printed.strip())
+    for doc, got in zip(ours, theirs, strict=True):
+        if doc["vary"]:
+            continue
+        if not _agree(doc["value"], got["value"]):
+            return False
+    return True
+
+
+def _agree(doc: str, got: str) -> bool:
+    """``got`` within one unit of ``doc``'s last digit or 0.2 % of ``doc``."""
+    if "," in doc and "." not in doc and re.fullmatch(r"-?\d{1,3}(,\d{3})+", doc):
+        doc, got = doc.replace(",", ""), got.replace(",", "")  # thousands
+    doc, got = doc.replace(",", "."), got.replace(",", ".")
+    try:
+        a, b = float(doc), float(got)
+    except ValueError:  # pragma: no cover - a version string such as 1.2.3
+        return doc == got
+    decimals = len(doc.rpartition(".")[2]) if "." in doc else 0
+    return abs(a - b) <= max(10.0**-decimals, 0.002 * abs(a)) + 1e-9
 
 
 def _stop(job: subprocess.Popen[bytes]) -> None:
@@ -525,6 +560,16 @@ $ uavplan validate missions/paper-env1.yaml
 ...
 missions/paper-env1.yaml: a line uavplan never printed, 12 m
 ```
+
+```
+$ uavplan validate missions/paper-env1.yaml
+missions/paper-env1.yaml: ok — paper-env1, 5 obstacles, margin 12 m
+```
+
+```
+$ uavplan validate missions/paper-env1.yaml
+missions/paper-env1.yaml: ok — paper-env1, 5 obstacles, margin ~12 m
+```
 """
 
 
@@ -539,14 +584,30 @@ def test_a_broken_example_fails(tmp_path: Path) -> None:
         ("fly", "needs PX4 SITL", 0),
         ("validate", None, 2),
         ("validate", None, 0),
+        ("validate", None, 0),
+        ("validate", None, 0),
     ]
     work = tmp_path / "work"
     work.mkdir()
     outcomes = list(run_document(found, work))
-    assert [o.problem is None for o in outcomes] == [True, False, False, False]
+    assert [o.problem is None for o in outcomes] == [True, False, False, False, False, True]
     assert outcomes[1].code == 2
     assert "the document shows 'error: something else'" in (outcomes[2].problem or "")
     assert "no longer prints" in (outcomes[3].problem or "")
+    # a figure off by more than its tolerance is a stale line (the margin is 10 m, not 12);
+    # marked as varying (~12) only its place is compared
+    assert "margin 12 m" in (outcomes[4].problem or "")
+
+
+def test_numbers_agree_within_their_last_digit_or_a_fifth_of_a_percent() -> None:
+    assert _matches("min clearance 10.52 m", "min clearance 10.53 m")
+    assert not _matches("min clearance 10.52 m", "min clearance 10.55 m")
+    assert _matches("flight 456.5 s", "flight 457.3 s")  # 0.2 %
+    assert not _matches("flight 456.5 s", "flight 460.0 s")
+    assert _matches("from 5,665 of 7,241 points", "from 5,667 of 7,241 points")
+    assert not _matches("from 5,665 of 7,241 points", "from 6,665 of 7,241 points")
+    assert _matches("planned in ~0.50 s", "planned in 3.20 s")
+    assert not _matches("77 items", "77 waypoints")
 
 
 def main() -> int:

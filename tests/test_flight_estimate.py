@@ -189,21 +189,26 @@ def test_the_reserve_option_moves_the_limit(tmp_path: Path) -> None:
     assert run("validate", path, "--reserve", "100").exit_code == 2  # out of range
 
 
-def test_without_a_named_vehicle_an_over_budget_flight_is_a_warning(tmp_path: Path) -> None:
-    """The default x500 estimates, and warns; it refuses only when the user asked for the
-    reserve (--reserve) or named the vehicle."""
+def test_an_over_budget_flight_is_refused_unless_allowed(tmp_path: Path) -> None:
+    """Issue 37: a flight over the usable battery minus the reserve is exit 2 (nothing
+    written) whether or not the scenario names its vehicle; --allow-over-battery writes it
+    with a warning (shown with -q)."""
     long = OPEN_FIELD.format(end="land", extra="").replace("1400]", "16000]")
     long = long.replace("goal: [1200, 0, 30]", "goal: [15000, 0, 30]")
     path = tmp_path / "long.yaml"
     path.write_text(long)
     out = tmp_path / "m.plan"
     result = run("plan", path, "-o", out)
+    assert result.exit_code == 2, result.output
+    assert "x500, the default vehicle" in result.output and "--allow-over-battery" in result.output
+    assert not out.exists()
+    result = run("plan", path, "-o", out, "-q", "--allow-over-battery")
     assert result.exit_code == 0, result.output
-    assert "warning:" in result.output and "x500 (default vehicle)" in result.output
+    assert "warning:" in result.output and "(--allow-over-battery)" in result.output
     assert out.exists()
-    out.unlink()
-    result = run("plan", path, "-o", out, "--reserve", "20")
-    assert result.exit_code == 2 and not out.exists()
+    for extra in ([], ["--allow-over-battery"]):
+        result = run("validate", out, "--scenario", path, *extra)
+        assert result.exit_code == (0 if extra else 2), result.output
 
 
 def test_validate_estimates_a_mission_as_plan_estimated_its_route(tmp_path: Path) -> None:

@@ -14,7 +14,8 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
 * scenario (the YAML reader and the checked scenario values): vocabulary and sources;
-* wiring (planning, flight, estimate, wayhome/, reroute, bench, render, view/): everything but
+* wiring (planning, flight, estimate, wayhome/, reroute, bench, render, rehearsal,
+  verdict, view/): everything but
   the application and CLI;
 * app (the use cases): everything but the CLI;
 * cli: thin; nothing imports it.
@@ -71,6 +72,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "airspace.py",
         "rehearsal.py",
         "view/*.py",
+        "verdict.py",
     ),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),

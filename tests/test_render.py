@@ -78,7 +78,8 @@ def test_render_a_mission_file_plans_nothing(tmp_path: Path, monkeypatch) -> Non
     scn = load_scenario(scenario)
     frame = EnuFrame.at(scn.origin)
     waypoints = np.array([[0, 0, 30], [300, 300, 40], [1700, 300, 40], [2000, 100, 40.0]])
-    plan = build_mission(waypoints, frame, autopilot=Autopilot.PX4)
+    # it lands at the goal: PX4's return to launch at 60 m would cross obstacle #0 (exit 3)
+    plan = build_mission(waypoints, frame, autopilot=Autopilot.PX4, end="land")
     mission = tmp_path / "m.plan"
     save_mission(plan, mission)
 
@@ -147,7 +148,8 @@ def test_route_layers_from_a_mission_with_fence() -> None:
     np.testing.assert_allclose(layers.waypoints_enu[1:], waypoints[1:], atol=1e-3)
     assert layers.fence[0].inclusion
     assert layers.fence[0].polygon_enu is not None
-    np.testing.assert_allclose(layers.fence[0].polygon_enu.min(axis=0), [-5, -605], atol=1e-3)
+    # the bounds grown by the margin and the 2 m gap: a route on their edge keeps the margin
+    np.testing.assert_allclose(layers.fence[0].polygon_enu.min(axis=0), [-12, -612], atol=1e-3)
 
 
 def test_route_layers_from_a_planned_route_use_its_own_lines_and_fence() -> None:

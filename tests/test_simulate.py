@@ -82,10 +82,16 @@ def test_the_route_as_planned_breaks_the_margin_as_flown_and_plan_now_keeps_it(
     assert f"flight {minutes} min {seconds:02d} s ({autopilot.label} flight model)" in text
 
 
-def test_plan_says_when_the_return_to_launch_crosses_obstacles(tmp_path: Path) -> None:
-    code, text = run("plan", str(ENV1), "-o", str(tmp_path / "p.plan"))
-    assert code == 0, text
-    assert "the return to launch" in text and "raise RTL_ALT" in text
+def test_plan_warns_when_a_failsafe_return_crosses_obstacles_even_quiet(tmp_path: Path) -> None:
+    """Issue 37: the first plan a newcomer makes printed "comes within 0.00 m of obstacle
+    #0" as a note, and -q hid it. The failsafe finding is a warning, shown with -q."""
+    for quiet in ([], ["-q"]):
+        code, text = run("plan", str(ENV1), "-o", str(tmp_path / "p.plan"), *quiet)
+        assert code == 0, text
+        assert "note: the return to launch" not in text
+        warning = [line for line in text.splitlines() if line.startswith("warning: failsafe")]
+        assert len(warning) == 1, text
+        assert "0.00 m from obstacle #0" in warning[0] and "230.01 m" in warning[0]
 
 
 def test_a_rerouted_plan_keeps_the_margin_as_flown(tmp_path: Path) -> None:
@@ -119,7 +125,9 @@ def test_simulate_prints_the_flight_and_writes_a_track_that_reads_back(
     assert re.search(r"largest deviation from the planned legs \d+\.\d\d m", text)
     match = re.search(r"min clearance (\d+\.\d\d) m from .* \(margin 10 m", text)
     assert match and float(match.group(1)) >= 10.0
-    assert "warning: the return to launch" in text  # ArduPilot's RTL_ALT 15 m: obstacles
+    # the mission ends with a planned return; a failsafe return at ArduPilot's RTL_ALT 15 m
+    # from the route crosses obstacles
+    assert "warning: failsafe" in text
     flown = Track.load(track)
     assert len(flown) == len(reference.track)
     assert np.allclose(flown.lat_deg, reference.track.lat_deg, atol=1e-8)
@@ -133,13 +141,17 @@ def test_simulate_exits_3_naming_when_the_track_breaks_the_margin(
 ) -> None:
     code, text = run("simulate", str(env1_as_planned[PX4]), "--scenario", str(ENV1))
     assert code == 3, text
+    # the whole flight's worst point: its return to launch at PX4's 60 m crosses obstacle #0
     pattern = (
-        r"as px4 flies it \(flight model\): \d+ min \d+\.\d s into the flight, "
-        r"flying to item \d+, the track comes within 9\.\d\d m"
+        r"error: .*px4\.plan: whole flight as px4 flies it \(flight model, RTL_RETURN_ALT 60 m "
+        r"\(the firmware's default\); take-off to touchdown, \d+ min \d+ s, against scenario "
+        r"paper-env1\): \d+ min \d+\.\d s into the flight \(item \d+\), during the return to "
+        r"launch, at \(\d+, -?\d+, \d+\): 0\.00 m from obstacle #0"
     )
     assert re.search(pattern, text), text
-    # validate reads the straight legs only: those keep the margin
-    assert run("validate", str(env1_as_planned[PX4]), "--scenario", str(ENV1))[0] == 0
+    # validate judges the same whole flight (its straight legs keep the margin)
+    code, text = run("validate", str(env1_as_planned[PX4]), "--scenario", str(ENV1))
+    assert code == 3 and "during the return to launch" in text, text
 
 
 def test_simulate_flies_with_the_given_parameters_and_wind(tmp_path: Path) -> None:
@@ -204,14 +216,17 @@ def test_track_files_refuse_what_is_not_a_track(tmp_path: Path) -> None:
 
 
 def test_render_draws_a_flown_track_and_its_clearance(tmp_path: Path) -> None:
+    """render --track measures the whole track, its return to launch included (issue 37:
+    it said 0.00 m where fly said 10.69 m): with the plan's RTL_ALT (230 m, no legal ceiling)
+    the return keeps the margin, with the firmware's 15 m it does not."""
     planned, track, picture = tmp_path / "p.plan", tmp_path / "t.geojson", tmp_path / "p.png"
-    assert run("plan", str(ENV1), "-o", str(planned), "-q")[0] == 0
-    assert run("simulate", str(planned), "--track", str(track), "-q")[0] == 0
-    code, text = run("render", str(ENV1), "--mission", str(planned), "--track", str(track),
-                     "-o", str(picture))  # fmt: skip
-    assert code == 0, text
-    match = re.search(r"flown track t\.geojson: min clearance (\d+\.\d\d) m to the return, "
-                      r"(\d+\.\d\d) m with it", text)  # fmt: skip
-    assert match, text
-    assert float(match.group(1)) >= 10.0 > float(match.group(2))
+    assert run("plan", str(ENV1), "-o", str(planned), "-q", "--legal-ceiling", "none")[0] == 0
+    for params, keeps in (([], True), (["--param", "RTL_ALT=1500"], False)):
+        assert run("simulate", str(planned), "--track", str(track), "-q", *params)[0] == 0
+        code, text = run("render", str(ENV1), "--mission", str(planned), "--track", str(track),
+                         "-o", str(picture))  # fmt: skip
+        assert code == 0, text
+        match = re.search(r"flown track t\.geojson: min clearance (\d+\.\d\d) m", text)
+        assert match, text
+        assert (float(match.group(1)) >= 10.0) is keeps, text
     assert picture.stat().st_size > 10_000

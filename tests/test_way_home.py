@@ -72,17 +72,59 @@ def _segment_to_rectangle(p: np.ndarray, q: np.ndarray, x: tuple, y: tuple) -> f
 
 
 def independent_lowest_altitude(
-    points: np.ndarray, home: np.ndarray, box_x: tuple, box_y: tuple, height: float
+    points: np.ndarray,
+    home: np.ndarray,
+    box_x: tuple,
+    box_y: tuple,
+    height: float,
+    directions: np.ndarray | None = None,
+    brake_m: float = 0.0,
+    px4: bool = False,
 ) -> float:
-    """max over the points whose altitude is too low of h + sqrt(m² - d²)."""
+    """max over the points whose return flies too low of h + sqrt(m² - d²); with the brake
+    (issue 32), each return starts ``brake_m`` on along ``directions`` (unit, per point) at
+    the point's height (a brake that passes too close makes every altitude unsafe: inf), flies
+    home from there and, for PX4, also comes back above the point and flies home from it."""
     need = -math.inf
-    for p in points:
-        d = _segment_to_rectangle(p[:2], home[:2], box_x, box_y)
-        if d < MARGIN:
-            required = height + math.sqrt(MARGIN**2 - d**2)
-            if p[2] < required:
-                need = max(need, required)
+    for k, p in enumerate(points):
+        stop = p.copy()
+        if directions is not None:
+            stop[:2] = p[:2] + directions[k] * brake_m
+            d = _segment_to_rectangle(p[:2], stop[:2], box_x, box_y)
+            over = max(0.0, p[2] - height)
+            if math.hypot(d, over) < MARGIN:
+                return math.inf  # the brake itself comes too close
+        starts = [stop, p] if px4 else [stop]
+        for a in starts:
+            d = _segment_to_rectangle(a[:2], home[:2], box_x, box_y)
+            if d < MARGIN:
+                required = height + math.sqrt(MARGIN**2 - d**2)
+                if a[2] < required:
+                    need = max(need, required)
+        if px4 and directions is not None:  # the way back above the point, at the altitude
+            d = _segment_to_rectangle(p[:2], stop[:2], box_x, box_y)
+            if d < MARGIN:
+                need = max(need, height + math.sqrt(MARGIN**2 - d**2))
     return need
+
+
+def leg_directions(polyline: np.ndarray, step: float = 0.25) -> np.ndarray:
+    """The horizontal unit direction of the leg each point of :func:`densely` lies on (the
+    first point: the first leg's)."""
+    out = []
+    for a, b in itertools.pairwise(polyline):
+        n = max(1, math.ceil(float(np.linalg.norm(b - a)) / step))
+        d = (b - a)[:2]
+        norm = float(np.hypot(*d))
+        out.append(np.repeat((d / norm if norm > 0 else d)[None, :], n, axis=0))
+    rows = np.vstack(out)
+    return np.vstack([rows[:1], rows])
+
+
+#: the brake at each firmware's default cruise speed, computed here from the formulas the
+#: firmwares use (proof.py cites them): ArduPilot WPNAV_SPEED 10 m/s, WPNAV_ACCEL 2.5 m/s²,
+#: PSC_POSXY_P 1: a/(2P²) + v²/(2a); PX4 MPC_XY_CRUISE 5 m/s, MPC_ACC_HOR 3 m/s²: v²/(2a) + 0.6 v
+BRAKE_M = {"ardupilot": 2.5 / 2 + 10.0**2 / 5.0, "px4": 5.0**2 / 6.0 + 0.6 * 5.0}
 
 
 def densely(polyline: np.ndarray, step: float = 0.25) -> np.ndarray:
@@ -122,7 +164,12 @@ def test_the_lowest_safe_altitude_matches_an_independent_computation(
         world, flight, home_enu=(0.0, 0.0, 0.0), autopilot=autopilot, ceiling_m=200.0,
         name_of=lambda i: f"box {i}",
     )  # fmt: skip
-    expected = independent_lowest_altitude(densely(FLIGHT[1:]), FLIGHT[0], box_x, box_y, height)
+    expected = independent_lowest_altitude(
+        densely(FLIGHT[1:]), FLIGHT[0], box_x, box_y, height,
+        directions=leg_directions(FLIGHT[1:]), brake_m=BRAKE_M[autopilot.label],
+        px4=autopilot is PX4,
+    )  # fmt: skip
+    assert proof.brake_m == pytest.approx(BRAKE_M[autopilot.label])
     assert proof.safe_altitude_m is not None
     assert proof.safe_altitude_m == pytest.approx(expected, abs=1.0)
     assert proof.safe_altitude_m >= expected - 0.05  # never below what is needed
@@ -153,7 +200,7 @@ def test_no_altitude_under_the_ceiling_is_safe_when_the_building_is_taller() -> 
         name_of=lambda i: f"box {i}",
     )  # fmt: skip
     assert proof.safe_altitude_m is None
-    assert proof.blocked is not None and "box 0" in proof.blocked[1]
+    assert proof.blocked is not None and "box 0" in proof.blocked.nearest
 
 
 # ---------------------------------------------------------------------------------------------
@@ -201,15 +248,17 @@ def test_plan_finds_the_rtl_altitude_that_clears_the_building(
     parameters = {p.name: p for p in plan.parameters}
     if autopilot == "ardupilot":
         rtl = parameters["RTL_ALT"]
-        assert (rtl.at_least, rtl.unit) == (6500.0, "cm")
+        # the whole metre at least 0.5 m above the lowest safe altitude (65.01 m)
+        assert (rtl.at_least, rtl.unit) == (6600.0, "cm")
         assert parameters["FENCE_ALT_MAX"].value == 150.0
         assert parameters["FENCE_ENABLE"].value == 1.0
-        assert rtl.at_most == 14800.0  # the ceiling less FENCE_MARGIN (2 m)
+        # the legal ceiling (120 m above the ground), under the ceiling less FENCE_MARGIN
+        assert rtl.at_most == 12000.0
     else:
         rtl = parameters["RTL_RETURN_ALT"]
         # PX4 flies home up to NAV_MC_ALT_RAD (0.8 m) under its return altitude
         assert data["rtl_safe_altitude_m"] == pytest.approx(65.8, abs=0.02)
-        assert (rtl.at_least, rtl.at_most, rtl.unit) == (66.0, 150.0, "m")
+        assert (rtl.at_least, rtl.at_most, rtl.unit) == (67.0, 120.0, "m")  # the legal ceiling
         assert parameters["GF_MAX_VER_DIST"].value == 150.0
     assert "way home:" in result.output and "does not" in result.output
     # the simulated vehicle, sent home from the middle of the last leg: at the advised

@@ -1,9 +1,9 @@
 """An independent check of a flown track, for tests/test_fly.py and tools/fly_all.py.
 
 The distances are the end-to-end test's own (tests/test_end_to_end.py: polygons and cylinders
-computed here, scipy over the raw DEM posts), not the library's kernels. Only the track's
-mission part is checked (take-off to where the autopilot's return to launch begins): the
-return is the autopilot's own flight at its RTL altitude, not planned.
+computed here, scipy over the raw DEM posts), not the library's kernels. They measure whatever
+track they are given: the whole flight (issue 37: take-off to touchdown, the return to launch
+included), or :func:`mission_part`, the track up to where the return to launch begins.
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ def mission_part(track: Track, plan: MissionPlan, autopilot: Autopilot) -> Track
 
 def scenario_clearance(scenario_path: Path, track: Track) -> float:
     """The least distance from the track's samples (joined, 0.5 m apart) to the scenario's
-    obstacles and, over a DEM, to the ground from where the take-off has climbed the margin."""
+    obstacles and, over a DEM, to the ground from where the take-off has climbed the margin
+    to where the landing descends below it (the take-off and the landing touch the ground)."""
     scenario = load_scenario(scenario_path)
     site = scenario.site
     frame = EnuFrame.at(site.origin)
@@ -72,7 +73,7 @@ def scenario_clearance(scenario_path: Path, track: Track) -> float:
         agl = dense[:, 2] - independent_ground(scenario, frame)(dense[:, :2])
         climbed = np.flatnonzero(agl >= scenario.safety_margin_m)
         if climbed.size:
-            best = min(best, float(agl[climbed[0] :].min()))
+            best = min(best, float(agl[climbed[0] : climbed[-1] + 1].min()))
     return best
 
 

@@ -115,6 +115,11 @@ def build_airspace(
         z_lo = 0.0 if base is not None and base.terrain is not None else ref.bounds.z_m[0]
     else:
         z_hi, z_lo = top_m + VOLUME_PAD_M, 0.0
+        # the altitude fence the plan relies on (plan --fence writes it: FENCE_ALT_MAX,
+        # GF_MAX_VER_DIST) is its ceiling: its return to launch may climb up to it
+        for param in plan.parameters:
+            if param.name in ("FENCE_ALT_MAX", "GF_MAX_VER_DIST") and param.value > 0:
+                z_hi = max(z_hi, float(param.value))
     if inclusion is not None:
         x0, y0, x1, y1 = (float(v) for v in inclusion.bounds)
     elif ref is not None:

@@ -126,22 +126,26 @@ class FlightEstimate:
             },
         }
 
-    def check(self, *, enforce: bool) -> str | None:
+    def check(self, *, allow_over_battery: bool = False) -> str | None:
         """Raise :class:`~uavplan.vehicle.EnergyBudgetError` (exit 2, with the numbers) when
-        the flight does not leave the reserve and ``enforce``; without ``enforce`` (no vehicle
-        named, no ``--reserve`` given) return the same words as a warning. None: it fits."""
+        the flight does not leave the reserve (issue 37: a flight over the battery is never
+        a success, whether or not the scenario names its vehicle); with
+        ``allow_over_battery`` (``--allow-over-battery``) return the same words as a
+        warning. None: it fits."""
         if self.fits:
             return None
-        if enforce:
-            self.energy.require_reserve(self.reserve_pct)
+        vehicle = "" if self.named else f" ({self.profile.name}, the default vehicle)"
         try:
             self.energy.require_reserve(self.reserve_pct)
         except InputError as err:
-            return (
-                f"warning: {err.reason}; the scenario names no vehicle "
-                f"({self.profile.name} is the default): give vehicle.profile to have the "
-                "flight refused"
-            )
+            if not allow_over_battery:
+                raise type(err)(
+                    f"{err.reason}{vehicle}: {self.what} does not leave the reserve; "
+                    "--allow-over-battery lets it through",
+                    key=err.key,
+                    file=err.file,
+                ) from None
+            return f"warning: {err.reason}{vehicle} (--allow-over-battery)"
         return None  # pragma: no cover - fits() said it does not
 
 

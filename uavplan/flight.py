@@ -408,11 +408,13 @@ def check_track(
 @dataclass(frozen=True, eq=False)
 class FlightPrediction:
     """What the flight model predicts for a mission where a scenario is planned
-    (:mod:`uavplan.rehearsal`): the mission flown as ``autopilot`` flies it with its default
-    parameters.
+    (:mod:`uavplan.rehearsal`): the mission flown as ``autopilot`` flies it. While ``plan``
+    widens the margin it is the mission's part with the firmware's default parameters; the
+    prediction ``plan`` reports is the whole flight its verdict judged
+    (:mod:`uavplan.verdict`: the parameters the mission relies on, take-off to touchdown).
 
-    ``check``: the mission's part of the track (take-off to where the return to launch
-    begins, or the landing) measured by :func:`check_flight`; ``return_check``: the return
+    ``check``: the track measured by :func:`check_flight` (the mission's part, take-off to
+    where the return to launch begins, or the whole flight); ``return_check``: the return
     leg the autopilot flies on its own (None without one); ``max_deviation_m``: the largest
     distance of the mission's part from the straight legs between the items;
     ``margin_pad_m``: how much wider than the scenario's margin the route was planned so
@@ -436,9 +438,7 @@ class FlightPrediction:
         if problem is None:
             return None
         tried = f" ({self.gave_up})" if self.gave_up else ""
-        return (
-            f"as {self.autopilot} flies it (the flight model, default parameters): {problem}{tried}"
-        )
+        return f"as {self.autopilot} flies it (the flight model): {problem}{tried}"
 
     @property
     def keeps_margin(self) -> bool:

@@ -780,9 +780,13 @@ def fence_for(
     mission: MissionPlan,
     *,
     max_items: int | None = None,
+    also: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[MissionPlan, FenceBuild]:
     """``mission`` with the geofence for ``route`` flown through ``scenario``'s obstacles and
-    bounds (at most ``max_items`` fence items, default PX4's 63), and how it was built."""
+    bounds (at most ``max_items`` fence items, default PX4's 63), and how it was built.
+    ``also``: the other lines the vehicle flies, as segments ``(a, b)`` in the site frame
+    (the autopilot's track, the failsafe returns the mission relies on): the zones keep the
+    margin from them too."""
     from uavplan.mission.fence import DEFAULT_MAX_ITEMS, geofence_for_route
 
     site = scenario.site
@@ -796,6 +800,7 @@ def fence_for(
         obstacles,
         site.bounds,
         max_items=DEFAULT_MAX_ITEMS if max_items is None else max_items,
+        also=also,
     )
     return replace(mission, fence=built.fence), built
 

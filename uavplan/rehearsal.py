@@ -34,9 +34,11 @@ from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
+from uavplan.obstacles import Obstacle
 from uavplan.planning import RouteResult, build_world, enu_frame, mission_for, plan_route
 from uavplan.reroute import RerouteResult, fence_world, reroute_plan
 from uavplan.scenario import PlannerConfig, Scenario, Surroundings
+from uavplan.scenario.settings import DEFAULT_LEGAL_CEILING_M
 from uavplan.sim.params import Parameters
 from uavplan.sim.power import VehicleSpec
 from uavplan.sim.simulate import FlownTrack, distance_to_polyline, simulate
@@ -48,8 +50,10 @@ __all__ = [
     "Rehearsal",
     "max_deviation_m",
     "plan_safe_as_flown",
+    "rehearsal_of",
     "rehearse",
     "reroute_safe_as_flown",
+    "rtl_start",
     "track_of",
 ]
 
@@ -125,6 +129,13 @@ class CheckSite:
     label: str
     datum_amsl_m: float | None = None
     ground: Ground | None = None
+    #: what a failsafe return must clear (uavplan.verdict): the obstacles standing on the
+    #: ground, the flight volume's horizontal extent and its top (site z)
+    obstacles: tuple[Obstacle, ...] = ()
+    bounds_xy_m: tuple[tuple[float, float], tuple[float, float]] | None = None
+    top_z_m: float | None = None
+    #: the highest a return may fly above the ground (m; None: no limit), for the advice
+    legal_ceiling_m: float | None = DEFAULT_LEGAL_CEILING_M
 
     @property
     def margin_m(self) -> float:
@@ -141,6 +152,10 @@ class CheckSite:
             f"scenario {scenario.name}",
             site.datum_amsl_m,
             site.ground,
+            tuple(site.obstacles),
+            (site.bounds.x_m, site.bounds.y_m),
+            float(site.bounds.z_m[1]),
+            scenario.mission.legal_ceiling_m,
         )
 
     @classmethod
@@ -166,7 +181,22 @@ class CheckSite:
         names = pw.airspace.names
         label = "the plan's geofence" if base is None else f"the plan's geofence and {base.name}"
         datum = None if pw.ground is None else pw.frame.origin.alt_m
-        return cls(pw.world, pw.frame, lambda i: names[i], label, datum, pw.ground)
+        b = pw.airspace.bounds
+        legal = DEFAULT_LEGAL_CEILING_M
+        if isinstance(base, Scenario):
+            legal = base.mission.legal_ceiling_m  # type: ignore[assignment]
+        return cls(
+            pw.world,
+            pw.frame,
+            lambda i: names[i],
+            label,
+            datum,
+            pw.ground,
+            tuple(pw.airspace.obstacles),
+            (b.x_m, b.y_m),
+            float(b.z_m[1]),
+            legal,
+        )
 
     def ground_for(self, home: GeoPoint) -> Callable[[float, float], float] | None:
         """The ground's height above ``home`` at ENU (x, y) in the frame at home (None over
@@ -225,6 +255,16 @@ def track_of(flown: FlownTrack, source: str) -> Track:
     )
 
 
+def rtl_start(flown: FlownTrack) -> int | None:
+    """The first sample of ``flown`` flying the mission's NAV_RETURN_TO_LAUNCH (None: the
+    mission has none, or it was never reached)."""
+    seqs = [item.seq for item in flown.nav if item.command == int(MavCmd.NAV_RETURN_TO_LAUNCH)]
+    if not seqs:
+        return None
+    hits = np.flatnonzero(flown.current_seq >= min(seqs))
+    return int(hits[0]) if hits.size else None
+
+
 def return_seq(plan: MissionPlan, autopilot: Autopilot) -> int | None:
     """The wire seq of the mission's first NAV_RETURN_TO_LAUNCH (None: it has none)."""
     wire = replace(plan, autopilot=autopilot).wire_items(MissionType.MISSION)
@@ -257,10 +297,12 @@ def rehearse(
     params: Parameters | Mapping[str, float] | None = None,
     wind_en_m_s: tuple[float, float] = (0.0, 0.0),
     vehicle: VehicleSpec | None = None,
+    check: bool = True,
 ) -> Rehearsal:
     """Fly ``plan`` (as ``autopilot``, default its own) through the flight model and, with
     ``site``, check the track there: the mission's part against the margin, the return leg
-    apart.
+    apart (``check`` false: the flight only, over ``site``'s ground; the whole flight's
+    verdict, :func:`uavplan.verdict.judge_flight`, checks it as one).
 
     Raises :class:`~uavplan.sim.simulate.MissionRefused` (exit 2) when the autopilot would
     refuse to start the mission, ``ValueError`` for a plan without a home."""
@@ -298,14 +340,24 @@ def rehearse(
     end = len(track) if start is None else start + 1
     planned = flown.planned_polyline_enu()
     deviation = max_deviation_m(flown.enu_m[:end], planned)
-    if site is None:
+    if site is None or not check:
         return Rehearsal(flown, track, deviation, start)
-    check = site.check(track.until(end), lands=start is None)
+    part = site.check(track.until(end), lands=start is None)
     return_check = None
     if start is not None and len(track) - start >= 2:
         back = _after(track, start)
         return_check = site.check(back, takes_off=False, lands=flown.ended == "landed")
-    return Rehearsal(flown, track, deviation, start, check, return_check)
+    return Rehearsal(flown, track, deviation, start, part, return_check)
+
+
+def rehearsal_of(flown: FlownTrack) -> Rehearsal:
+    """A flight the model already flew, as an unchecked :class:`Rehearsal` (its track, its
+    largest deviation from the legs up to its return to launch)."""
+    track = track_of(flown, f"simulate {flown.autopilot.label}")
+    start = rtl_start(flown)
+    end = len(track) if start is None else start + 1
+    deviation = max_deviation_m(flown.enu_m[:end], flown.planned_polyline_enu())
+    return Rehearsal(flown, track, deviation, start)
 
 
 #: track points measured together by :func:`max_deviation_m` (about 30 s of flight)
@@ -496,9 +548,9 @@ def _widened_until_flown_safe(
         pad = grown
         result = again
         rehearsal = fly(result)
+    # the return to launch at the mission's end is judged with the whole flight, at the RTL
+    # altitude the mission relies on (uavplan.verdict), not here
     flight = rehearsal.prediction(margin_pad_m=pad, gave_up=gave_up)
-    if flight.return_check is not None and not flight.return_check.ok:
-        notes.append(_return_note(flight.return_check, autopilot))
     return replace(result, notes=(*result.notes, *notes), flight=flight)
 
 
@@ -517,11 +569,3 @@ def grown_pad(pad: float, check: TrackCheck) -> float:
     :data:`PAD_STEP_M` (:data:`VOLUME_PAD_M` when the track left the flight volume)."""
     lack = VOLUME_PAD_M if check.outside is not None else check.margin_m - check.min_clearance_m
     return pad + max(lack, 0.0) + PAD_STEP_M
-
-
-def _return_note(check: TrackCheck, autopilot: Autopilot) -> str:
-    param = "RTL_RETURN_ALT" if autopilot == Autopilot.PX4 else "RTL_ALT"
-    return (
-        f"the return to launch ({autopilot.label}'s own flight home at its {param}, not "
-        f"planned): {check.problem()}; raise {param}, or plan with mission: {{end: land}}"
-    )

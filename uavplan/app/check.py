@@ -26,6 +26,8 @@ if TYPE_CHECKING:
     from uavplan.estimate import FlightEstimate
     from uavplan.flight import Flight, FlightCheck
     from uavplan.mission.items import MissionPlan
+    from uavplan.rehearsal import CheckSite
+    from uavplan.verdict import FlightVerdict
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,12 +61,19 @@ class MissionCheck:
     check: FlightCheck
     #: the mission's flight time, energy and battery with the scenario's vehicle and wind
     estimate: FlightEstimate | None = None
-    #: a flight over the battery budget with no vehicle named (not refused), or None
+    #: a flight over the battery budget let through by --allow-over-battery, or None
     warning: str | None = None
+    #: the whole flight judged (None: the flight model does not fly this mission)
+    verdict: FlightVerdict | None = None
 
     @property
     def min_clearance_m(self) -> float:
         return self.check.min_clearance_m
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        found = () if self.verdict is None else tuple(self.verdict.warnings())
+        return (*found, *(() if self.warning is None else (self.warning,)))
 
     def summary(self) -> str:
         margin = self.check.margin_m
@@ -72,6 +81,8 @@ class MissionCheck:
             f"{self.file}: ok — {len(self.plan.items)} items, min clearance "
             f"{self.min_clearance_m:.2f} m (margin {margin:g} m)"
         )
+        if self.verdict is not None:
+            line += f"\n{self.verdict.summary()}"
         return line if self.estimate is None else f"{line}\n{self.estimate.summary()}"
 
 
@@ -85,32 +96,49 @@ class FenceCheck:
     check: FlightCheck
     #: what else the world holds, for the summary (" and scenario S's 12 obstacles")
     also: str = ""
+    #: the whole flight judged in the plan's own airspace (None: not flown)
+    verdict: FlightVerdict | None = None
 
     @property
     def min_clearance_m(self) -> float:
         return self.check.min_clearance_m
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        return () if self.verdict is None else tuple(self.verdict.warnings())
+
     def summary(self) -> str:
         zones = len(self.plan.fence.polygons) + len(self.plan.fence.circles)
-        return (
+        line = (
             f"{self.file}: ok — {len(self.plan.items)} items, min clearance from its geofence "
             f"({plural(zones, 'zone')}){self.also} {self.min_clearance_m:.2f} m (margin "
             f"{self.check.margin_m:g} m)"
         )
+        return line if self.verdict is None else f"{line}\n{self.verdict.summary()}"
 
 
 def validate(
-    file: str, scenario_path: str | None = None, *, reserve_pct: float | None = None
+    file: str,
+    scenario_path: str | None = None,
+    *,
+    reserve_pct: float | None = None,
+    allow_over_battery: bool = False,
 ) -> ScenarioCheck | MissionCheck | FenceCheck:
     """Check the scenario ``file``, or with ``scenario_path`` the mission ``file`` against
     that scenario; a QGroundControl ``.plan`` without a scenario is checked against its own
-    geofence. A scenario's problem raises ScenarioError (exit 2); a mission that leaves the
-    flight volume or comes closer than the margin raises NoPathError (exit 3).
+    geofence. A scenario's problem raises ScenarioError (exit 2).
+
+    A mission is checked twice, by the one mission check: its straight legs, and its whole
+    flight as the autopilot flies it with the parameters it relies on (the flight model:
+    :func:`uavplan.verdict.judge_flight`, take-off to touchdown, the return to launch
+    included, and a failsafe return from every point). A flight that leaves the flight
+    volume or comes closer than the margin raises NoPathError (exit 3); a failsafe return
+    that would is a warning (:attr:`MissionCheck.warnings`).
 
     A scenario, and a mission against one, are also estimated (flight time, energy, battery:
-    :mod:`uavplan.estimate`; a scenario alone by its straight route). A flight that does not
-    leave ``reserve_pct`` (default 20 %) of the battery raises EnergyBudgetError (exit 2)
-    when the scenario names its vehicle or ``reserve_pct`` is given, else it is a warning."""
+    :mod:`uavplan.estimate`; a scenario alone by its straight route, a mission as the flight
+    model flew it). A flight that does not leave ``reserve_pct`` (default 20 %) of the
+    battery raises EnergyBudgetError (exit 2) unless ``allow_over_battery`` (a warning)."""
     if scenario_path is None:
         kind = mission_kind(file)
         if kind == "plan":
@@ -122,7 +150,7 @@ def validate(
 
         reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
         estimate = estimate_straight_route(scn, reserve_pct=reserve)
-        warning = estimate.check(enforce=scn.vehicle.named or reserve_pct is not None)
+        warning = estimate.check(allow_over_battery=allow_over_battery)
         return ScenarioCheck(file, scn, estimate, warning)
     try:
         scenario = load_scenario(scenario_path)
@@ -142,37 +170,59 @@ def validate(
             from uavplan.scenario.zones import infringement_text
 
             problem += infringement_text(scenario, flight.points_enu)
-        raise NoPathError(f"{file}: {problem}")
+        raise NoPathError(f"{file}: the straight legs: {problem}")
     from uavplan.estimate import DEFAULT_RESERVE_PCT
 
     reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
-    estimate = _mission_estimate(scenario, plan, flight, reserve)
-    warning = estimate.check(enforce=scenario.vehicle.named or reserve_pct is not None)
-    return replace(checked, estimate=estimate, warning=warning)
+    from uavplan.rehearsal import CheckSite
+
+    verdict = judged(plan, CheckSite.of_scenario(scenario), scenario)
+    if verdict is not None:
+        problem = verdict.problem()
+        if problem is not None:
+            raise NoPathError(f"{file}: {problem}")
+    estimate = _mission_estimate(scenario, plan, flight, reserve, verdict)
+    warning = estimate.check(allow_over_battery=allow_over_battery)
+    return replace(checked, estimate=estimate, warning=warning, verdict=verdict)
+
+
+def judged(
+    plan: MissionPlan, site: CheckSite, scenario: Scenario | None = None
+) -> FlightVerdict | None:
+    """The whole flight of ``plan`` in ``site`` (:func:`uavplan.verdict.judge_flight`; with
+    ``scenario`` as its vehicle flies it through its wind), or None when the flight model
+    does not fly it (an autopilot it does not know, no home, a mission the autopilot would
+    refuse to start: those are checked by their straight legs only)."""
+    from uavplan.mission.items import Autopilot
+    from uavplan.rehearsal import conditions_of
+    from uavplan.sim.simulate import MissionRefused
+    from uavplan.verdict import judge_flight
+
+    if plan.autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT) or plan.home is None:
+        return None
+    conditions = {} if scenario is None else conditions_of(scenario)
+    try:
+        return judge_flight(plan, site, **conditions)
+    except MissionRefused:
+        return None
 
 
 def _mission_estimate(
-    scenario: Scenario, plan: MissionPlan, flight: Flight, reserve_pct: float
+    scenario: Scenario,
+    plan: MissionPlan,
+    flight: Flight,
+    reserve_pct: float,
+    verdict: FlightVerdict | None = None,
 ) -> FlightEstimate:
     """The mission's flight time, energy and battery as ``plan`` estimates what it writes:
-    flown by the flight model of its autopilot with the scenario's vehicle and wind
-    (:func:`uavplan.estimate.estimate_flown`); a mission the model does not fly (not PX4 or
-    ArduPilot, or one the autopilot would refuse to start) by its legs
-    (:func:`uavplan.estimate.estimate_mission`)."""
+    the whole flight the verdict judged (the flight model, the parameters the mission relies
+    on, the scenario's vehicle and wind: :func:`uavplan.estimate.estimate_flown`); a mission
+    the model does not fly (not PX4 or ArduPilot, or one the autopilot would refuse to
+    start) by its legs (:func:`uavplan.estimate.estimate_mission`)."""
     from uavplan.estimate import estimate_flown, estimate_mission
-    from uavplan.mission.items import Autopilot
-    from uavplan.rehearsal import CheckSite, conditions_of, rehearse
-    from uavplan.sim.simulate import MissionRefused
 
-    if plan.autopilot in (Autopilot.PX4, Autopilot.ARDUPILOT) and plan.home is not None:
-        # over a DEM the model needs the ground (terrain-frame heights, the landing)
-        site = None if scenario.terrain is None else CheckSite.of_scenario(scenario)
-        try:
-            flown = rehearse(plan, site, **conditions_of(scenario)).flown
-        except MissionRefused:
-            pass
-        else:
-            return estimate_flown(scenario, flown, reserve_pct=reserve_pct)
+    if verdict is not None and verdict.rehearsal is not None:
+        return estimate_flown(scenario, verdict.rehearsal.flown, reserve_pct=reserve_pct)
     return estimate_mission(scenario, plan, flight, reserve_pct=reserve_pct)
 
 
@@ -206,8 +256,16 @@ def _check_against_fence(file: str, base: Surroundings | None = None) -> FenceCh
     checked = FenceCheck(file, plan, world.check(flight), also)
     problem = checked.check.problem()
     if problem is not None:
-        raise NoPathError(f"{file}: {problem}")
-    return checked
+        raise NoPathError(f"{file}: the straight legs: {problem}")
+    from uavplan.rehearsal import CheckSite
+
+    site = CheckSite.of_plan(plan, base=base, file=file)
+    verdict = None if site is None else judged(plan, site)
+    if verdict is not None:
+        problem = verdict.problem()
+        if problem is not None:
+            raise NoPathError(f"{file}: {problem}")
+    return replace(checked, verdict=verdict)
 
 
 def mission_flight(plan: MissionPlan, scenario: Scenario, *, file: str | None = None) -> Flight:

@@ -295,12 +295,10 @@ def _fly_started(
         )
     check = None
     if site is not None and len(track) >= 2:
-        rtl = return_seq(plan, autopilot)
-        cut = len(track)
-        if rtl is not None:
-            hits = np.flatnonzero(track.current_seq >= rtl)
-            cut = int(hits[0]) + 1 if hits.size else cut
-        check = site.check(track.until(cut), lands=rtl is None)
+        # the whole observed flight, take-off to touchdown, its return to launch included
+        # (issue 37: the check stopped where the return began and passed a return that flew
+        # through buildings)
+        check = site.check(track, lands=bool(track.relative_alt_m[-1] <= 1.0))
     return FlyOutcome(
         request.mission,
         who,

@@ -18,7 +18,7 @@ from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
 from uavplan.app.inputs import load_scenario_file
 from uavplan.app.outputs import Output, OutputSet, check_report_name
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
-from uavplan.errors import InputError
+from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
 from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
@@ -28,9 +28,11 @@ from uavplan.rehearsal import MAX_REPLANS, grown_pad, plan_safe_as_flown, refres
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
+    from uavplan.flight import FlightPrediction
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
     from uavplan.sim.simulate import FlownTrack
+    from uavplan.verdict import FlightVerdict
     from uavplan.wayhome import WayHome
 
 
@@ -60,11 +62,15 @@ class PlanRequest:
     plot: str | None = None
     fence: bool = False
     scenario: str | None = None
-    #: ``--reserve``: % of the usable battery left on landing (None: the default, 20 %, and a
-    #: flight over it is refused only when the scenario names its vehicle)
+    #: ``--reserve``: % of the usable battery left on landing (None: the default, 20 %)
     reserve_pct: float | None = None
     #: ``--view``: the interactive page of the mission written (HTML, uavplan.app.view)
     view: str | None = None
+    #: ``--allow-over-battery``: write a mission that does not leave the reserve (a warning)
+    allow_over_battery: bool = False
+    #: ``--legal-ceiling``: the highest a return may fly above the ground (m), "none" for no
+    #: limit (None: the scenario's mission.legal_ceiling, default 120 m)
+    legal_ceiling: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +88,8 @@ class PlanOutcome:
     estimate: FlightEstimate | None = None
     #: how the route gets home (the RTL proof, a planned return, the parameters)
     way: WayHome | None = None
+    #: the whole flight judged with the parameters the mission relies on
+    verdict: FlightVerdict | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -149,8 +157,9 @@ def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutco
 
 def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     """Plan the scenario file ``request.source`` and write the mission (and the report, the
-    picture) as one set of outputs: all of them, or (no route, an error, Ctrl-C) none.
-    Notes go to ``feedback.say``; no route raises NoPathError."""
+    picture) as one set of outputs: all of them, or (no route, an unsafe flight, an error,
+    Ctrl-C) none. Notes go to ``feedback.say``, findings to ``feedback.warn``; no route, or a
+    whole flight (uavplan.verdict) that breaks the margin, raises NoPathError."""
     t0 = time.perf_counter()
     outputs, mission_out, report_out, plot_out = _outputs(request, feedback)
     view_out = _view_output(request, outputs)
@@ -160,6 +169,9 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     if request.autopilot:
         autopilot = Autopilot.from_name(request.autopilot)
         scn = replace(scn, mission=replace(scn.mission, autopilot=autopilot))
+    if request.legal_ceiling is not None:
+        legal = legal_ceiling_option(request.legal_ceiling)
+        scn = replace(scn, mission=replace(scn.mission, legal_ceiling_m=legal))
     if scn.mission.altitude == "terrain" and scn.mission.autopilot is Autopilot.PX4:
         feedback.warn(
             "warning: mission.altitude terrain writes MAV_FRAME_GLOBAL_TERRAIN_ALT items, "
@@ -174,7 +186,12 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             result = _search(scn, feedback)
             if result.collision_free:  # and the track the flight model predicts keeps it too
                 result = plan_safe_as_flown(scn, result, should_stop=feedback.should_stop)
-            way = None if result.route is None else _way_home(scn, result.route, request, feedback)
+            flown = None if result.flight is None else result.flight.flown
+            way = (
+                None
+                if result.route is None
+                else _way_home(scn, result.route, request, feedback, flown=flown)
+            )
         if result.interrupted or (way is not None and way.interrupted):
             return PlanOutcome(scn, result, request.output, way=way)
         route = require_route(scn, result)
@@ -184,14 +201,33 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             if result.interrupted or way.interrupted:
                 return PlanOutcome(scn, result, request.output, way=way)
             route = require_route(scn, result)
-        flown = None if result.flight is None else result.flight.flown
-        estimate = flight_estimate(scn, route, request.reserve_pct, feedback, flown)
-        mission, built = _mission(scn, route, request, feedback)
+            if not way.switched and result.flight is not None and result.flight.flown is not None:
+                # end: return: the failsafe from every point of that mission, its planned
+                # return included (a switched return replaces an RTL the outbound flight
+                # already proved unusable: more points cannot make it usable)
+                way = way.proven_on(scn, result.flight.flown)
+        mission = mission_for(scn, route)
         if way is not None:
             mission = replace(mission, parameters=way.parameters)
+        verdict = _judge(scn, mission, None if result.flight is None else result.flight.flown)
+        if verdict is not None:
+            problem = verdict.problem()
+            if problem is not None:
+                raise NoPathError(problem)
+            result = replace(result, flight=_predicted(verdict, result))
+        mission, built = _fenced(scn, route, mission, request, verdict)
         from uavplan.mavlink.storage import check_storage  # the vehicle's storage
 
         check_storage(mission, scn.mission.max_items, file=request.output)
+        flown = None if result.flight is None else result.flight.flown
+        estimate = flight_estimate(
+            scn,
+            route,
+            request.reserve_pct,
+            feedback,
+            flown,
+            allow_over_battery=request.allow_over_battery,
+        )
         summary = {"algorithm": result.algorithm, "seed": result.seed, "energy": result.energy}
         mission_out.write_text(
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
@@ -200,6 +236,8 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             report = {**result.report(scn), **estimate.report_fields()}
             if way is not None:
                 report.update(way.report())
+            if verdict is not None:
+                report["whole_flight"] = verdict.report()
             report_out.write_text(json.dumps(report, indent=2) + "\n")
         if plot_out is not None:
             # matplotlib (and the fence's outlines) load only for a picture
@@ -231,12 +269,101 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         for line in way.lines():
             feedback.say(line)
         if way.parameters and not _holds_parameters(request.output):
-            feedback.say(
-                f"note: a {Path(request.output).suffix} file holds no parameters: set them by hand"
+            feedback.warn(
+                f"warning: a {Path(request.output).suffix} file holds no parameters: the "
+                "mission relies on "
+                + ", ".join(p.describe() for p in way.parameters)
+                + "; set them on the vehicle by hand"
             )
+    if verdict is not None:
+        feedback.say(verdict.summary())
+        for line in verdict.warnings():
+            feedback.warn(line)
     return PlanOutcome(
-        scn, result, request.output, mission, time.perf_counter() - t0, estimate=estimate, way=way
+        scn,
+        result,
+        request.output,
+        mission,
+        time.perf_counter() - t0,
+        estimate=estimate,
+        way=way,
+        verdict=verdict,
     )
+
+
+def legal_ceiling_option(text: str) -> float | None:
+    """``--legal-ceiling M`` (metres above the ground, > 0) or ``none`` (no legal limit)."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(
+            f"must be a height in metres above the ground (> 0) or 'none', got {text!r}",
+            key="--legal-ceiling",
+        )
+    return value
+
+
+def _judge(scn: Scenario, mission: MissionPlan, flown: FlownTrack | None) -> FlightVerdict | None:
+    """The whole flight of ``mission`` (uavplan.verdict) with the parameters it relies on,
+    as the scenario's vehicle flies it through its wind (``flown``: the same mission's
+    flight, reused when it was flown with those parameters); None for an autopilot the
+    flight model does not fly."""
+    if mission.autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT) or mission.home is None:
+        return None
+    from uavplan.rehearsal import CheckSite, conditions_of
+    from uavplan.verdict import judge_flight
+
+    site = CheckSite.of_scenario(scn)
+    return judge_flight(mission, site, flown=flown, **conditions_of(scn))
+
+
+def _predicted(verdict: FlightVerdict, result: RouteResult) -> FlightPrediction:
+    """The predicted flight the report and the summary give: the whole flight judged."""
+    from uavplan.flight import FlightPrediction
+
+    before = result.flight
+    rehearsal = verdict.rehearsal
+    assert rehearsal is not None
+    return FlightPrediction(
+        autopilot=verdict.autopilot.label,
+        flight_time_s=rehearsal.flight_time_s,
+        max_deviation_m=rehearsal.max_deviation_m,
+        check=verdict.check,
+        margin_pad_m=0.0 if before is None else before.margin_pad_m,
+        gave_up="" if before is None else before.gave_up,
+        flown=rehearsal.flown,
+    )
+
+
+def _fenced(
+    scn: Scenario,
+    route: PlannedRoute,
+    mission: MissionPlan,
+    request: PlanRequest,
+    verdict: FlightVerdict | None,
+) -> tuple[MissionPlan, FenceBuild | None]:
+    """The mission with its geofence (``--fence``): the zones keep the margin from the
+    straight legs, from the track the flight model flew and, where the mission relies on the
+    autopilot's return, from the failsafe returns from every point (issue 37)."""
+    if not request.fence:
+        return mission, None
+    import numpy as np
+
+    also = None
+    if verdict is not None:
+        points = verdict.check.check.flight.points_enu
+        a, b = [points[:-1]], [points[1:]]
+        failsafe = verdict.failsafe
+        if failsafe is not None and failsafe.ok:
+            ra, rb = failsafe.paths()
+            a.append(ra)
+            b.append(rb)
+        also = (np.vstack(a), np.vstack(b))
+    return fence_for(scn, route, mission, also=also)
 
 
 def flight_estimate(
@@ -245,18 +372,20 @@ def flight_estimate(
     reserve_pct: float | None,
     feedback: Feedback,
     flown: FlownTrack | None = None,
+    *,
+    allow_over_battery: bool = False,
 ) -> FlightEstimate:
     """The planned route's flight time, energy and battery (issue 27): of ``flown``, the
-    mission as the flight model flew it (the vehicle's power model at every step), else of
-    the route's flown line. A flight that does not leave the reserve raises
-    EnergyBudgetError (exit 2, nothing written) when the scenario names its vehicle or
-    ``--reserve`` was given, else it is a warning."""
+    mission as the flight model flew it with the parameters it relies on (the vehicle's
+    power model at every step, the return included), else of the route's flown line. A
+    flight that does not leave the reserve raises EnergyBudgetError (exit 2, nothing
+    written) unless ``allow_over_battery``, which makes it a warning."""
     reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
     if flown is not None:  # the mission as the flight model flies it: one time for both lines
         estimate = estimate_flown(scn, flown, reserve_pct=reserve)
     else:
         estimate = estimate_route(scn, route.flown_enu, reserve_pct=reserve)
-    warning = estimate.check(enforce=scn.vehicle.named or reserve_pct is not None)
+    warning = estimate.check(allow_over_battery=allow_over_battery)
     if warning is not None:
         feedback.warn(warning)
     return estimate
@@ -273,6 +402,7 @@ def _way_home(
     request: PlanRequest,
     feedback: Feedback,
     allowance_m: float = 0.0,
+    flown: FlownTrack | None = None,
 ) -> WayHome:
     """The way home of ``route`` (:func:`uavplan.wayhome.way_home`): a return planned with
     the feedback's progress bar and Ctrl-C flag when the mission needs one."""
@@ -297,6 +427,7 @@ def _way_home(
             progress=None if bar is None else progress,
             should_stop=feedback.should_stop,
             allowance_m=allowance_m,
+            flown=flown,
         )
     finally:
         if bar is not None and started:
@@ -397,12 +528,3 @@ def _view_output(request: PlanRequest, outputs: OutputSet) -> Output | None:
     outputs.check()
     return page
 
-
-def _mission(
-    scn: Scenario, route: PlannedRoute, request: PlanRequest, feedback: Feedback
-) -> tuple[MissionPlan, FenceBuild | None]:
-    """The mission, with the geofence if asked: (the mission, the fence build or None)."""
-    mission = mission_for(scn, route)
-    if not request.fence:
-        return mission, None
-    return fence_for(scn, route, mission)

@@ -1,14 +1,17 @@
 """``render``: a picture of a scenario alone, of a route planned as ``plan`` plans it (same
 options, same seed, same route), or of a mission file's flight (checked against the scenario
-by the one mission check, :func:`uavplan.app.check.check_flight_in`)."""
+by the one mission check, :func:`uavplan.app.check.check_flight_in`, and judged as a whole
+flight, :func:`uavplan.app.check.judged`: the same verdict ``plan``, ``validate`` and
+``simulate`` print; a flight that breaks the margin is drawn, then exit 3)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from uavplan.app.check import check_flight_in, no_fence, read_mission_flight
+from uavplan.app.check import check_flight_in, judged, no_fence, read_mission_flight
 from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
 from uavplan.app.inputs import load_scenario_file, mission_kind
 from uavplan.app.outputs import OutputSet
@@ -19,6 +22,9 @@ from uavplan.render import RouteLayers, Scene, render_png, route_subtitle
 from uavplan.reroute import fence_world
 from uavplan.route import keeps_margin
 from uavplan.scenario import Scenario, load_surroundings
+
+if TYPE_CHECKING:
+    from uavplan.verdict import FlightVerdict
 
 
 @dataclass(frozen=True)
@@ -67,14 +73,14 @@ def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
     outputs.check()
     with outputs:
         if mission_kind(request.scenario) == "plan" and request.mission is None:
-            outcome = _render_plan(request)
+            outcome = _render_plan(request, feedback)
         elif request.no_plan and request.mission is None:
             outcome = _render_scenario(request, feedback, outputs)
         else:
             scn = load_scenario_file(request.scenario, "render")
             outputs.reads(*scn.files)
             if request.mission is not None:
-                outcome = _render_mission(scn, request)
+                outcome = _render_mission(scn, request, feedback)
             else:
                 outcome = _render_planned(request.options.apply(scn), request, feedback)
         if outcome.outcome.interrupted:
@@ -139,13 +145,10 @@ def _with_track(
     scn: Scenario, request: RenderRequest, layers: RouteLayers | None, subtitle: str
 ) -> tuple[RouteLayers, str]:
     """``layers`` with the flown track of ``request.track`` (placed in the scenario's site)
-    and, in the subtitle, its clearance by the one check: with ``request.mission`` the
-    mission's part apart from the autopilot's return to launch."""
-    import numpy as np
-
-    from uavplan.mission.io import load_mission
+    and, in the subtitle, its clearance by the one check: the whole track, take-off to
+    touchdown, its return to launch included (issue 37)."""
     from uavplan.mission.track import Track
-    from uavplan.rehearsal import CheckSite, return_seq
+    from uavplan.rehearsal import CheckSite
 
     assert request.track is not None
     track = Track.load(request.track)
@@ -153,20 +156,10 @@ def _with_track(
     if len(track) < 2:
         return layers, subtitle
     site = CheckSite.of_scenario(scn)
-    cut = len(track)
-    if request.mission is not None:
-        plan = load_mission(request.mission)
-        rtl = return_seq(plan, plan.autopilot)
-        if rtl is not None:
-            hits = np.flatnonzero(track.current_seq >= rtl)
-            cut = int(hits[0]) + 1 if hits.size else cut
     whole = site.check(track, lands=bool(track.relative_alt_m[-1] < 0.5))
-    text = f"flown track {Path(request.track).name}: min clearance "
-    if cut < len(track):
-        part = site.check(track.until(cut), lands=False)
-        text += f"{part.min_clearance_m:.2f} m to the return, {whole.min_clearance_m:.2f} m with it"
-    else:
-        text += f"{whole.min_clearance_m:.2f} m"
+    text = f"flown track {Path(request.track).name}: min clearance {whole.min_clearance_m:.2f} m"
+    if not whole.ok:
+        text += "  (closer than the margin!)"
     layers = replace(layers, track_enu=whole.check.flight.points_enu)
     return layers, f"{subtitle}; {text}" if subtitle else text
 
@@ -207,10 +200,12 @@ def _about_the_route(err: ScenarioError) -> bool:
     return any(key == k or key.startswith((f"{k}[", f"{k}.")) for k in _ROUTE_KEYS)
 
 
-def _render_plan(request: RenderRequest) -> _Drawn:
+def _render_plan(request: RenderRequest, feedback: Feedback) -> _Drawn:
     """A QGroundControl plan without a scenario: drawn in the world its rerouting plans in
-    (its geofence's zones as obstacles), with its clearance from them."""
+    (its geofence's zones as obstacles), with its clearance from them and its whole flight's
+    verdict there."""
     from uavplan.mission.io import load_mission  # the mission readers: only with a mission
+    from uavplan.rehearsal import CheckSite
 
     plan = load_mission(request.scenario)
     if not (plan.fence.polygons or plan.fence.circles):
@@ -218,21 +213,48 @@ def _render_plan(request: RenderRequest) -> _Drawn:
     world, flight = fence_world(plan, file=request.scenario)
     layers = RouteLayers.from_mission(plan, world.frame, flight.points_enu)
     check = world.check(flight)
+    site = CheckSite.of_plan(plan, file=request.scenario)
+    verdict = None if site is None else judged(plan, site)
+    failure = _judged(verdict, request.scenario, feedback)
+    close = check.problem() is not None or (verdict is not None and not verdict.flight_ok)
     name = Path(request.scenario).name
     subtitle = (
         f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown from take-off, "
         f"min clearance from its geofence {check.min_clearance_m:.2f} m (margin "
-        f"{world.margin_m:g} m)" + ("" if check.problem() is None else "  (too close!)")
+        f"{world.margin_m:g} m){_flown(verdict)}" + ("  (too close!)" if close else "")
     )
     # start and goal: the first and last position flown (every position is a waypoint of
     # the flown route already; which were the user's the plan does not say)
     first, last = (tuple(float(v) for v in flight.points_enu[k]) for k in (1, -1))
     ends = [(first[0], first[1], first[2]), (last[0], last[1], last[2])]
     scene = fence_scene(Path(request.scenario).stem, world.airspace, world.margin_m, ends)
-    return _draw(scene, request, layers, subtitle, min_clearance_m=check.min_clearance_m)
+    return _draw(
+        scene, request, layers, subtitle, min_clearance_m=check.min_clearance_m, failure=failure
+    )
 
 
-def _render_mission(scn: Scenario, request: RenderRequest) -> _Drawn:
+def _flown(verdict: FlightVerdict | None) -> str:
+    """``; as flown 10.52 m``: the whole flight's least clearance, for a subtitle."""
+    if verdict is None:
+        return ""
+    return f"; as flown {verdict.flight_worst.clearance_m:.2f} m"
+
+
+def _judged(verdict: FlightVerdict | None, file: str, feedback: Feedback) -> NoPathError | None:
+    """Print the whole flight's verdict (its findings as warnings); the error to raise once
+    the picture is written when the flight breaks the margin."""
+    if verdict is None:
+        return None
+    feedback.say(verdict.summary())
+    for line in verdict.warnings():
+        feedback.warn(line)
+    problem = verdict.problem()
+    return None if problem is None else NoPathError(f"{file}: {problem}")
+
+
+def _render_mission(scn: Scenario, request: RenderRequest, feedback: Feedback) -> _Drawn:
+    from uavplan.rehearsal import CheckSite
+
     assert request.mission is not None
     plan, flight = read_mission_flight(request.mission, scn)
     try:
@@ -241,18 +263,30 @@ def _render_mission(scn: Scenario, request: RenderRequest) -> _Drawn:
         raise InputError(str(err), file=request.mission) from None
     name = Path(request.mission).name
     clearance = None
+    failure = None
     if len(flight.points_enu) < 2:
         subtitle = f"{name}: {len(plan.items)} items, nothing to fly"
     else:
         subtitle = f"{name}: {len(plan.items)} items, {flight.length_m:.0f} m flown from take-off"
         check = check_flight_in(scn, flight)
+        verdict = judged(plan, CheckSite.of_scenario(scn), scn)
+        failure = _judged(verdict, request.mission, feedback)
         if math.isfinite(check.min_clearance_m):
             clearance = check.min_clearance_m
-            close = not keeps_margin(clearance, scn.safety_margin_m)
-            subtitle += f", min clearance {clearance:.2f} m (margin {scn.safety_margin_m:g} m)" + (
-                "  (closer than the margin!)" if close else ""
+            close = not keeps_margin(clearance, scn.safety_margin_m) or failure is not None
+            subtitle += (
+                f", min clearance {clearance:.2f} m{_flown(verdict)} (margin "
+                f"{scn.safety_margin_m:g} m)" + ("  (closer than the margin!)" if close else "")
             )
-    return _draw(scene_for(scn), request, layers, subtitle, min_clearance_m=clearance, scenario=scn)
+    return _draw(
+        scene_for(scn),
+        request,
+        layers,
+        subtitle,
+        min_clearance_m=clearance,
+        scenario=scn,
+        failure=failure,
+    )
 
 
 def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -> _Drawn:

@@ -19,12 +19,12 @@ from uavplan.errors import InputError, NoPathError
 from uavplan.mission.io import load_mission, mission_text
 from uavplan.rehearsal import reroute_safe_as_flown
 from uavplan.reroute import RerouteResult, reroute_plan
-from uavplan.scenario import load_surroundings
+from uavplan.scenario import Surroundings, load_surroundings
 
 if TYPE_CHECKING:
     from uavplan.mission.items import MissionPlan
     from uavplan.render import Scene
-    from uavplan.scenario import Surroundings
+    from uavplan.verdict import FlightVerdict
 
 
 @dataclass(frozen=True)
@@ -147,6 +147,9 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
         problem = None if result.flight is None else result.flight.problem()
         if problem is not None:
             raise NoPathError(f"{request.source}: {problem}")
+        verdict = _judged(result, base, request.source)
+        if verdict is not None and verdict.problem() is not None:
+            raise NoPathError(f"{request.source}: {verdict.problem()}")
         plan_out.write_text(mission_text(result.plan, request.output))
         if report_out is not None:
             report_out.write_text(json.dumps(result.report(), indent=2) + "\n")
@@ -155,6 +158,10 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
         outputs.commit()
     for note in result.notes:
         feedback.say(f"note: {note}")
+    if verdict is not None:
+        feedback.say(verdict.summary())
+        for line in verdict.warnings():
+            feedback.warn(line)
     return RerouteOutcome(result, request.output, time.perf_counter() - t0)
 
 
@@ -185,6 +192,16 @@ def written_infringements(plan: MissionPlan, base: Surroundings) -> list[str]:
 
 def _how_close(distance_m: float) -> str:
     return "enters" if distance_m <= 0 else f"comes {distance_m:.1f} m from"
+
+
+def _judged(result: RerouteResult, base: Surroundings | None, file: str) -> FlightVerdict | None:
+    """The rerouted plan's whole flight in its own airspace (uavplan.verdict: take-off to
+    touchdown with the parameters it relies on, and a failsafe return from every point)."""
+    from uavplan.app.check import judged
+    from uavplan.rehearsal import CheckSite
+
+    site = CheckSite.of_plan(result.plan, base=base, file=file)
+    return None if site is None else judged(result.plan, site)
 
 
 def fence_scene(

@@ -1,11 +1,13 @@
 """``simulate``: rehearse a mission file without a link.
 
-The mission flies through the flight model (:func:`uavplan.rehearsal.rehearse`, the model the
-simulated vehicle flies) in simulated time. The outcome gives the flight time, the largest
-deviation from the planned legs and, where a scenario (or the plan's own geofence) says what
-is in the way, the track's clearance through the one mission check. A track that comes closer
-than the margin is exit 3, as ``validate`` does for the straight legs; the return to launch
-(the autopilot's own flight home, not planned) is reported apart.
+The mission flies through the flight model (the model the simulated vehicle flies) in
+simulated time, with the parameters the vehicle would hold: the firmware's defaults, the
+plan's parameters, and ``--param`` values over them. The outcome gives the flight time, the
+largest deviation from the planned legs and, where a scenario (or the plan's own geofence)
+says what is in the way, the whole flight's verdict (:func:`uavplan.verdict.judge_flight`:
+take-off to touchdown, the return to launch included, and a failsafe return from every
+point). A flight that comes closer than the margin or leaves the flight volume is exit 3; a
+failsafe return that would is a warning.
 """
 
 from __future__ import annotations
@@ -23,22 +25,24 @@ from uavplan.flight import TrackCheck
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path
-from uavplan.rehearsal import CheckSite, Rehearsal, rehearse
+from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
 from uavplan.scenario import Scenario, load_scenario
 from uavplan.sim.params import ParameterValueError, parameters_from
+from uavplan.verdict import FlightVerdict, held_parameters, judge_flight
 
 
 @dataclass(frozen=True)
 class SimulateRequest:
     """``uavplan simulate MISSION``: fly it as ``autopilot`` (default: the file's) with these
-    parameter changes and wind; check it against ``scenario`` (default: the plan's own
-    geofence, if it has exclusion zones); write the track to ``track``."""
+    parameter changes and wind (default: the scenario's, else none); check it against
+    ``scenario`` (default: the plan's own geofence, if it has exclusion zones); write the
+    track to ``track``."""
 
     mission: str
     scenario: str | None = None
     autopilot: str | None = None
     track: str | None = None
-    wind_en_m_s: tuple[float, float] = (0.0, 0.0)
+    wind_en_m_s: tuple[float, float] | None = None
     params: Mapping[str, float] = field(default_factory=dict)
     #: ``--view``: the interactive page of the flight (HTML, needs ``scenario``)
     view: str | None = None
@@ -53,10 +57,12 @@ class SimulateOutcome:
     rehearsal: Rehearsal
     checked_in: str | None = None
     track: str | None = None
+    #: the whole flight judged (None: nothing to check it against)
+    verdict: FlightVerdict | None = None
 
     @property
     def check(self) -> TrackCheck | None:
-        return self.rehearsal.check
+        return None if self.verdict is None else self.verdict.check
 
     def summary(self) -> str:
         r = self.rehearsal
@@ -101,12 +107,16 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         autopilot = Autopilot.from_name(request.autopilot)
     if autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
         raise InputError("the file names no autopilot: give --autopilot px4 or ardupilot")
-    try:  # the one reading of --param, as mock-vehicle's
-        params = parameters_from(autopilot, request.params)
+    try:  # the one reading of --param, as mock-vehicle's (names and ranges checked)
+        parameters_from(autopilot, request.params)
+        held, _, _ = held_parameters(plan, autopilot, request.params)
     except ParameterValueError as err:
         raise InputError(str(err), key="--param") from None
+    except ValueError as err:  # a parameter of the plan out of the firmware's range
+        raise InputError(str(err), key="--param") from None
     site: CheckSite | None = None
-    scenario = None
+    scenario: Scenario | None = None
+    conditions: dict[str, object] = {}
     if request.scenario is not None:
         scenario = load_scenario(request.scenario)
         if request.track:  # nor any file of the scenario
@@ -114,39 +124,44 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         if request.view:
             check_output(request.view, *scenario.files)
         site = CheckSite.of_scenario(scenario)
+        conditions = conditions_of(scenario)
     else:
         site = CheckSite.of_plan(plan, file=request.mission)
+    if request.wind_en_m_s is not None:
+        conditions["wind_en_m_s"] = request.wind_en_m_s
     if site is not None:
         feedback.say(f"checking the track against {site.label} (margin {site.margin_m:g} m)")
-    rehearsal = rehearse(
-        plan, site, autopilot=autopilot, params=params, wind_en_m_s=request.wind_en_m_s
-    )
+    verdict = None
+    if site is not None:
+        verdict = judge_flight(plan, site, autopilot=autopilot, params=request.params, **conditions)  # type: ignore[arg-type]
+        assert verdict.rehearsal is not None
+        rehearsal = verdict.rehearsal
+    else:
+        rehearsal = rehearse(plan, None, autopilot=autopilot, params=held, **conditions)  # type: ignore[arg-type]
     if request.track:
         rehearsal.track.save(request.track)
         feedback.say(f"track: {len(rehearsal.track)} samples written to {request.track}")
     outcome = SimulateOutcome(
-        request.mission, plan, rehearsal, None if site is None else site.label, request.track
+        request.mission,
+        plan,
+        rehearsal,
+        None if site is None else site.label,
+        request.track,
+        verdict,
     )
-    back = rehearsal.return_check
-    if back is not None and not back.ok:
-        param = "RTL_RETURN_ALT" if autopilot == Autopilot.PX4 else "RTL_ALT"
-        feedback.warn(
-            f"warning: the return to launch ({autopilot.label}'s own flight home at its "
-            f"{param}, not part of the planned mission): {back.problem()}; raise {param} "
-            f"(--param {param}=...) or plan the mission with end: land"
-        )
-    if rehearsal.flown.ended in ("no_headway", "timeout"):
-        feedback.warn(f"warning: the flight did not finish ({rehearsal.flown.ended})")
     if request.view and scenario is not None:  # written before a verdict of exit 3: it shows where
         _write_view(request.view, scenario, plan, rehearsal, request.mission)
         feedback.say(f"view: {request.view}")
-    check = rehearsal.check
-    if check is not None:
-        problem = check.problem()
-        if problem is not None:
-            raise NoPathError(
-                f"{request.mission}: as {autopilot.label} flies it (flight model): {problem}"
-            )
+    if verdict is None:
+        if rehearsal.flown.ended in ("no_headway", "timeout"):
+            feedback.warn(f"warning: the flight did not finish ({rehearsal.flown.ended})")
+        return outcome
+    feedback.say(verdict.summary())
+    for line in verdict.warnings():
+        feedback.warn(line)
+    problem = verdict.problem()
+    if problem is not None:
+        raise NoPathError(f"{request.mission}: {problem}")
     return outcome
 
 

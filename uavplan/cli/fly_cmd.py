@@ -12,6 +12,7 @@ import click
 from uavplan.app.fly import HOME_TOLERANCE_M, ON_INTERRUPT, FlyRequest, fly
 from uavplan.cli import main
 from uavplan.cli.common import exit_interrupted, feedback, handle_errors, interruptible
+from uavplan.errors import NoPathError
 
 _CONN_HELP = (
     "connection: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT, "
@@ -135,8 +136,9 @@ def fly_command(
     mission (uploading and verifying it if not). It starts the mission
     the way PX4 or ArduPilot expects, shows the progress on a terminal and warns when the
     vehicle strays from the route or, with --scenario, comes closer than the margin.
-    Exit 0: mission complete and landed; 130: Ctrl-C (the vehicle holds); 4: the vehicle
-    refused, or the link was lost.
+    Exit 0: mission complete and landed, the whole flown track (with --scenario) inside the
+    margin; 3: it came closer than the margin; 130: Ctrl-C (the vehicle holds); 4: the
+    vehicle refused, or the link was lost.
 
     \b
     Examples:
@@ -170,3 +172,7 @@ def fly_command(
     click.echo(outcome.summary())
     if outcome.interrupted:
         exit_interrupted()
+    # issue 37: the whole observed flight, its return included, must keep the margin
+    problem = None if outcome.check is None else outcome.check.problem()
+    if problem is not None:
+        raise NoPathError(f"{mission}: the flown track, take-off to touchdown: {problem}")

@@ -71,8 +71,20 @@ from uavplan.cli.options import ALGORITHM
     "reserve_pct",
     type=click.FloatRange(0, 100, max_open=True),
     help="Battery (%% of the usable energy) that must be left on landing; a mission that "
-    "needs more exits 2 (default 20; without it, and without vehicle.profile in the "
-    "scenario, only a warning).",
+    "needs more exits 2 (default 20).",
+)
+@click.option(
+    "--allow-over-battery",
+    is_flag=True,
+    help="Write a mission that needs more than the usable battery minus the reserve "
+    "(a warning instead of exit 2).",
+)
+@click.option(
+    "--legal-ceiling",
+    metavar="M|none",
+    help="The highest a return to launch may fly above the ground (m; default: the "
+    "scenario's mission.legal_ceiling, 120): a safe RTL altitude above it is not advised, "
+    "the mission ends with a planned return instead. 'none': no limit.",
 )
 @click.option(
     "--view",
@@ -97,6 +109,8 @@ def plan_command(
     scenario_path: str | None,
     reserve_pct: float | None,
     view_path: str | None,
+    allow_over_battery: bool,
+    legal_ceiling: str | None,
     quiet: bool,
 ) -> None:
     """Plan a collision-free route for SCENARIO and write it as a mission file.
@@ -122,6 +136,8 @@ def plan_command(
         scenario=scenario_path,
         reserve_pct=reserve_pct,
         view=view_path,
+        allow_over_battery=allow_over_battery,
+        legal_ceiling=legal_ceiling,
     )
     check_threads_variable(warn)
     with interruptible() as interrupts:

@@ -30,7 +30,12 @@ from uavplan.cli.options import PARAM, WIND
     type=click.Path(dir_okay=False),
     help="Write the flown track here: .csv (a table) or .geojson (a line).",
 )
-@click.option("--wind", type=WIND, default=None, help="Wind toward east and north, m/s.")
+@click.option(
+    "--wind",
+    type=WIND,
+    default=None,
+    help="Wind toward east and north, m/s (default: the scenario's, else none).",
+)
 @click.option(
     "--param",
     "param_pairs",
@@ -74,7 +79,7 @@ def simulate_command(
         scenario=scenario_path,
         autopilot=autopilot,
         track=track_path,
-        wind_en_m_s=wind or (0.0, 0.0),
+        wind_en_m_s=wind,
         params=dict(param_pairs),
         view=view_path,
     )

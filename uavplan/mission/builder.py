@@ -260,6 +260,10 @@ def _planned_return(
     ground = back.copy()
     ground[:, 2] = 0.0
     lat_deg, lon_deg, _ = frame.to_geodetic(ground)
+    # the last row is above home: written as home's own position, to the last bit (a batch
+    # of conversions can differ from home's in the last bits: 47.397742000000015)
+    lat_deg, lon_deg = np.array(lat_deg, dtype=np.float64), np.array(lon_deg, dtype=np.float64)
+    lat_deg[-1], lon_deg[-1] = home.lat_deg, home.lon_deg
     item_frame = ALTITUDE_FRAMES[altitude]
     if altitude == "relative":
         item_z = back[:, 2] - home_z

@@ -1,32 +1,39 @@
 """A geofence for a planned route: obstacles as exclusion zones, the bounds as an inclusion zone.
 
 A MAVLink geofence is two-dimensional: an exclusion polygon or circle forbids its area at
-*every* altitude. So an obstacle can go into the fence only if the route flies around it;
-an obstacle the route flies over cannot, or the vehicle would breach its own fence on the
-way. :func:`build_geofence` decides that per obstacle from the flown polyline:
+*every* altitude. So an obstacle can go into the fence only if nothing the vehicle flies
+passes over it; an obstacle the route flies over cannot, or the vehicle would breach its own
+fence on the way. What the vehicle flies is more than the straight legs between the
+waypoints (issue 37): the track the autopilot flies (it cuts the corners, PX4 swings back
+onto the next leg), the mission's end (the return to launch, a planned return) and, where the
+mission relies on the autopilot's return, the failsafe returns from every point of the
+flight. :func:`build_geofence` takes them all as ``route_enu`` (a polyline) and ``also``
+(segments), and decides per obstacle from their horizontal distance to its footprint:
 
-* the route's horizontal distance to the obstacle's footprint is at least the safety
-  margin everywhere → the route flies **around** it: the footprint, inflated by the margin,
-  becomes an exclusion zone (``ZoneStatus.EXCLUDED``);
-* the route comes horizontally closer than the margin → over the footprint (or its margin
-  ring) the route is above the obstacle top: it flies **over** it (``FLOWN_OVER``). Its
-  lowest height above the top there is reported. Were it below the top, the route would not
-  be collision-free (``TOO_CLOSE``); no zone either, nor when the margin leaves no room for
-  a zone between the footprint and the route.
+* every line keeps at least the safety margin from the footprint → the vehicle flies
+  **around** it: it becomes an exclusion zone (``ZoneStatus.EXCLUDED``) that keeps the
+  margin from every line, so the mission checked against its own fence (``validate`` /
+  ``simulate`` / ``render`` of the ``.plan`` alone, and a second ``plan`` of it, which treat
+  the zones as obstacles with the margin) keeps it too. The zone is the footprint grown by
+  ``offset``: the margin where the lines are far, less where they pass closer than twice the
+  margin plus :data:`ROUTE_GAP_M` (the gap is kept for the tracking error), down to the
+  footprint itself;
+* a line comes horizontally closer than the margin → over the footprint (or its margin
+  ring) it is above the obstacle's top: it flies **over** it (``FLOWN_OVER``). Its lowest
+  height above the top is reported. Were it below the top, the route would not be
+  collision-free (``TOO_CLOSE``); no zone either.
 
 Zones (ENU metres, then WGS84): a cylinder is a circle of radius ``r + offset``; a box or
 prism footprint is offset outward with its corners cut by tangents to the rounded offset, so
 the polygon *contains* the footprint grown by ``offset`` in every direction (conservative).
-``offset`` is the safety margin, except where the route passes closer than margin +
-:data:`ROUTE_GAP_M`: a fence the vehicle grazes is a fence it breaches with ordinary GNSS and
-tracking error, so that zone shrinks to leave the route the gap
-(:attr:`ObstacleZone.offset_m` says what was used; :meth:`FenceBuild.notes` names them). A
-corner is one mitre where the route is far, and is cut finer (down to
-:data:`MIN_CORNER_STEP_DEG` per cut) where the route comes close, to keep the item count low.
-A concave prism whose offset would fold over itself is fenced by its convex hull.
+:attr:`ObstacleZone.offset_m` says what was used; :meth:`FenceBuild.notes` names the zones
+that reach less than the margin. A corner is one mitre where the lines are far, and is cut
+finer (down to :data:`MIN_CORNER_STEP_DEG` per cut) where they come close, to keep the item
+count low. A concave prism whose offset would fold over itself is fenced by its convex hull.
 
-The bounds' horizontal rectangle, grown by :data:`INCLUSION_BUFFER_M`, is the inclusion
-polygon (a start or goal on the bounds' edge would otherwise sit on the fence line).
+The bounds' horizontal rectangle, grown by the margin and :data:`ROUTE_GAP_M` (at least
+:data:`INCLUSION_BUFFER_M`), is the inclusion polygon: a route inside the bounds keeps the
+margin from its edge, a start on the bounds' edge included.
 
 Autopilots hold few fence items (one per polygon vertex, one per circle): PX4 releases
 before 1.15 keep 63 (:data:`DEFAULT_MAX_ITEMS`; their first of 64 slots holds statistics).
@@ -65,10 +72,11 @@ DEFAULT_MAX_ITEMS = 63
 #: rally points the same PX4 releases store (8 slots, the first holds the statistics); we
 #: write none, the constant is here so the limit is written down next to the fence's
 PX4_MAX_RALLY_POINTS = 7
-#: the route stays at least this far (horizontally) outside every exclusion zone: about a
-#: multirotor's GNSS tracking error, and ArduPilot's default FENCE_MARGIN
+#: beyond the safety margin, a zone leaves the lines this much more room where there is room
+#: for it (about a multirotor's GNSS tracking error, and ArduPilot's default FENCE_MARGIN)
 ROUTE_GAP_M = 2.0
-#: the inclusion polygon is the bounds rectangle grown by this (GPS noise at a start on the edge)
+#: the inclusion polygon is the bounds rectangle grown by at least this (GPS noise at a start
+#: on the edge; it grows by the margin and ROUTE_GAP_M when that is more)
 INCLUSION_BUFFER_M = 5.0
 #: a corner is cut by tangents covering at most 90 degrees of turn each (a box corner: one
 #: mitre) and, where the route passes close, down to this angle (more vertices, closer fit)
@@ -254,13 +262,13 @@ class FenceBuild:
             and z.offset_m < self.margin_m - 1e-9
         ]
         if shrunk:
-            reach = (
-                f"{min(shrunk):.1f}-{max(shrunk):.1f}" if len(shrunk) > 1 else f"{shrunk[0]:.1f}"
-            )
+            lo, hi = min(shrunk), max(shrunk)
+            reach = f"{lo:.1f}-{hi:.1f}" if f"{lo:.1f}" != f"{hi:.1f}" else f"{hi:.1f}"
             notes.append(
-                f"the route passes close to {_count(len(shrunk), 'fenced obstacle')}: "
+                f"the flight passes close to {_count(len(shrunk), 'fenced obstacle')}: "
                 f"{'their zones reach' if len(shrunk) > 1 else 'its zone reaches'} {reach} m "
-                f"beyond the footprint, less than the {self.margin_m:g} m margin"
+                f"beyond the footprint, less than the {self.margin_m:g} m margin (a zone keeps "
+                "the margin from the flown track)"
             )
         if self.ceiling_m is not None:
             notes.append(
@@ -291,14 +299,17 @@ def build_geofence(
     max_items: int = DEFAULT_MAX_ITEMS,
     inclusion_buffer_m: float = INCLUSION_BUFFER_M,
     route_gap_m: float = ROUTE_GAP_M,
+    also: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> FenceBuild:
     """The geofence for a route flown through obstacles.
 
     ``obstacles``: :mod:`uavplan.obstacles` values or :class:`Footprint`\\ s, ENU metres in
     ``frame``. ``route_enu``: ``(n, 3)`` the flown polyline (the take-off climb from the
     ground, the straight legs between waypoints; :attr:`PlannedRoute.flown_enu`).
-    ``bounds_xy_m``: ``((x_min, x_max), (y_min, y_max))``. ``max_items`` counts every fence
-    item (polygon vertices, circles) including the 4 of the inclusion polygon.
+    ``also``: more lines the vehicle flies, as segments ``(a, b)`` each ``(m, 3)``: the
+    autopilot's track, the failsafe returns. ``bounds_xy_m``: ``((x_min, x_max), (y_min,
+    y_max))``. ``max_items`` counts every fence item (polygon vertices, circles) including the
+    4 of the inclusion polygon.
     """
     footprints = footprints_of(obstacles)
     route = np.asarray(route_enu, dtype=np.float64)
@@ -311,15 +322,24 @@ def build_geofence(
     if max_items < 4:
         raise ValueError("max_items must leave room for the 4-vertex inclusion polygon")
     (x0, x1), (y0, y1) = bounds_xy_m
-    b = float(inclusion_buffer_m)
+    b = max(float(inclusion_buffer_m), float(margin_m) + float(route_gap_m))
     inclusion = np.array([[x0 - b, y0 - b], [x1 + b, y0 - b], [x1 + b, y1 + b], [x0 - b, y1 + b]])
 
     seg_a, seg_b = g2.polyline_segments(route)
+    samples_3d = [route]
+    if also is not None:
+        more_a = np.asarray(also[0], dtype=np.float64).reshape(-1, 3)
+        more_b = np.asarray(also[1], dtype=np.float64).reshape(-1, 3)
+        if len(more_a):
+            seg_a = np.vstack([seg_a, more_a[:, :2]])
+            seg_b = np.vstack([seg_b, more_b[:, :2]])
+            samples_3d.append(_segment_samples(more_a, more_b, SAMPLE_STEP_M))
     distances = route_distances(footprints, seg_a, seg_b)
     zones: list[ObstacleZone | None] = [None] * len(footprints)
     near = distances < margin_m - DISTANCE_TOL_M
     if near.any():
-        samples = densify(route, SAMPLE_STEP_M)  # where the route's height over a top is read
+        # where the lines' height over a top is read
+        samples = np.vstack([densify(route, SAMPLE_STEP_M), *samples_3d[1:]])
         for i in np.flatnonzero(near):
             fp, distance = footprints[i], float(distances[i])
             lowest = _height_above_top(fp, samples, margin_m)
@@ -327,13 +347,15 @@ def build_geofence(
             zones[i] = ObstacleZone(fp.index, status, distance, height_above_top_m=lowest)
 
     # The fence item budget: zones nearest the route first (they matter most). A zone is
-    # built only while the budget could still hold it (a circle is one item, a polygon at
-    # least three); the rest are left out unbuilt.
+    # built only while the budget could still hold it (a circle is one item, a box's polygon
+    # at least four, any polygon at least three); the rest are left out unbuilt.
     budget = max_items - inclusion.shape[0]
     far = np.flatnonzero(~near)
     for i in far[np.lexsort((far, distances[far]))]:
         fp, distance = footprints[i], float(distances[i])
-        if budget < (1 if fp.is_circle else 3):
+        # the fewest items its zone can take (a circle 1, a polygon its footprint's convex
+        # hull's corners): a zone that cannot fit is left out unbuilt
+        if budget < _fewest_items(fp, budget):
             zones[i] = _left_out(fp, distance, margin_m, route_gap_m)
             continue
         zone = _zone(fp, distance, seg_a, seg_b, margin_m, route_gap_m)
@@ -354,10 +376,12 @@ def geofence_for_route(
     bounds: Bounds,
     *,
     max_items: int = DEFAULT_MAX_ITEMS,
+    also: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> FenceBuild:
-    """The geofence for a planned route: its flown polyline, frame and safety margin, the
-    obstacles it was planned through and the flight volume ``bounds`` (its top becomes the
-    altitude note)."""
+    """The geofence for a planned route: its flown polyline (and ``also``, the other lines
+    the vehicle flies: :func:`build_geofence`), frame and safety margin, the obstacles it
+    was planned through and the flight volume ``bounds`` (its top becomes the altitude
+    note)."""
     return build_geofence(
         obstacles,
         route.flown_enu,
@@ -366,6 +390,7 @@ def geofence_for_route(
         margin_m=route.safety_margin_m,
         ceiling_m=bounds.z_m[1],
         max_items=max_items,
+        also=also,
     )
 
 
@@ -373,12 +398,46 @@ def _replace_status(zone: ObstacleZone, status: ZoneStatus) -> ObstacleZone:
     return replace(zone, status=status)
 
 
+def _fewest_items(fp: Footprint, budget: int) -> int:
+    """A lower bound on the fence items ``fp``'s zone takes: 1 for a circle; for a polygon
+    3, and, once the budget is small, its convex hull's corner count (an offset ring has at
+    least its ring's corners, the hull fallback the hull's)."""
+    if fp.is_circle:
+        return 1
+    if fp.kind == "box":
+        return 4
+    if budget >= 8 or fp.ring_enu is None:
+        return 3
+    return len(g2.convex_hull(fp.outline_enu()))
+
+
+def _segment_samples(a: _Arr, b: _Arr, step_m: float) -> _Arr:
+    """Points ``(k, 3)`` at most ``step_m`` apart along each segment ``a[i]`` → ``b[i]``."""
+    span = np.linalg.norm(b - a, axis=1)
+    k = np.maximum(1, np.ceil(span / step_m).astype(np.int64))
+    seg = np.repeat(np.arange(len(a)), k + 1)
+    t = (np.arange(int((k + 1).sum())) - np.repeat(np.cumsum(k + 1) - (k + 1), k + 1)) / np.repeat(
+        k, k + 1
+    )
+    return a[seg] + t[:, None] * (b[seg] - a[seg])
+
+
+def _offset_for(distance: float, margin_m: float, gap_m: float) -> float | None:
+    """How far a zone may reach beyond a footprint ``distance`` from the lines and still
+    keep the margin from them (the gap too where there is room): between 0 (the footprint
+    itself) and the margin; None where the lines pass within the margin."""
+    room = distance - margin_m
+    if room < -DISTANCE_TOL_M:
+        return None
+    return min(margin_m, max(0.0, room - gap_m))
+
+
 def _left_out(fp: Footprint, distance: float, margin_m: float, gap_m: float) -> ObstacleZone:
     """The zone of an obstacle the route flies around that the item budget cannot hold, not
     built: left out (``OVER_LIMIT``), or ``TOO_CLOSE`` where :func:`_zone` would find no room
-    for a zone beside the route (the route within the gap of the footprint)."""
-    offset = min(margin_m, distance - gap_m)
-    if offset <= 0:
+    for a zone beside the lines (they pass within the margin of the footprint)."""
+    offset = _offset_for(distance, margin_m, gap_m)
+    if offset is None:
         return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
     return ObstacleZone(fp.index, ZoneStatus.OVER_LIMIT, distance, offset_m=offset)
 
@@ -391,13 +450,14 @@ def _zone(
     margin_m: float,
     gap_m: float,
 ) -> ObstacleZone:
-    """The exclusion zone of an obstacle the route flies around (``distance`` from the
-    route, at least the margin), or ``TOO_CLOSE`` when no zone fits beside the route."""
+    """The exclusion zone of an obstacle the lines fly around (``distance`` from them, at
+    least the margin): the footprint grown by what keeps the margin (and the gap, where
+    there is room) from every line; ``TOO_CLOSE`` when not even the footprint does."""
+    offset = _offset_for(distance, margin_m, gap_m)
+    if offset is None:
+        return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
     if fp.is_circle:
         assert fp.center_enu is not None and fp.radius_m is not None
-        offset = min(margin_m, distance - gap_m)
-        if offset <= 0:
-            return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
         cx, cy = fp.center_enu
         return ObstacleZone(
             fp.index,
@@ -408,19 +468,21 @@ def _zone(
         )
 
     ring = fp.outline_enu()
+    keep = margin_m + gap_m  # what a grown zone leaves the lines
     for outline in (ring, g2.convex_hull(ring)):  # the hull if the ring's offset folds
-        made = _polygon_zone(outline, margin_m, seg_a, seg_b, gap_m)
+        made = _polygon_zone(outline, margin_m, seg_a, seg_b, keep)
         if made is None:
-            break  # no room between the route and the footprint
-        polygon, offset = made
+            break  # no room to grow it: the footprint itself, below
+        polygon, grown = made
         if polygon is None:
             continue
-        if g2.segments_polygon_distance(seg_a, seg_b, polygon).min() < gap_m - 1e-6:
+        if g2.segments_polygon_distance(seg_a, seg_b, polygon).min() < keep - 1e-6:
             break  # pragma: no cover - the construction guarantees the gap
         return ObstacleZone(
-            fp.index, ZoneStatus.EXCLUDED, distance, offset_m=offset, polygon_enu=polygon
+            fp.index, ZoneStatus.EXCLUDED, distance, offset_m=grown, polygon_enu=polygon
         )
-    return ObstacleZone(fp.index, ZoneStatus.TOO_CLOSE, distance)
+    # the footprint itself keeps the margin from the lines (distance >= margin)
+    return ObstacleZone(fp.index, ZoneStatus.EXCLUDED, distance, offset_m=0.0, polygon_enu=ring)
 
 
 def _polygon_zone(

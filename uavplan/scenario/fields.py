@@ -290,7 +290,9 @@ def wind(chk: Checker, raw: Any) -> Wind:
 
 
 def mission(chk: Checker, raw: Any) -> MissionConfig:
-    chk.mapping(raw, "mission", {"autopilot", "spacing", "end", "altitude", "max_items"})
+    chk.mapping(
+        raw, "mission", {"autopilot", "spacing", "end", "altitude", "max_items", "legal_ceiling"}
+    )
     autopilot = MissionConfig.autopilot
     if "autopilot" in raw:
         name = chk.string(raw["autopilot"], "mission.autopilot", ("px4", "ardupilot"))
@@ -315,7 +317,16 @@ def mission(chk: Checker, raw: Any) -> MissionConfig:
         if isinstance(value, bool) or not isinstance(value, int):
             raise chk.fail("mission.max_items", f"must be a whole number, got {type_name(value)}")
         max_items = int(chk.number(value, "mission.max_items", minimum=1, maximum=65534))
-    return MissionConfig(autopilot, spacing, end, altitude, max_items=max_items)
+    legal = MissionConfig.legal_ceiling_m
+    if "legal_ceiling" in raw:
+        value = raw["legal_ceiling"]
+        if value is None:
+            legal = None  # no legal limit (a closed site, a permit)
+        else:
+            legal = chk.number(value, "mission.legal_ceiling", minimum=0.0, strict=True)
+    return MissionConfig(
+        autopilot, spacing, end, altitude, max_items=max_items, legal_ceiling_m=legal
+    )
 
 
 def obstacles(chk: Checker, raw: Any) -> tuple[Obstacle, ...]:

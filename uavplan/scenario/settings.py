@@ -60,6 +60,11 @@ class VehicleConfig:
         return resolve(spec)
 
 
+#: the default legal ceiling (m above the ground): EU Regulation 2019/947's open category
+#: (120 m) and the FAA's Part 107 (400 ft, 121.9 m)
+DEFAULT_LEGAL_CEILING_M = 120.0
+
+
 @dataclass(frozen=True)
 class MissionConfig:
     autopilot: Autopilot = Autopilot.ARDUPILOT
@@ -74,6 +79,10 @@ class MissionConfig:
     #: the vehicle's mission storage: the most mission items it holds (ArduPilot's home
     #: included); None: the autopilot's default (uavplan.mavlink.transfer.DEFAULT_STORAGE)
     max_items: int | None = None
+    #: ``legal_ceiling``: the highest a return to launch may fly above the ground (m): the
+    #: RTL altitude ``plan`` advises stays under it, else the mission ends with a planned
+    #: return (EU open category and FAA Part 107: 120 m / 400 ft; None: no limit)
+    legal_ceiling_m: float | None = DEFAULT_LEGAL_CEILING_M
 
     def __post_init__(self) -> None:
         if self.max_items is not None and not 1 <= self.max_items <= 65534:
@@ -85,6 +94,9 @@ class MissionConfig:
         lo, hi = SPACING_RANGE_M
         if not (math.isfinite(self.spacing_m) and lo <= self.spacing_m <= hi):
             raise ValueError(f"waypoint spacing must be in [{lo:g}, {hi:g}] m")
+        ceiling = self.legal_ceiling_m
+        if ceiling is not None and not (math.isfinite(ceiling) and ceiling > 0):
+            raise ValueError("the legal ceiling must be > 0 m")
 
 
 @dataclass(frozen=True)

@@ -15,26 +15,41 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from uavplan.config import Autopilot
-from uavplan.flight import Flight
+from uavplan.flight import Flight, flight_of_track
 from uavplan.mission.builder import CORNER_ACCEPTANCE_M
 from uavplan.mission.items import VehicleParameter
 from uavplan.planners.base import ProgressFn
-from uavplan.planning import Leg, PlannedReturn, build_world, plan_return, with_return
+from uavplan.planning import (
+    Leg,
+    PlannedReturn,
+    build_world,
+    enu_frame,
+    plan_return,
+    with_return,
+)
 from uavplan.route import PlannedRoute
 from uavplan.scenario import Scenario
 from uavplan.sim.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
 from uavplan.wayhome.proof import (
     ARDUPILOT_FENCE_MARGIN_M,
+    RETURN_BOUNDS_PAD_M,
     RTL_PARAMETERS,
+    ReturnSamples,
     RtlProof,
+    Where,
     ceiling_above_home,
+    firmware_rtl,
     prove_rtl,
 )
 from uavplan.world import World
+
+if TYPE_CHECKING:
+    from uavplan.sim.simulate import FlownTrack
 
 __all__ = [
     "LANDING",
@@ -42,6 +57,8 @@ __all__ = [
     "corner_stops",
     "fence_parameters",
     "floor_world",
+    "legal_ceiling_above_home",
+    "return_samples_of",
     "rtl_parameter",
     "way_home",
 ]
@@ -67,8 +84,8 @@ def floor_world(scenario: Scenario) -> World:
     )
 
 
-#: the proof's world is this much wider than the flight volume (m)
-BOUNDS_PAD_M = 1.0
+#: the proof's world is this much wider than the flight volume (m: the brake's overshoot)
+BOUNDS_PAD_M = RETURN_BOUNDS_PAD_M
 #: ... and open this far above and below (m)
 OPEN_Z_M = 1e7
 
@@ -78,10 +95,11 @@ class WayHome:
     """How a planned route gets home, as ``plan`` writes and reports it.
 
     ``route``: the route as the mission flies it (with the planned return when there is
-    one); ``proof``: the autopilot's own return checked from every point;
+    one); ``proof``: the autopilot's own return checked from every point (None for a
+    planned return until :meth:`proven_on` proves the failsafe on the flown mission);
     ``planned_return``: the mission ends with a planned return (``end: return``, or
-    ``end: rtl`` where no RTL altitude up to the ceiling is safe: ``switched``);
-    ``parameters``: what the mission relies on (``upload --set-params``)."""
+    ``end: rtl`` where no RTL altitude up to the ceiling, or the legal ceiling, is safe:
+    ``switched``); ``parameters``: what the mission relies on (``upload --set-params``)."""
 
     end: str
     route: PlannedRoute
@@ -92,6 +110,8 @@ class WayHome:
     parameters: tuple[VehicleParameter, ...] = ()
     interrupted: bool = False
     failure: str = ""
+    #: the fence was asked for (its parameters are kept when the proof is redone)
+    fence: bool = False
 
     @property
     def planned_return(self) -> bool:
@@ -135,24 +155,23 @@ class WayHome:
         }
 
     def lines(self) -> list[str]:
-        """What ``plan`` prints about the way home: the proof, the return, the parameters."""
+        """What ``plan`` prints about the way home: the proof, the return, the parameters.
+        (Whether a failsafe return from the flight is safe with those parameters is the
+        whole flight's verdict, :mod:`uavplan.verdict`, which prints any finding as a
+        warning.)"""
         out: list[str] = []
         proof = self.proof
         if proof is not None:
             out.append(_proof_line(proof))
         if self.failure and not self.interrupted:
             out.append(f"way home: the return could not be planned: {self.failure}")
-        elif proof is not None and not proof.proven and not self.planned_return:
-            out.append(
-                "way home: a failsafe return would not keep the margin; mission.end: return "
-                "plans the way home into the mission"
-            )
         if self.planned_return:
-            why = (
-                "no RTL altitude brings it home safely, so the mission"
-                if self.switched
-                else "the mission"
-            )
+            if not self.switched:
+                why = "the mission"
+            elif proof is not None and proof.proven:
+                why = "no RTL altitude the vehicle may fly brings it home safely, so the mission"
+            else:
+                why = "no RTL altitude brings it home safely, so the mission"
             clearance = (
                 ""
                 if self.return_leg is None
@@ -162,8 +181,11 @@ class WayHome:
                 f"way home: {why} ends with a planned return ({self.return_length_m:.0f} m"
                 f"{clearance}) after DO_LAND_START, landing at home"
             )
-            if proof is not None and not proof.proven:
-                out.append(_failsafe_advice(proof.autopilot))
+            if proof is not None and proof.autopilot is Autopilot.PX4 and not proof.usable:
+                out.append(
+                    "way home: a return during the mission (a failsafe, RTL) flies the mission "
+                    "on to its planned landing with RTL_TYPE 2 (upload --set-params sets it)"
+                )
         if self.parameters:
             out.append(
                 "parameters the mission relies on (upload --set-params sends them): "
@@ -171,54 +193,73 @@ class WayHome:
             )
         return out
 
+    def proven_on(self, scenario: Scenario, flown: FlownTrack) -> WayHome:
+        """This way home with the failsafe return proven on ``flown`` (the flight model's
+        flight of the mission as written, its planned return included) and the parameters
+        the mission relies on recomputed from that proof."""
+        if self.proof is None and self.end != "return":
+            return self
+        autopilot = scenario.mission.autopilot
+        if autopilot not in RTL_PARAMETERS:
+            return self
+        setting = _Setting.of(scenario, self.route, fence=self.fence)
+        proof = setting.prove(return_samples_of(scenario, flown))
+        params = _parameters(autopilot, proof, self.route, self.end, setting)
+        return replace(self, proof=proof, parameters=params)
+
 
 #: how ``plan`` names each firmware
 FIRMWARE_NAMES = {Autopilot.ARDUPILOT: "ArduPilot", Autopilot.PX4: "PX4"}
 
 
-def _where(b: tuple[tuple[float, float, float], str, float]) -> str:
-    (x, y, z), what, clearance = b
-    return f"from ({x:.0f}, {y:.0f}, {z:.0f}) its return passes {clearance:.2f} m from {what}"
+def _where(b: Where) -> str:
+    return b.text()
+
+
+def _ceilings(proof: RtlProof) -> str:
+    legal = proof.legal_ceiling_m
+    if legal is None or legal >= proof.ceiling_m - 1e-9:
+        return f"ceiling {proof.ceiling_m:.0f} m"
+    return f"ceiling {proof.ceiling_m:.0f} m, legal ceiling {legal:.0f} m above home"
 
 
 def _proof_line(proof: RtlProof) -> str:
     spec = proof.parameter
     default = f"{proof.default_altitude_m:g} m"
+    name = FIRMWARE_NAMES[proof.autopilot]
+    brake = (
+        f" (braking up to {proof.brake_m:.0f} m on before it turns home)"
+        if proof.brake_m >= 0.5
+        else ""
+    )
     if proof.safe_altitude_m is None:
         assert proof.blocked is not None
         return (
             f"way home: no RTL altitude up to the ceiling ({proof.ceiling_m:.0f} m above home) "
-            f"keeps the {proof.margin_m:g} m margin from every point of the route: at the "
-            f"ceiling, {_where(proof.blocked)}"
+            f"keeps the {proof.margin_m:g} m margin from every point of the flight{brake}: "
+            f"at the ceiling, the worst: {_where(proof.blocked)}"
         )
     safe = proof.safe_altitude_m
+    if not proof.usable:
+        assert proof.legal_ceiling_m is not None
+        return (
+            f"way home: {name}'s return to launch{brake} keeps the {proof.margin_m:g} m margin "
+            f"from every point of the flight only at an RTL altitude of {safe:.2f} m or more, "
+            f"above the legal ceiling ({proof.legal_ceiling_m:.0f} m above home; "
+            "mission.legal_ceiling or plan --legal-ceiling change it): no RTL altitude is "
+            "advised"
+        )
     value = _rtl_value(proof)
     head = (
-        f"way home: {FIRMWARE_NAMES[proof.autopilot]}'s return to launch keeps the "
-        f"{proof.margin_m:g} m margin from every point of the route at an RTL altitude of "
-        f"{safe:.2f} m or more (set {spec.name} ≥ {value:g} {spec.unit}; ceiling "
-        f"{proof.ceiling_m:.0f} m)"
+        f"way home: {name}'s return to launch{brake} keeps the {proof.margin_m:g} m margin "
+        f"from every point of the flight at an RTL altitude of {safe:.2f} m or more (set "
+        f"{spec.name} ≥ {value:g} {spec.unit}; {_ceilings(proof)})"
     )
     if proof.default_safe:
         return f"{head}; the default {default} does"
     if proof.default_blocked is None:
         return f"{head}; the default {default} is above the ceiling"
-    return f"{head}; the default {default} does not: {_where(proof.default_blocked)}"
-
-
-def _failsafe_advice(autopilot: Autopilot) -> str:
-    if autopilot is Autopilot.PX4:
-        return (
-            "way home: for a return (a failsafe, RTL) to fly the mission on to its planned "
-            "landing instead of straight home, PX4 needs RTL_TYPE 2 (upload --set-params "
-            "sets it)"
-        )
-    return (
-        "way home: ArduPilot flies the planned return at the mission's end; a failsafe RTL "
-        "still flies straight home. A failsafe action 'Auto DO_LAND_START or RTL' (e.g. "
-        "FS_THR_ENABLE 6, FS_GCS_ENABLE 6, BATT_FS_LOW_ACT 6) jumps to the landing sequence "
-        "instead, flying straight from where it is to the goal first (not proven)"
-    )
+    return f"{head}; the default {default} does not, the worst: {_where(proof.default_blocked)}"
 
 
 def _rtl_value(proof: RtlProof) -> float:
@@ -229,17 +270,21 @@ def _rtl_value(proof: RtlProof) -> float:
 
 
 def rtl_parameter(proof: RtlProof) -> VehicleParameter | None:
-    """The RTL altitude parameter a proven return needs: at least the safe altitude
-    (rounded up to a whole metre), at most the ceiling; set to the firmware's default when
-    that lies between, else to the nearer bound."""
-    if proof.safe_altitude_m is None:
+    """The RTL altitude parameter a proven, usable return needs: at least the safe altitude
+    (rounded up to a whole metre), at most the ceiling and the legal ceiling; set to the
+    firmware's default when that lies between, else to the nearer bound. None where no
+    altitude that may be flown is safe."""
+    if proof.safe_altitude_m is None or not proof.usable:
         return None
     spec = proof.parameter
     low = _rtl_value(proof)
-    high = math.floor(proof.ceiling_m + 1e-9) * spec.per_m
-    if high < low:
-        high = low  # a ceiling that is not a whole number of metres above the safe one
+    high = math.floor(proof.highest_m + 1e-9) * spec.per_m  # >= low: the proof is usable
     value = min(max(proof.default_altitude_m * spec.per_m, low), high)
+    legal = (
+        ""
+        if proof.legal_ceiling_m is None
+        else f" and the legal ceiling ({proof.legal_ceiling_m:.0f} m above home)"
+    )
     return VehicleParameter(
         spec.name,
         value,
@@ -248,7 +293,7 @@ def rtl_parameter(proof: RtlProof) -> VehicleParameter | None:
         unit=spec.unit,
         reason=(
             f"the return to launch keeps the {proof.margin_m:g} m margin from every point of "
-            f"the route at {proof.safe_altitude_m:.2f} m or higher, up to the ceiling"
+            f"the flight at {proof.safe_altitude_m:.2f} m or higher, up to the ceiling{legal}"
         ),
     )
 
@@ -279,69 +324,86 @@ def fence_parameters(autopilot: Autopilot, ceiling_m: float) -> tuple[VehiclePar
     )
 
 
-def way_home(
-    scenario: Scenario,
-    route: PlannedRoute,
-    *,
-    fence: bool = False,
-    progress: ProgressFn | None = None,
-    should_stop: Callable[[], bool] | None = None,
-    allowance_m: float = 0.0,
-) -> WayHome:
-    """The way home of ``route`` planned for ``scenario``: the proof of the autopilot's return
-    from every point (:func:`prove_rtl`), a planned return where the mission ends with one
-    (``end: return``) or where no RTL altitude is safe (``end: rtl``), and the parameters
-    the mission relies on (the RTL altitude; with ``fence``, the fence's ceiling).
-    ``allowance_m``: a planned return keeps this much more than :data:`RETURN_ALLOWANCE_M`
-    beyond the margin (where the flight model found the autopilot's flight of the return
-    closer than the margin, the caller plans it again with more)."""
-    autopilot = scenario.mission.autopilot
-    end = scenario.mission.end
-    if autopilot not in RTL_PARAMETERS:
-        return WayHome(end, route, None)
-    site = scenario.site
-    world = build_world(scenario)
-    floor = floor_world(scenario)
+def legal_ceiling_above_home(
+    scenario: Scenario, route: PlannedRoute, legal_m: float | None
+) -> float | None:
+    """The legal ceiling ``legal_m`` (above the ground) as an RTL altitude above home: over
+    flat ground the same; over a DEM less how far home stands above the lowest ground of the
+    site (a return flies at one altitude above home, so over lower ground it flies higher
+    above it). None: no legal limit."""
+    if legal_m is None:
+        return None
+    ground = scenario.site.ground
+    if ground is None:
+        return float(legal_m)
     home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
-    start = route.waypoints_enu[0]
-    home = (float(start[0]), float(start[1]), home_z)
-    top = ceiling_above_home(route, site.bounds.z_m[1])
-    ceiling = top - (ARDUPILOT_FENCE_MARGIN_M if fence and autopilot is Autopilot.ARDUPILOT else 0)
+    return max(0.0, float(legal_m) - max(0.0, home_z - float(ground.field.zmin)))
 
-    def prove(line: PlannedRoute) -> RtlProof:
-        flight = Flight.from_polyline(
-            line.flown_enu, from_ground=scenario.mission.takeoff, to_ground=line.end in LANDING
+
+def return_samples_of(scenario: Scenario, flown: FlownTrack) -> ReturnSamples:
+    """Where a failsafe return may begin on the flight model's flight ``flown`` of a mission
+    of ``scenario``: its track in the site's frame, from the top of the take-off climb to
+    where the mission's own return to launch begins (or to touchdown), with its velocities."""
+    from uavplan.rehearsal import rtl_start, track_of
+
+    site = scenario.site
+    track = track_of(flown, "flight model")
+    flight = flight_of_track(
+        track, enu_frame(site), datum_amsl_m=site.datum_amsl_m, lands=flown.ended == "landed"
+    )
+    return ReturnSamples.of_track(flight, flown.t_s, flown.current_seq, end=rtl_start(flown))
+
+
+@dataclass(frozen=True)
+class _Setting:
+    """Where a scenario's returns are proven: the world they must clear, home, the
+    ceiling (less ArduPilot's FENCE_MARGIN under the fence) and the legal ceiling."""
+
+    scenario: Scenario
+    floor: World
+    home: tuple[float, float, float]
+    top_m: float
+    ceiling_m: float
+    legal_m: float | None
+    fence: bool
+
+    @classmethod
+    def of(cls, scenario: Scenario, route: PlannedRoute, *, fence: bool) -> _Setting:
+        autopilot = scenario.mission.autopilot
+        home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
+        start = route.waypoints_enu[0]
+        top = ceiling_above_home(route, scenario.site.bounds.z_m[1])
+        margin = ARDUPILOT_FENCE_MARGIN_M if fence and autopilot is Autopilot.ARDUPILOT else 0.0
+        legal = scenario.mission.legal_ceiling_m
+        return cls(
+            scenario,
+            floor_world(scenario),
+            (float(start[0]), float(start[1]), home_z),
+            top,
+            top - margin,
+            legal_ceiling_above_home(scenario, route, legal),
+            fence,
         )
+
+    def prove(self, samples: ReturnSamples) -> RtlProof:
+        autopilot = self.scenario.mission.autopilot
         return prove_rtl(
-            floor,
-            flight,
-            home_enu=home,
+            self.floor,
+            home_enu=self.home,
             autopilot=autopilot,
-            ceiling_m=ceiling,
-            name_of=scenario.obstacle_name,
+            ceiling_m=self.ceiling_m,
+            name_of=self.scenario.obstacle_name,
+            samples=samples,
+            legal_ceiling_m=self.legal_m,
         )
 
-    proof = None if end == "return" else prove(route)
-    if should_stop is not None and should_stop():
-        return WayHome(end, route, proof, interrupted=True, failure="interrupted")
-    switched = False
-    leg = None
-    if end == "return" or (end == "rtl" and proof is not None and not proof.proven):
-        planned = _plan_return(
-            scenario, route, world, progress, should_stop, RETURN_ALLOWANCE_M + allowance_m
-        )
-        if planned.route is None:
-            assert planned.failure is not None
-            return WayHome(
-                end, route, proof, interrupted=planned.interrupted,
-                failure=planned.failure.message,
-            )  # fmt: skip
-        switched = end == "rtl"
-        route, leg = planned.route, planned.leg
-        assert route.return_enu is not None
-        route = replace(route, return_stops=corner_stops(world, route))
-        if proof is None:
-            proof = prove(route)
+
+def _parameters(
+    autopilot: Autopilot, proof: RtlProof | None, route: PlannedRoute, end: str, setting: _Setting
+) -> tuple[VehicleParameter, ...]:
+    """What the mission relies on: the RTL altitude where a usable one is proven, else PX4's
+    RTL_TYPE 2 for a mission with a landing (a return flies the mission on to it), and with
+    the fence its parameters."""
     parameters: list[VehicleParameter] = []
     rtl = rtl_parameter(proof) if proof is not None else None
     if rtl is not None:
@@ -354,16 +416,79 @@ def way_home(
                 reason="no direct return is safe: a return flies the mission on to its landing",
             )
         )
-    if fence:
-        parameters.extend(fence_parameters(autopilot, top))
+    if setting.fence:
+        parameters.extend(fence_parameters(autopilot, setting.top_m))
+    return tuple(parameters)
+
+
+def way_home(
+    scenario: Scenario,
+    route: PlannedRoute,
+    *,
+    fence: bool = False,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    allowance_m: float = 0.0,
+    flown: FlownTrack | None = None,
+) -> WayHome:
+    """The way home of ``route`` planned for ``scenario``: the proof of the autopilot's return
+    from every point of the flight (:func:`prove_rtl`: of ``flown``, the flight model's
+    flight of the route's mission, with its velocities, else of the route's flown line at
+    the cruise speed), a planned return where the mission ends with one (``end: return``) or
+    where no RTL altitude is safe up to the ceiling and the legal ceiling (``end: rtl``; the
+    scenario's ``mission.legal_ceiling`` above the ground),
+    and the parameters the mission relies on (the RTL altitude; with ``fence``, the fence's
+    ceiling). ``allowance_m``: a planned return keeps this much more than
+    :data:`RETURN_ALLOWANCE_M` beyond the margin (where the flight model found the
+    autopilot's flight of the return closer than the margin, the caller plans it again with
+    more). A planned return's failsafe is proven on the flown mission afterwards
+    (:meth:`WayHome.proven_on`)."""
+    autopilot = scenario.mission.autopilot
+    end = scenario.mission.end
+    if autopilot not in RTL_PARAMETERS:
+        return WayHome(end, route, None)
+    world = build_world(scenario)
+    setting = _Setting.of(scenario, route, fence=fence)
+
+    def samples_of(line: PlannedRoute) -> ReturnSamples:
+        if flown is not None and line is route:
+            return return_samples_of(scenario, flown)
+        speed = scenario.vehicle.cruise_speed_m_s or firmware_rtl(autopilot).speed_xy_m_s
+        flight = Flight.from_polyline(
+            line.flown_enu, from_ground=scenario.mission.takeoff, to_ground=line.end in LANDING
+        )
+        return ReturnSamples.along(flight, speed_m_s=speed)
+
+    proof = None if end == "return" else setting.prove(samples_of(route))
+    if should_stop is not None and should_stop():
+        return WayHome(end, route, proof, interrupted=True, failure="interrupted", fence=fence)
+    switched = False
+    leg = None
+    if end == "return" or (end == "rtl" and proof is not None and not proof.usable):
+        planned = _plan_return(
+            scenario, route, world, progress, should_stop, RETURN_ALLOWANCE_M + allowance_m
+        )
+        if planned.route is None:
+            assert planned.failure is not None
+            return WayHome(
+                end, route, proof, interrupted=planned.interrupted,
+                failure=planned.failure.message, fence=fence,
+            )  # fmt: skip
+        switched = end == "rtl"
+        route, leg = planned.route, planned.leg
+        assert route.return_enu is not None
+        route = replace(route, return_stops=corner_stops(world, route))
+        if proof is None:
+            proof = setting.prove(samples_of(route))
     return WayHome(
         end,
         route,
         proof,
-        fence_ceiling_m=top if fence else None,
+        fence_ceiling_m=setting.top_m if fence else None,
         switched=switched,
         return_leg=leg,
-        parameters=tuple(parameters),
+        parameters=_parameters(autopilot, proof, route, end, setting),
+        fence=fence,
     )
 
 
