@@ -527,4 +527,3 @@ def _view_output(request: PlanRequest, outputs: OutputSet) -> Output | None:
     page = outputs.file(request.view)
     outputs.check()
     return page
-

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from uavplan.config import Autopilot
@@ -217,63 +217,28 @@ def reprove_with_vehicle_parameters(
     """The flight of ``plan`` in ``scenario`` proven again with the vehicle's parameter
     values ``params``: what breaks the margin (empty: it holds).
 
-    **The lead switches this to the one whole-flight verdict function at the merge.** Until
-    then it is: the flight model flying the mission with ``params`` (its track from take-off
-    to the end, the autopilot's own return included, :func:`uavplan.rehearsal.rehearse`'s
-    ``check`` and ``return_check``), and the autopilot's return to launch from every point
-    of that track at the vehicle's RTL altitude (:func:`uavplan.wayhome.proof.prove_rtl`,
-    the failsafe return), which over flat ground must also stay under the scenario's
-    ceiling."""
-    from uavplan.flight import flight_of_track
-    from uavplan.rehearsal import CheckSite, conditions_of, rehearse
-    from uavplan.sim.params import flight_limits
-    from uavplan.wayhome.home import floor_world
-    from uavplan.wayhome.proof import RTL_PARAMETERS, prove_rtl
+    The one whole-flight verdict (:func:`uavplan.verdict.judge_flight`) with ``params`` as
+    the whole set the vehicle holds: the flight from take-off to touchdown (its return to
+    launch at the vehicle's RTL altitude included) must keep the margin; and where the
+    mission's own parameters make every failsafe return safe, the vehicle's must too (a
+    failsafe that was already unsafe as planned is the plan's warning, not the vehicle's
+    doing)."""
+    from uavplan.rehearsal import CheckSite, conditions_of
+    from uavplan.verdict import judge_flight
 
     site = CheckSite.of_scenario(scenario)
-    flown = rehearse(plan, site, autopilot=autopilot, params=params, **conditions_of(scenario))
+    conditions = conditions_of(scenario)
+    verdict = judge_flight(plan, site, autopilot=autopilot, params=params, **conditions)
     problems: list[str] = []
-    for part, check in (("the mission", flown.check), ("its return", flown.return_check)):
-        if check is not None and not check.ok:
-            problems.append(f"{part} as flown: {check.problem()}")
-    spec = RTL_PARAMETERS.get(autopilot)
-    if spec is None or plan.home is None:
-        return problems
-    limits = flight_limits(params)
-    altitude = limits.rtl_altitude_m
-    if limits.fence_ceiling_m is not None:  # the return flies no higher than the fence allows
-        altitude = min(altitude, limits.fence_ceiling_m - limits.fence_margin_m)
-    if site.ground is None and altitude > scenario.bounds.z_m[1] + 1e-9:
-        problems.append(
-            f"a return to launch at the vehicle's {spec.name} ({altitude:g} m) flies above the "
-            f"scenario's ceiling ({scenario.bounds.z_m[1]:g} m)"
-        )
-    end = len(flown.track) if flown.return_start is None else flown.return_start + 1
-    track = flown.track.until(end)
-    flight = flight_of_track(
-        track, site.frame, datum_amsl_m=site.datum_amsl_m, lands=flown.return_start is None
-    )
-    home_xy = site.frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg])[0]
-    home_z = 0.0 if site.ground is None else float(site.ground.z_at(home_xy[None, :])[0])
-    proof = prove_rtl(
-        floor_world(scenario),
-        flight,
-        home_enu=(float(home_xy[0]), float(home_xy[1]), home_z),
-        autopilot=autopilot,
-        ceiling_m=altitude,
-        name_of=scenario.obstacle_name,
-        limits=replace(limits, rtl_altitude_m=altitude),
-    )
-    if not proof.proven:
-        where = ""
-        if proof.blocked is not None:
-            (x, y, z), nearest, clearance = proof.blocked
-            where = (
-                f": from ({x:.0f}, {y:.0f}, {z:.0f}) its return passes {clearance:.2f} m from "
-                f"{nearest}"
+    problem = verdict.problem()
+    if problem is not None:
+        problems.append(problem)
+    if not verdict.failsafe_ok:
+        planned = judge_flight(plan, site, autopilot=autopilot, **conditions)
+        if planned.failsafe_ok:
+            assert verdict.failsafe is not None
+            problems.append(
+                "with the vehicle's values a failsafe return no longer keeps the margin "
+                f"(it does with the mission's): {verdict.failsafe.summary()}"
             )
-        problems.append(
-            f"a return to launch (a failsafe) at the vehicle's RTL altitude {altitude:g} m "
-            f"does not keep the {proof.margin_m:g} m margin from every point{where}"
-        )
     return problems

@@ -207,69 +207,27 @@ def mission_page(
     return page_html(mission_document_for(scenario, plan, source=source, flown=flown))
 
 
-def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> list[tuple[bool, str]]:
-    """What the page says about the way home, each line with whether it is safe: the
-    autopilot's return proven from every point of the mission's flight
-    (:func:`uavplan.wayhome.prove_rtl`) against the RTL altitude the plan sets (or the
-    firmware's default), and the planned return when the mission has one. A direct return
-    that no RTL altitude makes safe is a problem unless the mission ends with a planned
-    return (as ``plan`` reports it: the mission's way home is that return; a failsafe's
-    settings are the operator's)."""
+def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> list[tuple[str, str]]:
+    """What the page says about the whole flight and the way home, each line with its level
+    (``ok``, ``problem``: the flight breaks the margin, exit 3; ``warning``: a failsafe
+    return would): the one whole-flight verdict (:func:`uavplan.verdict.judge_flight`, the
+    mission flown with the parameters it relies on, take-off to touchdown, and a failsafe
+    return from every point), worded as every other command words it."""
     from uavplan.mission.items import MavCmd
-    from uavplan.view.build import FIRMWARE
-    from uavplan.wayhome import RTL_PARAMETERS, floor_world, prove_rtl, unsafe_returns
+    from uavplan.rehearsal import CheckSite, conditions_of
+    from uavplan.sim.simulate import MissionRefused
+    from uavplan.verdict import judge_flight
 
-    autopilot = plan.autopilot
-    spec = RTL_PARAMETERS.get(autopilot)
-    if spec is None or plan.home is None or len(flight.points_enu) < 2:
+    if plan.home is None or plan.autopilot not in FLOWN_AUTOPILOTS or len(flight.points_enu) < 2:
         return []
-    home = tuple(float(v) for v in flight.points_enu[0])
-    ceiling = float(scenario.site.bounds.z_m[1]) - home[2]
-    floor = floor_world(scenario)
-    proof = prove_rtl(
-        floor,
-        flight,
-        home_enu=(home[0], home[1], home[2]),
-        autopilot=autopilot,
-        ceiling_m=ceiling,
-        name_of=scenario.obstacle_name,
-    )
-    set_values = [p.value for p in plan.parameters if p.name == spec.name]
-    setting = set_values[0] / spec.per_m if set_values else proof.default_altitude_m
-    firmware = FIRMWARE.get(autopilot, autopilot.label)
-    whose = "the plan's" if set_values else f"{firmware}'s default"
-    lines: list[tuple[bool, str]] = []
-    planned_return = any(item.command == MavCmd.DO_LAND_START for item in plan.items)
-    if planned_return:
-        lines.append((True, "way home: the mission ends with a planned return (after "
+    lines: list[tuple[str, str]] = []
+    if any(item.command == MavCmd.DO_LAND_START for item in plan.items):
+        lines.append(("ok", "way home: the mission ends with a planned return (after "
                       "DO_LAND_START), drawn as its last legs"))  # fmt: skip
-    if proof.safe_altitude_m is None:
-        where = ""
-        if proof.blocked is not None:
-            (x, y, zz), what, d = proof.blocked
-            where = f": from ({x:.0f}, {y:.0f}, {zz:.0f}) the return passes {d:.2f} m from {what}"
-        text = (
-            f"way home: no RTL altitude up to the ceiling ({proof.ceiling_m:.0f} m above "
-            f"home) brings a direct return home within the margin{where}"
-        )
-        if planned_return:  # as `plan` reports it: the mission's own way home is planned
-            text += (
-                f"; the mission flies its planned return instead, a failsafe needs "
-                f"{firmware}'s settings for it (docs/way-home.md)"
-            )
-        lines.append((planned_return, text))
-        return lines
-    # the setting itself, checked from every point as the proof checks each altitude
-    _, unsafe = unsafe_returns(
-        floor, flight, home_enu=(home[0], home[1], home[2]), autopilot=autopilot,
-        altitude_m=setting,
-    )  # fmt: skip
-    ok = setting <= proof.ceiling_m + 1e-6 and not bool(unsafe.any())
-    text = (
-        f"way home: a return to launch from any point keeps the margin at {spec.name} ≥ "
-        f"{proof.safe_altitude_m:.2f} m above home (ceiling {proof.ceiling_m:.0f} m); "
-        f"{whose} {setting:g} m "
-    )
-    text += "does" if ok else "does NOT"
-    lines.append((ok, text))
+    try:
+        verdict = judge_flight(plan, CheckSite.of_scenario(scenario), **conditions_of(scenario))
+    except (MissionRefused, ValueError) as err:  # the vehicle would refuse it: no flight
+        return [*lines, ("problem", f"whole flight: not flown through the flight model: {err}")]
+    lines.append(("ok" if verdict.flight_ok else "problem", verdict.summary()))
+    lines.extend(("warning", line) for line in verdict.warnings())
     return lines

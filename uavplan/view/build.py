@@ -469,7 +469,7 @@ def mission_document(
     title: str,
     source: str,
     notes: Sequence[str] = (),
-    way_home: Sequence[tuple[bool, str]] = (),
+    way_home: Sequence[tuple[str, str]] = (),
 ) -> dict[str, Any]:
     """The page of a mission file flown in ``scenario``: ``flight`` and ``check`` are the one
     mission check's (``uavplan.app.check.mission_flight`` / ``check_flight_in``), ``world``
@@ -809,7 +809,7 @@ def _verdict(
     flown: Flown | None,
     legs: Sequence[dict[str, Any]],
     notes: Sequence[str],
-    way_home: Sequence[tuple[bool, str]],
+    way_home: Sequence[tuple[str, str]],
 ) -> dict[str, Any]:
     """What could go wrong, first: every problem of the planned line, the flight as flown and
     the return; then what holds."""
@@ -850,7 +850,13 @@ def _verdict(
             f"{len(red)} leg(s) under the {margin:g} m margin: "
             + ", ".join(f"leg {k}" for k in red),
         )
-    for ok, line in way_home:
-        (lines if ok else problems).append(line)
+    warnings: list[str] = []
+    for level, line in way_home:  # "ok", "problem" (exit 3) or "warning" (a failsafe's)
+        {"ok": lines, "problem": problems, "warning": warnings}[level].append(line)
     lines.extend(notes)
-    return {"ok": not problems, "problems": problems, "lines": lines}
+    return {
+        "ok": not problems and not warnings,
+        "problems": problems,
+        "warnings": warnings,
+        "lines": lines,
+    }

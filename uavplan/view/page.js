@@ -65,6 +65,7 @@
     var v = doc.verdict;
     verdict.className = v.ok === false ? "bad" : v.ok === true ? "good" : "neutral";
     v.problems.forEach(function (p) { verdict.appendChild(el("li", { "class": "problem" }, p)); });
+    (v.warnings || []).forEach(function (p) { verdict.appendChild(el("li", { "class": "problem" }, p)); });
     v.lines.forEach(function (p) { verdict.appendChild(el("li", {}, p)); });
 
     // --- the ground and the ceiling -------------------------------------------------------
