@@ -18,6 +18,7 @@ from uavplan.mavlink.flightmachines import (
     FlightTimeouts,
     MonitorEnd,
     MonitorMachine,
+    NoticeKind,
     Preflight,
     PreflightMachine,
     VehicleState,
@@ -170,7 +171,7 @@ def test_the_monitor_ends_when_the_mission_is_complete_and_the_vehicle_down() ->
     assert machine.finished is None  # the mission's last item, but still flying home
     machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.6)
     assert machine.finished is None  # down: it waits for the report of where it came down
-    machine.on_message(_position(0.0, 0.0), 0.7)
+    machine.on_message(_position(11.0, 0.0), 0.7)
     assert machine.finished is MonitorEnd.COMPLETE
     assert [s.relative_alt_m for s in state.take_samples()] == [30.0, 0.0]
 
@@ -189,7 +190,11 @@ def test_a_vehicle_down_on_the_last_item_of_a_landing_mission_has_completed_it()
         machine.on_message(_position(10.0, 30.0), 0.3)
         machine.on_message(MissionCurrent(current, 10, MissionState.ACTIVE), 0.4)
         machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.5)
-        machine.on_message(_position(0.0, 0.0), 0.6)
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.55)
+        # where it disarmed is asked for again; the answers come
+        machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.56)
+        machine.on_message(MissionCurrent(current, 10, MissionState.ACTIVE), 0.57)
+        machine.on_message(_position(11.0, 0.0), 0.6)
         assert machine.finished is end
 
 
@@ -198,13 +203,23 @@ def test_the_monitor_reports_silence_as_a_lost_link_and_an_early_landing() -> No
     machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True)
     machine.start(0.0)
     machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 1.0)
+    assert machine.deadline == pytest.approx(3.0)  # quiet for WatchRules.quiet_s: said
+    machine.on_timeout(3.0)
+    assert machine.finished is None
+    assert [n.kind for n in state.notices] == [NoticeKind.LINK_QUIET]
     assert machine.deadline == pytest.approx(4.0)
     machine.on_timeout(4.0)
     assert machine.finished is MonitorEnd.LINK_LOST
-    early = MonitorMachine(VehicleState(AP), TARGET, T, last_seq=9, lands=True)
+    early = MonitorMachine(VehicleState(AP, armed=True), TARGET, T, last_seq=9, lands=True)
     early.start(0.0)
     early.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.1)
     early.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.2)
+    early.on_message(_position(5.0, 20.0), 0.25)
     early.on_message(heartbeat(AP, ModeKind.LAND, armed=False), 0.3)
+    early.on_message(heartbeat(AP, ModeKind.LAND, armed=False), 0.4)
+    assert early.finished is None  # where did it disarm? asked
+    early.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.5)
+    early.on_message(_position(6.0, 0.0), 0.6)
+    early.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.7)
     assert early.finished is MonitorEnd.LANDED_EARLY
     assert "disarmed, in LAND, at mission item 4/9" in early.state.describe()
