@@ -569,7 +569,12 @@ def _verdict_text(
         )
     parts.extend(problems)
     if check is not None:
-        seen = "the whole flight" if not check.unobserved else "where it was observed"
+        if check.unobserved:
+            seen = "where it was observed"
+        elif end in (MonitorEnd.COMPLETE, MonitorEnd.COMPLETE_IN_AIR, MonitorEnd.LANDED_EARLY):
+            seen = "the whole flight"
+        else:
+            seen = "as far as it was watched"
         if check.ok:
             parts.append(
                 f"{seen}, the track kept the margin (min clearance {check.min_clearance_m:.2f} m "
@@ -922,6 +927,7 @@ class _Watch:
         self.said_texts: dict[str, float] = {}
         self.progress_window: deque[_Progress] = deque()
         self.battery_warned = False
+        self.battery_warned_at = -math.inf
         self.saved: Track | None = None
         self.saved_len = -1
         if feedback.progress is not None:
@@ -1189,7 +1195,8 @@ class _Watch:
         than :data:`STALL_PROGRESS_M` (a vehicle the wind holds back)."""
         left = state.battery_time_s
         speed = self.mean_speed_m_s
-        if left is None or speed <= 1.0:
+        # the average speed means something once the vehicle has been under way a while
+        if left is None or speed <= 1.0 or self.moving_n * 0.2 < BATTERY_WINDOW_S:
             return
         last = window[-1]
         eta = last.to_go_m / speed
@@ -1198,8 +1205,10 @@ class _Watch:
             recent, STALL_PROGRESS_M
         ):
             eta = math.inf
-        if eta > left and not self.battery_warned:
+        quiet_since = last.time_s - self.battery_warned_at
+        if eta > left and not self.battery_warned and quiet_since >= BATTERY_WINDOW_S * 2:
             self.battery_warned = True
+            self.battery_warned_at = last.time_s
             when = "never at this rate" if math.isinf(eta) else _minutes(eta)
             self._notice(
                 state,

@@ -1171,8 +1171,8 @@ class MonitorMachine(FlightMachine):
     def _mode_changed(self, now: float) -> None:
         s = self.state
         mode = s.mode
-        if self.mission_done and s.on_ground:
-            return  # the flight is over
+        if (self.mission_done and s.on_ground) or s.epoch != 0:
+            return  # the flight is over, or the vehicle restarted: a new boot's mode
         if self._expected(mode):
             if self.foreign_mode is not None and mode is not None:
                 self._notice(
@@ -1203,6 +1203,8 @@ class MonitorMachine(FlightMachine):
 
     def _on_mission_current(self, message: MissionCurrent, now: float) -> list[Message]:
         total = message.total
+        if self.state.epoch != 0:
+            return []  # a restarted vehicle's count: the restart says it all
         if self._total is None:
             self._total = total
             return []
@@ -1225,7 +1227,7 @@ class MonitorMachine(FlightMachine):
 
     def _on_home(self, now: float) -> None:
         home = self.state.home
-        if home is None:
+        if home is None or self.state.epoch != 0:
             return
         if self._home is None:
             self._home = home
