@@ -62,7 +62,7 @@ from uavplan.mavlink.flightmachines import (
 )
 from uavplan.mavlink.link import VehicleLink
 from uavplan.mavlink.machines import TransferStatus
-from uavplan.mavlink.messages import LandedState, Severity
+from uavplan.mavlink.messages import LandedState, MissionState, Severity
 from uavplan.mavlink.modes import ModeKind
 from uavplan.mavlink.protocol import MissionClient, ProtocolTimeouts
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
@@ -515,7 +515,8 @@ def _problems(end: MonitorEnd, state: VehicleState, watch: _Watch, action: str) 
         case MonitorEnd.RESTARTED:
             out.append(
                 "the vehicle restarted during the flight: the mission it was flying was "
-                f"interrupted; after the restart {state.describe()}" + _last_words(state)
+                f"interrupted; after the restart {state.describe()}{_holds(state)}"
+                + _last_words(state)
             )
         case MonitorEnd.MISSION_CHANGED:
             out.append(
@@ -601,6 +602,20 @@ def _on_stall(client: FlightClient, kind: ModeKind, watch: _Watch) -> str:
     if changed.ok:
         return f"; fly switched it to {mode} (--on-interrupt)"
     return f"; fly could not switch it to the --on-interrupt mode: {changed.message()}"
+
+
+def _holds(state: VehicleState) -> str:
+    """What a restarted vehicle holds, as it said after the restart."""
+    parts = []
+    total = state.mission_total
+    if total == 65535 or state.mission_state == MissionState.NO_MISSION:
+        parts.append("it holds no mission (MISSION_CURRENT)")  # common.xml: UINT16_MAX
+    elif total is not None:
+        parts.append(f"its MISSION_CURRENT counts {total} mission items")
+    if state.home is not None:
+        lat, lon, alt = state.home
+        parts.append(f"its home is {lat:.7f}, {lon:.7f}, {alt:.1f} m AMSL")
+    return "; " + ", ".join(parts) if parts else ""
 
 
 def _last_words(state: VehicleState) -> str:
