@@ -35,7 +35,7 @@ from pathlib import Path
 from fault_relay import FaultRelay, RelayFaults
 
 from uavplan.mavlink.flightclient import FlightClient
-from uavplan.mavlink.flightmachines import GAP_S, FlightTimeouts
+from uavplan.mavlink.flightmachines import FlightTimeouts
 from uavplan.mavlink.link import VehicleLink
 from uavplan.mavlink.modes import ModeKind, mode_from_heartbeat
 from uavplan.mavlink.protocol import MissionClient, ProtocolTimeouts
@@ -52,6 +52,15 @@ SCENARIO = ROOT / "missions" / "narrow-gap.yaml"
 WRONG_SCENARIO = ROOT / "missions" / "midtown-manhattan.yaml"
 #: the wall-clock bound of one run beyond the flight itself: longer is a hang
 HANG_MARGIN_S = 90.0
+#: a stretch of the vehicle's time without a position longer than this is not observed (the
+#: judge's own figure: it is fly's GAP_S, stated here so the judgement does not lean on it)
+GAP_S = 2.0
+
+
+def gaps_of(track: Track) -> list[tuple[float, float]]:
+    """Where ``track`` has no sample for longer than :data:`GAP_S`: (from, to), its seconds."""
+    t = track.time_s
+    return [(float(t[i]), float(t[i + 1])) for i in range(len(t) - 1) if t[i + 1] - t[i] > GAP_S]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -431,6 +440,7 @@ class CaseResult:
     track_whole: str  # "yes", "no track" (no flight), or what is wrong
     final_state: str
     noticed_after_s: float | None  # the vehicle's seconds from the event to fly's word
+    noticed_after_wall_s: float | None  # the same on the ground's clock
     problems: tuple[str, ...]  # broken invariants (empty: held)
     output: str
 
@@ -504,7 +514,9 @@ def run_case(
         # the harness's fault, not fly's: on a loaded machine the event came too late
         problems.append("the case's event did not happen during the flight")
     noticed = _noticed_after(case, run)
-    return CaseResult(case.name, autopilot, seed, code, verdict, whole, final, noticed,
+    said = run.fly.first(case.notice) if case.notice else None
+    wall = None if said is None or run.event_wall is None else said - run.event_wall
+    return CaseResult(case.name, autopilot, seed, code, verdict, whole, final, noticed, wall,
                       tuple(problems), output)  # fmt: skip
 
 
@@ -632,7 +644,7 @@ def _track_whole(track: Path, run: Run, code: int | None) -> tuple[str, list[str
                 break
     if flown.relative_alt_m[0] > 0.5:
         problems.append("the track does not start on the ground")
-    gaps = flown.gaps(GAP_S)
+    gaps = gaps_of(flown)
     reported = len(re.findall(r"no telemetry from", run.fly.output if run.fly else ""))
     if len(gaps) > reported:
         problems.append(f"{len(gaps)} gaps in the track, {reported} reported")
@@ -671,7 +683,7 @@ def _complete_is_true(track: Path, run: Run, autopilot: Autopilot) -> list[str]:
     except TrackFileError:
         return [*out, "exit 0 without a track"]
     airborne = flown.relative_alt_m > 0.5
-    for a, b in flown.gaps(GAP_S):
+    for a, b in gaps_of(flown):
         i = int((flown.time_s <= a).sum()) - 1
         if airborne[i] or airborne[min(i + 1, len(flown) - 1)]:
             out.append(f"exit 0 over an unobserved stretch ({a:.1f}-{b:.1f} s)")

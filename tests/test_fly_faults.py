@@ -24,6 +24,7 @@ from fly_faults import (
     UAVPLAN,
     CaseResult,
     VehicleProcess,
+    gaps_of,
     plan_for,
     run_case,
 )
@@ -97,7 +98,7 @@ def test_a_gap_is_a_gap_and_no_clearance_is_claimed_over_it(work: Path) -> None:
     assert re.search(r"not observed in the air: [\d.]+ s", out)
     assert "where it was observed, the track kept the margin" in out
     track = Track.load(work / "outage-5s-ardupilot-1.csv")
-    assert len(track.gaps(2.0)) == 1
+    assert len(gaps_of(track)) == 1
 
 
 def test_after_a_long_gap_the_verdict_rests_on_fresh_state(work: Path) -> None:
