@@ -281,7 +281,11 @@ def _other_mode(kind: ModeKind) -> Callable[[Run], None]:
         if not _after_takeoff(run, 30.0):
             return
         command_mode(run.vehicle.address, kind)
-        run.event, run.event_wall = f"{kind.value} from another ground station", _mode_seen(run)
+        run.event = f"{kind.value} from another ground station"
+        deadline = time.monotonic() + 5.0  # the relay's thread may not have logged it yet
+        while run.event_wall is None and time.monotonic() < deadline:
+            run.event_wall = _mode_seen(run)
+            time.sleep(0.02)
 
     return act
 
@@ -596,11 +600,9 @@ def _held_mission(run: Run, autopilot: Autopilot, path: Path) -> str:
     wire = plan_wire_items(load_mission(path), MissionType.MISSION, autopilot)
     if compare_items(wire, held, MissionType.MISSION, autopilot) is None:
         return f"holds this mission ({len(held)} items)"
-    return (
-        f"holds {len(held)} items (its previous mission)"
-        if not held
-        else f"holds {len(held)} other items"
-    )
+    if not held:
+        return "holds no mission (what it held before)"
+    return f"holds {len(held)} other items"
 
 
 def _track_whole(track: Path, run: Run, code: int | None) -> tuple[str, list[str]]:

@@ -1176,6 +1176,8 @@ class _Watch:
         as much (a return's climb, a landing), or the current item moving on."""
         s = self.samples[-1]
         window = self.progress_window
+        if window and state.gaps and state.gaps[-1][1] > window[-1].time_s:
+            window.clear()  # nothing is judged across a gap: the time without progress restarts
         if not (state.armed and state.flew and s.relative_alt_m > 0.5) or (
             window and window[-1].returning != returning
         ):
