@@ -500,6 +500,8 @@ def run_case(
         if case.name == "ctrl-c-upload":
             final = _held_mission(run, autopilot, path)
     finally:
+        if run.fly is not None and run.fly.proc.poll() is None:
+            run.fly.proc.kill()  # the harness itself stopped (SIGTERM, Ctrl-C)
         relay.stop()
         for v in (vehicle, *run.spare):
             v.stop()
@@ -625,6 +627,8 @@ def _track_whole(track: Path, run: Run, code: int | None) -> tuple[str, list[str
     # track counts from its first sample: found by a sample in the air, which is unique)
     by_time = {round(p.time_s, 3): p for p in truth}
     up = [i for i in range(len(flown)) if flown.relative_alt_m[i] > 5.0]
+    if not up and not flew:
+        return "yes (on the ground)", []  # nothing to place it by: it never took off
     t0 = None
     if up:
         i = up[0]

@@ -107,7 +107,10 @@ class FlightTimeouts:
 
     ``ack_s`` for a COMMAND_ACK before re-sending the command (MAVSDK's default command
     timeout is 0.5 s, QGroundControl's 3 s; 1.5 s sits between them, as the mission
-    protocol's ack timeout), ``retries`` re-sends; ``confirm_s`` for the vehicle's telemetry
+    protocol's ack timeout), ``retries`` re-sends (six: QGroundControl and MAVSDK re-send three
+    times, but at 20 % loss each way one exchange in three fails, and a start lost to the link
+    is worse than 10.5 s of waiting for a vehicle that does not answer: four tries fail one
+    start command in 60, seven one in 1,300); ``confirm_s`` for the vehicle's telemetry
     to show an accepted command's effect (its next HEARTBEAT); ``preflight_s`` for the
     answers to the pre-flight requests; ``text_grace_s`` for the STATUSTEXT that explains a
     refusal; ``link_s`` without a message from the vehicle before the link counts as lost
@@ -115,7 +118,7 @@ class FlightTimeouts:
     missed heartbeat or two more)."""
 
     ack_s: float = 1.5
-    retries: int = 3
+    retries: int = 6
     confirm_s: float = 5.0
     preflight_s: float = 3.0
     text_grace_s: float = 0.3
