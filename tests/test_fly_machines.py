@@ -18,9 +18,11 @@ from uavplan.mavlink.flightmachines import (
     FlightTimeouts,
     MonitorEnd,
     MonitorMachine,
+    NoticeKind,
     Preflight,
     PreflightMachine,
     VehicleState,
+    WatchRules,
     arm_step,
     mode_steps,
     start_steps,
@@ -170,7 +172,7 @@ def test_the_monitor_ends_when_the_mission_is_complete_and_the_vehicle_down() ->
     assert machine.finished is None  # the mission's last item, but still flying home
     machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.6)
     assert machine.finished is None  # down: it waits for the report of where it came down
-    machine.on_message(_position(0.0, 0.0), 0.7)
+    machine.on_message(_position(11.0, 0.0), 0.7)
     assert machine.finished is MonitorEnd.COMPLETE
     assert [s.relative_alt_m for s in state.take_samples()] == [30.0, 0.0]
 
@@ -189,7 +191,11 @@ def test_a_vehicle_down_on_the_last_item_of_a_landing_mission_has_completed_it()
         machine.on_message(_position(10.0, 30.0), 0.3)
         machine.on_message(MissionCurrent(current, 10, MissionState.ACTIVE), 0.4)
         machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.5)
-        machine.on_message(_position(0.0, 0.0), 0.6)
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.55)
+        # where it disarmed is asked for again; the answers come
+        machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.56)
+        machine.on_message(MissionCurrent(current, 10, MissionState.ACTIVE), 0.57)
+        machine.on_message(_position(11.0, 0.0), 0.6)
         assert machine.finished is end
 
 
@@ -198,13 +204,203 @@ def test_the_monitor_reports_silence_as_a_lost_link_and_an_early_landing() -> No
     machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True)
     machine.start(0.0)
     machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 1.0)
+    assert machine.deadline == pytest.approx(3.0)  # quiet for WatchRules.quiet_s: said
+    machine.on_timeout(3.0)
+    assert machine.finished is None
+    assert [n.kind for n in state.notices] == [NoticeKind.LINK_QUIET]
     assert machine.deadline == pytest.approx(4.0)
     machine.on_timeout(4.0)
     assert machine.finished is MonitorEnd.LINK_LOST
-    early = MonitorMachine(VehicleState(AP), TARGET, T, last_seq=9, lands=True)
+    early = MonitorMachine(VehicleState(AP, armed=True), TARGET, T, last_seq=9, lands=True)
     early.start(0.0)
     early.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.1)
     early.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.2)
+    early.on_message(_position(5.0, 20.0), 0.25)
     early.on_message(heartbeat(AP, ModeKind.LAND, armed=False), 0.3)
+    early.on_message(heartbeat(AP, ModeKind.LAND, armed=False), 0.4)
+    assert early.finished is None  # where did it disarm? asked
+    early.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.5)
+    early.on_message(_position(6.0, 0.0), 0.6)
+    early.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.7)
     assert early.finished is MonitorEnd.LANDED_EARLY
     assert "disarmed, in LAND, at mission item 4/9" in early.state.describe()
+
+
+# ---------------------------------------------------------------------------------------------
+# Telemetry as it really arrives (issue 31)
+
+
+def _recording(autopilot: Autopilot = AP) -> VehicleState:
+    state = VehicleState(autopilot, armed=True)
+    state.recording = True
+    return state
+
+
+def test_samples_are_taken_in_the_vehicles_time_order_duplicates_and_late_copies_dropped() -> None:
+    state = _recording()
+    for t in (1.0, 1.2, 1.2, 1.4, 1.1, 1.6, 1.4, 1.8):  # a duplicate, two late copies
+        state.update(_position(t, 30.0), 0.0)
+    assert [s.time_s for s in state.take_samples()] == [1.0, 1.2, 1.4, 1.6, 1.8]
+    assert (state.duplicates, state.late) == (1, 2)
+    assert state.restarts == [] and state.gaps == []
+
+
+def test_a_clock_that_goes_back_and_stays_back_is_a_restart() -> None:
+    state = _recording()
+    for t in (100.0, 100.2, 100.4):
+        state.update(_position(t, 30.0), 1.0)
+    state.update(_position(3.0, 0.0), 2.0)
+    state.update(_position(3.2, 0.0), 2.1)
+    assert state.restarts == []  # two samples could be late copies of a delayed burst
+    state.update(_position(3.4, 0.0), 2.2)
+    (restart,) = state.restarts
+    assert (restart.before_s, restart.after_s) == (100.4, 3.0)
+    samples = state.take_samples()
+    assert [(s.time_s, s.epoch) for s in samples] == [
+        (100.0, 0), (100.2, 0), (100.4, 0), (3.0, 1), (3.2, 1), (3.4, 1)
+    ]  # fmt: skip
+
+
+def test_a_stretch_without_positions_is_a_gap() -> None:
+    state = _recording()
+    for t in (10.0, 10.2, 10.4, 12.4, 16.0, 16.2):  # 2.0 s is still observed, 3.6 s is not
+        state.update(_position(t, 30.0), 0.0)
+    assert state.gaps == [(12.4, 16.0)]
+
+
+def _flying(autopilot: Autopilot = AP, **kw: object) -> tuple[VehicleState, MonitorMachine]:
+    state = VehicleState(autopilot, armed=True)
+    machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True, return_seq=9, **kw)  # type: ignore[arg-type]
+    machine.start(0.0)
+    state.recording = True
+    machine.on_message(heartbeat(autopilot, ModeKind.MISSION, armed=True), 0.01)
+    machine.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.02)
+    machine.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.03)
+    machine.on_message(_position(50.0, 30.0), 0.04)
+    return state, machine
+
+
+def test_a_mode_another_ground_station_commanded_is_said_at_once_and_ends_the_watch() -> None:
+    from uavplan.mavlink.messages import Received
+
+    state, machine = _flying(rules=WatchRules(takeover_wait_s=10.0))
+    ack = CommandAck(MavCommand.DO_SET_MODE, MavResult.ACCEPTED, 255, 191)
+    machine.on_overheard(Received(ack, 1, 1), 0.05)
+    machine.on_message(heartbeat(AP, ModeKind.HOLD, armed=True), 0.06)
+    assert not state.notices  # one heartbeat could be a late copy
+    machine.on_message(heartbeat(AP, ModeKind.HOLD, armed=True), 0.07)
+    (notice,) = state.notices
+    assert notice.kind is NoticeKind.MODE_CHANGED and notice.takeover
+    assert "LOITER, commanded by another ground station (system 255, component 191)" in notice.text
+    for k in range(1, 50):  # 9.8 s of the vehicle's time, holding
+        machine.on_message(_position(50.0 + 0.2 * k, 30.0), 0.1 + k / 1000)
+    assert machine.finished is None  # it waits the stated time for the mission to go on
+    machine.on_message(_position(60.0, 30.0), 0.2)
+    assert machine.finished is MonitorEnd.HELD
+
+
+def test_the_mission_resuming_in_time_goes_on() -> None:
+    state, machine = _flying(rules=WatchRules(takeover_wait_s=10.0))
+    for t in (0.1, 0.2):
+        machine.on_message(heartbeat(AP, ModeKind.HOLD, armed=True), t)
+    for t in (0.3, 0.4):
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), t)
+    machine.on_message(_position(51.0, 30.0), 0.5)
+    assert machine.finished is None
+    assert [n.kind for n in state.notices] == [NoticeKind.MODE_CHANGED, NoticeKind.MISSION_RESUMED]
+
+
+def test_the_missions_own_return_is_no_change() -> None:
+    state, machine = _flying()
+    machine.on_message(MissionCurrent(9, 9, MissionState.ACTIVE), 0.1)
+    for t in (0.2, 0.3):
+        machine.on_message(heartbeat(AP, ModeKind.RETURN, armed=True), t)
+    assert not state.notices
+
+
+def test_a_new_mission_count_is_said_and_ends_the_watch_a_lone_late_copy_is_not() -> None:
+    state, machine = _flying()
+    machine.on_message(MissionCurrent(5, 4, MissionState.ACTIVE), 0.1)  # once: maybe stale
+    machine.on_message(MissionCurrent(5, 9, MissionState.ACTIVE), 0.2)
+    assert not state.notices
+    machine.on_message(MissionCurrent(0, 6, MissionState.ACTIVE), 0.3)
+    machine.on_message(MissionCurrent(0, 6, MissionState.ACTIVE), 0.4)
+    assert [n.kind for n in state.notices] == [NoticeKind.MISSION_CHANGED]
+    assert machine.finished is None  # the state is asked for again before the end
+    machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 0.5)
+    machine.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.6)
+    machine.on_message(_position(51.0, 30.0), 0.7)
+    assert machine.finished is MonitorEnd.MISSION_CHANGED
+
+
+def test_a_home_that_moves_is_said() -> None:
+    state, machine = _flying()
+    machine.on_message(HomePosition(473977420, 85455940, 488000), 0.1)
+    moved = HomePosition(473987420, 85455940, 488000)  # 111 m north
+    machine.on_message(moved, 0.2)
+    machine.on_message(moved, 0.3)
+    (notice,) = state.notices
+    assert notice.kind is NoticeKind.HOME_MOVED and "moved 111.2 m" in notice.text
+
+
+def test_a_disarm_in_the_air_ends_the_watch_on_fresh_state() -> None:
+    state, machine = _flying()
+    for t in (0.1, 0.2):
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), t)
+    assert machine.finished is None
+    machine.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.3)
+    machine.on_message(MissionCurrent(4, 9, MissionState.ACTIVE), 0.35)
+    machine.on_message(_position(51.0, 25.0), 0.4)
+    assert machine.finished is MonitorEnd.DISARMED_IN_AIR
+    assert state.notices[-1].kind is NoticeKind.DISARMED
+
+
+def test_after_a_gap_the_ending_rests_on_state_asked_for_again() -> None:
+    """Issue 31's stale verdict: the vehicle finished during a gap and landed; the first
+    messages after it mix a new armed bit with the old item, position and landed state.
+    The monitor asks again, and ends with what the answers say."""
+    state, machine = _flying()
+    out = machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 20.0)  # silence
+    kinds = [n.kind for n in state.notices]
+    assert kinds == [NoticeKind.LINK_BACK]
+    asked = {m.param1 for m in out if m.command == MavCommand.REQUEST_MESSAGE}  # type: ignore[union-attr]
+    assert asked >= {0.0, 42.0, 245.0, 33.0, 242.0}
+    machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 20.1)
+    assert machine.finished is None  # not "landed early at item 4, in the air"
+    machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 20.2)
+    machine.on_message(MissionCurrent(9, 9, MissionState.COMPLETE), 20.3)
+    assert machine.finished is None
+    machine.on_message(_position(320.0, 0.0), 20.4)
+    assert machine.finished is MonitorEnd.COMPLETE
+    assert state.gaps == [(50.0, 320.0)]
+    assert [n.kind for n in state.notices] == [NoticeKind.LINK_BACK, NoticeKind.GAP]
+
+
+def test_a_restart_is_said_and_ends_the_watch_once_the_state_is_read_again() -> None:
+    state, machine = _flying()
+    machine.on_message(HomePosition(473977420, 85455940, 488000), 0.05)
+    out: list = []
+    for i, t in enumerate((2.0, 2.2, 2.4)):
+        out += machine.on_message(_position(t, 0.0), 0.1 + i / 100)
+    assert [n.kind for n in state.notices] == [NoticeKind.RESTART]
+    commands = {m.command for m in out}  # type: ignore[union-attr]
+    assert MavCommand.SET_MESSAGE_INTERVAL in commands  # the new boot forgot the streams
+    assert machine.finished is None
+    for message in (
+        heartbeat(AP, ModeKind.MANUAL, armed=False),
+        ExtendedSysState(0, LandedState.ON_GROUND),
+        MissionCurrent(0, 0, MissionState.NO_MISSION),
+        HomePosition(473977420, 85455940, 488000),
+        _position(2.6, 0.0),
+    ):
+        machine.on_message(message, 0.2)
+    assert machine.finished is MonitorEnd.RESTARTED
+
+
+def test_silence_is_said_before_the_link_counts_as_lost() -> None:
+    state, machine = _flying()
+    assert machine.deadline == pytest.approx(0.04 + 2.0)
+    machine.on_timeout(2.04)
+    assert [n.kind for n in state.notices] == [NoticeKind.LINK_QUIET]
+    assert "nothing heard from the vehicle for 2.0 s" in state.notices[0].text
+    assert machine.finished is None

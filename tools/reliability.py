@@ -12,7 +12,10 @@ One command runs everything and writes the document (the command is written at i
 * the link chaos table: ``python tools/link_chaos.py --markdown --runs N`` (its own
   command; a clear line when the tool is not there);
 * the mock-vehicle abuse and race tests (``tests/test_*abuse*.py``, ``*race*``, ``*chaos*``):
-  trials run and held, per test.
+  trials run and held, per test;
+* ``uavplan fly`` under faults: ``python tools/fly_faults.py --markdown`` (its own command:
+  every case of issue 31, both flavours, three seeds, judged against the vehicle's own
+  positions; a clear line when the tool is not there).
 
 Counts are what this run saw; nothing is copied from an earlier run. Exit status 0 when the
 document was written (even when some checks failed: the document says which), 2 on bad
@@ -39,6 +42,9 @@ DOC = ROOT / "docs" / "reliability.md"
 MISSION_FUZZ = "tests/test_fuzz_mission_files.py"
 USER_ERRORS = "tests/test_user_errors.py"
 LINK_CHAOS = "tools/link_chaos.py"
+FLY_FAULTS = "tools/fly_faults.py"
+#: the fly fault table flies 72 missions of minutes: it gets this long at least
+FLY_FAULTS_TIMEOUT_S = 3 * 3600
 ABUSE_GLOBS = ("test_*abuse*.py", "test_*race*.py", "test_*chaos*.py")
 #: a suite that runs longer than this is stopped and reported as such
 SUITE_TIMEOUT_S = 3600
@@ -278,6 +284,27 @@ def link_chaos_section(runs: int, timeout_s: float) -> list[str]:
     return lines
 
 
+def fly_faults_section(timeout_s: float) -> list[str]:
+    lines = ["## Flying through faults (issue 31)", ""]
+    tool = ROOT / FLY_FAULTS
+    command = f"python {FLY_FAULTS} --markdown"
+    if not tool.exists():
+        return [*lines, f"`{FLY_FAULTS}` is not on this branch (it would be `{command}`).", ""]
+    limit = max(timeout_s, FLY_FAULTS_TIMEOUT_S)
+    try:
+        proc = subprocess.run(
+            [sys.executable, str(tool), "--markdown"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=limit,
+        )
+    except subprocess.TimeoutExpired:
+        return [*lines, f"`{command}` did not finish within {limit:.0f} s.", ""]
+    lines += [f"`{command}` exited {proc.returncode}:", "", proc.stdout.strip(), ""]
+    return lines
+
+
 def abuse_section(timeout_s: float) -> list[str]:
     lines = ["## Mock vehicle under abuse, races", ""]
     files = sorted(
@@ -329,6 +356,7 @@ def main(argv: list[str] | None = None) -> int:
         lambda: user_error_section(args.timeout),
         lambda: link_chaos_section(args.runs, args.timeout),
         lambda: abuse_section(args.timeout),
+        lambda: fly_faults_section(args.timeout),
     ):
         lines = section()
         print(f"reliability: {lines[0].lstrip('# ')} done", file=sys.stderr)

@@ -1,29 +1,40 @@
 """``fly``: fly a mission file on a vehicle, from the pre-flight checks to the landing.
 
-Before the flight (nothing moves until each passes): the vehicle's heartbeat and autopilot;
-whether it can arm (SYS_STATUS's pre-arm check and MAV_CMD_RUN_PREARM_CHECKS, whose
-STATUSTEXT is quoted); its home against the plan's planned home (:data:`HOME_TOLERANCE_M`);
-its onboard mission against the file (downloaded and compared item by item), uploaded and
-verified when it differs or with ``--upload``. The flight model's prediction for the vehicle's
-flavour is the reference the flight is compared with.
+Before the flight (nothing moves until each passes): with ``--scenario``, the mission against
+the scenario exactly as ``validate`` checks it (a mission from elsewhere is exit 2, one that
+breaks the margin exit 3); the vehicle's heartbeat and autopilot; whether it can arm
+(SYS_STATUS's pre-arm check and MAV_CMD_RUN_PREARM_CHECKS, whose STATUSTEXT is quoted); its
+home against the plan's planned home (:data:`HOME_TOLERANCE_M`); its onboard mission against
+the file (downloaded and compared item by item), uploaded and verified when it differs or with
+``--upload``. A Ctrl-C during the upload cancels it as the protocol says and then says what
+the vehicle holds (:func:`_upload_interrupted`). The flight model's prediction for the
+vehicle's flavour is the reference the flight is compared with.
 
 Then it starts the mission the way the firmware expects
-(:func:`uavplan.mavlink.flightmachines.start_steps`) and follows it: a progress line (item
-k/N, distance to go, ETA, altitude, speed, battery), the cross-track error from the planned
-legs and, with a scenario, the clearance from obstacles and terrain of every stretch flown
-(the one check, :func:`uavplan.flight.check_flight`), warning when either crosses its limit.
+(:func:`uavplan.mavlink.flightmachines.start_steps`) and follows it
+(:class:`~uavplan.mavlink.flightmachines.MonitorMachine`): the telemetry in the vehicle's own
+time order, a progress line (item k/N, distance to go, ETA, altitude, speed, battery; off a
+terminal a status line every :data:`STATUS_EVERY_S` of the vehicle's time), the vehicle's
+warnings as they come, every change behind its back as it is noticed, the cross-track error
+from the planned legs and, with a scenario, the clearance of every stretch flown: each new
+breach of the margin and each metre closer (:class:`_Watch`).
 
 Endings: the mission complete and the vehicle down (or the last item done, for a mission
-that does not land) is the outcome; Ctrl-C puts the vehicle into ``on_interrupt`` mode and
-confirms it (outcome ``interrupted``); a lost link, a refusal and a landing before the end
-raise :class:`~uavplan.errors.LinkError` (exit 4) saying what the vehicle last did or said.
-The flown track is written (atomically) whatever the ending.
+that does not land), the whole flight observed and (with a scenario) the whole observed track
+keeping the margin is the one success (exit 0); a track closer than the margin is exit 3; a
+lost link, a refusal, a landing before the end, a restart, another ground station's takeover,
+no progress for ``stall_s``, a stretch of the flight not observed is exit 4 saying what the
+vehicle last did or said, on state asked for after the last gap. Ctrl-C puts the vehicle into
+``on_interrupt`` mode and confirms it (outcome ``interrupted``). The flown track is written
+(atomically) whatever the ending.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,30 +43,38 @@ import numpy as np
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import check_output
 from uavplan.config import Autopilot
-from uavplan.errors import InputError, LinkError
+from uavplan.errors import InputError, LinkError, NoPathError
 from uavplan.fileio import InputFile
-from uavplan.flight import Flight, TrackCheck, check_flight
+from uavplan.flight import Flight, TrackCheck, flight_clearance, flight_of_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mavlink.flightclient import FlightClient
 from uavplan.mavlink.flightmachines import (
+    GAP_S,
     CommandOutcome,
     FlightTimeouts,
     MonitorEnd,
+    Notice,
+    NoticeKind,
     TelemetrySample,
     VehicleState,
+    WatchRules,
     disarm_step,
+    flight_clock,
 )
 from uavplan.mavlink.link import VehicleLink
-from uavplan.mavlink.messages import LandedState
+from uavplan.mavlink.machines import TransferStatus
+from uavplan.mavlink.messages import LandedState, MissionState, Severity
 from uavplan.mavlink.modes import ModeKind
 from uavplan.mavlink.protocol import MissionClient, ProtocolTimeouts
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
 from uavplan.mission.io import load_mission
-from uavplan.mission.items import MavCmd, MissionPlan, MissionType
-from uavplan.mission.track import Track, check_track_path
+from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
+from uavplan.mission.track import Track, check_track_path, observed_stretches
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearse, return_seq
-from uavplan.scenario import load_scenario
+from uavplan.route import keeps_margin
+from uavplan.scenario import Scenario, load_scenario
 from uavplan.sim.simulate import MissionRefused, distance_to_polyline
+from uavplan.world import CEILING, GROUND
 
 #: how far the vehicle's home may be from the plan's planned home before ``fly`` refuses
 #: (horizontal m, vertical m): about a GPS's horizontal error and a few metres of height, so
@@ -66,11 +85,36 @@ HOME_TOLERANCE_M = (10.0, 3.0)
 ON_INTERRUPT = {"hold": ModeKind.HOLD, "rtl": ModeKind.RETURN, "land": ModeKind.LAND}
 #: the progress line is redrawn at most this often (wall seconds)
 PROGRESS_EVERY_S = 0.2
+#: new samples are measured (cross-track, clearance, progress) at most this often (wall s)
+PROCESS_EVERY_S = 0.1
+#: off a terminal, a status line this often (vehicle seconds), so a log never goes quiet
+STATUS_EVERY_S = 30.0
+#: the vehicle makes no progress when its distance to go shrank by less than this over
+#: ``stall_s`` (m) and its current item did not move on
+STALL_PROGRESS_M = 10.0
+#: the ETA against the battery uses the progress over this long (vehicle seconds)
+BATTERY_WINDOW_S = 30.0
+#: a breach of the margin is said again each time the track comes this much closer (m)
+CLOSER_STEP_M = 1.0
+#: the same STATUSTEXT again within this long (wall s) is not printed twice
+TEXT_REPEAT_S = 5.0
+#: how long, after a Ctrl-C during the upload, ``fly`` waits to learn what the vehicle holds
+#: (wall s): ArduPilot ignores the cancel and leaves the transfer 8 s after the last item
+#: (libraries/GCS_MAVLink/MissionItemProtocol.h, upload_timeout_ms; MissionItemProtocol::update),
+#: PX4 leaves it at once (src/modules/mavlink/mavlink_mission.cpp,
+#: MavlinkMissionManager::handle_mission_ack)
+UPLOAD_SETTLE_S = 10.0
+#: how long the verdict waits for the state asked for after the flight (wall s)
+REFRESH_S = 2.0
 
 
 class VehicleRefused(LinkError):
     """The vehicle said no (a pre-arm check, a mode, an arming, a home, a mission): exit 4,
     the message quoting what it said."""
+
+
+class FlightUnsafe(NoPathError):
+    """The flown track came closer than the margin (or left the flight volume): exit 3."""
 
 
 @dataclass(frozen=True)
@@ -93,12 +137,102 @@ class FlyRequest:
     target_system: int | None = None
     heartbeat_timeout_s: float = 5.0
     link_timeout_s: float = 5.0
+    #: no progress for this long (vehicle seconds) ends the watch (docs/flying.md)
+    stall_s: float = 60.0
+    #: a mode ``fly`` did not command may last this long (vehicle seconds)
+    takeover_wait_s: float = 30.0
     timeouts: ProtocolTimeouts = field(default_factory=ProtocolTimeouts)
 
 
 @dataclass(frozen=True, eq=False)
+class ObservedCheck:
+    """The whole observed flight measured by the one check, stretch by stretch: ``checks``
+    one :class:`~uavplan.flight.TrackCheck` per stretch of two samples or more (no line is
+    drawn across a gap: :data:`~uavplan.mavlink.flightmachines.GAP_S`), ``unobserved`` the
+    gaps between the stretches, (from, to) in the track's seconds."""
+
+    checks: tuple[TrackCheck, ...]
+    unobserved: tuple[tuple[float, float], ...]
+    margin_m: float
+    site: CheckSite | None = None
+
+    @property
+    def worst(self) -> TrackCheck | None:
+        if not self.checks:
+            return None
+        outside = [c for c in self.checks if c.outside is not None]
+        if outside:
+            return outside[0]
+        return min(self.checks, key=lambda c: c.min_clearance_m)
+
+    @property
+    def min_clearance_m(self) -> float:
+        worst = self.worst
+        return math.inf if worst is None else worst.min_clearance_m
+
+    @property
+    def nearest(self) -> str:
+        worst = self.worst
+        return "nothing" if worst is None else worst.nearest
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    @property
+    def unobserved_s(self) -> float:
+        return float(sum(b - a for a, b in self.unobserved))
+
+    def problem(self) -> str | None:
+        worst = self.worst
+        if worst is None or worst.ok:
+            return None
+        if worst.outside is not None or self.site is None:
+            return worst.problem()
+        # the check measured the line thinned to within THIN_TOL_M: say when the vehicle was
+        # nearest on the samples of its worst segment, not when that segment began
+        sample, what = _nearest_sample(worst, self.site)
+        return (
+            f"{worst.when(sample)} the track comes within {worst.min_clearance_m:.2f} m of "
+            f"{what} (safety margin {worst.margin_m:g} m)"
+        )
+
+
+def _nearest_sample(check: TrackCheck, site: CheckSite) -> tuple[int, str]:
+    """The track sample after the stretch between two samples that comes nearest to what
+    ``check``'s worst segment (of its thinned line) comes closest to, and what that is."""
+    segment = check.check.worst
+    first, last = int(check.samples[segment]), int(check.samples[segment + 1])
+    if last - first < 2:
+        return last, check.nearest
+    part = check.track.between(first, last + 1)
+    points = flight_of_track(part, site.frame, datum_amsl_m=site.datum_amsl_m, lands=False)
+    dist, owner, _ = flight_clearance(site.world, Flight(points.points_enu, (0, last - first)))
+    k = int(np.argmin(dist))
+    return first + k + 1, _owner_name(int(owner[k]), site)
+
+
+def check_observed_flight(track: Track, site: CheckSite, *, lands: bool) -> ObservedCheck:
+    """``track`` from its first sample to its last (take-off, route, return and landing
+    alike) measured by the one check (:meth:`CheckSite.check`), each observed stretch on its
+    own: the first from the ground (its take-off), the last to the ground when the flight
+    ended there (``lands``), those between wholly in the air. This is the one call to rewire
+    when the whole-flight verdict moves (issue 37)."""
+    stretches = observed_stretches(track.time_s, GAP_S)
+    checks: list[TrackCheck] = []
+    last = len(stretches) - 1
+    for i, (start, stop) in enumerate(stretches):
+        if stop - start < 2:
+            continue
+        part = track.between(start, stop)
+        checks.append(site.check(part, takes_off=i == 0, lands=lands and i == last))
+    return ObservedCheck(tuple(checks), tuple(track.gaps(GAP_S)), site.margin_m, site)
+
+
+@dataclass(frozen=True, eq=False)
 class FlyOutcome:
-    """A flight that ended on the ground (or done in the air), or an interrupted one."""
+    """A flight that ended on the ground (or done in the air) with the whole flight
+    observed and kept clear, or an interrupted one."""
 
     file: str
     vehicle: str
@@ -109,8 +243,10 @@ class FlyOutcome:
     airborne_s: float | None
     predicted_airborne_s: float | None
     max_cross_track_m: float
-    check: TrackCheck | None = None
+    check: ObservedCheck | None = None
     interrupt_mode: str | None = None
+    #: what an interrupted upload left on the vehicle, in words (None: not interrupted there)
+    holds: str | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -118,6 +254,8 @@ class FlyOutcome:
 
     def summary(self) -> str:
         name = Path(self.file).name
+        if self.holds is not None:
+            return f"{name}: interrupted during the upload; {self.vehicle} {self.holds}"
         if self.interrupted:
             return (
                 f"{name}: interrupted; {self.vehicle} is in {self.interrupt_mode} "
@@ -135,14 +273,13 @@ class FlyOutcome:
         if self.check is not None:
             text += (
                 f", min clearance {self.check.min_clearance_m:.2f} m from {self.check.nearest} "
-                f"(margin {self.check.margin_m:g} m)"
+                f"(margin {self.check.margin_m:g} m, the whole flight observed)"
             )
         return text
 
 
 def _minutes(seconds: float) -> str:
-    minutes, rest = divmod(round(seconds), 60)
-    return f"{minutes} min {rest:02d} s"
+    return flight_clock(seconds)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -163,10 +300,13 @@ def fly(request: FlyRequest, feedback: Feedback) -> FlyOutcome:
             "vehicle's home before the flight",
             file=request.mission,
         )
-    scenario = None if request.scenario is None else load_scenario(request.scenario)
-    if scenario is not None and request.track:  # nor any file of the scenario
-        check_output(request.track, *scenario.files)
-    site = None if scenario is None else CheckSite.of_scenario(scenario)
+    site = None
+    if request.scenario is not None:
+        scenario = load_scenario(request.scenario)
+        if request.track:  # nor any file of the scenario
+            check_output(request.track, *scenario.files)
+        check_scenario_matches(request.mission, plan, request.scenario, scenario)
+        site = CheckSite.of_scenario(scenario)
     link = VehicleLink.connect(
         request.conn,
         target_system=request.target_system,
@@ -174,6 +314,29 @@ def fly(request: FlyRequest, feedback: Feedback) -> FlyOutcome:
     )
     with link:
         return _fly_on(link, plan, site, kind, request, feedback)
+
+
+def check_scenario_matches(file: str, plan: MissionPlan, path: str, scenario: Scenario) -> None:
+    """The mission against ``--scenario`` before anything is sent, as ``validate MISSION
+    --scenario S`` checks it: a mission whose home is not in the scenario's area is another
+    place's (exit 2); then :func:`uavplan.app.check.validate` itself (a mission that breaks
+    the margin or leaves the flight volume is exit 3, one over the battery budget exit 2)."""
+    from uavplan.app.check import validate
+
+    assert plan.home is not None
+    site = CheckSite.of_scenario(scenario)
+    ((x, y),) = site.frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg])
+    (x0, x1), (y0, y1) = scenario.bounds.x_m, scenario.bounds.y_m
+    away = math.hypot(max(x0 - x, 0.0, x - x1), max(y0 - y, 0.0, y - y1))
+    if away > HOME_TOLERANCE_M[0]:
+        distance = f"{away / 1000.0:.1f} km" if away >= 1000.0 else f"{away:.0f} m"
+        raise InputError(
+            f"the mission's home ({plan.home.lat_deg:.6f}, {plan.home.lon_deg:.6f}) is "
+            f"{distance} outside scenario {scenario.name}'s area: this mission was not planned "
+            "for it (give the scenario it was planned in, as validate does)",
+            file=file,
+        )
+    validate(file, path)
 
 
 def _fly_on(
@@ -219,7 +382,10 @@ def _fly_on(
     _check_home(plan, pre.home, request.home_tolerance_m)
     feedback.say("pre-flight: ready to arm, home matches the plan")
     _vehicle_parameters(link, plan, request, feedback)
-    uploaded = _mission_on_board(link, plan, autopilot, request, feedback)
+    try:
+        uploaded = _mission_on_board(link, plan, autopilot, request, feedback)
+    except _UploadInterrupted as stopped:
+        return _upload_interrupted(link, plan, autopilot, request, feedback, who, stopped)
 
     # the reference: the flight model flying this mission as this vehicle's flavour
     reference: Rehearsal | None = None
@@ -235,12 +401,15 @@ def _fly_on(
 
     # -- start ------------------------------------------------------------------------------
     # from here a Ctrl-C is polled (the vehicle is put into --on-interrupt's mode); a second
-    # one stops at once
-    watch = _Watch(plan, autopilot, site, request.max_deviation_m, feedback, reference)
-    with feedback.polled():
-        return _fly_started(
-            client, plan, site, kind, request, feedback, watch, reference, who, uploaded
-        )
+    # one stops at once. The track is written however this ends.
+    watch = _Watch(plan, autopilot, site, request, feedback, client.state)
+    watch.uploaded = uploaded
+    try:
+        with feedback.polled():
+            return _fly_started(client, plan, site, kind, request, feedback, watch, reference, who)
+    finally:
+        watch.tick(client.state, final=True)
+        watch.save(request.track)
 
 
 def _fly_started(
@@ -253,7 +422,6 @@ def _fly_started(
     watch: _Watch,
     reference: Rehearsal | None,
     who: str,
-    uploaded: bool,
 ) -> FlyOutcome:
     autopilot = client.link.vehicle.autopilot
     should_stop = feedback.should_stop
@@ -262,7 +430,6 @@ def _fly_started(
         return _interrupted(client, kind, watch, request, who)
     if not started.ok:
         watch.tick(client.state, final=True)
-        watch.save(request.track)
         if client.state.armed and client.state.on_ground:
             # armed on the ground by the refused start: leave it disarmed, as it was
             client.commands([disarm_step()])
@@ -274,43 +441,188 @@ def _fly_started(
     end = client.monitor(
         last_seq=len(wire) - 1,
         lands=_lands(wire),
+        return_seq=return_seq(plan, autopilot),
+        land_seq=_land_seq(wire),
+        rules=WatchRules(takeover_wait_s=request.takeover_wait_s),
         should_stop=should_stop,
         on_tick=watch.tick,
     )
-    watch.tick(client.state, final=True)
+    watch.tick(client.state)
     if end is None:
         return _interrupted(client, kind, watch, request, who)
+    return _verdict(client, end, kind, watch, request, reference, who)
+
+
+def _verdict(
+    client: FlightClient,
+    end: MonitorEnd,
+    kind: ModeKind,
+    watch: _Watch,
+    request: FlyRequest,
+    reference: Rehearsal | None,
+    who: str,
+) -> FlyOutcome:
+    """The one verdict on the flight: success only when the mission completed, nothing
+    changed behind ``fly``'s back, the whole flight was observed and (with a scenario) the
+    whole observed track kept the margin."""
+    state = client.state
+    action = ""
+    if end is MonitorEnd.STALLED:
+        action = _on_stall(client, kind, watch)
+    machine = client.monitor_machine
+    if end is not MonitorEnd.LINK_LOST and (watch.gaps_in_air() or watch.takeovers()):
+        missing = client.refresh(REFRESH_S)  # the last word rests on fresh state
+        if missing:
+            action += f" (not confirmed since the last gap: {', '.join(missing)})"
+    elif machine is not None and machine.unconfirmed:
+        action += f" (not confirmed since the last gap: {', '.join(machine.unconfirmed)})"
+    watch.tick(state, final=True)
     track = watch.save(request.track)
-    if end is MonitorEnd.LINK_LOST:
-        raise LinkError(
-            f"lost the link to {who}: nothing heard for {request.link_timeout_s:g} s; the "
-            f"vehicle was last {client.state.describe()}" + _last_words(client.state),
-            step="flight",
-        )
-    if end is MonitorEnd.LANDED_EARLY:
-        raise VehicleRefused(
-            f"{who} landed and disarmed before the mission was complete: it was last "
-            f"{client.state.describe()}" + _last_words(client.state),
-            step="flight",
-        )
+    landed = state.landed_state == LandedState.ON_GROUND or (
+        not state.armed and end is not MonitorEnd.LINK_LOST
+    )
     check = None
-    if site is not None and len(track) >= 2:
-        # the whole observed flight, take-off to touchdown, its return to launch included
-        # (issue 37: the check stopped where the return began and passed a return that flew
-        # through buildings)
-        check = site.check(track, lands=bool(track.relative_alt_m[-1] <= 1.0))
+    if watch.site is not None and len(track) >= 2:
+        check = check_observed_flight(track, watch.site, lands=landed)
+    problems = _problems(end, state, watch, action)
+    if check is not None and not check.ok:
+        raise FlightUnsafe(_verdict_text(who, end, state, watch, check, problems, unsafe=True))
+    if problems:
+        raise LinkError(
+            _verdict_text(who, end, state, watch, check, problems, unsafe=False), step="flight"
+        )
     return FlyOutcome(
         request.mission,
         who,
-        autopilot,
+        state.autopilot,
         end,
         track,
-        uploaded,
+        watch.uploaded,
         airborne_time(track),
         _predicted_airborne(reference),
         watch.max_cross_track_m,
         check,
     )
+
+
+def _problems(end: MonitorEnd, state: VehicleState, watch: _Watch, action: str) -> list[str]:
+    """Why the flight is not a success, in words (empty: it is one)."""
+    out: list[str] = []
+    last = f"it was last {state.describe()}" + _last_words(state)
+    match end:
+        case MonitorEnd.COMPLETE | MonitorEnd.COMPLETE_IN_AIR:
+            pass
+        case MonitorEnd.LINK_LOST:
+            out.append(
+                f"lost the link: nothing heard for {watch.request.link_timeout_s:g} s; the "
+                f"vehicle goes on without this ground station; {last}"
+            )
+        case MonitorEnd.LANDED_EARLY:
+            out.append(f"the vehicle landed and disarmed before the mission was complete: {last}")
+        case MonitorEnd.RESTARTED:
+            out.append(
+                "the vehicle restarted during the flight: the mission it was flying was "
+                f"interrupted; after the restart {state.describe()}{_holds(state)}"
+                + _last_words(state)
+            )
+        case MonitorEnd.MISSION_CHANGED:
+            out.append(
+                "the vehicle was given another mission during the flight: this one is no longer "
+                f"flown and fly stops watching; {state.describe()}"
+            )
+        case MonitorEnd.HELD:
+            mode = "a mode fly did not command" if state.mode is None else state.mode.name
+            out.append(
+                f"the vehicle stayed in {mode} for {watch.request.takeover_wait_s:g} s of its "
+                f"time: it is no longer flying this mission and fly stops watching; "
+                f"{state.describe()}"
+            )
+        case MonitorEnd.DISARMED_IN_AIR:
+            out.append(f"the vehicle disarmed in the air: {last}")
+        case MonitorEnd.STALLED:
+            out.append(
+                f"no progress for {watch.request.stall_s:g} s of the vehicle's time{action}; "
+                f"{state.describe()}" + _last_words(state)
+            )
+    changes = [n.line() for n in watch.takeovers()]
+    if changes:
+        out.append("changed behind fly's back: " + "; ".join(changes))
+    gaps = watch.gaps_in_air()
+    if gaps:
+        spans = ", ".join(f"{flight_clock(a)} to {flight_clock(b)}" for a, b in gaps)
+        total = sum(b - a for a, b in gaps)
+        out.append(f"not observed in the air: {total:.1f} s ({spans} into the flight)")
+    if end is not MonitorEnd.STALLED and action:
+        out.append(action.strip())
+    return out
+
+
+def _verdict_text(
+    who: str,
+    end: MonitorEnd,
+    state: VehicleState,
+    watch: _Watch,
+    check: ObservedCheck | None,
+    problems: list[str],
+    *,
+    unsafe: bool,
+) -> str:
+    head = f"{who}: "
+    parts: list[str] = []
+    if unsafe and check is not None:
+        parts.append(f"the flown track breaks the margin: {check.problem()}")
+    if end in (MonitorEnd.COMPLETE, MonitorEnd.COMPLETE_IN_AIR):
+        parts.append(
+            "the mission completed" + (" and the vehicle landed" if state.on_ground else "")
+        )
+    parts.extend(problems)
+    if check is not None:
+        if check.unobserved:
+            seen = "where it was observed"
+        elif end in (MonitorEnd.COMPLETE, MonitorEnd.COMPLETE_IN_AIR, MonitorEnd.LANDED_EARLY):
+            seen = "the whole flight"
+        else:
+            seen = "as far as it was watched"
+        if check.ok:
+            parts.append(
+                f"{seen}, the track kept the margin (min clearance {check.min_clearance_m:.2f} m "
+                f"from {check.nearest}, margin {check.margin_m:g} m)"
+            )
+        elif not unsafe:
+            parts.append(f"{seen}: {check.problem()}")
+    return head + "; ".join(parts)
+
+
+def _on_stall(client: FlightClient, kind: ModeKind, watch: _Watch) -> str:
+    """No progress: the vehicle is put into the ``--on-interrupt`` mode (what the operator
+    asked for when ``fly`` lets go), unless it is in it already or another ground station
+    took it over (``fly`` does not fight one). What was done, in words."""
+    state = client.state
+    if any(n.kind is NoticeKind.MODE_CHANGED for n in watch.takeovers()):
+        return "; fly left it as another ground station or the vehicle set it"
+    if state.mode is not None and state.mode.kind is kind:
+        return f"; it is in {state.mode.name} already"
+    if not state.armed:
+        return ""
+    changed = client.change_mode(kind)
+    mode = "the new mode" if state.mode is None else state.mode.name
+    if changed.ok:
+        return f"; fly switched it to {mode} (--on-interrupt)"
+    return f"; fly could not switch it to the --on-interrupt mode: {changed.message()}"
+
+
+def _holds(state: VehicleState) -> str:
+    """What a restarted vehicle holds, as it said after the restart."""
+    parts = []
+    total = state.mission_total
+    if total == 65535 or state.mission_state == MissionState.NO_MISSION:
+        parts.append("it holds no mission (MISSION_CURRENT)")  # common.xml: UINT16_MAX
+    elif total is not None:
+        parts.append(f"its MISSION_CURRENT counts {total} mission items")
+    if state.home is not None:
+        lat, lon, alt = state.home
+        parts.append(f"its home is {lat:.7f}, {lon:.7f}, {alt:.1f} m AMSL")
+    return "; " + ", ".join(parts) if parts else ""
 
 
 def _last_words(state: VehicleState) -> str:
@@ -319,8 +631,15 @@ def _last_words(state: VehicleState) -> str:
     return f'; its last message: "{state.texts[-1][2]}"'
 
 
-def _lands(wire: list) -> bool:
+def _lands(wire: list[MissionItem]) -> bool:
     return any(item.command in (MavCmd.NAV_LAND, MavCmd.NAV_RETURN_TO_LAUNCH) for item in wire)
+
+
+def _land_seq(wire: list[MissionItem]) -> int | None:
+    for seq, item in enumerate(wire):
+        if item.command == MavCmd.NAV_LAND:
+            return seq
+    return None
 
 
 def _check_home(
@@ -386,6 +705,20 @@ def _vehicle_parameters(
             feedback.say(f"pre-flight: {line}")
 
 
+# ---------------------------------------------------------------------------------------------
+# The mission on board, and an upload interrupted by Ctrl-C
+
+
+class _UploadInterrupted(Exception):
+    """Ctrl-C while the mission was being put on board: ``before`` what the vehicle held
+    (None: not read), ``sent`` how far the transfer got (label, done, total)."""
+
+    def __init__(self, before: list[MissionItem] | None, sent: tuple[str, int, int] | None):
+        super().__init__("interrupted during the upload")
+        self.before = before
+        self.sent = sent
+
+
 def _mission_on_board(
     link: VehicleLink,
     plan: MissionPlan,
@@ -394,21 +727,124 @@ def _mission_on_board(
     feedback: Feedback,
 ) -> bool:
     """Compare the vehicle's mission with the file's; upload and verify when they differ
-    (or with ``--upload``). Returns whether it uploaded."""
+    (or with ``--upload``). Returns whether it uploaded; a Ctrl-C on the way (the transfer
+    cancelled by :class:`MissionClient`) raises :class:`_UploadInterrupted`."""
     client = MissionClient(link, request.timeouts)
     wire = plan_wire_items(plan, MissionType.MISSION, autopilot)
-    if not request.upload:
-        onboard = client.download(MissionType.MISSION).raise_for_status()
-        difference = compare_items(wire, onboard.items, MissionType.MISSION, autopilot)
-        if difference is None:
-            feedback.say(f"the vehicle holds this mission ({len(wire)} items)")
-            return False
-        feedback.say(f"the vehicle holds another mission ({difference}): uploading this one")
-    report = upload_plan(client, plan, verify=True)
+    before: list[MissionItem] | None = None
+    sent: list[tuple[str, int, int]] = []
+    try:
+        if not request.upload:
+            onboard = client.download(MissionType.MISSION).raise_for_status()
+            before = list(onboard.items)
+            difference = compare_items(wire, before, MissionType.MISSION, autopilot)
+            if difference is None:
+                feedback.say(f"the vehicle holds this mission ({len(wire)} items)")
+                return False
+            feedback.say(f"the vehicle holds another mission ({difference}): uploading this one")
+        report = upload_plan(
+            client,
+            plan,
+            verify=True,
+            progress=lambda label, done, total: sent.append((label, done, total)),
+        )
+    except KeyboardInterrupt:
+        raise _UploadInterrupted(before, sent[-1] if sent else None) from None
     for note in report.notes:
         feedback.say(f"note: {note}")
     feedback.say(f"uploaded {len(wire)} mission items, verified by read-back")
     return True
+
+
+def _upload_interrupted(
+    link: VehicleLink,
+    plan: MissionPlan,
+    autopilot: Autopilot,
+    request: FlyRequest,
+    feedback: Feedback,
+    who: str,
+    stopped: _UploadInterrupted,
+) -> FlyOutcome:
+    """Ctrl-C during the upload: the transfer was cancelled (MISSION_ACK
+    OPERATION_CANCELLED, as the protocol says); then what the vehicle holds is read back and
+    said. PX4 leaves the transfer on the cancel and keeps its previous mission (it writes an
+    upload to its inactive storage: mavlink_mission.cpp, handle_mission_ack and
+    handle_mission_count). ArduPilot ignores the cancel (MissionItemProtocol.cpp handles no
+    MISSION_ACK), stays in the transfer until 8 s after the last item
+    (MissionItemProtocol::update, upload_timeout_ms), and keeps the items that arrived in
+    place of the old ones. The wait is bounded (:data:`UPLOAD_SETTLE_S`); a second Ctrl-C
+    quits at once."""
+    where = ""
+    if stopped.sent is not None:
+        label, done, total = stopped.sent
+        where = f" ({label}: {done} of {total})"
+    feedback.warn(
+        f"interrupted during the upload{where}: cancelled (MISSION_ACK "
+        "OPERATION_CANCELLED); reading what the vehicle holds now (Ctrl-C again to quit at once)"
+    )
+    wire = plan_wire_items(plan, MissionType.MISSION, autopilot)
+    try:
+        with feedback.polled():
+            holds = _what_it_holds(link, wire, stopped.before, autopilot, request)
+    except KeyboardInterrupt:
+        feedback.warn("interrupted again: what the vehicle holds is not known; download it to see")
+        raise
+    empty = Track(
+        np.empty(0), np.empty(0), np.empty(0), np.empty(0), np.empty(0), np.empty(0),
+        np.empty(0, dtype=np.int64), source="fly",
+    )  # fmt: skip
+    return FlyOutcome(
+        request.mission,
+        who,
+        autopilot,
+        None,
+        empty,
+        False,
+        None,
+        None,
+        0.0,
+        interrupt_mode="its previous mode",
+        holds=holds,
+    )
+
+
+def _what_it_holds(
+    link: VehicleLink,
+    wire: list[MissionItem],
+    before: list[MissionItem] | None,
+    autopilot: Autopilot,
+    request: FlyRequest,
+) -> str:
+    """The vehicle's mission after an interrupted upload, in words, read back as soon as it
+    lets the transfer go (at most :data:`UPLOAD_SETTLE_S`)."""
+    client = MissionClient(link, request.timeouts)
+    deadline = time.monotonic() + UPLOAD_SETTLE_S
+    started = time.monotonic()
+    while True:
+        outcome = client.download(MissionType.MISSION)
+        busy = outcome.status in (TransferStatus.BUSY, TransferStatus.REJECTED)
+        if outcome.ok or not busy or time.monotonic() >= deadline:
+            break
+        time.sleep(0.25)
+    if not outcome.ok:
+        return (
+            f"holds a mission that could not be read ({outcome.where}: {outcome.detail}); "
+            "download it before flying"
+        )
+    held = list(outcome.items)
+    waited = time.monotonic() - started
+    busy_for = f" (it was busy with the transfer for {waited:.1f} s)" if waited >= 0.5 else ""
+    count = len(held)
+    if compare_items(wire, held, MissionType.MISSION, autopilot) is None:
+        return f"holds this mission ({count} items): the upload had finished{busy_for}"
+    if before is not None and compare_items(before, held, MissionType.MISSION, autopilot) is None:
+        return f"holds its previous mission ({count} items), unchanged{busy_for}"
+    known = "" if before is not None else " (what it held before was not read: --upload)"
+    return (
+        f"holds {count} items that are not this mission{known}: ArduPilot keeps what arrived "
+        f"of an interrupted upload in place of the old items; upload again before flying"
+        f"{busy_for}"
+    )
 
 
 def _interrupted(
@@ -422,8 +858,6 @@ def _interrupted(
         # stopped during the start, still on the ground: disarm rather than hold there
         client.commands([disarm_step()])
         mode_name = f"{mode_name}, disarmed" if not state.armed else mode_name
-        watch.tick(state, final=True)
-        watch.save(request.track)
     elif state.armed:
         changed: CommandOutcome = client.change_mode(kind)
         watch.tick(state, final=True)
@@ -434,14 +868,13 @@ def _interrupted(
                 step="interrupt",
             )
         mode_name = "the new mode" if state.mode is None else state.mode.name
-    else:
-        watch.save(request.track)
+    watch.tick(state, final=True)
     return FlyOutcome(
         request.mission,
         who,
         state.autopilot,
         None,
-        watch.track(),
+        watch.save(request.track),
         False,
         None,
         None,
@@ -475,56 +908,178 @@ def airborne_time(track: Track) -> float | None:
 # ---------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class _Progress:
+    """Where the vehicle stood at one moment, for the judgement of its progress."""
+
+    time_s: float
+    to_go_m: float
+    seq: int
+    alt_m: float
+    returning: bool
+
+
+def _progressed(window: deque[_Progress] | list[_Progress], by_m: float) -> bool:
+    """Over ``window``: the distance to go shrank, or the altitude changed, by ``by_m``, or
+    the current item moved on."""
+    first, last = window[0], window[-1]
+    if first.seq != last.seq:
+        return True
+    if first.to_go_m - min(p.to_go_m for p in window) >= by_m:
+        return True
+    alts = [p.alt_m for p in window]
+    return max(alts) - min(alts) >= by_m
+
+
+@dataclass
+class _Breach:
+    """One stretch of the track inside the margin, as the live watch saw it."""
+
+    since_s: float
+    worst_m: float
+    worst_what: str
+    worst_at_s: float
+    worst_seq: int
+    said_m: float
+    said_what: str
+
+
 class _Watch:
     """Follows the samples: the track, the cross-track error, the clearance, the progress
-    line, the warnings."""
+    line, the vehicle's warnings, what the monitor noticed, and whether the vehicle still
+    makes progress (:meth:`tick` returns :attr:`MonitorEnd.STALLED` when it does not)."""
 
     def __init__(
         self,
         plan: MissionPlan,
         autopilot: Autopilot,
         site: CheckSite | None,
-        max_deviation_m: float,
+        request: FlyRequest,
         feedback: Feedback,
-        reference: Rehearsal | None,
+        state: VehicleState,
     ) -> None:
         self.plan = plan
+        self.state = state
         self.autopilot = autopilot
         self.site = site
-        self.max_deviation_m = max_deviation_m
+        self.request = request
+        self.max_deviation_m = request.max_deviation_m
         self.feedback = feedback
+        self.uploaded = False
         self.samples: list[TelemetrySample] = []
+        self.processed = 0
+        self.last_processed = -math.inf
+        self.moving_sum = 0.0
+        self.moving_n = 0
+        #: samples after a restart of the vehicle (a clock of their own: not the track)
+        self.after_restart: list[TelemetrySample] = []
         self.max_cross_track_m = 0.0
         assert plan.home is not None
         self.home = plan.home
         self.frame = EnuFrame.at(plan.home)
-        self.legs = _planned_legs(plan, autopilot, reference)
+        self.legs, self.leg_seqs = _planned_legs(plan, autopilot)
         self.rtl = return_seq(plan, autopilot)
         wire = plan_wire_items(plan, MissionType.MISSION, autopilot)
         self.total = len(wire)
+        self.hold_s = [_hold_time_s(item) for item in wire]
         self.off_route = False
-        self.too_close = False
+        self.breach: _Breach | None = None
         self.last_drawn = -math.inf
-        self.speeds: list[float] = []
+        self.next_status_s: float | None = None
+        self.notices_seen = 0
+        self.texts_seen = 0
+        self.said_texts: dict[str, float] = {}
+        self.progress_window: deque[_Progress] = deque()
+        self.battery_warned = False
+        self.battery_warned_at = -math.inf
+        self.saved: Track | None = None
+        self.saved_len = -1
         if feedback.progress is not None:
             feedback.progress.start("item")
 
-    def tick(self, state: VehicleState, *, final: bool = False) -> None:
+    # -- what the vehicle reports ----------------------------------------------------------
+    def tick(self, state: VehicleState, *, final: bool = False) -> MonitorEnd | None:
+        self._notices(state)
+        self._texts(state)
         new = state.take_samples()
-        if not new:
-            return
-        start = max(len(self.samples) - 1, 0)
-        self.samples.extend(new)
-        returning = state.mode is not None and state.mode.kind in (ModeKind.RETURN, ModeKind.LAND)
-        self._cross_track(new, returning)
-        if self.site is not None:
-            self._clearance(start)
-        self._progress(state, final)
+        self.samples.extend(s for s in new if s.epoch == 0)
+        self.after_restart.extend(s for s in new if s.epoch != 0)
+        now = time.monotonic()
+        if not final and now - self.last_processed < PROCESS_EVERY_S:
+            return None
+        self.last_processed = now
+        fresh = self.samples[self.processed :]
+        if fresh:
+            start = max(self.processed - 1, 0)
+            self.processed = len(self.samples)
+            for sample in fresh:
+                if sample.speed_m_s > 1.0:
+                    self.moving_sum += sample.speed_m_s
+                    self.moving_n += 1
+            returning = state.mode is not None and state.mode.kind in (
+                ModeKind.RETURN,
+                ModeKind.LAND,
+            )
+            self._cross_track(fresh, returning)
+            if self.site is not None:
+                self._clearance(start)
+        if final and self.breach is not None and self.samples:
+            self._breach_over(self.samples[-1], ended=True)
+        if not self.samples:
+            return None
+        to_go, returning = self._progress(state, final)
+        if final:
+            return None
+        return self._judge(state, to_go, returning)
+
+    def _notices(self, state: VehicleState) -> None:
+        for notice in state.notices[self.notices_seen :]:
+            good_news = notice.kind in (NoticeKind.LINK_BACK, NoticeKind.MISSION_RESUMED)
+            self._warn(("fly: " if good_news else "warning: ") + notice.line())
+        self.notices_seen = len(state.notices)
+
+    def _texts(self, state: VehicleState) -> None:
+        """The vehicle's STATUSTEXT of severity WARNING and above, as they come."""
+        for when, severity, text in state.texts[self.texts_seen :]:
+            if severity > Severity.WARNING:
+                continue
+            last = self.said_texts.get(text)
+            self.said_texts[text] = when
+            if last is not None and when - last < TEXT_REPEAT_S:
+                continue
+            try:
+                level = Severity(severity).name
+            except ValueError:
+                level = str(severity)
+            self._warn(f"vehicle ({level}): {text}")
+        self.texts_seen = len(state.texts)
+
+    def takeovers(self) -> list[Notice]:
+        """What changed behind ``fly``'s back (the notices that are takeovers)."""
+        return [n for n in self.state.notices if n.takeover]
+
+    def gaps_in_air(self) -> list[tuple[float, float]]:
+        """Stretches of the flight without telemetry where the vehicle was (or may have
+        been) in the air: (from, to) in seconds into the flight."""
+        out: list[tuple[float, float]] = []
+        samples = self.samples
+        if len(samples) < 2:
+            return out
+        t0 = samples[0].time_s
+        for a, b in itertools.pairwise(samples):
+            if b.time_s - a.time_s <= GAP_S:
+                continue
+            if _airborne(a) or _airborne(b):
+                out.append((a.time_s - t0, b.time_s - t0))
+        return out
 
     def _enu(self, samples: list[TelemetrySample]) -> np.ndarray:
         xy = self.frame.to_enu_xy([s.lat_deg for s in samples], [s.lon_deg for s in samples])
         z = np.array([s.relative_alt_m for s in samples])
         return np.column_stack((xy, z))
+
+    def _when(self, sample: TelemetrySample) -> str:
+        return flight_clock(sample.time_s - self.samples[0].time_s)
 
     def _cross_track(self, new: list[TelemetrySample], returning: bool) -> None:
         if len(self.legs) < 2:
@@ -541,33 +1096,72 @@ class _Watch:
         if over and not self.off_route:
             s = mission[worst]
             self._warn(
-                f"warning: {s.time_s - self.samples[0].time_s:.0f} s into the flight (item "
-                f"{s.current_seq}) the vehicle is {error[worst]:.1f} m off the planned route "
+                f"warning: {self._when(s)} into the flight (item {s.current_seq}) the vehicle "
+                f"is {error[worst]:.1f} m off the planned route "
                 f"(--max-deviation {self.max_deviation_m:g} m)"
             )
         self.off_route = over
 
+    # -- the live clearance: each breach, each metre closer, the worst of each --------------
     def _clearance(self, start: int) -> None:
         site = self.site
         assert site is not None
         samples = self.samples[start:]
-        if len(samples) < 2:
+        for run in _runs(samples):
+            if len(run) < 2:
+                continue
+            track = _track_of(run, self.home)
+            points = flight_of_track(
+                track, site.frame, datum_amsl_m=site.datum_amsl_m, lands=False
+            ).points_enu
+            airborne = all(s.landed_state == LandedState.IN_AIR for s in run)
+            n = len(points)
+            flight = Flight(points, (0, n - 1) if airborne else (n - 1, n - 1))
+            dist, owner, _ = flight_clearance(site.world, flight)
+            for k, d in enumerate(dist):
+                self._segment(float(d), int(owner[k]), run[k + 1], site)
+
+    def _segment(self, d: float, owner: int, sample: TelemetrySample, site: CheckSite) -> None:
+        margin = site.margin_m
+        if keeps_margin(d, margin):
+            if self.breach is not None:
+                self._breach_over(sample, ended=False)
             return
-        track = _track_of(samples, self.home)
-        flight_points = _site_points(track, site)
-        airborne = all(s.landed_state == LandedState.IN_AIR for s in samples)
-        n = len(flight_points)
-        flight = Flight(flight_points, (0, n - 1) if airborne else (n - 1, n - 1))
-        check = check_flight(site.world, flight, name_of=site.name_of, volume_tol_m=0.5)
-        close = not check.keeps_margin
-        if close and not self.too_close:
-            s = samples[min(check.worst + 1, len(samples) - 1)]
+        what = _owner_name(owner, site)
+        b = self.breach
+        where = f"{self._when(sample)} into the flight (item {sample.current_seq})"
+        if b is None:
+            seq = sample.current_seq
+            self.breach = _Breach(sample.time_s, d, what, sample.time_s, seq, d, what)
             self._warn(
-                f"warning: {s.time_s - self.samples[0].time_s:.0f} s into the flight (item "
-                f"{s.current_seq}) the vehicle is {check.min_clearance_m:.1f} m from "
-                f"{check.nearest} (margin {site.margin_m:g} m)"
+                f"warning: {where} the vehicle is {d:.1f} m from {what} (margin {margin:g} m)"
             )
-        self.too_close = close
+            return
+        if d < b.worst_m:
+            b.worst_m, b.worst_what = d, what
+            b.worst_at_s, b.worst_seq = sample.time_s, sample.current_seq
+        if d <= b.said_m - CLOSER_STEP_M or what != b.said_what:
+            b.said_m, b.said_what = d, what
+            self._warn(
+                f"warning: {where} the vehicle is {d:.1f} m from {what}, closer still "
+                f"(margin {margin:g} m)"
+            )
+
+    def _breach_over(self, sample: TelemetrySample, *, ended: bool) -> None:
+        b = self.breach
+        assert b is not None and self.site is not None
+        self.breach = None
+        worst_at = flight_clock(b.worst_at_s - self.samples[0].time_s)
+        lasted = sample.time_s - b.since_s
+        if ended:
+            head = "the track ends inside the margin"
+        else:
+            head = f"{self._when(sample)} into the flight the vehicle is outside the margin again"
+        self._warn(
+            f"warning: {head} after {lasted:.0f} s inside it: the closest was {b.worst_m:.2f} m "
+            f"from {b.worst_what}, {worst_at} into the flight (item {b.worst_seq}; margin "
+            f"{self.site.margin_m:g} m)"
+        )
 
     def _warn(self, text: str) -> None:
         """A warning on a line of its own (the progress line, if drawn, ends first)."""
@@ -575,28 +1169,29 @@ class _Watch:
             self.feedback.progress.close()
         self.feedback.warn(text)
 
-    def _progress(self, state: VehicleState, final: bool) -> None:
-        bar = self.feedback.progress
-        if bar is None:
-            return
-        now = time.monotonic()
-        if now - self.last_drawn < PROGRESS_EVERY_S and not final:
-            return
-        self.last_drawn = now
-        s = self.samples[-1]
-        self.speeds.append(s.speed_m_s)
+    # -- progress -------------------------------------------------------------------------
+    def _to_go(self, state: VehicleState, s: TelemetrySample) -> tuple[float, bool]:
         here = self._enu([s])[0]
         returning = (state.mode is not None and state.mode.kind is ModeKind.RETURN) or (
             self.rtl is not None and s.current_seq >= self.rtl
         )
         if returning:  # the autopilot's own way home: no planned legs left
-            to_go = float(math.hypot(here[0], here[1]))
-            where = f"{to_go / 1000.0:.2f} km from home"
-        else:
-            to_go = _distance_to_go(here, self.legs)
-            where = f"{to_go / 1000.0:.2f} km to go"
-        moving = [v for v in self.speeds if v > 1.0]
-        speed = sum(moving) / len(moving) if moving else 0.0
+            return float(math.hypot(here[0], here[1], here[2])), True
+        # the leg flown is the one that ends at the current item
+        ahead = np.flatnonzero(self.leg_seqs >= s.current_seq)
+        first = int(ahead[0]) - 1 if ahead.size else len(self.legs) - 2
+        return _distance_to_go(here, self.legs, first), False
+
+    @property
+    def mean_speed_m_s(self) -> float:
+        """The average ground speed while moving (over 1 m/s), so far."""
+        return self.moving_sum / self.moving_n if self.moving_n else 0.0
+
+    def _progress(self, state: VehicleState, final: bool) -> tuple[float, bool]:
+        s = self.samples[-1]
+        to_go, returning = self._to_go(state, s)
+        speed = self.mean_speed_m_s
+        where = f"{to_go / 1000.0:.2f} km {'from home' if returning else 'to go'}"
         eta = f"ETA {_minutes(to_go / speed)}" if speed > 1.0 else "ETA -"
         battery = "-" if state.battery_pct is None else f"{state.battery_pct:.0f} %"
         mode = "?" if state.mode is None else state.mode.name
@@ -605,19 +1200,148 @@ class _Watch:
             f"{s.speed_m_s:.1f} m/s, battery {battery}"
         )
         item = max(0, s.current_seq)
-        bar.show(min(item, self.total), max(self.total, 1), detail)
-        if final:
-            bar.close()
+        bar = self.feedback.progress
+        drawn = bar is not None and bool(getattr(bar, "enabled", False))
+        if drawn and bar is not None:
+            now = time.monotonic()
+            if now - self.last_drawn >= PROGRESS_EVERY_S or final:
+                self.last_drawn = now
+                bar.show(min(item, self.total), max(self.total, 1), detail)
+            if final:
+                bar.close()
+        elif not final:
+            # off a terminal (a log, a pipe): a status line now and then, never silence
+            if self.next_status_s is None or s.time_s >= self.next_status_s:
+                self.next_status_s = s.time_s + STATUS_EVERY_S
+                self.feedback.say(
+                    f"{self._when(s)} into the flight: item {item}/{self.total}, {detail}"
+                )
+        return to_go, returning
 
+    def _judge(self, state: VehicleState, to_go: float, returning: bool) -> MonitorEnd | None:
+        """No progress for ``stall_s`` of the vehicle's time, and the ETA against the
+        battery. Progress over that time: the distance to go (along the planned legs; to
+        home on the way home) shrinking by :data:`STALL_PROGRESS_M`, the altitude changing by
+        as much (a return's climb, a landing), or the current item moving on."""
+        s = self.samples[-1]
+        window = self.progress_window
+        if window and state.gaps and state.gaps[-1][1] > window[-1].time_s:
+            window.clear()  # nothing is judged across a gap: the time without progress restarts
+        if not (state.armed and state.flew and s.relative_alt_m > 0.5) or (
+            window and window[-1].returning != returning
+        ):
+            window.clear()  # on the ground, or the measure changed (the return began)
+            if not (state.armed and state.flew and s.relative_alt_m > 0.5):
+                return None
+        window.append(_Progress(s.time_s, to_go, s.current_seq, s.relative_alt_m, returning))
+        seq = s.current_seq
+        hold = self.hold_s[seq] if 0 <= seq < len(self.hold_s) else 0.0
+        if hold == math.inf:
+            window.clear()  # a loiter without end: no progress is what it asked for
+            return None
+        limit = self.request.stall_s + hold
+        while len(window) > 1 and window[1].time_s <= s.time_s - limit:
+            window.popleft()
+        self._battery(state, window)
+        if s.time_s - window[0].time_s < limit or _progressed(window, STALL_PROGRESS_M):
+            return None
+        self._notice(
+            state,
+            NoticeKind.NO_PROGRESS,
+            f"no progress for {limit:g} s of the vehicle's time: {to_go:.0f} m to go "
+            f"{'home' if returning else 'along the route'}, {s.speed_m_s:.1f} m/s, item {seq}",
+        )
+        return MonitorEnd.STALLED
+
+    def _battery(self, state: VehicleState, window: deque[_Progress]) -> None:
+        """Warn (once, until it clears) when the time to go passes what the battery has left
+        by the vehicle's estimate (BATTERY_STATUS.time_remaining). The time to go is the
+        distance to go at the average speed so far, or "never" when over the last
+        :data:`BATTERY_WINDOW_S` the vehicle got no nearer, and climbed or descended no more
+        than :data:`STALL_PROGRESS_M` (a vehicle the wind holds back)."""
+        left = state.battery_time_s
+        speed = self.mean_speed_m_s
+        # the average speed means something once the vehicle has been under way a while
+        if left is None or speed <= 1.0 or self.moving_n * 0.2 < BATTERY_WINDOW_S:
+            return
+        last = window[-1]
+        eta = last.to_go_m / speed
+        recent = [p for p in window if p.time_s >= last.time_s - BATTERY_WINDOW_S]
+        if last.time_s - recent[0].time_s >= BATTERY_WINDOW_S * 0.9 and not _progressed(
+            recent, STALL_PROGRESS_M
+        ):
+            eta = math.inf
+        quiet_since = last.time_s - self.battery_warned_at
+        if eta > left and not self.battery_warned and quiet_since >= BATTERY_WINDOW_S * 2:
+            self.battery_warned = True
+            self.battery_warned_at = last.time_s
+            when = "never at this rate" if math.isinf(eta) else _minutes(eta)
+            self._notice(
+                state,
+                NoticeKind.BATTERY,
+                f"the time to go ({when}, {last.to_go_m:.0f} m) is past what the battery has "
+                f"left ({_minutes(left)} by the vehicle's estimate)",
+            )
+        elif eta < 0.9 * left:
+            self.battery_warned = False
+
+    def _notice(self, state: VehicleState, kind: NoticeKind, text: str) -> None:
+        into = self.samples[-1].time_s - self.samples[0].time_s
+        state.notices.append(Notice(kind, text, time.monotonic(), into))
+        self._notices(state)
+
+    # -- the track --------------------------------------------------------------------------
     def track(self) -> Track:
-        return _track_of(self.samples, self.home, self.autopilot)
+        track = _track_of(self.samples, self.home, self.autopilot)
+        gaps = track.gaps(GAP_S)
+        if gaps:
+            track.extra["unobserved_s"] = [[round(a, 3), round(b, 3)] for a, b in gaps]
+        return track
 
     def save(self, path: str | None) -> Track:
+        if self.saved is not None and self.saved_len == len(self.samples):
+            return self.saved
         track = self.track()
+        self.saved, self.saved_len = track, len(self.samples)
         if path:
             track.save(path)
             self.feedback.say(f"track: {len(track)} samples written to {path}")
         return track
+
+
+def _owner_name(owner: int, site: CheckSite) -> str:
+    """What a segment came nearest (an obstacle index, or the terrain, or the ceiling)."""
+    if owner == GROUND:
+        return "the terrain"
+    if owner == CEILING:
+        return "the ceiling"
+    return "nothing" if owner < 0 else site.name_of(owner)
+
+
+def _airborne(sample: TelemetrySample) -> bool:
+    return sample.landed_state == LandedState.IN_AIR or sample.relative_alt_m > 0.5
+
+
+def _runs(samples: list[TelemetrySample]) -> list[list[TelemetrySample]]:
+    """``samples`` cut where nothing was observed for longer than GAP_S."""
+    if not samples:
+        return []
+    stretches = observed_stretches([s.time_s for s in samples], GAP_S)
+    return [samples[a:b] for a, b in stretches]
+
+
+#: MAV_CMD_NAV_LOITER_TIME: param1 the time to loiter (s)
+NAV_LOITER_TIME = 19
+
+
+def _hold_time_s(item: MissionItem) -> float:
+    """How long an item keeps the vehicle where it is (s; inf: without end)."""
+    if item.command == MavCmd.NAV_LOITER_UNLIM:
+        return math.inf
+    if item.command in (MavCmd.NAV_WAYPOINT, NAV_LOITER_TIME):
+        value = item.param1
+        return float(value) if value is not None and math.isfinite(value) and value > 0 else 0.0
+    return 0.0
 
 
 def _track_of(
@@ -638,36 +1362,34 @@ def _track_of(
     )
 
 
-def _site_points(track: Track, site: CheckSite) -> np.ndarray:
-    from uavplan.flight import flight_of_track
-
-    return flight_of_track(
-        track, site.frame, datum_amsl_m=site.datum_amsl_m, lands=False
-    ).points_enu
-
-
-def _planned_legs(
-    plan: MissionPlan, autopilot: Autopilot, reference: Rehearsal | None
-) -> np.ndarray:
-    """The planned route (home, then each positional item) in the ENU frame at home."""
-    if reference is not None:
-        return reference.flown.planned_polyline_enu()
+def _planned_legs(plan: MissionPlan, autopilot: Autopilot) -> tuple[np.ndarray, np.ndarray]:
+    """The planned route in the ENU frame at home, as the flight model draws it (home, the
+    take-off's climb, each positional item: :meth:`FlownTrack.planned_polyline_enu`), and the
+    wire seq of the item each point is (-1: home)."""
     from uavplan.sim.model import nav_items
 
     assert plan.home is not None
     nav = nav_items(plan_wire_items(plan, MissionType.MISSION, autopilot), plan.home)
     points = [(0.0, 0.0, 0.0)]
+    seqs = [-1]
     for item in nav:
         if item.is_position and item.position is not None and not math.isnan(item.position[0]):
             points.append(item.position)
-    return np.array(points, dtype=np.float64)
+            seqs.append(item.seq)
+        elif item.command == MavCmd.NAV_TAKEOFF and item.position is not None:
+            points.append((points[-1][0], points[-1][1], item.position[2]))
+            seqs.append(item.seq)
+    return np.array(points, dtype=np.float64), np.array(seqs, dtype=np.int64)
 
 
-def _distance_to_go(point: np.ndarray, legs: np.ndarray) -> float:
-    """Along the planned legs, from the point's nearest place on them to their end."""
+def _distance_to_go(point: np.ndarray, legs: np.ndarray, first: int = 0) -> float:
+    """Along the planned legs, from the point's nearest place on legs ``first`` on (the leg
+    to the current item and those after it: a route that comes back past its start is not
+    taken for done) to their end."""
     if len(legs) < 2:
         return 0.0
-    a, b = legs[:-1], legs[1:]
+    first = min(max(first, 0), len(legs) - 2)
+    a, b = legs[first:-1], legs[first + 1 :]
     d = b - a
     length = np.linalg.norm(d, axis=1)
     t = np.clip(np.einsum("ij,ij->i", point - a, d) / np.maximum(length**2, 1e-12), 0.0, 1.0)

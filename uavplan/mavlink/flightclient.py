@@ -5,7 +5,9 @@ deadline to the running machine and sends what the machine returns, exactly as
 :class:`~uavplan.mavlink.protocol.MissionClient` drives the mission-protocol machines (and
 shares the link with one: the mission is checked and uploaded between the pre-flight
 checks and the start). ``should_stop`` (a Ctrl-C flag) is polled at least every
-:data:`POLL_S`; ``on_tick`` is called as often, for a progress display.
+:data:`POLL_S`; ``on_tick`` is called as often, for a progress display, and may end the run
+(what it returns, when not None, is the run's result). What the vehicle answers other ground
+stations (:attr:`VehicleLink.overheard`) goes to the machine too.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from collections.abc import Callable
 from typing import TypeVar
 
 from uavplan.mavlink.flightmachines import (
+    FRESH_MESSAGES,
     CommandOutcome,
     CommandSequence,
     FlightMachine,
@@ -24,6 +27,7 @@ from uavplan.mavlink.flightmachines import (
     Preflight,
     PreflightMachine,
     VehicleState,
+    WatchRules,
     mode_steps,
     start_steps,
 )
@@ -54,6 +58,8 @@ class FlightClient:
         self.clock = clock
         self.state = VehicleState(link.vehicle.autopilot)
         self.target = (link.vehicle.system_id, link.vehicle.component_id)
+        #: the monitor of the last :meth:`monitor` (what it noticed, what it left unconfirmed)
+        self.monitor_machine: MonitorMachine | None = None
 
     def _send(self, messages: list[Message]) -> None:
         for message in messages:
@@ -64,10 +70,12 @@ class FlightClient:
         machine: FlightMachine,
         *,
         should_stop: Callable[[], bool] | None = None,
-        on_tick: Callable[[VehicleState], None] | None = None,
+        on_tick: Callable[[VehicleState], object | None] | None = None,
     ) -> object | None:
-        """Drive ``machine`` to its end; None when ``should_stop`` said stop first."""
+        """Drive ``machine`` to its end; None when ``should_stop`` said stop first; what
+        ``on_tick`` returned when it returned something."""
         self._send(machine.start(self.clock()))
+        overheard = self.link.overheard
         while machine.finished is None:
             if should_stop is not None and should_stop():
                 return None
@@ -75,15 +83,18 @@ class FlightClient:
             wait = min(max(0.0, machine.deadline - now), POLL_S)
             received = self.link.recv(wait)
             now = self.clock()
+            out: list[Message] = []
+            while overheard:
+                out += machine.on_overheard(overheard.popleft(), now)
             if received is not None:
-                out = machine.on_message(received.message, now)
+                out += machine.on_message(received.message, now)
             elif now >= machine.deadline:
-                out = machine.on_timeout(now)
-            else:
-                out = []
+                out += machine.on_timeout(now)
             self._send(out)
             if on_tick is not None:
-                on_tick(self.state)
+                verdict = on_tick(self.state)
+                if verdict is not None:
+                    return verdict
         return machine.finished
 
     def preflight(self) -> Preflight:
@@ -121,14 +132,41 @@ class FlightClient:
         *,
         last_seq: int,
         lands: bool,
+        return_seq: int | None = None,
+        land_seq: int | None = None,
+        rules: WatchRules | None = None,
         should_stop: Callable[[], bool] | None = None,
-        on_tick: Callable[[VehicleState], None] | None = None,
+        on_tick: Callable[[VehicleState], MonitorEnd | None] | None = None,
     ) -> MonitorEnd | None:
-        """Follow the flight to its end; None when interrupted."""
+        """Follow the flight to its end (:class:`MonitorMachine`); None when interrupted;
+        ``on_tick``'s ending when it returns one (its judgement: no progress)."""
         self.state.recording = True
         machine = MonitorMachine(
-            self.state, self.target, self.timeouts, last_seq=last_seq, lands=lands
+            self.state,
+            self.target,
+            self.timeouts,
+            last_seq=last_seq,
+            lands=lands,
+            return_seq=return_seq,
+            land_seq=land_seq,
+            rules=rules,
         )
+        self.monitor_machine = machine
         result = self.run(machine, should_stop=should_stop, on_tick=on_tick)
         assert result is None or isinstance(result, MonitorEnd)
         return result
+
+    def refresh(self, timeout_s: float) -> list[str]:
+        """Ask for the vehicle's state again and wait up to ``timeout_s`` for the answers
+        (a verdict after the monitor ends rests on them); the kinds that did not come."""
+        since = self.clock()
+        asking = FlightMachine(self.state, self.target, self.timeouts)
+        self._send(asking.request_messages(FRESH_MESSAGES))
+        deadline = since + timeout_s
+        missing = self.state.not_heard_since(since)
+        while missing and (left := deadline - self.clock()) > 0:
+            received = self.link.recv(min(left, POLL_S))
+            if received is not None:
+                self.state.update(received.message, self.clock())
+            missing = self.state.not_heard_since(since)
+        return missing

@@ -16,7 +16,15 @@ fake one). All of them share one :class:`VehicleState`: what the vehicle last sa
   sequences QGroundControl and MAVSDK use to start a mission (:func:`start_steps`) and to
   change mode (:func:`mode_steps`);
 - :class:`MonitorMachine`: the flight, sample by sample, until the mission is complete and
-  the vehicle is down, or the link is lost.
+  the vehicle is down, or the link is lost; on the way it notices what changes behind the
+  ground station's back (:class:`Notice`: a mode it did not command, a new mission or home,
+  a disarm in the air, a restart, the link going quiet and coming back) and decides an
+  ending only on state the vehicle reported after the last such event (:class:`WatchRules`).
+
+Telemetry as it really arrives: :class:`VehicleState` orders the position samples by the
+vehicle's own clock (``time_boot_ms``), drops duplicates and late copies, records the stretches
+without any sample (:data:`GAP_S`) and takes a clock that goes back and stays back
+(:data:`REORDER_WINDOW_S`, :data:`RESTART_SAMPLES`) for a restart of the vehicle.
 
 A refusal ends a machine with the vehicle's own words: the COMMAND_ACK result by name and the
 STATUSTEXT it sent while the command ran.
@@ -27,7 +35,7 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from uavplan.mavlink.messages import (
     SYS_STATUS_PREARM_CHECK,
@@ -44,9 +52,12 @@ from uavplan.mavlink.messages import (
     MavResult,
     Message,
     MessageId,
+    MissionAck,
     MissionCurrent,
     MissionItemReached,
+    MissionResult,
     MissionState,
+    Received,
     StatusText,
     SysStatus,
 )
@@ -54,21 +65,40 @@ from uavplan.mavlink.modes import FlightMode, ModeKind, mode_from_heartbeat, mod
 from uavplan.mission.items import Autopilot
 
 __all__ = [
+    "GAP_S",
+    "REORDER_WINDOW_S",
+    "RESTART_SAMPLES",
     "CommandOutcome",
     "CommandSequence",
     "FlightMachine",
     "FlightTimeouts",
     "MonitorEnd",
     "MonitorMachine",
+    "Notice",
+    "NoticeKind",
     "Preflight",
     "PreflightMachine",
+    "Restart",
     "Step",
     "TelemetrySample",
     "VehicleState",
+    "WatchRules",
     "disarm_step",
+    "flight_clock",
     "mode_steps",
     "start_steps",
 ]
+
+#: the longest stretch (vehicle seconds) between two position samples that still counts as
+#: observed: ten samples of the 5 Hz stream lost in a row. Over a longer one nothing was seen,
+#: and a straight line drawn across it would be a guess (at 12 m/s, 24 m of flight)
+GAP_S = 2.0
+#: a position sample up to this far (vehicle seconds) behind the newest one is a late or
+#: reordered copy and is dropped; further behind, it may be the first of a new clock
+REORDER_WINDOW_S = 3.0
+#: samples in a row, each further behind the newest than :data:`REORDER_WINDOW_S` and each
+#: later than the one before, that make a new clock: the vehicle restarted
+RESTART_SAMPLES = 3
 
 
 @dataclass(frozen=True)
@@ -77,7 +107,10 @@ class FlightTimeouts:
 
     ``ack_s`` for a COMMAND_ACK before re-sending the command (MAVSDK's default command
     timeout is 0.5 s, QGroundControl's 3 s; 1.5 s sits between them, as the mission
-    protocol's ack timeout), ``retries`` re-sends; ``confirm_s`` for the vehicle's telemetry
+    protocol's ack timeout), ``retries`` re-sends (six: QGroundControl and MAVSDK re-send three
+    times, but at 20 % loss each way one exchange in three fails, and a start lost to the link
+    is worse than 10.5 s of waiting for a vehicle that does not answer: four tries fail one
+    start command in 60, seven one in 1,300); ``confirm_s`` for the vehicle's telemetry
     to show an accepted command's effect (its next HEARTBEAT); ``preflight_s`` for the
     answers to the pre-flight requests; ``text_grace_s`` for the STATUSTEXT that explains a
     refusal; ``link_s`` without a message from the vehicle before the link counts as lost
@@ -85,7 +118,7 @@ class FlightTimeouts:
     missed heartbeat or two more)."""
 
     ack_s: float = 1.5
-    retries: int = 3
+    retries: int = 6
     confirm_s: float = 5.0
     preflight_s: float = 3.0
     text_grace_s: float = 0.3
@@ -120,11 +153,41 @@ class TelemetrySample:
     mode: str
     landed_state: int
     armed: bool
+    #: which run of the vehicle's clock: 0, then 1 after a restart, ...
+    epoch: int = 0
+
+
+@dataclass(frozen=True)
+class Restart:
+    """The vehicle's clock went back and stayed back: ``before_s`` its newest time before,
+    ``after_s`` its first time after (vehicle seconds), ``at`` the ground clock then."""
+
+    before_s: float
+    after_s: float
+    at: float
+
+
+def flight_clock(seconds: float) -> str:
+    """``1 min 12 s`` (a time into the flight)."""
+    minutes, rest = divmod(max(0, round(seconds)), 60)
+    return f"{minutes} min {rest:02d} s"
+
+
+#: what VehicleState.heard stamps: the message kinds a decision rests on
+HEARD_KINDS = ("heartbeat", "mission_current", "extended_sys_state", "position", "home")
 
 
 @dataclass
 class VehicleState:
-    """What the vehicle last reported (updated by :meth:`update` with each message)."""
+    """What the vehicle last reported (updated by :meth:`update` with each message).
+
+    Position samples are taken in the order of the vehicle's clock: a sample no later than
+    the newest one is a duplicate or a late copy and is dropped (counted in ``duplicates`` and
+    ``late``); one more than :data:`REORDER_WINDOW_S` behind it starts a candidate new clock,
+    which :data:`RESTART_SAMPLES` such samples confirm (a :class:`Restart`: ``epoch`` counts
+    them). While recording, a step longer than :data:`GAP_S` between accepted samples is a
+    gap (``gaps``, vehicle seconds). ``heard`` keeps the ground time each kind of state
+    (:data:`HEARD_KINDS`) was last reported: what a decision after a gap may rest on."""
 
     autopilot: Autopilot
     armed: bool = False
@@ -152,10 +215,27 @@ class VehicleState:
     samples: list[TelemetrySample] = field(default_factory=list)
     #: the vehicle has been in the air (landed state IN_AIR, or armed and 1 m up)
     flew: bool = False
+    #: BATTERY_STATUS.time_remaining (s; None: not reported)
+    battery_time_s: float | None = None
+    #: the vehicle's clock: its newest accepted position sample (s; None: none yet)
+    newest_s: float | None = None
+    #: the first recorded sample's time: the flight's zero (s, vehicle clock)
+    origin_s: float | None = None
+    duplicates: int = 0
+    late: int = 0
+    epoch: int = 0
+    restarts: list[Restart] = field(default_factory=list)
+    #: stretches without a position sample while recording: (from, to), vehicle seconds
+    gaps: list[tuple[float, float]] = field(default_factory=list)
+    heard: dict[str, float] = field(default_factory=dict)
+    #: what the monitor noticed, in order (:class:`Notice`)
+    notices: list[Notice] = field(default_factory=list)
+    _behind: list[TelemetrySample] = field(default_factory=list)
 
     def update(self, message: Message, now: float) -> None:
         self.last_heard = now
         if isinstance(message, Heartbeat):
+            self.heard["heartbeat"] = now
             self.heartbeats += 1
             self.armed = bool(message.base_mode & MavModeFlag.SAFETY_ARMED)
             self.custom_mode = message.custom_mode
@@ -164,6 +244,7 @@ class VehicleState:
         elif isinstance(message, StatusText):
             self.texts.append((now, message.severity, message.text))
         elif isinstance(message, HomePosition):
+            self.heard["home"] = now
             self.home = (message.latitude / 1e7, message.longitude / 1e7, message.altitude / 1e3)
         elif isinstance(message, SysStatus):
             self.sensors_present = message.onboard_control_sensors_present
@@ -176,20 +257,24 @@ class VehicleState:
         elif isinstance(message, BatteryStatus):
             if message.battery_remaining >= 0:
                 self.battery_pct = float(message.battery_remaining)
+            # 0: "not provided by autopilot" (common.xml)
+            self.battery_time_s = float(message.time_remaining) if message.time_remaining else None
         elif isinstance(message, ExtendedSysState):
+            self.heard["extended_sys_state"] = now
             self.landed_state = message.landed_state
             if message.landed_state == LandedState.IN_AIR:
                 self.flew = True
         elif isinstance(message, MissionCurrent):
+            self.heard["mission_current"] = now
             self.current_seq = message.seq
             self.mission_total = message.total
             self.mission_state = message.mission_state
         elif isinstance(message, MissionItemReached):
             self.reached.append(message.seq)
         elif isinstance(message, GlobalPositionInt):
-            self._position(message)
+            self._position(message, now)
 
-    def _position(self, m: GlobalPositionInt) -> None:
+    def _position(self, m: GlobalPositionInt, now: float) -> None:
         vn, ve, vd = m.vx / 100.0, m.vy / 100.0, m.vz / 100.0
         sample = TelemetrySample(
             time_s=m.time_boot_ms / 1000.0,
@@ -203,12 +288,67 @@ class VehicleState:
             mode="" if self.mode is None else self.mode.name,
             landed_state=self.landed_state,
             armed=self.armed,
+            epoch=self.epoch,
         )
+        newest = self.newest_s
+        t = sample.time_s
+        if newest is not None and t <= newest:
+            self._behind_or_late(sample, now)
+            return
+        self._behind.clear()
+        self._accept(sample, now)
+
+    def _behind_or_late(self, sample: TelemetrySample, now: float) -> None:
+        newest = self.newest_s
+        assert newest is not None
+        t = sample.time_s
+        if t == newest:
+            self.duplicates += 1
+            return
+        if newest - t <= REORDER_WINDOW_S:
+            self.late += 1
+            return
+        behind = self._behind
+        if behind and t <= behind[-1].time_s:
+            if t == behind[-1].time_s:
+                self.duplicates += 1
+            else:
+                self.late += 1
+            return
+        behind.append(sample)
+        if len(behind) < RESTART_SAMPLES:
+            return
+        # the clock went back and runs on from there: the vehicle restarted
+        self.restarts.append(Restart(newest, behind[0].time_s, now))
+        self.epoch += 1
+        self.newest_s = None
+        taken, self._behind = behind, []
+        for old in taken:
+            self._accept(replace(old, epoch=self.epoch), now)
+
+    def _accept(self, sample: TelemetrySample, now: float) -> None:
+        newest = self.newest_s
+        self.newest_s = sample.time_s
+        self.heard["position"] = now
         self.position = sample
         if self.armed and sample.relative_alt_m > 1.0:
             self.flew = True
-        if self.recording:
-            self.samples.append(sample)
+        if not self.recording:
+            return
+        if self.origin_s is None:
+            self.origin_s = sample.time_s
+        if newest is not None and sample.time_s - newest > GAP_S:
+            self.gaps.append((newest, sample.time_s))
+        self.samples.append(sample)
+
+    def since_origin(self, vehicle_s: float) -> float:
+        """Seconds into the flight (from the first recorded sample) of vehicle time
+        ``vehicle_s`` (of the first clock)."""
+        return vehicle_s - (self.origin_s if self.origin_s is not None else vehicle_s)
+
+    def not_heard_since(self, since: float, kinds: tuple[str, ...] = HEARD_KINDS) -> list[str]:
+        """Of ``kinds`` the vehicle ever reported, those not reported since ``since``."""
+        return [k for k in kinds if k in self.heard and self.heard[k] < since]
 
     def take_samples(self) -> list[TelemetrySample]:
         """The samples recorded since the last call."""
@@ -279,6 +419,10 @@ class FlightMachine:
             self.target[0], self.target[1], int(command), confirmation, *(float(v) for v in p)
         )
 
+    def request_messages(self, messages: Sequence[int]) -> list[Message]:
+        """MAV_CMD_REQUEST_MESSAGE for each message id (sent once each: no answer needed)."""
+        return [self.command(MavCommand.REQUEST_MESSAGE, [float(m)]) for m in messages]
+
     def start(self, now: float) -> list[Message]:
         raise NotImplementedError
 
@@ -287,6 +431,10 @@ class FlightMachine:
         return self.handle(message, now)
 
     def handle(self, message: Message, now: float) -> list[Message]:
+        return []
+
+    def on_overheard(self, received: Received, now: float) -> list[Message]:
+        """A message from the vehicle to another ground station (what it answered them)."""
         return []
 
     def on_timeout(self, now: float) -> list[Message]:
@@ -632,6 +780,94 @@ class MonitorEnd(enum.Enum):
     COMPLETE_IN_AIR = "complete in the air"  # done, and the mission does not land
     LANDED_EARLY = "landed early"  # down (disarmed) before the mission was done
     LINK_LOST = "link lost"  # nothing from the vehicle for FlightTimeouts.link_s
+    RESTARTED = "restarted"  # the vehicle's clock went back: it restarted
+    MISSION_CHANGED = "mission changed"  # it holds another mission: not this flight any more
+    HELD = "held"  # a mode the ground station did not command outlasted takeover_wait_s
+    DISARMED_IN_AIR = "disarmed in the air"
+    STALLED = "no progress"  # the caller's judge: no progress for its stated time
+
+
+class NoticeKind(enum.Enum):
+    """What the monitor noticed on the way."""
+
+    LINK_QUIET = "link quiet"  # nothing heard for WatchRules.quiet_s
+    LINK_BACK = "link back"  # heard again after that
+    GAP = "no telemetry"  # a stretch without position samples (GAP_S)
+    RESTART = "restart"  # the vehicle's clock went back
+    MODE_CHANGED = "mode changed"  # a mode neither commanded nor the mission's own
+    MISSION_RESUMED = "mission resumed"  # back in the mission mode after that
+    MISSION_CHANGED = "mission changed"  # another mission on board (count, or upload seen)
+    PLAN_CHANGED = "fence or rally changed"  # another ground station's fence / rally upload
+    HOME_MOVED = "home moved"  # HOME_POSITION moved beyond the tolerance
+    DISARMED = "disarmed in the air"
+    NO_PROGRESS = "no progress"  # the caller's: no progress for its stated time
+    BATTERY = "battery"  # the caller's: the ETA passes what the battery has left
+
+
+#: notices of a change behind the ground station's back: the flight is no longer the one it
+#: started, whatever happens next
+TAKEOVERS = frozenset(
+    {
+        NoticeKind.RESTART,
+        NoticeKind.MODE_CHANGED,
+        NoticeKind.MISSION_CHANGED,
+        NoticeKind.PLAN_CHANGED,
+        NoticeKind.HOME_MOVED,
+        NoticeKind.DISARMED,
+    }
+)
+
+
+@dataclass(frozen=True)
+class Notice:
+    """Something the monitor noticed: ``text`` in words, ``at`` the ground clock, and
+    ``flight_s`` the seconds into the flight by the vehicle's clock (None: after a restart,
+    on a clock of its own)."""
+
+    kind: NoticeKind
+    text: str
+    at: float
+    flight_s: float | None
+
+    @property
+    def takeover(self) -> bool:
+        return self.kind in TAKEOVERS
+
+    def line(self) -> str:
+        """``1 min 12 s into the flight: <text>``."""
+        if self.flight_s is None:
+            return self.text
+        return f"{flight_clock(self.flight_s)} into the flight: {self.text}"
+
+
+@dataclass(frozen=True)
+class WatchRules:
+    """How :class:`MonitorMachine` reads a flight (docs/flying.md, Monitoring and Endings).
+
+    ``quiet_s`` (ground seconds): nothing heard for this long is said at once (the link may
+    be lost; it counts as lost after ``FlightTimeouts.link_s``). ``takeover_wait_s`` (vehicle
+    seconds): how long a mode the ground station did not command (a hold, another ground
+    station's GUIDED ...) may last before the watch ends; the mission mode coming back in
+    time resumes it. ``fresh_retry_s`` / ``fresh_wait_s`` (ground seconds): after a gap, the
+    link's return or a restart the state is asked for again (MAV_CMD_REQUEST_MESSAGE) this
+    often, and an ending waits at most this long for the answers before it is decided on
+    what there is (saying what was not confirmed). ``home_moved_m``: how far (horizontal,
+    vertical) HOME_POSITION may move before it is a new home. ``other_command_s``: an
+    accepted mode command the vehicle acknowledged to another ground station this recently
+    explains a mode change."""
+
+    quiet_s: float = 2.0
+    takeover_wait_s: float = 30.0
+    fresh_retry_s: float = 1.0
+    fresh_wait_s: float = 5.0
+    home_moved_m: tuple[float, float] = (10.0, 3.0)
+    other_command_s: float = 5.0
+
+    def __post_init__(self) -> None:
+        for name in ("quiet_s", "takeover_wait_s", "fresh_retry_s", "fresh_wait_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
 
 
 #: the telemetry :class:`MonitorMachine` asks for, with its interval (µs): the position at
@@ -642,21 +878,66 @@ STREAMS = (
     (MessageId.EXTENDED_SYS_STATE, 1_000_000),
     (MessageId.SYS_STATUS, 1_000_000),
     (MessageId.BATTERY_STATUS, 1_000_000),
+    (MessageId.HOME_POSITION, 1_000_000),
 )
 
+#: what is asked for again (MAV_CMD_REQUEST_MESSAGE) before a decision after a gap
+FRESH_MESSAGES = (
+    MessageId.HEARTBEAT,
+    MessageId.MISSION_CURRENT,
+    MessageId.EXTENDED_SYS_STATE,
+    MessageId.GLOBAL_POSITION_INT,
+    MessageId.HOME_POSITION,
+)
+
+#: commands (and SET_MODE, message 11, which ArduPilot acknowledges as command 11) whose
+#: acceptance by another ground station explains a change of mode
+_MODE_COMMANDS = frozenset(
+    {
+        int(MavCommand.DO_SET_MODE),
+        int(MavCommand.NAV_RETURN_TO_LAUNCH),
+        int(MavCommand.NAV_LAND),
+        int(MavCommand.MISSION_START),
+        int(MavCommand.COMPONENT_ARM_DISARM),
+        11,
+    }
+)
 
 #: messages a landed mission's monitor waits for a position report before it ends anyway
 SETTLE_MESSAGES = 20
+_EARTH_RADIUS_M = 6_371_000.0
+
+
+def _home_offset_m(
+    a: tuple[float, float, float], b: tuple[float, float, float]
+) -> tuple[float, float]:
+    """Horizontal and vertical distance between two homes (lat, lon, alt): a local flat
+    approximation, metres apart matter here, not kilometres."""
+    lat = math.radians((a[0] + b[0]) / 2.0)
+    north = math.radians(b[0] - a[0]) * _EARTH_RADIUS_M
+    east = math.radians(b[1] - a[1]) * _EARTH_RADIUS_M * math.cos(lat)
+    return math.hypot(north, east), b[2] - a[2]
 
 
 class MonitorMachine(FlightMachine):
     """Follow the flight until it ends (:class:`MonitorEnd`).
 
     ``last_seq``: the mission's last item (wire seq); ``lands``: the mission ends on the
-    ground (a landing or a return to launch). Done when the vehicle has flown, the mission
-    is complete (MISSION_CURRENT's mission_state, or the last item reached, or the return
-    or landing begun after the last item) and the vehicle is down (landed state, or
-    disarmed); with a mission that does not land, when the last item is reached.
+    ground (a landing or a return to launch); ``return_seq`` / ``land_seq``: where the
+    mission's own return to launch / landing begins (the modes the vehicle switches to by
+    itself there are not a change). Done when the vehicle has flown, the mission is complete
+    (MISSION_CURRENT's mission_state, or the last item reached, or the return or landing
+    begun after the last item) and the vehicle is down (landed state, or disarmed); with a
+    mission that does not land, when the last item is reached.
+
+    On the way it notices (:attr:`VehicleState.notices`) the link going quiet and coming
+    back, gaps, a restart, a mode it did not command (and by whom, when the vehicle
+    acknowledged it to another ground station), a new mission, fence or home, and a disarm
+    in the air. After a gap, the link's return, a restart or a disarm it asks for the state
+    again and decides nothing until the answers came (:class:`WatchRules`): a restart, a new
+    mission and a disarm in the air then end the watch; a mode that is not the mission's
+    ends it after ``takeover_wait_s`` unless the mission resumes (a return or a landing is
+    watched to the ground).
     """
 
     def __init__(
@@ -667,18 +948,84 @@ class MonitorMachine(FlightMachine):
         *,
         last_seq: int,
         lands: bool,
+        return_seq: int | None = None,
+        land_seq: int | None = None,
+        rules: WatchRules | None = None,
     ) -> None:
         super().__init__(state, target, timeouts)
         self.last_seq = last_seq
         self.lands = lands
+        self.return_seq = return_seq
+        self.land_seq = land_seq
+        self.rules = rules or WatchRules()
         self._settling = 0
+        self._last_message_at = -math.inf
+        self._quiet = False
+        self._fresh_since: float | None = None
+        self._fresh_asked_at = -math.inf
+        self._pending: MonitorEnd | None = None
+        self._disarm_check = False
+        self._stable_custom = state.custom_mode
+        self._last_hb_custom: int | None = None
+        self._armed_stable: bool | None = True if state.armed else None
+        self._last_hb_armed: bool | None = None
+        self._total: int | None = None
+        self._new_total: int | None = None
+        self._home = state.home
+        self._new_home: tuple[float, float, float] | None = None
+        self._gaps_seen = len(state.gaps)
+        self._restarts_seen = len(state.restarts)
+        self._others: list[tuple[float, int, int, int]] = []
+        #: the mode the ground station did not command, while the vehicle is in it
+        self.foreign_mode: FlightMode | None = None
+        #: the vehicle's clock when a foreign hold began (None: none, or a return / landing)
+        self.held_since_s: float | None = None
+        #: kinds of state not confirmed when an ending had to be decided without them
+        self.unconfirmed: list[str] = []
 
-    def start(self, now: float) -> list[Message]:
-        self.deadline = now + self.timeouts.link_s
+    # -- helpers --------------------------------------------------------------------------
+    def _flight_s(self) -> float | None:
+        s = self.state
+        if s.epoch != 0 or s.newest_s is None:
+            return None
+        return s.since_origin(s.newest_s)
+
+    def _notice(self, kind: NoticeKind, text: str, now: float) -> None:
+        self.state.notices.append(Notice(kind, text, now, self._flight_s()))
+
+    def _streams(self) -> list[Message]:
         return [
             self.command(MavCommand.SET_MESSAGE_INTERVAL, [float(message), float(interval)])
             for message, interval in STREAMS
         ]
+
+    def _ask_fresh(self, now: float, *, restart: bool = False) -> list[Message]:
+        """Ask for the state again; decisions wait for the answers (:meth:`_fresh`)."""
+        if restart or self._fresh_since is None:
+            self._fresh_since = now
+        if now - self._fresh_asked_at < 0.2 and not restart:
+            return []
+        self._fresh_asked_at = now
+        out = self._streams() if restart else []  # a restarted vehicle forgot the intervals
+        return out + self.request_messages(FRESH_MESSAGES)
+
+    def _fresh(self, now: float) -> bool:
+        since = self._fresh_since
+        if since is None:
+            return True
+        missing = self.state.not_heard_since(since)
+        if missing and now - since < self.rules.fresh_wait_s:
+            return False
+        self.unconfirmed = missing
+        self._fresh_since = None
+        return True
+
+    def _who(self, now: float) -> str:
+        recent = [o for o in self._others if now - o[0] <= self.rules.other_command_s]
+        if recent:
+            _, _command, system, component = recent[-1]
+            return f"commanded by another ground station (system {system}, component {component})"
+        return "not commanded by this ground station"
 
     @property
     def mission_done(self) -> bool:
@@ -695,12 +1042,250 @@ class MonitorMachine(FlightMachine):
             return s.flew
         return at_end and s.mode is not None and s.mode.kind in (ModeKind.RETURN, ModeKind.LAND)
 
-    def handle(self, message: Message, now: float) -> list[Message]:
-        self.deadline = now + self.timeouts.link_s
+    def _expected(self, mode: FlightMode | None) -> bool:
+        """A mode the mission itself leads to where the vehicle is in it."""
+        if mode is None:
+            return False
         s = self.state
-        if not s.flew:
+        kind = mode.kind
+        if kind is ModeKind.MISSION:
+            return True
+        done = self.mission_done
+        if kind is ModeKind.RETURN:
+            return done or (self.return_seq is not None and s.current_seq >= self.return_seq)
+        if kind is ModeKind.LAND:
+            return done or (self.land_seq is not None and s.current_seq >= self.land_seq)
+        if kind is ModeKind.HOLD:
+            return done  # PX4 holds once a mission that does not land is done
+        return False
+
+    # -- the machine ----------------------------------------------------------------------
+    def start(self, now: float) -> list[Message]:
+        self._last_message_at = now
+        self._set_deadline(now)
+        return self._streams()
+
+    def _set_deadline(self, now: float) -> None:
+        last = self._last_message_at
+        deadline = last + self.timeouts.link_s
+        if not self._quiet:
+            deadline = min(deadline, last + self.rules.quiet_s)
+        if self._fresh_since is not None:
+            deadline = min(
+                deadline,
+                self._fresh_asked_at + self.rules.fresh_retry_s,
+                self._fresh_since + self.rules.fresh_wait_s,
+            )
+        self.deadline = max(deadline, now + 0.01)
+
+    def handle(self, message: Message, now: float) -> list[Message]:
+        s = self.state
+        out: list[Message] = []
+        silent = now - self._last_message_at
+        self._last_message_at = now
+        if self._quiet or silent >= self.rules.quiet_s:
+            self._quiet = False
+            self._notice(
+                NoticeKind.LINK_BACK, f"the link is back after {silent:.1f} s of silence", now
+            )
+            out += self._ask_fresh(now)
+        if len(s.restarts) > self._restarts_seen:
+            self._restarts_seen = len(s.restarts)
+            r = s.restarts[-1]
+            self._notice(
+                NoticeKind.RESTART,
+                f"the vehicle restarted: its clock went back from {r.before_s:.1f} s to "
+                f"{r.after_s:.1f} s since boot",
+                now,
+            )
+            self._pending = self._pending or MonitorEnd.RESTARTED
+            out += self._ask_fresh(now, restart=True)
+        while self._gaps_seen < len(s.gaps):
+            start, end = s.gaps[self._gaps_seen]
+            self._gaps_seen += 1
+            self._notice(
+                NoticeKind.GAP,
+                f"no telemetry from {flight_clock(s.since_origin(start))} to "
+                f"{flight_clock(s.since_origin(end))} into the flight ({end - start:.1f} s)",
+                now,
+            )
+            out += self._ask_fresh(now)
+        if isinstance(message, Heartbeat):
+            out += self._on_heartbeat(now)
+        elif isinstance(message, MissionCurrent):
+            out += self._on_mission_current(message, now)
+        elif isinstance(message, HomePosition):
+            self._on_home(now)
+        if self._fresh_since is not None and now - self._fresh_asked_at >= self.rules.fresh_retry_s:
+            self._fresh_asked_at = -math.inf
+            out += self._ask_fresh(now)
+        self._decide(message, now)
+        self._set_deadline(now)
+        return out
+
+    def on_overheard(self, received: Received, now: float) -> list[Message]:
+        m = received.message
+        if isinstance(m, CommandAck):
+            if m.command in _MODE_COMMANDS and m.result in (MavResult.ACCEPTED, 5):
+                # 5: MAV_RESULT_IN_PROGRESS
+                self._others.append((now, m.command, m.target_system, m.target_component))
+                del self._others[:-8]
             return []
-        down = s.landed_state == LandedState.ON_GROUND or not s.armed
+        if isinstance(m, MissionAck) and m.type == MissionResult.ACCEPTED:
+            who = (
+                f"another ground station (system {m.target_system}, component {m.target_component})"
+            )
+            if m.mission_type == 0:
+                if self._pending is None and self.finished is None:
+                    self._notice(
+                        NoticeKind.MISSION_CHANGED,
+                        f"{who} replaced the vehicle's mission (its upload or clear was "
+                        "accepted): the vehicle no longer flies this one",
+                        now,
+                    )
+                    self._pending = MonitorEnd.MISSION_CHANGED
+                    return self._ask_fresh(now)
+            else:
+                what = "geofence" if m.mission_type == 1 else "rally points"
+                self._notice(NoticeKind.PLAN_CHANGED, f"{who} replaced the vehicle's {what}", now)
+        return []
+
+    def _on_heartbeat(self, now: float) -> list[Message]:
+        s = self.state
+        out: list[Message] = []
+        custom, armed = s.custom_mode, s.armed
+        # a change counts once two heartbeats in a row say it (a late copy of an old one
+        # says nothing new)
+        if custom == self._last_hb_custom and custom != self._stable_custom:
+            self._stable_custom = custom
+            self._mode_changed(now)
+        self._last_hb_custom = custom
+        if self._armed_stable is None:
+            self._armed_stable = armed  # the first word on it
+        elif armed == self._last_hb_armed and armed != self._armed_stable:
+            self._armed_stable = armed
+            if not armed and s.flew:
+                # where did it disarm: on the ground (a landing) or in the air? ask
+                self._disarm_check = True
+                out += self._ask_fresh(now)
+        self._last_hb_armed = armed
+        return out
+
+    def _mode_changed(self, now: float) -> None:
+        s = self.state
+        mode = s.mode
+        if (self.mission_done and s.on_ground) or s.epoch != 0:
+            return  # the flight is over, or the vehicle restarted: a new boot's mode
+        if self._expected(mode):
+            if self.foreign_mode is not None and mode is not None:
+                self._notice(
+                    NoticeKind.MISSION_RESUMED,
+                    f"the vehicle is back in {mode.name}: the mission goes on",
+                    now,
+                )
+            self.foreign_mode = None
+            self.held_since_s = None
+            return
+        name = mode.name if mode is not None else f"custom mode {s.custom_mode}"
+        kind = None if mode is None else mode.kind
+        self.foreign_mode = mode
+        if kind in (ModeKind.RETURN, ModeKind.LAND):
+            self.held_since_s = None
+            then = "watching it to the ground"
+        else:
+            self.held_since_s = s.newest_s
+            then = (
+                f"waiting up to {self.rules.takeover_wait_s:g} s of the vehicle's time for "
+                "the mission to go on"
+            )
+        self._notice(
+            NoticeKind.MODE_CHANGED,
+            f"the vehicle switched to {name}, {self._who(now)}; {then}",
+            now,
+        )
+
+    def _on_mission_current(self, message: MissionCurrent, now: float) -> list[Message]:
+        total = message.total
+        if self.state.epoch != 0:
+            return []  # a restarted vehicle's count: the restart says it all
+        if self._total is None:
+            self._total = total
+            return []
+        if total == self._total:
+            self._new_total = None
+            return []
+        if total != self._new_total:
+            self._new_total = total  # once more before it counts: not a late copy
+            return []
+        if self._pending is not None or self.finished is not None:
+            return []
+        self._notice(
+            NoticeKind.MISSION_CHANGED,
+            f"the vehicle holds another mission now (MISSION_CURRENT counts {total} items "
+            f"where it counted {self._total}), {self._who(now)}: it no longer flies this one",
+            now,
+        )
+        self._pending = MonitorEnd.MISSION_CHANGED
+        return self._ask_fresh(now)
+
+    def _on_home(self, now: float) -> None:
+        home = self.state.home
+        if home is None or self.state.epoch != 0:
+            return
+        if self._home is None:
+            self._home = home
+            return
+        horizontal, vertical = _home_offset_m(self._home, home)
+        limit_h, limit_v = self.rules.home_moved_m
+        if horizontal <= limit_h and abs(vertical) <= limit_v:
+            self._new_home = None
+            return
+        if self._new_home != home:
+            self._new_home = home  # once more before it counts
+            return
+        self._notice(
+            NoticeKind.HOME_MOVED,
+            f"the vehicle's home moved {horizontal:.1f} m ({vertical:+.1f} m) to "
+            f"{home[0]:.7f}, {home[1]:.7f}, {home[2]:.1f} m AMSL, {self._who(now)}: a return "
+            "to launch now flies there",
+            now,
+        )
+        self._home = home
+        self._new_home = None
+
+    def _decide(self, message: Message | None, now: float) -> None:
+        s = self.state
+        if self.finished is not None or not self._fresh(now):
+            return
+        if self._pending is not None:
+            self.finished = self._pending
+            return
+        if self._disarm_check:
+            self._disarm_check = False
+            high = s.position is not None and s.position.relative_alt_m > 2.0
+            if not s.armed and (
+                s.landed_state == LandedState.IN_AIR
+                or (high and s.landed_state != LandedState.ON_GROUND)
+            ):
+                self._notice(
+                    NoticeKind.DISARMED,
+                    f"the vehicle disarmed in the air, {self._who(now)}: it was last "
+                    f"{s.describe()}",
+                    now,
+                )
+                self.finished = MonitorEnd.DISARMED_IN_AIR
+                return
+        held = self.held_since_s
+        if held is not None and s.newest_s is not None and s.epoch == 0:
+            if s.newest_s - held >= self.rules.takeover_wait_s:
+                self.finished = MonitorEnd.HELD
+                return
+        if not s.flew:
+            return
+        # down: the vehicle says it is on the ground, or two heartbeats say it disarmed and
+        # the state asked for since says it is not in the air
+        disarmed = self._armed_stable is False and not self._disarm_check
+        down = s.landed_state == LandedState.ON_GROUND or disarmed
         if self.lands and self.mission_done and down:
             # done once a position report shows where it came down (the track's last sample,
             # which the take-off-to-touchdown time reads), or a few messages on without one
@@ -709,10 +1294,27 @@ class MonitorMachine(FlightMachine):
                 self.finished = MonitorEnd.COMPLETE
         elif not self.lands and self.mission_done:
             self.finished = MonitorEnd.COMPLETE_IN_AIR if not down else MonitorEnd.COMPLETE
-        elif not s.armed and down:
+        elif disarmed:
             self.finished = MonitorEnd.LANDED_EARLY
-        return []
 
     def on_timeout(self, now: float) -> list[Message]:
-        self.finished = MonitorEnd.LINK_LOST
-        return []
+        s = self.state
+        out: list[Message] = []
+        silent = now - self._last_message_at
+        if silent >= self.timeouts.link_s:
+            self.finished = MonitorEnd.LINK_LOST
+            return []
+        if not self._quiet and silent >= self.rules.quiet_s:
+            self._quiet = True
+            self._notice(
+                NoticeKind.LINK_QUIET,
+                f"nothing heard from the vehicle for {silent:.1f} s (the link counts as lost "
+                f"after {self.timeouts.link_s:g} s); it was last {s.describe()}",
+                now,
+            )
+        if self._fresh_since is not None and now - self._fresh_asked_at >= self.rules.fresh_retry_s:
+            self._fresh_asked_at = -math.inf
+            out += self._ask_fresh(now)
+        self._decide(None, now)
+        self._set_deadline(now)
+        return out

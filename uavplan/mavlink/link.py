@@ -6,7 +6,9 @@ transfer before it), picks the target system/component from it (or from
 ``target_system``), and then filters everything received down to messages from that
 vehicle addressed to us or broadcast (reference §7.10, §7.13). It keeps what the vehicle
 tells in passing: its capabilities (AUTOPILOT_VERSION) and its last STATUSTEXT, which
-failure messages quote.
+failure messages quote, and what it answers other ground stations on the same link
+(:attr:`VehicleLink.overheard`: COMMAND_ACK and MISSION_ACK addressed to someone else), which
+tells a monitor who changed the vehicle's mode or mission behind its back.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import itertools
 import secrets
 import time
+from collections import deque
 from dataclasses import dataclass
 
 from uavplan.errors import LinkError
@@ -31,6 +34,7 @@ from uavplan.mavlink.messages import (
     MavResult,
     MavType,
     Message,
+    MissionAck,
     Received,
     StatusText,
 )
@@ -82,6 +86,8 @@ class VehicleInfo:
 
 
 _CAPABILITY_COMMANDS = (MavCommand.REQUEST_MESSAGE, MavCommand.REQUEST_AUTOPILOT_CAPABILITIES)
+#: how many of the vehicle's answers to other ground stations are kept
+OVERHEARD_KEPT = 32
 
 
 def _is_vehicle_heartbeat(hb: Heartbeat) -> bool:
@@ -101,6 +107,9 @@ class VehicleLink:
         self._capability_request_at: float | None = None
         self._capability_requests = 0
         self._capability_refused = False
+        #: the vehicle's COMMAND_ACK and MISSION_ACK to other ground stations, oldest first
+        #: (a consumer takes them with ``popleft``); the last :data:`OVERHEARD_KEPT`
+        self.overheard: deque[Received] = deque(maxlen=OVERHEARD_KEPT)
 
     # -- opening --------------------------------------------------------------------------
     @classmethod
@@ -191,9 +200,12 @@ class VehicleLink:
             return False
         target_system = getattr(message, "target_system", 0)
         target_component = getattr(message, "target_component", 0)
-        if target_system not in (0, self.connection.system_id):
-            return False
-        if target_component not in (0, self.connection.component_id):
+        if target_system not in (0, self.connection.system_id) or target_component not in (
+            0,
+            self.connection.component_id,
+        ):
+            if isinstance(message, CommandAck | MissionAck):
+                self.overheard.append(received)
             return False
         if isinstance(message, AutopilotVersion):
             self.capabilities = Capability(message.capabilities)

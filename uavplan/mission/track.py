@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import math
 import os
@@ -36,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from uavplan.errors import InputError
 from uavplan.fileio import atomic_write_text
 
-__all__ = ["TRACK_FORMATS", "Track", "TrackFileError", "check_track_path"]
+__all__ = ["TRACK_FORMATS", "Track", "TrackFileError", "check_track_path", "observed_stretches"]
 
 #: the file types a track is written as (by extension)
 TRACK_FORMATS = (".csv", ".geojson")
@@ -129,19 +130,32 @@ class Track:
 
     def until(self, index: int) -> Track:
         """The first ``index`` samples."""
+        return self.between(0, index)
+
+    def between(self, start: int, stop: int) -> Track:
+        """Samples ``start`` to ``stop - 1`` (their times as they are)."""
+        part = slice(start, stop)
         return Track(
-            self.time_s[:index],
-            self.lat_deg[:index],
-            self.lon_deg[:index],
-            self.alt_amsl_m[:index],
-            self.relative_alt_m[:index],
-            self.speed_m_s[:index],
-            self.current_seq[:index],
-            self.mode[:index],
+            self.time_s[part],
+            self.lat_deg[part],
+            self.lon_deg[part],
+            self.alt_amsl_m[part],
+            self.relative_alt_m[part],
+            self.speed_m_s[part],
+            self.current_seq[part],
+            self.mode[part],
             self.source,
             self.autopilot,
             dict(self.extra),
         )
+
+    def gaps(self, max_step_s: float) -> list[tuple[float, float]]:
+        """Where the track has no sample for longer than ``max_step_s``: (from, to) in its
+        own seconds, the last sample before and the first one after each."""
+        return [
+            (float(self.time_s[stop - 1]), float(self.time_s[stop]))
+            for _start, stop in observed_stretches(self.time_s, max_step_s)[:-1]
+        ]
 
     # -- files ----------------------------------------------------------------------------
     def dumps(self, suffix: str) -> str:
@@ -288,3 +302,16 @@ class Track:
             autopilot=str(props.get("autopilot", "")),
             extra={k: v for k, v in props.items() if k not in known},
         )
+
+
+def observed_stretches(time_s: ArrayLike, max_step_s: float) -> list[tuple[int, int]]:
+    """The stretches of sample times ``time_s`` (ascending) with no step longer than
+    ``max_step_s``: index ranges ``(start, stop)``, ``stop`` exclusive, in order, covering
+    every sample (a lone sample between two gaps is a stretch of one). Between two stretches
+    nothing was observed: a line drawn across that step would be a guess."""
+    t = np.asarray(time_s, dtype=np.float64).reshape(-1)
+    if not len(t):
+        return []
+    cuts = np.flatnonzero(np.diff(t) > max_step_s) + 1
+    bounds = [0, *(int(c) for c in cuts), len(t)]
+    return list(itertools.pairwise(bounds))

@@ -20,8 +20,12 @@ download while uploading       ignored + STATUSTEXT            DENIED
 download requests              strictly in order (next or      any seq; seq >= count: COUNT
                                repeat), else ERROR + idle      then ERROR
 repeated last item after ACK   ACCEPTED again                  ignored
-clear while busy               ignored + STATUSTEXT            ERROR; type ALL: UNSUPPORTED
-cancel (OPERATION_CANCELLED)   honoured                        ignored (times out after 8 s)
+clear while busy               ignored + STATUSTEXT            from the uploader: ends the
+                                                               upload and clears; from
+                                                               another: DENIED, ERROR
+cancel (OPERATION_CANCELLED)   honoured: idle at once, the     ignored: busy until 8 s after
+                               old plan kept                   the last item (then its own
+                                                               OPERATION_CANCELLED)
 mission seq 0                  first item                      home: downloads return
                                                                the vehicle's home when set
 download frames, altitude      as uploaded                     0/3/10 spellings, z to 1 cm,
@@ -483,11 +487,24 @@ class MissionServer:
         return remaining == 0
 
     def _on_ack(self, partner: tuple[int, int], ack: MissionAck) -> None:
+        """A MISSION_ACK from a ground station. During an upload (the vehicle receiving):
+
+        - ArduPilot handles no MISSION_ACK at all: ``MissionItemProtocol`` has no handler
+          for it (libraries/GCS_MAVLink/MissionItemProtocol.cpp), so a cancel changes
+          nothing; the transfer ends when no item came for ``upload_timeout_ms`` (8000 ms,
+          MissionItemProtocol.h), in ``MissionItemProtocol::update``, which then sends its
+          own OPERATION_CANCELLED (our :meth:`_timers`). Measured on ArduCopter 4.7.0-dev
+          SITL (2026-11-28): REQUEST_LIST answered DENIED until then.
+        - PX4 (``MavlinkMissionManager::handle_mission_ack``, src/modules/mavlink/
+          mavlink_mission.cpp): from the transfer partner, in the GETLIST state,
+          OPERATION_CANCELLED switches to idle at once (``switch_to_idle_state``,
+          ``_transfer_in_progress = false``); the upload went to the inactive storage, so
+          the old plan stays. UNSUPPORTED flips the request form (int / float)."""
         px4 = self.autopilot == Autopilot.PX4
         rx, tx = self._receiving, self._sending
         if rx is not None and partner == rx.partner and ack.mission_type == rx.mission_type:
             if not px4:
-                return  # ArduPilot does not honour cancel; it times out instead
+                return  # ArduPilot: see above
             rx.last_recv = self._now
             if ack.type == MissionResult.UNSUPPORTED:
                 rx.int_mode = not rx.int_mode  # the GCS wants the other request form
@@ -620,6 +637,18 @@ class MissionServer:
     # -- clear ----------------------------------------------------------------------------
     def _on_clear(self, partner: tuple[int, int], msg: MissionClearAll) -> None:
         px4 = self.autopilot == Autopilot.PX4
+        rx = self._receiving
+        if not px4 and rx is not None and msg.mission_type == rx.mission_type:
+            # ArduPilot's MissionItemProtocol::handle_mission_clear_all calls cancel_upload:
+            # the uploading ground station's clear ends its upload and clears (the only way
+            # it has to end one at once); another's is DENIED, then the clear answers ERROR
+            # (MissionItemProtocol.cpp; measured on ArduCopter 4.7.0-dev SITL, 2026-11-28)
+            if partner != rx.partner:
+                self._ack(partner, MissionResult.DENIED, msg.mission_type)
+                self._ack(partner, MissionResult.ERROR, msg.mission_type)
+                return
+            self._receiving = None
+            self._uploads_failed += 1
         if self.busy:
             if px4:
                 self._text(_CRITICAL, "WPM: IGN CLEAR CMD: Busy")
