@@ -79,8 +79,8 @@ PX4_OTHER_LOCAL = (14280, 13030, 19450)  # payload, gimbal and SIH display links
 AP_INSTANCES = range(2, 60)
 PX4_INSTANCES = range(2, 10)  # px4-rc.mavlink shares 14549 from instance 10 on
 #: what the observer asks for (Hz): SYS_STATUS, GPS_RAW_INT, GLOBAL_POSITION_INT,
-#: EKF_STATUS_REPORT, HOME_POSITION, SYSTEM_TIME
-STREAMS = {1: 2.0, 24: 2.0, 33: 5.0, 193: 2.0, 242: 0.5, 2: 1.0}
+#: EKF_STATUS_REPORT, HOME_POSITION, SYSTEM_TIME, MISSION_CURRENT, EXTENDED_SYS_STATE
+STREAMS = {1: 2.0, 24: 2.0, 33: 10.0, 193: 2.0, 242: 0.5, 2: 1.0, 42: 5.0, 245: 5.0}
 #: a "port" that is never free (an instance known to be in use)
 _NEVER = -1
 
@@ -219,6 +219,10 @@ class Observation:
     ekf_flags: int = 0
     home: GeoPoint | None = None
     params: dict[str, float] = field(default_factory=dict)
+    #: (time, seq) at each change of MISSION_CURRENT's seq
+    current: list[tuple[float, int]] = field(default_factory=list)
+    #: (time, landed state) at each change of EXTENDED_SYS_STATE's (1 ground, 2 air, ...)
+    landed: list[tuple[float, int]] = field(default_factory=list)
 
 
 class Observer:
@@ -300,6 +304,12 @@ class Observer:
                 seen.home = GeoPoint(msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1e3)
             elif kind == "PARAM_VALUE":
                 seen.params[msg.param_id] = float(msg.param_value)
+            elif kind == "MISSION_CURRENT":
+                if not seen.current or seen.current[-1][1] != msg.seq:
+                    seen.current.append((seen.boot_s, msg.seq))
+            elif kind == "EXTENDED_SYS_STATE":
+                if not seen.landed or seen.landed[-1][1] != msg.landed_state:
+                    seen.landed.append((seen.boot_s, msg.landed_state))
 
     def snapshot(self) -> Observation:
         with self._lock:
@@ -314,6 +324,8 @@ class Observer:
                 seen.ekf_flags,
                 seen.home,
                 dict(seen.params),
+                list(seen.current),
+                list(seen.landed),
             )
 
     def ask_streams(self, rates_hz: Mapping[int, float]) -> None:
@@ -623,7 +635,7 @@ MISSIONS = ROOT / "missions"
 #: how a bundled scenario may end: the autopilot's return (as bundled; via-tour: land) and
 #: the planned return home (end: return)
 ENDS = ("bundled", "return")
-_PLAN_CACHE: dict[tuple[str, str, str, bool], Path] = {}
+_PLAN_CACHE: dict[tuple[str, str, str, bool, bool, str], Path] = {}
 _PLAN_DIR: list[Path] = []
 
 
@@ -632,10 +644,13 @@ def bundled_sources() -> list[Path]:
     return sorted(MISSIONS.glob("*.yaml")) + sorted(MISSIONS.glob("*.plan"))
 
 
-def scenario_variant(source: Path, autopilot: Autopilot, end: str, work: Path) -> Path:
+def scenario_variant(
+    source: Path, autopilot: Autopilot, end: str, work: Path, *, amsl: bool = False
+) -> Path:
     """``source`` as a scenario file in ``work`` that plans for ``autopilot`` with the ending
-    ``end`` (its paths made absolute; jacksboro-ridge for PX4 with AMSL altitudes: PX4
-    flies no terrain frames)."""
+    ``end`` (its paths made absolute; jacksboro-ridge for PX4, or with ``amsl``, with AMSL
+    altitudes: PX4 flies no terrain frames, and a SITL without a ground station serving
+    terrain data cannot fly ArduPilot's)."""
     import yaml
 
     data = yaml.safe_load(source.read_text(encoding="utf-8"))
@@ -646,36 +661,44 @@ def scenario_variant(source: Path, autopilot: Autopilot, end: str, work: Path) -
     mission["autopilot"] = autopilot.label
     if end != "bundled":
         mission["end"] = end
-    if autopilot == Autopilot.PX4 and mission.get("altitude") == "terrain":
+    if (amsl or autopilot == Autopilot.PX4) and mission.get("altitude") == "terrain":
         mission["altitude"] = "amsl"
-    out = work / f"{source.stem}-{autopilot.label}-{end}.yaml"
+    out = work / f"{source.stem}-{autopilot.label}-{end}{'-amsl' if amsl else ''}.yaml"
     out.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     return out
 
 
 def planned(
-    source: Path, autopilot: Autopilot, end: str = "bundled", *, fence: bool = False
+    source: Path,
+    autopilot: Autopilot,
+    end: str = "bundled",
+    *,
+    fence: bool = False,
+    amsl: bool = False,
+    work: Path | None = None,
 ) -> Path:
     """``uavplan plan`` of a bundled ``source`` for ``autopilot`` (cached for the session);
     the .plan's path. The bundled QGroundControl plan is rerouted as it is (its own flavour
     and ending: ``end`` must be "bundled")."""
-    key = (str(source), autopilot.label, end, fence)
+    key = (str(source), autopilot.label, end, fence, amsl, str(work))
     if key in _PLAN_CACHE:
         return _PLAN_CACHE[key]
     from click.testing import CliRunner
 
     from uavplan.cli import main
 
-    if not _PLAN_DIR:
-        _PLAN_DIR.append(Path(tempfile.mkdtemp(prefix="uavplan-sitl-plans-")))
-    work = _PLAN_DIR[0]
-    out = work / f"{source.stem}-{autopilot.label}-{end}{'-fence' if fence else ''}.plan"
+    if work is None:
+        if not _PLAN_DIR:
+            _PLAN_DIR.append(Path(tempfile.mkdtemp(prefix="uavplan-sitl-plans-")))
+        work = _PLAN_DIR[0]
+    tag = ("-fence" if fence else "") + ("-amsl" if amsl else "")
+    out = work / f"{source.stem}-{autopilot.label}-{end}{tag}.plan"
     if source.suffix == ".plan":
         if end != "bundled":
             raise ValueError("a .plan keeps its own ending")
         args = ["plan", str(source), "-o", str(out), "-q"]
     else:
-        variant = scenario_variant(source, autopilot, end, work)
+        variant = scenario_variant(source, autopilot, end, work, amsl=amsl)
         args = ["plan", str(variant), "-o", str(out), "-q"]
     if fence:
         args.append("--fence")
