@@ -28,6 +28,7 @@ import math
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -329,15 +330,19 @@ def fly(
     params: dict[str, float] | None = None,
     model_s: float | None = None,
     extra_args: tuple[str, ...] = (),
+    before: Callable[[str], object] | None = None,
 ) -> Flight:
     """Start ``autopilot``'s SITL at the plan's home (``params`` at boot), run ``uavplan fly
     PLAN --upload`` against it to the end, stop it. ``model_s``: the model's flight time,
-    which bounds how long the flight may take (simulated)."""
+    which bounds how long the flight may take (simulated); ``before(conn)`` runs first (an
+    ``upload --set-params``)."""
     plan = load_mission(plan_path)
     assert plan.home is not None
     budget_s = (model_s or 1800.0) * 1.5 + EXTRA_S
     started = time.monotonic()
     with sitl.running(autopilot, plan.home, speedup=speedup, params=params) as vehicle:
+        if before is not None:
+            before(vehicle.conn)
         cmd = [sys.executable, "-m", "uavplan", "fly", str(plan_path), "--conn", vehicle.conn,
                "--upload", "--quiet", "--heartbeat-timeout", "30", *extra_args]  # fmt: skip
         if scenario is not None:

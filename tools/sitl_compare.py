@@ -35,6 +35,7 @@ import datetime
 import hashlib
 import json
 import math
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -99,33 +100,62 @@ class Row:
         return out
 
 
-def _key(plan_path: Path, autopilot: Autopilot, speedup: float) -> str:
+def _key(
+    plan_path: Path, autopilot: Autopilot, speedup: float, params: dict[str, float] | None = None
+) -> str:
     items = json.loads(plan_path.read_text())["mission"]["items"]
     binary = sitl.arducopter_binary() if autopilot == Autopilot.ARDUPILOT else sitl.px4_binary()
-    text = json.dumps([items, autopilot.label, speedup, binary.stat().st_size], sort_keys=True)
+    fields: list[object] = [items, autopilot.label, speedup, binary.stat().st_size]
+    if params:
+        fields.append(sorted(params.items()))
+    text = json.dumps(fields, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def compare_one(
-    source: Path, autopilot: Autopilot, speedup: float, flights: Path, work: Path
-) -> Row:
-    plan_path = sitl.planned(source, autopilot, amsl=True, work=work)
+    source: Path,
+    autopilot: Autopilot,
+    speedup: float,
+    flights: Path,
+    work: Path,
+    *,
+    replay: bool = False,
+    params: dict[str, float] | None = None,
+) -> Row | None:
+    if replay:
+        # the plans flown before (the model may have changed since, and would plan anew)
+        kept = [
+            p
+            for p in flights.glob(f"{source.stem}-{autopilot.label}-*.plan")
+            if sf.Flight.load(p.with_suffix(".json")).params == (params or {})
+        ]
+        if not kept:
+            return None
+        plan_path = max(kept, key=lambda p: p.stat().st_mtime)
+    else:
+        plan_path = sitl.planned(source, autopilot, amsl=True, work=work)
     plan = load_mission(plan_path)
     assert plan.home is not None
     takeoff_seq, end_seq = sf.marks(plan, autopilot)
     flown = sf.model_flight(plan, autopilot)
     model_path = sf.FlownPath.from_model(flown)
     model = sf.phases(model_path, takeoff_seq, end_seq)
-    cache = flights / f"{source.stem}-{autopilot.label}-{_key(plan_path, autopilot, speedup)}.json"
+    key = _key(plan_path, autopilot, speedup, params)
+    cache = flights / f"{source.stem}-{autopilot.label}-{key}.json"
     scenario = None if source.suffix == ".plan" else source
     if cache.exists():
         flight = sf.Flight.load(cache)
     else:
         print(f"flying {source.stem} on {autopilot.label} SITL ...", file=sys.stderr, flush=True)
         flight = sf.fly(
-            plan_path, autopilot, speedup=speedup, scenario=None, model_s=flown.flight_time_s
+            plan_path,
+            autopilot,
+            speedup=speedup,
+            params=params,
+            model_s=flown.flight_time_s,
         )
         flight.save(cache)
+        shutil.copy(plan_path, cache.with_suffix(".plan"))
     fw_path = flight.path(plan.home)
     firmware = sf.phases(fw_path, takeoff_seq, end_seq)
     if scenario is not None:
@@ -209,6 +239,16 @@ def main() -> int:
     parser.add_argument("--speedup", type=float, default=8.0)
     parser.add_argument("--flights", type=Path, default=None, help="cache of flights")
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument(
+        "--sih-drag",
+        action="store_true",
+        help="fly PX4 SIH with its own drag (SIH_KDV 1: a 9.8 m/s cap), not SIH_KDV 0.5",
+    )
+    parser.add_argument(
+        "--replay",
+        action="store_true",
+        help="no planning, no flying: the flights cached in --flights against the model now",
+    )
     args = parser.parse_args()
     flavours = [Autopilot.from_name(a) for a in (args.autopilot or ["ardupilot", "px4"])]
     for flavour in flavours:
@@ -218,14 +258,32 @@ def main() -> int:
             return 2
     only = {s for s in args.only.split(",") if s}
     sources = [s for s in sitl.bundled_sources() if not only or s.stem in only]
+    if args.replay and args.flights is None:
+        parser.error("--replay needs --flights")
     flights = args.flights or Path(tempfile.mkdtemp(prefix="sitl-flights-"))
     flights.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix="sitl-compare-"))
     rows = []
     for flavour in flavours:
         for source in sources:
-            rows.append(compare_one(source, flavour, args.speedup, flights, work))
-    print(f"`python tools/sitl_compare.py`, {datetime.date.today()}, speed-up {args.speedup:g}")
+            params = dict(sitl.FLIGHT_PARAMS[flavour])
+            if args.sih_drag:
+                params.pop("SIH_KDV", None)
+            row = compare_one(
+                source, flavour, args.speedup, flights, work, replay=args.replay, params=params
+            )
+            if row is not None:
+                rows.append(row)
+
+    def started(flavour: Autopilot) -> str:
+        values = " ".join(f"{k}={v:g}" for k, v in sitl.FLIGHT_PARAMS[flavour].items())
+        return f"{flavour.label} {values or 'as built'}"
+
+    firmware = ", ".join(started(f) for f in flavours)
+    print(
+        f"`python tools/sitl_compare.py`, {datetime.date.today()}, speed-up {args.speedup:g}, "
+        f"firmware parameters: {firmware if not args.sih_drag else 'as built'}"
+    )
     print()
     print_tables(rows)
     failed = False
