@@ -72,7 +72,8 @@ def test_the_start_sequences_are_qgroundcontrols() -> None:
     ]
     assert ap[0].params[1] == 4.0  # GUIDED
     assert ap[2].params[:2] == (0.0, 0.0)
-    assert mode_steps(AP, ModeKind.HOLD)[0].params[1] == 5.0  # LOITER
+    # BRAKE: LOITER follows the throttle stick and, with none (SITL), lands (issue 32)
+    assert mode_steps(AP, ModeKind.HOLD)[0].params[1] == 17.0  # BRAKE
     assert mode_steps(PX4, ModeKind.HOLD)[0].params[1:3] == (4.0, 3.0)  # AUTO.LOITER (Hold)
 
 

@@ -62,7 +62,7 @@ def _tolerance(_ctx: object, _param: object, value: str) -> tuple[float, float]:
     type=click.Choice(sorted(ON_INTERRUPT)),
     default="hold",
     show_default=True,
-    help="What Ctrl-C asks the vehicle to do: hold (PX4 Hold, ArduPilot LOITER), rtl, land.",
+    help="What Ctrl-C asks the vehicle to do: hold (PX4 Hold, ArduPilot BRAKE), rtl, land.",
 )
 @click.option(
     "--home-tolerance",

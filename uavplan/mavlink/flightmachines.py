@@ -765,7 +765,7 @@ def start_steps(autopilot: Autopilot) -> list[Step]:
 
 
 def mode_steps(autopilot: Autopilot, kind: ModeKind) -> list[Step]:
-    """Change to the mode of ``kind`` (HOLD: PX4 Hold / ArduPilot LOITER; RETURN; LAND)."""
+    """Change to the mode of ``kind`` (HOLD: PX4 Hold / ArduPilot BRAKE; RETURN; LAND)."""
     return [set_mode_step(autopilot, mode_named(autopilot, kind))]
 
 

@@ -39,7 +39,7 @@ class ModeKind(enum.Enum):
 
     MANUAL = "manual"  # a pilot flies (the simulation has none: holds)
     MISSION = "mission"
-    HOLD = "hold"
+    HOLD = "hold"  # holds its position with no pilot (PX4 Hold, ArduPilot BRAKE)
     RETURN = "return"
     LAND = "land"
     TAKEOFF = "takeoff"
@@ -94,10 +94,15 @@ ARDUPILOT_MODES: tuple[FlightMode, ...] = (
     _ap(2, "ALT_HOLD", ModeKind.MANUAL),
     _ap(3, "AUTO", ModeKind.MISSION),
     _ap(4, "GUIDED", ModeKind.GUIDED),
-    _ap(5, "LOITER", ModeKind.HOLD),
+    # LOITER and POSHOLD hold position only with a pilot on the sticks: the throttle stick
+    # sets the climb rate (ArduCopter/mode_loiter.cpp ModeLoiter::run,
+    # get_pilot_desired_climb_rate). On SITL, whose throttle input rests low, LOITER descended
+    # at 2.5 m/s and landed (issue 32). BRAKE holds the stopping point with no pilot
+    # (ArduCopter/mode_brake.cpp ModeBrake::run: zero velocity, pos_control's z target kept).
+    _ap(5, "LOITER", ModeKind.MANUAL),
     _ap(6, "RTL", ModeKind.RETURN),
     _ap(9, "LAND", ModeKind.LAND),
-    _ap(16, "POSHOLD", ModeKind.HOLD),
+    _ap(16, "POSHOLD", ModeKind.MANUAL),
     _ap(17, "BRAKE", ModeKind.HOLD),
 )
 
@@ -130,7 +135,7 @@ def mode_from_heartbeat(autopilot: Autopilot, custom_mode: int) -> FlightMode | 
 
 
 def mode_named(autopilot: Autopilot, kind: ModeKind) -> FlightMode:
-    """The mode of ``kind`` for ``autopilot`` (PX4 Hold / ArduPilot LOITER for HOLD...)."""
+    """The mode of ``kind`` for ``autopilot`` (PX4 Hold / ArduPilot BRAKE for HOLD...)."""
     table = PX4_MODES if autopilot == Autopilot.PX4 else ARDUPILOT_MODES
     for mode in table:
         if mode.kind is kind:

@@ -7,11 +7,17 @@ This is where the vehicle's flavour is applied to a plan (reference §4, §7.18-
   (a vehicle reporting a generic autopilot gets the file's layout);
 - params that are unset (NaN on the wire) become 0 for ArduPilot except where it accepts
   NaN (param4 yaw of WAYPOINT, LOITER_UNLIM, LAND, TAKEOFF, VTOL_TAKEOFF);
-- frames the firmware rejects (terrain frames on PX4) are refused before anything is sent.
+- frames the firmware rejects (terrain frames on PX4) are refused before anything is sent;
+- items go in the form the firmware parses (:func:`uavplan.mavlink.stored_form.upload_form`: PX4
+  takes commands without a position, such as NAV_RETURN_TO_LAUNCH and DO_LAND_START, only in
+  MAV_FRAME_MISSION).
 
 Order follows QGroundControl: mission, then fence, then rally (fence and rally only when
 the plan has them); then, unless ``verify=False``, each is downloaded and compared item by
-item (:func:`compare_items`: synonymous frames, float32 params, 1e-7 deg, 1 cm). All
+item with what the firmware keeps of it (:func:`compare_items`: the firmware's form of each
+item, :func:`uavplan.mavlink.stored_form.stored_form`; synonymous frames, float32 params,
+1e-7 deg, 1 cm). A difference names the item and field; it blames another ground station
+only when the vehicle holds another mission (:class:`ReadBackDifference`). All
 uploads come before all read-backs: PX4 refuses a new upload for 5 s when a download's
 final ACK is lost, but happily starts another download.
 """
@@ -43,6 +49,7 @@ from uavplan.mavlink.storage import check_plan_fits_storage as check_plan_fits_s
 from uavplan.mavlink.storage import check_storage as check_storage
 from uavplan.mavlink.storage import storage_limits as storage_limits
 from uavplan.mavlink.storage import storage_problem as storage_problem
+from uavplan.mavlink.stored_form import stored_form, upload_form
 from uavplan.mission.items import (
     Autopilot,
     GeoFence,
@@ -143,7 +150,10 @@ def plan_wire_items(
     Raises :class:`InputError` for an item the firmware is known to reject (frame).
     """
     laid_out = retarget(plan, autopilot) if mission_type == MissionType.MISSION else plan
-    items = [sanitise_item(it, autopilot) for it in laid_out.wire_items(mission_type)]
+    items = [
+        upload_form(sanitise_item(it, autopilot), autopilot)
+        for it in laid_out.wire_items(mission_type)
+    ]
     for seq, item in enumerate(items):
         problem = wire_range_problem(item)
         if problem is not None:
@@ -165,18 +175,91 @@ def plan_wire_items(
 # Read-back comparison
 
 
-def _difference(sent: MissionItem, got: MissionItem) -> str:
-    """Name the first field in which ``got`` differs from ``sent`` beyond the tolerances."""
-    if sent.command != got.command:
-        return f"command {sent.command} became {got.command}"
-    if canonical_frame(sent.frame) != canonical_frame(got.frame):
-        return f"frame {sent.frame} became {got.frame}"
+@dataclass(frozen=True)
+class ReadBackDifference:
+    """How a read-back differs from what was uploaded. ``text`` names the item and field;
+    ``other_mission``: the vehicle holds a different mission (another item count, another
+    command, or a position moved by more than a firmware rounds): evidence that something
+    else changed it, where a param or a frame alone is the firmware keeping the item in a
+    form uavplan did not expect."""
+
+    text: str
+    other_mission: bool
+
+
+#: a position the firmware moved by more than this (m, about 1e-5 degrees) was not rounded
+_MOVED_DEG = 1e-5
+
+
+def _fmt(value: float | None) -> str:
+    return "unset (NaN)" if value is None else f"{value:g}"
+
+
+def _field_difference(sent: MissionItem, expected: MissionItem, got: MissionItem) -> str:
+    """The first field of ``got`` that differs from ``expected`` (the firmware's form of
+    ``sent``), with the value sent, the value expected when the firmware changes it, and
+    the value held."""
+
+    def say(name: str, a: object, e: object, g: object) -> str:
+        kept = "" if a == e else f" (kept by the firmware as {e})"
+        return f"{name}: uploaded {a}{kept}, the vehicle holds {g}"
+
+    if canonical_frame(expected.frame) != canonical_frame(got.frame):
+        return say("frame", sent.frame, expected.frame, got.frame)
     for name in ("param1", "param2", "param3", "param4"):
-        if not items_equal(sent, replace(sent, **{name: getattr(got, name)})):
-            return f"{name} {getattr(sent, name)!r} became {getattr(got, name)!r}"
-    if not items_equal(sent, replace(sent, x=got.x, y=got.y)):
-        return f"position ({sent.x:.7f}, {sent.y:.7f}) became ({got.x:.7f}, {got.y:.7f})"
-    return f"altitude {sent.z!r} m became {got.z!r} m"
+        if not items_equal(expected, replace(expected, **{name: getattr(got, name)})):
+            return say(
+                name,
+                _fmt(getattr(sent, name)),
+                _fmt(getattr(expected, name)),
+                _fmt(getattr(got, name)),
+            )
+    if not items_equal(expected, replace(expected, x=got.x, y=got.y)):
+        return say(
+            "position",
+            f"({sent.x:.7f}, {sent.y:.7f})",
+            f"({expected.x:.7f}, {expected.y:.7f})",
+            f"({got.x:.7f}, {got.y:.7f})",
+        )
+    return say("altitude", f"{sent.z:g} m", f"{expected.z:g} m", f"{got.z:g} m")
+
+
+def read_back_difference(
+    sent: Sequence[MissionItem],
+    received: Sequence[MissionItem],
+    mission_type: MissionType,
+    autopilot: Autopilot,
+) -> ReadBackDifference | None:
+    """``None`` when the read-back holds what was sent, in the form the firmware keeps it
+    (:func:`uavplan.mavlink.stored_form.stored_form`) or as it was sent (a vehicle or simulator
+    that keeps every field, as MAVSDK's mission server does), else the first difference.
+
+    Tolerances are those of :func:`~uavplan.mission.items.items_equal`. ArduPilot's mission
+    seq 0 is the vehicle's home, which it overwrites, so it is not compared.
+    """
+    if len(sent) != len(received):
+        return ReadBackDifference(
+            f"the vehicle holds {len(received)} items, {len(sent)} were uploaded", True
+        )
+    ardupilot = autopilot == Autopilot.ARDUPILOT
+    for seq, (a, b) in enumerate(zip(sent, received, strict=True)):
+        if ardupilot and mission_type == MissionType.MISSION and seq == 0:
+            continue
+        expected = stored_form(a, autopilot, mission_type)
+        if items_equal(expected, b) or items_equal(a, b):
+            continue  # as the firmware keeps it, or (a vehicle that keeps it all) as sent
+        where = f"item {seq} ({describe_item(a)})"
+        if expected.command != b.command:
+            return ReadBackDifference(
+                f"{where}: the vehicle holds command {b.command} there instead", True
+            )
+        moved = (
+            expected.is_global
+            and b.is_global
+            and max(abs(expected.x - b.x), abs(expected.y - b.y)) > _MOVED_DEG
+        )
+        return ReadBackDifference(f"{where}: {_field_difference(a, expected, b)}", moved)
+    return None
 
 
 def compare_items(
@@ -185,23 +268,10 @@ def compare_items(
     mission_type: MissionType,
     autopilot: Autopilot,
 ) -> str | None:
-    """``None`` when the read-back matches what was sent, else the first difference.
-
-    Tolerances are those of :func:`~uavplan.mission.items.items_equal`. ArduPilot's
-    mission seq 0 is the vehicle's home, which it overwrites, so it is not compared; nor
-    is an ArduPilot fence altitude (it comes back 0).
-    """
-    if len(sent) != len(received):
-        return f"the vehicle holds {len(received)} items, {len(sent)} were uploaded"
-    ardupilot = autopilot == Autopilot.ARDUPILOT
-    for seq, (a, b) in enumerate(zip(sent, received, strict=True)):
-        if ardupilot and mission_type == MissionType.MISSION and seq == 0:
-            continue
-        if ardupilot and mission_type == MissionType.FENCE:
-            b = replace(b, z=a.z)
-        if not items_equal(a, b):
-            return f"item {seq} ({describe_item(a)}): {_difference(a, b)}"
-    return None
+    """``None`` when the read-back matches what was sent, in the form the firmware keeps
+    it, else the first difference (:func:`read_back_difference`)."""
+    difference = read_back_difference(sent, received, mission_type, autopilot)
+    return None if difference is None else difference.text
 
 
 # ---------------------------------------------------------------------------------------------
@@ -334,9 +404,13 @@ def upload_plan(
                 )
             )
         outcome.raise_for_status()
-        difference = compare_items(wire[mission_type], outcome.items, mission_type, autopilot)
+        difference = read_back_difference(
+            wire[mission_type], outcome.items, mission_type, autopilot
+        )
         if difference is not None:
-            took_over = outcomes[types.index(mission_type)].ok
+            # blame another ground station only on evidence: the vehicle accepted our plan
+            # and now holds another mission, not the same one with a field in another form
+            took_over = outcomes[types.index(mission_type)].ok and difference.other_mission
             raise MissionTransferError(
                 replace(
                     outcome,
@@ -344,9 +418,9 @@ def upload_plan(
                     step="read-back",
                     detail=(
                         "another upload took over: the vehicle accepted our plan but now "
-                        f"holds a different one (read-back differs: {difference})"
+                        f"holds a different one (read-back differs: {difference.text})"
                         if took_over
-                        else f"read-back differs: {difference}"
+                        else f"read-back differs: {difference.text}"
                     ),
                 )
             )

@@ -28,8 +28,11 @@ cancel (OPERATION_CANCELLED)   honoured: idle at once, the     ignored: busy unt
                                                                OPERATION_CANCELLED)
 mission seq 0                  first item                      home: downloads return
                                                                the vehicle's home when set
-download frames, altitude      as uploaded                     0/3/10 spellings, z to 1 cm,
-                                                               autocontinue 1
+stored and sent back           the firmware's form (mavlink/stored_form.py stored_form): params
+                               dropped or reduced, frames renamed, altitudes quantised;
+                               ``_INT`` frame spellings        0/3/10 spellings, z truncated
+                                                               to cm, autocontinue 1 (fence
+                                                               and rally 0)
 item limits                    500 / 64 / 32                   700 / 84 / 100
 =============================  ==============================  ================================
 
@@ -67,6 +70,11 @@ from uavplan.mavlink.messages import (
     StatusText,
 )
 from uavplan.mavlink.protocol import RoundTripEstimator, item_from_wire, item_to_wire
+from uavplan.mavlink.stored_form import (
+    PX4_GLOBAL_FRAME_COMMANDS,
+    PX4_MISSION_FRAME_COMMANDS,
+    stored_form,
+)
 from uavplan.mission.items import (
     Autopilot,
     MavCmd,
@@ -99,6 +107,9 @@ _POLYGON_COMMANDS = frozenset({5001, 5002})
 _RALLY_COMMANDS = {Autopilot.PX4: frozenset({5100, 31}), Autopilot.ARDUPILOT: frozenset({5100})}
 _PX4_FRAMES = frozenset({0, 2, 3, 5, 6})
 _ARDUPILOT_FRAMES = frozenset({0, 2, 3, 5, 6, 10, 11})
+#: the frames PX4 sends back for a global item in int mode (mavlink_mission.cpp
+#: format_mavlink_mission_item): MAV_FRAME_GLOBAL_INT, MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+_PX4_INT_FRAMES = {0: 5, 3: 6}
 #: ArduPilot allows NaN only in param4 (yaw) of these commands (AP_Mission::sanity_check_params)
 _ARDUPILOT_NAN_PARAM4 = frozenset({16, 17, 21, 22, 84})
 
@@ -194,9 +205,12 @@ class MissionServer:
         return [item_from_wire(w) for w in self.wire_items(mission_type)]
 
     def preload(self, mission_type: MissionType, items: list[MissionItem]) -> None:
-        """Store a plan as if it had been uploaded."""
+        """Store a plan as if it had been uploaded (in the firmware's form)."""
         wire = [
-            item_to_wire(it, seq, mission_type, self.system_id, self.component_id)
+            self._stored(
+                item_to_wire(it, seq, mission_type, self.system_id, self.component_id),
+                int(mission_type),
+            )
             for seq, it in enumerate(items)
         ]
         self._storage[int(mission_type)] = wire
@@ -346,6 +360,13 @@ class MissionServer:
             return MissionResult.UNSUPPORTED
         if frame not in (_PX4_FRAMES if px4 else _ARDUPILOT_FRAMES):
             return MissionResult.UNSUPPORTED_FRAME
+        if px4 and mission_type == 0:
+            # mavlink_mission.cpp parse_mavlink_mission_item: a command is accepted only in
+            # the frame branch that lists it (NAV_RETURN_TO_LAUNCH in a global frame, or a
+            # waypoint in MAV_FRAME_MISSION: MAV_MISSION_UNSUPPORTED)
+            listed = PX4_MISSION_FRAME_COMMANDS if frame == 2 else PX4_GLOBAL_FRAME_COMMANDS
+            if cmd not in listed:
+                return MissionResult.UNSUPPORTED
         if mission_type == 1 and cmd in _POLYGON_COMMANDS and not (item.param1 >= 3):
             return MissionResult.ERROR
         params = (item.param1, item.param2, item.param3, item.param4)
@@ -414,11 +435,7 @@ class MissionServer:
             self._receiving = None  # atomic: the stored plan is untouched
             self._uploads_failed += 1
             return
-        stored = item
-        if not px4:
-            # ArduPilot keeps altitude in centimetres and does not store autocontinue
-            stored = replace(item, z=round(item.z * 100.0) / 100.0, autocontinue=1)
-        rx.items.append(stored)
+        rx.items.append(self._stored(item, rx.mission_type))
         rx.next_seq += 1
         rx.consecutive_retries = 0
         if faults.accept_early_after_seq is not None and item.seq == faults.accept_early_after_seq:
@@ -473,6 +490,25 @@ class MissionServer:
         self._last_completed = (rx.partner, rx.mission_type, rx.count)
         self._uploads_accepted += 1
         self._ack(rx.partner, MissionResult.ACCEPTED, rx.mission_type)
+
+    def _stored(self, item: MissionItemInt, mission_type: int) -> MissionItemInt:
+        """What the firmware keeps of ``item`` and sends back (:func:`uavplan.mavlink.
+        storage.stored_form`: ArduPilot drops a waypoint's acceptance radius and yaw, keeps
+        whole seconds of hold time and centimetres of altitude, puts commands without a
+        location in frame 0; PX4 wraps yaw to [0, 360) and drops what its mission item has
+        no field for). ArduPilot's ``mission_cmd_to_mavlink_int`` sends autocontinue 1 for
+        every mission item, its fence and rally loaders 0; PX4 keeps what was sent."""
+        kind = MissionType(mission_type)
+        try:
+            kept = stored_form(item_from_wire(item), self.autopilot, kind)
+        except ValueError:
+            return item
+        wire = item_to_wire(kept, item.seq, kind, item.target_system, item.target_component)
+        if self.autopilot == Autopilot.ARDUPILOT:
+            autocontinue = 1 if kind == MissionType.MISSION else 0
+        else:
+            autocontinue = item.autocontinue
+        return replace(wire, autocontinue=autocontinue, legacy_float=item.legacy_float)
 
     @staticmethod
     def _fence_complete(items: list[MissionItemInt]) -> bool:
@@ -620,6 +656,9 @@ class MissionServer:
             target_component=partner[1],
             current=1 if (item.mission_type == 0 and item.seq == self.current_seq) else 0,
         )
+        if self.autopilot == Autopilot.PX4:
+            # format_mavlink_mission_item in int mode: the _INT spelling of a global frame
+            out = replace(out, frame=_PX4_INT_FRAMES.get(out.frame, out.frame))
         if self.autopilot == Autopilot.ARDUPILOT:
             out = replace(out, frame=canonical_frame(out.frame))
             if out.mission_type == 0 and out.seq == 0 and self.home is not None:

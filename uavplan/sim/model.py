@@ -54,6 +54,7 @@ from uavplan.geo import GeoPoint
 from uavplan.mission.items import MavCmd, MavFrame, MissionItem, canonical_frame
 from uavplan.sim.kinematics import (
     Profile,
+    SCurve,
     Vec,
     add,
     dist_xy,
@@ -329,13 +330,17 @@ class _Leg:
         self.t = 0.0  # time into the current profile
         self.profile = self._plan(self.length, 0.0, speed_xy)
 
-    def _plan(self, distance: float, v0: float, speed_xy: float) -> Profile:
+    def _plan(self, distance: float, v0: float, speed_xy: float) -> Profile | SCurve:
         u, lim = self.u, self.limits
         h = math.hypot(u[0], u[1])
         direction = (u[0] / h, u[1] / h) if h > 1e-9 else (0.0, 0.0)
         ground_xy = ground_speed_limit(speed_xy, direction, self.wind)
         vmax = kinematic_limit(u, ground_xy, lim.speed_up_m_s, lim.speed_down_m_s)
         amax = kinematic_limit(u, lim.accel_xy_m_s2, lim.accel_up_m_s2, lim.accel_down_m_s2)
+        if lim.scurve_jerk_m_s3 > 0.0:
+            # SCurve::calculate_track (set_kinematic_limits: the speed and acceleration along
+            # the 3-D leg), jerk and snap from AC_WPNav::calc_scurve_jerk_and_snap
+            return SCurve(distance, v0, vmax, amax, lim.scurve_jerk_m_s3, lim.scurve_snap_m_s4)
         return Profile(distance, v0, vmax, amax)
 
     @property
@@ -642,6 +647,25 @@ class _SmoothingTrack(_Motion):
         turn = max_speed_in_waypoint(alpha, lim.accel_corner_m_s2, self.acceptance_m)
         return min(turn, exit_speed, cruise)
 
+    def _arrival_z_speed(self, z_limit: float, z_acc: float) -> float:
+        """The vertical speed the trajectory may keep at the target when the next one
+        changes altitude too (PositionSmoothing::_getMaxZSpeed): the corner speed of the
+        turn between the legs drawn in (horizontal distance from home, altitude), with
+        NAV_MC_ALT_RAD as its radius; 0 when the next target is at the same altitude."""
+        nxt = self.next
+        if nxt is None or abs(self.target[2] - nxt[2]) <= 0.001:
+            return 0.0
+        start = (math.hypot(self.pos[0], self.pos[1]), self.pos[2])
+        target = (math.hypot(self.target[0], self.target[1]), self.target[2])
+        after = (math.hypot(nxt[0], nxt[1]), nxt[2])
+        a = (target[0] - start[0], target[1] - start[1])
+        b = (target[0] - after[0], target[1] - after[1])
+        na, nb = math.hypot(*a), math.hypot(*b)
+        cos_alpha = (a[0] * b[0] + a[1] * b[1]) / (na * nb) if na > 1e-9 and nb > 1e-9 else 1.0
+        alpha = min(math.acos(max(-1.0, min(1.0, cos_alpha))), math.pi - 1e-6)
+        turn = max_speed_in_waypoint(alpha, z_acc, self.limits.altitude_acceptance_m)
+        return min(turn, z_limit)
+
     def _l1_point(self) -> tuple[float, float]:
         """Where PX4 aims while turning onto the leg prev → target (PositionSmoothing)."""
         px, py, _ = self.prev_wp
@@ -698,15 +722,21 @@ class _SmoothingTrack(_Motion):
             and abs(dz) < lim.altitude_acceptance_m
         )
         if dz > 0:
-            climb = (
-                lim.speed_up_m_s
-                if self.climb_speed_at is None
-                else self.climb_speed_at(z - self.ground)
-            )
-            z_limit, z_acc = climb, lim.accel_up_m_s2
+            z_limit, z_acc = lim.speed_up_m_s, lim.accel_up_m_s2
+            if self.climb_speed_at is not None and z - self.ground < lim.takeoff_slow_below_m:
+                # FlightTaskAuto::_updateTrajConstraints: a take-off below MPC_LAND_ALT1
+                # climbs at MPC_TKO_SPEED, accelerating at most MPC_TKO_SPEED / MPC_TKO_RAMP_T
+                # ("to emulate the motor ramp")
+                z_limit = self.climb_speed_at(z - self.ground)
+                z_acc = min(z_acc, lim.takeoff_speed_m_s / max(lim.takeoff_ramp_s, 0.1))
         else:
             z_limit, z_acc = lim.speed_down_m_s, lim.accel_down_m_s2
-        z_speed = min(z_limit, max_speed_from_distance(lim.jerk_m_s3, z_acc, abs(dz), 0.0))
+        z_speed = min(
+            z_limit,
+            max_speed_from_distance(
+                lim.jerk_m_s3, z_acc, abs(dz), self._arrival_z_speed(z_limit, z_acc)
+            ),
+        )
         total = math.hypot(xy_speed, z_speed)
         cmd = scale(d, total)
         cmd = _clamp_xy(cmd, xy_speed)
@@ -718,7 +748,8 @@ class _SmoothingTrack(_Motion):
         if a_h > a_max:
             ax, ay = ax * a_max / a_h, ay * a_max / a_h
         az = cmd[2] - vz
-        az = min(az, lim.accel_up_m_s2 * dt) if az > 0 else max(az, -lim.accel_down_m_s2 * dt)
+        up_acc = z_acc if dz > 0 else lim.accel_up_m_s2
+        az = min(az, up_acc * dt) if az > 0 else max(az, -lim.accel_down_m_s2 * dt)
         self.vel = (vx + ax, vy + ay, vz + az)
         self.pos = add(self.pos, scale(self.vel, dt))
 

@@ -10,9 +10,12 @@ The tables are also the vehicle's parameter set: PARAM_REQUEST_LIST lists exactl
 rows, in this order (the index of a row is its ``param_index``). A real autopilot holds
 hundreds more; the ones here are those the flight model honours (docs/flight-model.md).
 
-ArduPilot values are Copter 4.5's (the names Copter 4.7 renamed with ``_M`` / ``_MS``
-suffixes keep their 4.5 spelling here: that is what the uploads and ground stations of
-today send). PX4 values are those of PX4 v1.15 / main.
+ArduPilot values are Copter 4.5's, which ArduCopter V4.7.0-dev SITL (ArduPilot 90700977c553)
+still holds under the same names and values (read back from it: tests/test_sitl_fly.py).
+PX4 values are those a PX4 v1.16 multicopter holds: the parameter files' defaults, with
+the three that every multicopter airframe overrides in ROMFS/px4fmu_common/init.d/
+rc.mc_defaults (NAV_ACC_RAD 2, RTL_RETURN_ALT 30, RTL_DESCEND_ALT 10; read back from PX4
+v1.16.0 SIH).
 """
 
 from __future__ import annotations
@@ -55,7 +58,12 @@ _PX4_RTL = _PX4 + "navigator/rtl_params.yaml"
 _PX4_ARM = _PX4_REF + "COM_ARM_MIS_REQ"
 _AP_FENCE = _AP + "libraries/AC_Fence/AC_Fence.cpp"
 _AP_POSCONTROL = _AP + "libraries/AC_AttitudeControl/AC_PosControl.cpp"
+_AP_ATC_MULTI = _AP + "libraries/AC_AttitudeControl/AC_AttitudeControl.cpp"
 _PX4_GEOFENCE = _PX4 + "navigator/geofence_params.yaml"
+#: every PX4 multicopter airframe runs this first; it overrides the parameter files' defaults
+_PX4_MC_DEFAULTS = (
+    "https://github.com/PX4/PX4-Autopilot/blob/v1.16.0/ROMFS/px4fmu_common/init.d/rc.mc_defaults"
+)
 
 
 #: ArduPilot FENCE_TYPE bit of the maximum-altitude fence (AC_Fence.h AC_FENCE_TYPE_ALT_MAX)
@@ -140,6 +148,26 @@ ARDUPILOT_PARAMS: tuple[ParamSpec, ...] = (
         _AP_WPNAV,
         0.0,
         500.0,
+    ),
+    ParamSpec(
+        "WPNAV_JERK",
+        1.0,
+        "m/s/s/s",
+        "jerk of the S-curve legs between waypoints (with ATC_INPUT_TC: how fast the "
+        "acceleration builds up; a 59 m leg peaks at 9.1 m/s of WPNAV_SPEED's 10)",
+        _AP_WPNAV,
+        1.0,
+        20.0,
+    ),
+    ParamSpec(
+        "ATC_INPUT_TC",
+        0.15,
+        "s",
+        "attitude control input time constant: the S-curves' snap is "
+        "WPNAV_JERK·π/(4·max(ATC_INPUT_TC, 0.1)) (AC_WPNav::calc_scurve_jerk_and_snap)",
+        _AP_ATC_MULTI,
+        0.0,
+        1.0,
     ),
     ParamSpec(
         "WPNAV_RADIUS",
@@ -375,6 +403,15 @@ PX4_PARAMS: tuple[ParamSpec, ...] = (
         5.0,
     ),
     ParamSpec(
+        "MPC_TKO_RAMP_T",
+        3.0,
+        "s",
+        "take-off ramp: below MPC_LAND_ALT1 the climb accelerates at most MPC_TKO_SPEED / this",
+        _PX4_TKO_LAND,
+        0.0,
+        10.0,
+    ),
+    ParamSpec(
         "MPC_LAND_SPEED",
         0.7,
         "m/s",
@@ -403,10 +440,11 @@ PX4_PARAMS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         "NAV_ACC_RAD",
-        10.0,
+        2.0,
         "m",
-        "acceptance radius of a waypoint, unless the item gives its own",
-        _PX4_NAV,
+        "acceptance radius of a waypoint, unless the item gives its own (navigator_params.yaml "
+        "says 10; rc.mc_defaults sets 2 for every multicopter)",
+        _PX4_MC_DEFAULTS,
         0.05,
         200.0,
     ),
@@ -415,19 +453,21 @@ PX4_PARAMS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         "RTL_RETURN_ALT",
-        60.0,
+        30.0,
         "m",
-        "lowest altitude above home the return flies at",
-        _PX4_RTL,
+        "lowest altitude above home the return flies at (rtl_params.yaml says 60; "
+        "rc.mc_defaults sets 30 for every multicopter)",
+        _PX4_MC_DEFAULTS,
         0.0,
         None,
     ),
     ParamSpec(
         "RTL_DESCEND_ALT",
-        30.0,
+        10.0,
         "m",
-        "altitude above home the return descends to before landing",
-        _PX4_RTL,
+        "altitude above home the return descends to before landing (rtl_params.yaml says "
+        "30; rc.mc_defaults sets 10 for every multicopter)",
+        _PX4_MC_DEFAULTS,
         0.0,
         None,
     ),
@@ -661,6 +701,13 @@ class FlightLimits:
     #: ArduPilot's PSC_JERK_Z (m/s³): the jerk of the vertical shaping that takes up the
     #: ground's changes on terrain-frame legs; 0: PX4
     jerk_z_m_s3: float = 0.0
+    #: PX4's take-off ramp (MPC_TKO_RAMP_T, s): below takeoff_slow_below_m the climb's
+    #: acceleration is at most takeoff_speed_m_s over it; 0: ArduPilot
+    takeoff_ramp_s: float = 0.0
+    #: ArduPilot's S-curve legs (AC_WPNav): their jerk (WPNAV_JERK, m/s³) and snap (m/s⁴);
+    #: 0: constant-acceleration legs (PX4 has its own guidance)
+    scurve_jerk_m_s3: float = 0.0
+    scurve_snap_m_s4: float = 0.0
 
     @property
     def is_px4(self) -> bool:
@@ -714,6 +761,8 @@ def flight_limits(params: Parameters) -> FlightLimits:
             fence_margin_m=p["FENCE_MARGIN"],
             terrain_margin_m=p["WPNAV_TER_MARGIN"],
             jerk_z_m_s3=p["PSC_JERK_Z"],
+            scurve_jerk_m_s3=p["WPNAV_JERK"],
+            scurve_snap_m_s4=_scurve_snap(p["WPNAV_JERK"], p["ATC_INPUT_TC"]),
         )
     if params.autopilot == Autopilot.PX4:
         return FlightLimits(
@@ -731,6 +780,7 @@ def flight_limits(params: Parameters) -> FlightLimits:
             altitude_acceptance_m=p["NAV_MC_ALT_RAD"],
             takeoff_speed_m_s=p["MPC_TKO_SPEED"],
             takeoff_slow_below_m=p["MPC_LAND_ALT1"],
+            takeoff_ramp_s=p["MPC_TKO_RAMP_T"],
             land_speed_m_s=p["MPC_LAND_SPEED"],
             land_speed_high_m_s=p["MPC_Z_V_AUTO_DN"],
             land_slow_below_m=max(p["MPC_LAND_ALT1"], p["MPC_LAND_ALT2"]),
@@ -750,6 +800,15 @@ def flight_limits(params: Parameters) -> FlightLimits:
             rtl_type=int(p["RTL_TYPE"]),
         )
     raise ValueError(f"no flight model for autopilot {params.autopilot.label}")
+
+
+def _scurve_snap(jerk_m_s3: float, input_tc_s: float) -> float:
+    """``AC_WPNav::calc_scurve_jerk_and_snap``: snap is the jerk over the attitude
+    controller's input time constant, ``jerk·π / (2·max(tc, 0.1))``, halved "from what the
+    aircraft is capable of". (The jerk is also capped by the roll and pitch rate limits
+    ATC_RATE_R_MAX / ATC_RATE_P_MAX times g, and the snap by ATC_ACCEL_R_MAX / _P_MAX times g:
+    with their defaults, 0 (no limit) and 1100 deg/s² (188 m/s⁴), neither binds.)"""
+    return 0.5 * jerk_m_s3 * math.pi / (2.0 * max(input_tc_s, 0.1))
 
 
 class _Clamped:
