@@ -385,7 +385,7 @@ CASES: dict[str, Case] = {
         ),
         Case(
             "gcs-hold",
-            "another ground station switches to hold (LOITER / Hold)",
+            "another ground station switches to hold (ArduPilot BRAKE / PX4 Hold)",
             during=_other_mode(ModeKind.HOLD),
             exits=frozenset({4}),
             notice="switched to",
@@ -485,7 +485,8 @@ def run_case(
     flight_s = 600.0 / speedup * 2.0  # twice the longest flight of the mission, wall
     try:
         args = [str(path), "--conn", relay.conn, "--scenario", str(case.scenario),
-                "--track", str(track), "--link-timeout", f"{case.link_timeout_s:g}"]  # fmt: skip
+                "--track", str(track), "--link-timeout", f"{case.link_timeout_s:g}",
+                "--set-params"]  # fmt: skip
         run.fly = FlyProcess(args, work)
         actor = None
         if case.during is not None:

@@ -25,6 +25,7 @@ from fly_faults import (
     CaseResult,
     VehicleProcess,
     gaps_of,
+    other_ground_station,
     plan_for,
     run_case,
 )
@@ -114,10 +115,10 @@ def test_after_a_long_gap_the_verdict_rests_on_fresh_state(work: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    ("case", "mode"), [("gcs-hold", "LOITER"), ("gcs-rtl", "RTL")], ids=["hold", "rtl"]
+    ("case", "mode"), [("gcs-hold", "BRAKE"), ("gcs-rtl", "RTL")], ids=["hold", "rtl"]
 )
 def test_another_ground_stations_mode_is_said_at_once(work: Path, case: str, mode: str) -> None:
-    """Issue 31: LOITER from a second ground station: fly said nothing and never ended; RTL:
+    """Issue 31: a hold from a second ground station: fly said nothing and never ended; RTL:
     reported only at touchdown, as "landed early". (20 times the wall clock: the other ground
     station's command must come well before the end of the flight on a loaded machine.)"""
     result = flown(case, AP, work, speedup=20.0)
@@ -130,7 +131,7 @@ def test_another_ground_stations_mode_is_said_at_once(work: Path, case: str, mod
     # two heartbeats (1 s apart) make a change; the rest is the wall clock's latency
     assert result.noticed_after_s is not None and result.noticed_after_s <= 10.0
     if case == "gcs-hold":
-        assert "the vehicle stayed in LOITER for 30 s of its time" in out
+        assert "the vehicle stayed in BRAKE for 30 s of its time" in out
     else:
         assert "landed and disarmed before the mission was complete" in out
 
@@ -154,8 +155,8 @@ def test_wind_the_vehicle_cannot_beat_is_said_and_ends_the_watch(work: Path) -> 
     assert result.exit_code == 4
     assert "vehicle (WARNING): Wind: cannot hold the track" in out
     assert "no progress for 60 s of the vehicle's time" in out
-    assert "fly switched it to LOITER (--on-interrupt)" in out
-    assert result.final_state.startswith("LOITER, armed")
+    assert "fly switched it to BRAKE (--on-interrupt)" in out
+    assert result.final_state.startswith("BRAKE, armed")
     # noticed after the stated time (and what the judgement's 0.1 s of wall clock between
     # looks is at 60 times the wall clock)
     assert result.noticed_after_s is not None and 58.0 <= result.noticed_after_s <= 80.0
@@ -214,28 +215,63 @@ def test_ctrl_c_during_the_upload_cancels_it_and_says_what_the_vehicle_holds(
 # Issues 32 and 37: the live clearance, the whole flight
 
 
+def _lower_rtl_alt_once_armed(address: tuple[str, int], rtl_alt_cm: float) -> str:
+    """Another ground station waits until the vehicle is armed, then sets RTL_ALT: the
+    parameter the mission relies on, changed behind fly's back after its pre-flight check."""
+    import time
+
+    from uavplan.mavlink.messages import Heartbeat
+    from uavplan.mavlink.parameters import ParamClient, ParamRequest
+
+    with other_ground_station(address) as link:
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline:
+            got = link.recv(0.5)
+            if got is not None and isinstance(got.message, Heartbeat):
+                if got.message.base_mode & 128:  # MAV_MODE_FLAG_SAFETY_ARMED
+                    break
+        else:
+            return "the vehicle never armed"
+        (result,) = ParamClient(link).apply([ParamRequest("RTL_ALT", rtl_alt_cm)])
+        return result.describe()
+
+
 @pytest.fixture(scope="module")
 def unsafe_return(work: Path) -> tuple[int, str, Path]:
-    """paper-env1 planned for ArduPilot and flown as docs/flying.md says: its return to
-    launch at the default RTL_ALT flies through obstacles #2, #1 and #0."""
+    """paper-env1 planned for ArduPilot with no legal ceiling, so that its mission ends with a
+    return to launch at the RTL altitude it relies on (RTL_ALT 23100 cm, above every tower),
+    flown with --set-params; once the vehicle is armed another ground station sets RTL_ALT
+    back to the firmware's 1500 cm. The return at 15 m flies through obstacles #2, #1 and #0:
+    only the live check of the whole flown track can see it."""
+    import threading
+
     scenario = ROOT / "missions" / "paper-env1.yaml"
     plan = work / "env1.plan"
     done = subprocess.run(
-        [*UAVPLAN, "plan", str(scenario), "-o", str(plan), "--autopilot", "ardupilot", "-q"],
+        [*UAVPLAN, "plan", str(scenario), "-o", str(plan), "--autopilot", "ardupilot", "-q",
+         "--legal-ceiling", "none"],
         capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     vehicle = VehicleProcess(AP, load_mission(plan), SPEEDUP)
     track = work / "env1-flown.csv"
+    said: list[str] = []
     try:
         host, port = vehicle.address
+        other = threading.Thread(
+            target=lambda: said.append(_lower_rtl_alt_once_armed(vehicle.address, 1500.0)),
+            daemon=True,
+        )
+        other.start()
         flown = subprocess.run(
             [*UAVPLAN, "fly", str(plan), "--conn", f"udpout:{host}:{port}", "--scenario",
-             str(scenario), "--track", str(track)], capture_output=True, text=True,
-            timeout=300,
+             str(scenario), "--track", str(track), "--set-params"], capture_output=True,
+            text=True, timeout=300,
         )  # fmt: skip
+        other.join(30.0)
     finally:
         vehicle.stop()
+    assert said and "1500" in said[0], said
     return flown.returncode, flown.stdout + flown.stderr, track
 
 

@@ -292,7 +292,7 @@ def test_a_mode_another_ground_station_commanded_is_said_at_once_and_ends_the_wa
     machine.on_message(heartbeat(AP, ModeKind.HOLD, armed=True), 0.07)
     (notice,) = state.notices
     assert notice.kind is NoticeKind.MODE_CHANGED and notice.takeover
-    assert "LOITER, commanded by another ground station (system 255, component 191)" in notice.text
+    assert "BRAKE, commanded by another ground station (system 255, component 191)" in notice.text
     for k in range(1, 50):  # 9.8 s of the vehicle's time, holding
         machine.on_message(_position(50.0 + 0.2 * k, 30.0), 0.1 + k / 1000)
     assert machine.finished is None  # it waits the stated time for the mission to go on
