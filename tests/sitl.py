@@ -716,6 +716,12 @@ def scenario_variant(
     for key in ("map", "terrain"):
         if isinstance(data.get(key), str):
             data[key] = str((source.parent / data[key]).resolve())
+    airspace = data.get("airspace")
+    if isinstance(airspace, dict) and isinstance(airspace.get("files"), list):
+        airspace["files"] = [
+            str((source.parent / f).resolve()) if isinstance(f, str) else f
+            for f in airspace["files"]
+        ]
     mission = data.setdefault("mission", {})
     mission["autopilot"] = autopilot.label
     if end != "bundled":
@@ -735,11 +741,14 @@ def planned(
     fence: bool = False,
     amsl: bool = False,
     work: Path | None = None,
+    legal_ceiling: str | None = None,
 ) -> Path:
     """``uavplan plan`` of a bundled ``source`` for ``autopilot`` (cached for the session);
     the .plan's path. The bundled QGroundControl plan is rerouted as it is (its own flavour
-    and ending: ``end`` must be "bundled")."""
-    key = (str(source), autopilot.label, end, fence, amsl, str(work))
+    and ending: ``end`` must be "bundled"). ``legal_ceiling``: ``plan --legal-ceiling``
+    ("none": a return at any altitude may be flown, so the mission relies on its RTL
+    altitude instead of ending with a planned return)."""
+    key = (str(source), autopilot.label, end, fence, amsl, str(work), legal_ceiling)
     if key in _PLAN_CACHE:
         return _PLAN_CACHE[key]
     from click.testing import CliRunner
@@ -751,6 +760,7 @@ def planned(
             _PLAN_DIR.append(Path(tempfile.mkdtemp(prefix="uavplan-sitl-plans-")))
         work = _PLAN_DIR[0]
     tag = ("-fence" if fence else "") + ("-amsl" if amsl else "")
+    tag += "" if legal_ceiling is None else f"-ceiling-{legal_ceiling}"
     out = work / f"{source.stem}-{autopilot.label}-{end}{tag}.plan"
     if source.suffix == ".plan":
         if end != "bundled":
@@ -761,6 +771,12 @@ def planned(
         args = ["plan", str(variant), "-o", str(out), "-q"]
     if fence:
         args.append("--fence")
+    if legal_ceiling is not None:
+        args += ["--legal-ceiling", legal_ceiling]
+    if end == "return":
+        # the long ones (jacksboro-ridge, zurich-airspace) flown there and back need more
+        # than the x500's battery with its reserve: these plans are uploaded, never flown
+        args.append("--allow-over-battery")
     result = CliRunner().invoke(main, args)
     if result.exit_code != 0:
         raise RuntimeError(f"uavplan {' '.join(args)}: exit {result.exit_code}: {result.output}")

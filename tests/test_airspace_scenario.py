@@ -469,7 +469,9 @@ def test_rerouting_a_plan_names_the_zones_it_crossed(tmp_path: Path) -> None:
     path = _scenario(tmp_path, zones)
     plain = tmp_path / "plain.yaml"
     text = path.read_text().replace("airspace: {files: [zones.txt]}\n", "")
-    plain.write_text(text + "mission: {spacing: 5000}\n")
+    # landing at the goal: a return to launch from there would be the autopilot's straight
+    # line home through both zones (the next test)
+    plain.write_text(text + "mission: {spacing: 5000, end: land}\n")
     straight = tmp_path / "straight.plan"
     assert CliRunner().invoke(main, ["plan", str(plain), "-o", str(straight), "-q"]).exit_code == 0
     out = tmp_path / "rerouted.plan"
@@ -484,6 +486,27 @@ def test_rerouting_a_plan_names_the_zones_it_crossed(tmp_path: Path) -> None:
     )
     result = CliRunner().invoke(main, ["validate", str(out), "--scenario", str(path)])
     assert result.exit_code == 0, result.stderr
+
+
+def test_a_rerouted_plan_whose_return_crosses_a_zone_is_refused(tmp_path: Path) -> None:
+    """The plan's own return to launch is the autopilot's straight line home, which a reroute
+    does not change: through a restricted zone, the whole flight is refused (exit 3), the
+    zone and the return named, and nothing is written."""
+    zones = _zone("FIRST", "R", "GND", "500ft AGL", (300, -100, 400, 100))
+    path = _scenario(tmp_path, zones)
+    plain = tmp_path / "plain.yaml"
+    text = path.read_text().replace("airspace: {files: [zones.txt]}\n", "")
+    plain.write_text(text + "mission: {spacing: 5000, end: rtl}\n")
+    straight = tmp_path / "straight.plan"
+    assert CliRunner().invoke(main, ["plan", str(plain), "-o", str(straight), "-q"]).exit_code == 0
+    out = tmp_path / "rerouted.plan"
+    result = CliRunner().invoke(
+        main, ["plan", str(straight), "--scenario", str(path), "-o", str(out)]
+    )
+    assert result.exit_code == 3, result.output
+    assert "during the return to launch" in result.stderr
+    assert "zone 'FIRST' (R, restricted)" in result.stderr
+    assert not out.exists()
 
 
 def test_fly_and_simulate_check_name_the_zones(tmp_path: Path) -> None:

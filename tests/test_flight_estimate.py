@@ -75,16 +75,16 @@ def test_the_straight_route_is_timed_and_costed_leg_by_leg(tmp_path: Path) -> No
 
 
 def test_rtl_flies_home_at_the_rtl_altitude_and_lands_there(tmp_path: Path) -> None:
-    """end: rtl: climb from the goal's 30 m to PX4's RTL_RETURN_ALT (60 m) at
-    MPC_Z_V_AUTO_UP, home at the RTL speed (MPC_XY_CRUISE 5 m/s), then MPC_Z_V_AUTO_DN to
-    MPC_LAND_ALT1... MPC_LAND_SPEED below the slow-down height."""
+    """end: rtl: from the goal's 30 m at PX4's RTL_RETURN_ALT (30 m on a multicopter,
+    rc.mc_defaults: no climb left), home at the RTL speed (MPC_XY_CRUISE 5 m/s), then
+    MPC_Z_V_AUTO_DN to MPC_LAND_ALT1... MPC_LAND_SPEED below the slow-down height."""
     extra = "vehicle: {cruise_speed: 10}"
     text = OPEN_FIELD.format(end="rtl", extra=extra).replace("ardupilot", "px4")
     path = tmp_path / "rtl.yaml"
     path.write_text(text)
     est = estimate_straight_route(load_scenario(path))
     lim = mission_limits(Autopilot.PX4, 10.0)
-    assert lim.rtl_altitude_m == 60.0 and est.rtl_altitude_m == 60.0
+    assert lim.rtl_altitude_m == 30.0 and est.rtl_altitude_m == 30.0
     slow = lim.land_slow_below_m
     takeoff = (
         lim.takeoff_slow_below_m / lim.takeoff_speed_m_s
@@ -93,10 +93,9 @@ def test_rtl_flies_home_at_the_rtl_altitude_and_lands_there(tmp_path: Path) -> N
     expected = (
         takeoff
         + 1200 / 10
-        + 30 / lim.speed_up_m_s
         + 1200 / lim.rtl_speed_m_s
         + lim.rtl_loiter_s
-        + (60 - slow) / lim.land_speed_high_m_s
+        + (30 - slow) / lim.land_speed_high_m_s
         + slow / lim.land_speed_m_s
     )
     assert est.energy.time_s == pytest.approx(expected, rel=1e-9)
@@ -157,7 +156,7 @@ def test_plan_prints_the_estimate_and_reports_its_keys(tmp_path: Path) -> None:
         data["flight_time_s"], abs=0.5
     )
     # minutes and seconds of the summary line are the report's
-    minutes, seconds = divmod(round(data["flight_time_s"]), 60)
+    minutes, seconds = divmod(int(data["flight_time_s"] + 0.5), 60)  # as printed: half up
     assert f"flight {minutes} min {seconds:02d} s" in line[0]
 
 
@@ -218,7 +217,7 @@ def test_validate_estimates_a_mission_as_plan_estimated_its_route(tmp_path: Path
     result = run("validate", tmp_path / "m.plan", "--scenario", path)
     assert result.exit_code == 0, result.output
     data = json.loads(report.read_text())
-    minutes, seconds = divmod(round(data["flight_time_s"]), 60)
+    minutes, seconds = divmod(int(data["flight_time_s"] + 0.5), 60)  # as printed: half up
     assert (
         f"the mission as ardupilot flies it, x500 (default vehicle): flight {minutes} min "
         f"{seconds:02d} s" in result.output

@@ -60,7 +60,7 @@ def set_params(plan_path: Path, plan: MissionPlan, conn: str) -> tuple[int, str]
     relies on no parameter says so and uploads)."""
     code, out = run("upload", str(plan_path), "--conn", conn, "--set-params")
     if not plan.parameters:
-        assert "relies on no parameter" in out, out
+        assert "relies on no vehicle parameter" in out, out
     return code, out
 
 

@@ -55,8 +55,12 @@ def test_a_straight_flight_draws_what_the_estimate_says(autopilot: Autopilot, en
         end=end,
         datum_amsl_m=HOME.alt_m,
     )
-    assert energy.energy_wh <= track.energy_wh <= 1.05 * energy.energy_wh
-    assert energy.time_s <= track.flight_time_s <= 1.05 * energy.time_s
+    # the legs estimate (the fallback for a mission the flight model does not fly) knows
+    # trapezoidal legs; ArduPilot flies jerk-limited S-curves (issue 32, held against SITL),
+    # which take longer: measured 5.5-5.9 % here. It stays a lower bound.
+    band = 1.08 if autopilot == AP else 1.05
+    assert energy.energy_wh <= track.energy_wh <= band * energy.energy_wh
+    assert energy.time_s <= track.flight_time_s <= band * energy.time_s
     assert track.battery_used_pct == pytest.approx(100 * track.energy_wh / X500.usable_wh)
 
 
@@ -71,11 +75,22 @@ def test_a_planned_mission_draws_what_the_estimate_says_within_8_percent(
     out = tmp_path / "m.plan"
     out.write_text(mission_text(plan, str(out)))
     plan, flight = read_mission_flight(str(out), scn)
-    estimate = estimate_mission(scn, plan, flight)
+    # what plan and validate print: the whole flight the verdict judged, through the flight
+    # model with the scenario's vehicle and wind (app.check); the legs estimate only bounds it
+    # from below (ArduPilot's S-curves on short legs: paper-env1 draws 17 % more)
+    from uavplan.app.check import judged
+    from uavplan.estimate import estimate_flown
+    from uavplan.rehearsal import CheckSite
+
+    verdict = judged(plan, CheckSite.of_scenario(scn), scn)
+    assert verdict is not None and verdict.rehearsal is not None
+    printed = estimate_flown(scn, verdict.rehearsal.flown)
+    legs = estimate_mission(scn, plan, flight)
     track = simulate(plan)
     assert track.ended == "landed"
-    ratio = track.energy_wh / estimate.energy.energy_wh
-    assert 1.0 <= ratio <= 1.08, ratio
+    ratio = track.energy_wh / printed.energy.energy_wh
+    assert 0.98 <= ratio <= 1.02, ratio
+    assert legs.energy.energy_wh <= track.energy_wh
 
 
 def fly(autopilot: Autopilot, *, profile: str = "x500") -> tuple[SimVehicle, Any, MissionPlan]:

@@ -141,9 +141,10 @@ def test_simulate_exits_3_naming_when_the_track_breaks_the_margin(
 ) -> None:
     code, text = run("simulate", str(env1_as_planned[PX4]), "--scenario", str(ENV1))
     assert code == 3, text
-    # the whole flight's worst point: its return to launch at PX4's 60 m crosses obstacle #0
+    # the whole flight's worst point: its return to launch at PX4's 30 m (rc.mc_defaults)
+    # crosses obstacle #0
     pattern = (
-        r"error: .*px4\.plan: whole flight as px4 flies it \(flight model, RTL_RETURN_ALT 60 m "
+        r"error: .*px4\.plan: whole flight as px4 flies it \(flight model, RTL_RETURN_ALT 30 m "
         r"\(the firmware's default\); take-off to touchdown, \d+ min \d+ s, against scenario "
         r"paper-env1\): \d+ min \d+\.\d s into the flight \(item \d+\), during the return to "
         r"launch, at \(\d+, -?\d+, \d+\): 0\.00 m from obstacle #0"

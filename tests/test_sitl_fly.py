@@ -112,7 +112,7 @@ def test_a_bundled_mission_flies_on_the_firmware_as_simulate_predicts(
 
 def _start_fly(conn: str, plan_path: Path, *args: str) -> subprocess.Popen[str]:
     cmd = [sys.executable, "-m", "uavplan", "fly", str(plan_path), "--conn", conn, "--upload",
-           "--quiet", "--heartbeat-timeout", "30", *args]  # fmt: skip
+           "--quiet", "--heartbeat-timeout", "30", "--set-params", *args]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
@@ -198,7 +198,11 @@ def test_set_params_are_read_back_and_the_model_holds_the_firmwares_defaults(
     the mission relies on, read back by ``upload`` and by the observer."""
     sitl.need(autopilot)
     source = "paper-env1" if autopilot == AP else "narrow-gap"
-    plan_path = sitl.planned(MISSIONS / f"{source}.yaml", autopilot, amsl=True)
+    # paper-env1 under no legal ceiling relies on its RTL altitude (RTL_ALT 23100 cm)
+    ceiling = "none" if autopilot == AP else None
+    plan_path = sitl.planned(
+        MISSIONS / f"{source}.yaml", autopilot, amsl=True, legal_ceiling=ceiling
+    )
     plan = load_mission(plan_path)
     assert plan.home is not None and plan.parameters
     with sitl.running(autopilot, plan.home, speedup=5.0) as v:
@@ -255,7 +259,9 @@ def return_mid_route(tmp_path_factory: pytest.TempPathFactory) -> dict[str, obje
     firmware's return split where it turns home (its velocity pointing home)."""
     sitl.need(AP)
     source = MISSIONS / "paper-env1.yaml"
-    plan_path = sitl.planned(source, AP, amsl=True)
+    # no legal ceiling: the mission relies on the proof's RTL altitude (paper-env1's towers
+    # need 231 m) instead of ending with a planned return
+    plan_path = sitl.planned(source, AP, amsl=True, legal_ceiling="none")
     scenario = sitl.scenario_variant(
         source, AP, "bundled", tmp_path_factory.mktemp("rtl"), amsl=True
     )
@@ -300,14 +306,6 @@ def return_mid_route(tmp_path_factory: pytest.TempPathFactory) -> dict[str, obje
     }
 
 
-_ROUNDED_DOWN = (
-    "the way-home proof's parameter advice rounds the safe RTL altitude down: paper-env1 "
-    "needs 230.01 m and the plan sets RTL_ALT 23000 cm (230.00 m), from which ArduPilot's "
-    "return passed 9.99 m from obstacle #0 (wholeflight: the proof and its parameters)"
-)
-
-
-@pytest.mark.xfail(strict=True, reason=_ROUNDED_DOWN)
 def test_a_return_mid_route_flies_home_keeping_the_margin(
     return_mid_route: dict[str, object],
 ) -> None:
@@ -318,7 +316,6 @@ def test_a_return_mid_route_flies_home_keeping_the_margin(
     assert r["home"] >= r["margin"], r
 
 
-@pytest.mark.xfail(strict=True, reason=_ROUNDED_DOWN)
 def test_a_return_mid_route_keeps_the_margin_the_proof_promised(
     return_mid_route: dict[str, object],
 ) -> None:

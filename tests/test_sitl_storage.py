@@ -97,7 +97,9 @@ def test_upload_verifies_every_bundled_plan(firmware: sitl.Sitl, source: Path, e
     autopilot = firmware.autopilot
     path = sitl.planned(source, autopilot, end)
     result = CliRunner().invoke(
-        main, ["upload", str(path), "--conn", firmware.conn, "--heartbeat-timeout", "20"]
+        main,
+        # the parameters the mission relies on (PX4: RTL_TYPE 2) are set and read back first
+        ["upload", str(path), "--conn", firmware.conn, "--heartbeat-timeout", "20", "--set-params"],
     )
     assert result.exit_code == 0, result.output
     assert "verified by read-back" in result.output, result.output

@@ -206,7 +206,7 @@ def test_view_writes_one_self_contained_page(env1_plan: Path, tmp_path: Path) ->
     out = tmp_path / "env1.html"
     result = run("view", env1_plan, "--scenario", ENV1, "-o", out)
     assert result.exit_code == 0, result.output  # type: ignore[attr-defined]
-    assert "75 waypoints, no leg under the margin" in result.output  # type: ignore[attr-defined]
+    assert "74 waypoints, no leg under the margin" in result.output  # type: ignore[attr-defined]
     html = out.read_text(encoding="utf-8")
     own = html.split("<script>", 1)[0]  # everything before the inlined plotly.js
     assert "<link" not in own and "src=" not in own and "@import" not in own
@@ -287,7 +287,7 @@ def test_plan_and_simulate_write_the_page(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output  # type: ignore[attr-defined]
     doc = document_of(page.read_text(encoding="utf-8"))
     assert doc["source"] == str(mission)
-    assert len(doc["mission"]["legs"]) == 75
+    assert len(doc["mission"]["legs"]) == 74
     sim = tmp_path / "sim.html"
     result = run("simulate", mission, "--scenario", ENV1, "--view", sim)
     assert result.exit_code == 0, result.output  # type: ignore[attr-defined]

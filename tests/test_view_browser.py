@@ -180,7 +180,7 @@ def test_the_mission_page(chromium: Browser, pages: dict[str, Path]) -> None:
         assert_drawn_cleanly(loaded)
         assert_3d_not_blank(loaded)
         waypoints, red = expected(pages["plan"])
-        assert (waypoints, red) == (75, [])
+        assert (waypoints, red) == (74, [])
         assert_shows_the_check(loaded, waypoints, red)
         assert_slider_moves_the_vehicle(loaded)
         roles = loaded.view("V.roles")
@@ -196,7 +196,7 @@ def test_hover_texts(chromium: Browser, pages: dict[str, Path]) -> None:
     loaded = chromium.open(pages["env1"])
     try:
         wp = loaded.view("document.getElementById('scene3d').data[V.roles.waypoints].hovertext")
-        assert len(wp) == 75
+        assert len(wp) == 74
         assert re.match(r"#5 waypoint \(item 5, seq 6\)<br>-?\d+\.\d{7}, -?\d+\.\d{7}<br>", wp[4])
         assert "m AMSL" in wp[4] and "above the ground" in wp[4] and "clearance" in wp[4]
         obstacle = loaded.view(
@@ -255,7 +255,7 @@ def test_the_checks_catch_a_missing_trace(
     try:
         assert_drawn_cleanly(loaded)  # it draws, without its waypoints
         with pytest.raises(AssertionError):
-            assert_shows_the_check(loaded, 75, [])
+            assert_shows_the_check(loaded, 74, [])
     finally:
         loaded.page.close()
 
