@@ -200,6 +200,31 @@ def test_a_vehicle_down_on_the_last_item_of_a_landing_mission_has_completed_it()
         assert machine.finished is end
 
 
+def test_the_first_item_ardupilot_sets_on_its_disarm_is_no_early_landing() -> None:
+    """ArduPilot SITL (issue 32's hairpin flight, under load): the vehicle landed on the last
+    item (the final NAV_LAND) and disarmed, and its MISSION_CURRENT back at item 1 (it resets
+    the mission on disarm) came before the heartbeats that said it disarmed: fly said "landed
+    and disarmed before the mission was complete ... at mission item 1/57". The furthest item
+    it flew to while armed decides. A vehicle that never got that far still landed early."""
+    for furthest, end in ((9, MonitorEnd.COMPLETE), (8, MonitorEnd.LANDED_EARLY)):
+        state = VehicleState(AP)
+        machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True)
+        machine.start(0.0)
+        state.recording = True
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 0.1)
+        machine.on_message(ExtendedSysState(0, LandedState.IN_AIR), 0.2)
+        machine.on_message(_position(10.0, 30.0), 0.3)
+        machine.on_message(MissionCurrent(furthest, 10, MissionState.ACTIVE), 0.4)
+        machine.on_message(_position(20.0, 0.5), 0.45)
+        machine.on_message(MissionCurrent(1, 10, MissionState.ACTIVE), 0.5)  # reset, first
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.55)
+        machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=False), 0.6)
+        machine.on_message(ExtendedSysState(0, LandedState.ON_GROUND), 0.61)
+        machine.on_message(MissionCurrent(1, 10, MissionState.ACTIVE), 0.62)
+        machine.on_message(_position(21.0, 0.0), 0.65)
+        assert machine.finished is end, (furthest, machine.finished)
+
+
 def test_the_monitor_reports_silence_as_a_lost_link_and_an_early_landing() -> None:
     state = VehicleState(AP)
     machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True)

@@ -982,6 +982,10 @@ class MonitorMachine(FlightMachine):
         self.held_since_s: float | None = None
         #: kinds of state not confirmed when an ending had to be decided without them
         self.unconfirmed: list[str] = []
+        #: the furthest mission item the vehicle flew to while armed, in this boot: ArduPilot
+        #: sets its current item back to the first when it disarms after the landing, and
+        #: that MISSION_CURRENT can arrive before the heartbeats that say it disarmed
+        self.furthest_seq = -1
 
     # -- helpers --------------------------------------------------------------------------
     def _flight_s(self) -> float | None:
@@ -1035,7 +1039,12 @@ class MonitorMachine(FlightMachine):
         if self.last_seq in s.reached:
             return True
         at_end = s.current_seq >= self.last_seq
-        if at_end and self.lands and (s.landed_state == LandedState.ON_GROUND or not s.armed):
+        landed_on_the_last = self.furthest_seq >= self.last_seq and s.epoch == 0
+        if (
+            (at_end or landed_on_the_last)
+            and self.lands
+            and (s.landed_state == LandedState.ON_GROUND or not s.armed)
+        ):
             # down on the last item of a mission that ends on the ground: that item is the
             # landing (or the return that lands), and it is done; the vehicle's word that the
             # mission is complete may come after its disarm (ArduPilot disarms on touchdown)
@@ -1081,6 +1090,8 @@ class MonitorMachine(FlightMachine):
     def handle(self, message: Message, now: float) -> list[Message]:
         s = self.state
         out: list[Message] = []
+        if s.armed and s.epoch == 0 and s.current_seq is not None:
+            self.furthest_seq = max(self.furthest_seq, s.current_seq)
         silent = now - self._last_message_at
         self._last_message_at = now
         if self._quiet or silent >= self.rules.quiet_s:
