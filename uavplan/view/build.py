@@ -679,7 +679,7 @@ def _flown_doc(
     # the line drawn: thinned, the mission's part and the return's
     keep = thin_polyline(p, DRAW_TOL_M) if n > 2 else np.arange(n)
     if ret is not None:  # the line home starts where the return does
-        keep = np.unique(np.concatenate((keep, [ret])))
+        keep = np.unique(np.concatenate((keep, np.array([ret], dtype=keep.dtype))))
     frames = np.unique(np.linspace(0, n - 1, min(n, MAX_FRAMES)).round().astype(np.int64))
     distance = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))))
     along = _along_planned(planned, ends, leg, distance, len(wps))
