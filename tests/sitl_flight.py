@@ -41,6 +41,7 @@ from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import Autopilot, MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
+from uavplan.sim.params import param_table
 from uavplan.sim.simulate import FlownTrack, simulate
 
 #: above this height over home the vehicle counts as in the air (both tracks alike)
@@ -135,8 +136,10 @@ def marks(plan: MissionPlan, autopilot: Autopilot) -> tuple[int, int]:
     return takeoff, end
 
 
-def _crossing(t: np.ndarray, z: np.ndarray, start: int, up: bool) -> float:
-    """When ``z`` first crosses AIRBORNE_M upward (``up``) or downward from index ``start``."""
+def _crossing(t: np.ndarray, z: np.ndarray, start: int, up: bool, level: float = 0.0) -> float:
+    """When ``z`` first crosses ``level`` + AIRBORNE_M upward (``up``) or downward from index
+    ``start``."""
+    z = z - level
     above = z > AIRBORNE_M
     idx = np.flatnonzero(above[start:] if up else ~above[start:])
     if not idx.size:
@@ -149,7 +152,10 @@ def _crossing(t: np.ndarray, z: np.ndarray, start: int, up: bool) -> float:
     return float(t[i - 1] + k * (t[i] - t[i - 1]))
 
 
-def phases(path: FlownPath, takeoff_seq: int, end_seq: int) -> Phases:
+def phases(path: FlownPath, takeoff_seq: int, end_seq: int, landing_z: float = 0.0) -> Phases:
+    """The phases of ``path``; touchdown where it comes down to ``landing_z`` (the ground's
+    height above home where the mission lands: SITL's world is flat at home's height, so a
+    vehicle landing on a hillside flies on down through it)."""
     t, z, seq = path.t, path.xyz[:, 2], path.seq
     liftoff = _crossing(t, z, 0, up=True)
     after = np.flatnonzero((seq > takeoff_seq) & (t >= liftoff))
@@ -157,7 +163,7 @@ def phases(path: FlownPath, takeoff_seq: int, end_seq: int) -> Phases:
     ending = np.flatnonzero((seq >= end_seq) & (t >= liftoff))
     route_done = float(t[ending[0]]) if ending.size else math.nan
     start = int(ending[0]) if ending.size else int(np.searchsorted(t, liftoff))
-    touchdown = _crossing(t, z, start, up=False)
+    touchdown = _crossing(t, z, start, up=False, level=landing_z)
     return Phases(liftoff, takeoff_done, route_done, touchdown)
 
 
@@ -378,5 +384,17 @@ def fly(
         )
 
 
-def model_flight(plan: MissionPlan, autopilot: Autopilot, params: dict[str, float] | None = None):
-    return simulate(plan, autopilot=autopilot, params=params or None)
+def model_flight(
+    plan: MissionPlan,
+    autopilot: Autopilot,
+    params: dict[str, float] | None = None,
+    ground_z: Callable[[float, float], float] | None = None,
+) -> FlownTrack:
+    return simulate(plan, autopilot=autopilot, params=params or None, ground_z=ground_z)
+
+
+def plan_params(plan: MissionPlan, autopilot: Autopilot) -> dict[str, float]:
+    """The plan's parameters that the flight model has: what ``--set-params`` makes the vehicle
+    hold (each within the plan's bounds)."""
+    names = {spec.name for spec in param_table(autopilot)}
+    return {p.name: p.value for p in plan.parameters if p.name in names}

@@ -56,13 +56,6 @@ def _upload_with_params(conn: str, plan_path: Path) -> str:
     return result.output
 
 
-def _model_params(plan: MissionPlan, autopilot: Autopilot) -> dict[str, float]:
-    """The plan's parameters that the flight model has (what --set-params made the vehicle
-    hold, each within the plan's bounds)."""
-    names = {spec.name for spec in param_table(autopilot)}
-    return {p.name: p.value for p in plan.parameters if p.name in names}
-
-
 @pytest.mark.parametrize(("autopilot", "name"), FLIGHTS, ids=[f"{a.label}-{n}" for a, n in FLIGHTS])
 def test_a_bundled_mission_flies_on_the_firmware_as_simulate_predicts(
     autopilot: Autopilot, name: str, tmp_path: Path
@@ -75,7 +68,7 @@ def test_a_bundled_mission_flies_on_the_firmware_as_simulate_predicts(
     scenario = None
     if source.suffix == ".yaml":
         scenario = sitl.scenario_variant(source, autopilot, "bundled", tmp_path, amsl=True)
-    model = sf.model_flight(plan, autopilot, _model_params(plan, autopilot))
+    model = sf.model_flight(plan, autopilot, sf.plan_params(plan, autopilot))
     track_file = tmp_path / "flown.csv"
     flight = sf.fly(
         plan_path,

@@ -50,6 +50,8 @@ from track_check import fence_clearance  # noqa: E402
 
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot  # noqa: E402
+from uavplan.rehearsal import CheckSite  # noqa: E402
+from uavplan.scenario import load_scenario  # noqa: E402
 
 #: the targets of issue 32
 TIME_TOLERANCE = 0.03
@@ -137,12 +139,22 @@ def compare_one(
     plan = load_mission(plan_path)
     assert plan.home is not None
     takeoff_seq, end_seq = sf.marks(plan, autopilot)
-    flown = sf.model_flight(plan, autopilot)
+    # the vehicle flies with the parameters the mission relies on (``fly --set-params``, as
+    # the docs fly it), and so does the model
+    held = sf.plan_params(plan, autopilot)
+    scenario_file = None
+    ground = None
+    if source.suffix == ".yaml":
+        scenario_file = sitl.scenario_variant(source, autopilot, "bundled", work, amsl=True)
+        # over a DEM the model lands on the ground where the firmware believes it to be
+        # (jacksboro-ridge lands on a hillside); SITL's own world stays flat at home
+        ground = CheckSite.of_scenario(load_scenario(scenario_file)).ground_for(plan.home)
+    flown = sf.model_flight(plan, autopilot, held, ground)
     model_path = sf.FlownPath.from_model(flown)
-    model = sf.phases(model_path, takeoff_seq, end_seq)
+    landing_z = 0.0 if ground is None else ground(*model_path.xyz[-1, :2])
+    model = sf.phases(model_path, takeoff_seq, end_seq, landing_z)
     key = _key(plan_path, autopilot, speedup, params)
     cache = flights / f"{source.stem}-{autopilot.label}-{key}.json"
-    scenario = None if source.suffix == ".plan" else source
     if cache.exists():
         flight = sf.Flight.load(cache)
     else:
@@ -153,19 +165,17 @@ def compare_one(
             speedup=speedup,
             params=params,
             model_s=flown.flight_time_s,
+            extra_args=("--set-params",) if plan.parameters else (),
         )
         flight.save(cache)
         shutil.copy(plan_path, cache.with_suffix(".plan"))
     fw_path = flight.path(plan.home)
-    firmware = sf.phases(fw_path, takeoff_seq, end_seq)
-    if scenario is not None:
-        scenario_file = sitl.scenario_variant(source, autopilot, "bundled", work, amsl=True)
+    firmware = sf.phases(fw_path, takeoff_seq, end_seq, landing_z)
+    if scenario_file is not None:
         clear = (
             sf.clearance(scenario_file, model_path, plan.home, model),
             sf.clearance(scenario_file, fw_path, plan.home, firmware),
         )
-        from uavplan.scenario import load_scenario
-
         margin = load_scenario(scenario_file).safety_margin_m
     else:
         clear = (
@@ -183,7 +193,8 @@ def compare_one(
         flight.exit_code,
         model,
         firmware,
-        sf.deviation(fw_path, model_path),
+        # the firmware's track to its touchdown (on a hillside SITL's vehicle flies on down)
+        sf.deviation(fw_path.part(fw_path.t <= firmware.touchdown), model_path),
         sf.corners(plan, autopilot, model_path, fw_path),
         sf.altitude_error(fw_path, model_path, firmware, model),
         clear,
