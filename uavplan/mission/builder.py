@@ -45,10 +45,6 @@ __all__ = [
 #: NAV_WAYPOINT param1 (hold time, s) where the vehicle must fly to a stop rather than cut the
 #: corner: both firmwares stop at a waypoint with a hold time (ArduPilot keeps whole seconds)
 CORNER_HOLD_S = 1.0
-#: param2 of the planned return's waypoints, the acceptance radius (m): PX4 turns toward the
-#: next waypoint once this close and cuts its corners by about as much (its default,
-#: NAV_ACC_RAD, is 10 m); ArduPilot Copter ignores it (its corners: WPNAV_RADIUS)
-CORNER_ACCEPTANCE_M = 0.5
 #: DO_CHANGE_SPEED param1: speed type 1 = ground speed (common.xml SPEED_TYPE_GROUNDSPEED)
 SPEED_TYPE_GROUND = 1.0
 #: DO_CHANGE_SPEED param3: -1 = leave the throttle unchanged
@@ -84,9 +80,11 @@ def build_mission(
     DO_LAND_START at the goal that marks it as the mission's landing sequence, a
     NAV_WAYPOINT per later row and NAV_LAND at home; the rows ``return_stops`` (0: the goal)
     get a hold time of :data:`CORNER_HOLD_S`, so the autopilot flies to a stop there
-    instead of cutting the corner, and every return waypoint an acceptance radius of
-    :data:`CORNER_ACCEPTANCE_M`. Home is the ground point below the start, with an AMSL
-    altitude.
+    instead of cutting the corner. Every waypoint leaves param 2 (the acceptance radius) at 0,
+    the autopilot's own (PX4's NAV_ACC_RAD; ArduPilot Copter ignores it): PX4 SITL, held to
+    0.5 m, stalled for up to a minute short of a waypoint it trailed by more than that
+    (docs/flight-model.md, "Held against the firmware"). Home is the ground point below the
+    start, with an AMSL altitude.
 
     ``ground_z_m`` ``(n,)``: the ground's z under each waypoint (terrain; default flat ground
     at z = 0); home is on the ground under row 0. ``altitude``: ``"relative"`` (above home,
@@ -214,7 +212,7 @@ def build_mission(
     if back is not None:
         if 0 in return_stops:
             goal = next(i for i in range(len(items) - 1, -1, -1) if items[i].command == 16)
-            items[goal] = replace(items[goal], param1=CORNER_HOLD_S, param2=CORNER_ACCEPTANCE_M)
+            items[goal] = replace(items[goal], param1=CORNER_HOLD_S)
         items.extend(
             _planned_return(
                 back, frame, ref_alt, home_z, under[-1], return_ground_z_m, altitude, home,
@@ -287,7 +285,7 @@ def _planned_return(
     for i in range(1, len(back)):
         item = _waypoint(float(lat_deg[i]), float(lon_deg[i]), float(item_z[i]), item_frame)
         hold = CORNER_HOLD_S if i in stops else 0.0
-        items.append(replace(item, param1=hold, param2=CORNER_ACCEPTANCE_M))
+        items.append(replace(item, param1=hold))
     items.append(
         MissionItem(
             command=MavCmd.NAV_LAND,

@@ -21,7 +21,6 @@ import numpy as np
 
 from uavplan.config import Autopilot
 from uavplan.flight import Flight, flight_of_track
-from uavplan.mission.builder import CORNER_ACCEPTANCE_M
 from uavplan.mission.items import VehicleParameter
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import (
@@ -492,10 +491,10 @@ def way_home(
     )
 
 
-#: the planned return keeps this much more than the margin, for the autopilot's tracking: PX4
-#: reaches a return waypoint within its acceptance radius (CORNER_ACCEPTANCE_M) and turns
-#: from there
-RETURN_ALLOWANCE_M = CORNER_ACCEPTANCE_M
+#: the planned return keeps this much more than the margin, for the autopilot's tracking (the
+#: whole flight's verdict then flies it through the flight model, corners cut as each
+#: firmware cuts them)
+RETURN_ALLOWANCE_M = 0.5
 
 
 def _plan_return(
