@@ -152,6 +152,17 @@ def _crossing(t: np.ndarray, z: np.ndarray, start: int, up: bool, level: float =
     return float(t[i - 1] + k * (t[i] - t[i - 1]))
 
 
+def landing_height(plan: MissionPlan) -> float:
+    """The height above home (m) of the ground where the mission lands: its last NAV_LAND's
+    altitude when that is AMSL (MAV_FRAME_GLOBAL) and not home's, else 0."""
+    assert plan.home is not None
+    lands = [it for it in plan.items if it.command == MavCmd.NAV_LAND]
+    if not lands or lands[-1].frame != 0:
+        return 0.0
+    height = lands[-1].alt_m - plan.home.alt_m
+    return height if abs(height) > 1.0 else 0.0
+
+
 def phases(path: FlownPath, takeoff_seq: int, end_seq: int, landing_z: float = 0.0) -> Phases:
     """The phases of ``path``; touchdown where it comes down to ``landing_z`` (the ground's
     height above home where the mission lands: SITL's world is flat at home's height, so a

@@ -41,10 +41,18 @@ MISSIONS = sitl.MISSIONS
 SPEEDUP = 8.0
 SITL_PARAMS = sitl.FLIGHT_PARAMS
 TIME_TOLERANCE = 0.03
-#: two missions per firmware whose flight times the model predicts within ±3 % (docs/flight-
-#: model.md, "Held against the firmware": PX4's planned returns and its paper scenarios' corners
-#: do not hold yet, and are not here)
-FLIGHTS = [(AP, "courtyard"), (AP, "hairpin"), (PX4, "via-tour"), (PX4, "qgc-inspection")]
+#: missions whose flight times the model predicts within ±3 % (docs/flight-model.md, "Held
+#: against the firmware"); courtyard ends with a planned return, whose waypoints PX4 stalled
+#: short of while they carried a 0.5 m acceptance radius (+4.9 %, +5.9 %; now +0.7 %). PX4's
+#: short-legged missions (paper-env*, midtown-manhattan: the firmware 3-6 % faster than the
+#: model) do not hold yet, and are not here
+FLIGHTS = [
+    (AP, "courtyard"),
+    (AP, "hairpin"),
+    (PX4, "courtyard"),
+    (PX4, "via-tour"),
+    (PX4, "qgc-inspection"),
+]
 
 
 def _upload_with_params(conn: str, plan_path: Path) -> str:

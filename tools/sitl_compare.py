@@ -143,15 +143,18 @@ def compare_one(
     # the docs fly it), and so does the model
     held = sf.plan_params(plan, autopilot)
     scenario_file = None
-    ground = None
     if source.suffix == ".yaml":
         scenario_file = sitl.scenario_variant(source, autopilot, "bundled", work, amsl=True)
-        # over a DEM the model lands on the ground where the firmware believes it to be
-        # (jacksboro-ridge lands on a hillside); SITL's own world stays flat at home
+    # a mission that lands on a hillside (jacksboro-ridge): its NAV_LAND's AMSL altitude is the
+    # ground there, and the firmware slows for the touchdown 10 m above it (measured on SITL,
+    # whose own world stays flat at home: it flies on down at its landing speed). The model
+    # lands there over the scenario's DEM; both touch down at that height
+    landing_z = sf.landing_height(plan)
+    ground = None
+    if landing_z and scenario_file is not None:
         ground = CheckSite.of_scenario(load_scenario(scenario_file)).ground_for(plan.home)
     flown = sf.model_flight(plan, autopilot, held, ground)
     model_path = sf.FlownPath.from_model(flown)
-    landing_z = 0.0 if ground is None else ground(*model_path.xyz[-1, :2])
     model = sf.phases(model_path, takeoff_seq, end_seq, landing_z)
     key = _key(plan_path, autopilot, speedup, params)
     cache = flights / f"{source.stem}-{autopilot.label}-{key}.json"
