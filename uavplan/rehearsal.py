@@ -345,7 +345,7 @@ def rehearse(
     part = site.check(track.until(end), lands=start is None)
     return_check = None
     if start is not None and len(track) - start >= 2:
-        back = _after(track, start)
+        back = track.since(start)
         return_check = site.check(back, takes_off=False, lands=flown.ended == "landed")
     return Rehearsal(flown, track, deviation, start, part, return_check)
 
@@ -402,21 +402,6 @@ def max_deviation_m(points: np.ndarray, polyline: np.ndarray) -> float:
             np.minimum(d, distance_to_polyline(run, line[first : last + 2]), out=d)
         worst = max(worst, float(d.max()))
     return worst
-
-
-def _after(track: Track, start: int) -> Track:
-    return Track(
-        track.time_s[start:],
-        track.lat_deg[start:],
-        track.lon_deg[start:],
-        track.alt_amsl_m[start:],
-        track.relative_alt_m[start:],
-        track.speed_m_s[start:],
-        track.current_seq[start:],
-        track.mode[start:],
-        track.source,
-        track.autopilot,
-    )
 
 
 def plan_safe_as_flown(

@@ -132,6 +132,10 @@ class Track:
         """The first ``index`` samples."""
         return self.between(0, index)
 
+    def since(self, index: int) -> Track:
+        """The samples from ``index`` on."""
+        return self.between(index, len(self))
+
     def between(self, start: int, stop: int) -> Track:
         """Samples ``start`` to ``stop - 1`` (their times as they are)."""
         part = slice(start, stop)

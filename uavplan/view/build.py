@@ -165,24 +165,8 @@ def flown_of_track(track: Track, plan: MissionPlan, site: CheckSite, label: str)
     check = site.check(track.until(end), lands=lands and start is None)
     back = None
     if start is not None and len(track) - start >= 2:
-        back = site.check(_after(track, start), takes_off=False, lands=lands)
+        back = site.check(track.since(start), takes_off=False, lands=lands)
     return Flown(track, label, autopilot, check, back, start)
-
-
-def _after(track: Track, start: int) -> Track:
-    """The samples from ``start`` on (the return)."""
-    return Track(
-        track.time_s[start:],
-        track.lat_deg[start:],
-        track.lon_deg[start:],
-        track.alt_amsl_m[start:],
-        track.relative_alt_m[start:],
-        track.speed_m_s[start:],
-        track.current_seq[start:],
-        track.mode[start:],
-        track.source,
-        track.autopilot,
-    )
 
 
 # ---------------------------------------------------------------------------------------------
