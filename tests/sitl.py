@@ -699,7 +699,7 @@ _PLAN_DIR: list[Path] = []
 
 
 def bundled_sources() -> list[Path]:
-    """Every bundled scenario and the bundled QGroundControl plan (11)."""
+    """Every bundled scenario and the bundled QGroundControl plan (12)."""
     return sorted(MISSIONS.glob("*.yaml")) + sorted(MISSIONS.glob("*.plan"))
 
 
