@@ -107,6 +107,12 @@ def flight_of_mission(
     return Flight.from_polyline(points, from_ground=plan.home is not None, to_ground=_lands(plan))
 
 
+#: a landed vehicle's altitude estimate wanders by this much while it settles: samples this
+#: close to the track's final altitude are the landing, not a climb (PX4 SIH, landed in CI,
+#: reported 0.5 m below home inside what the check took for the flight, "outside the flight
+#: volume", tests/test_sitl_fly.py)
+LANDED_NOISE_M = 0.5
+
 #: a flown landing drifts onto its landing point while it descends (PX4 starts the descent
 #: once within its acceptance radius): the final descent may begin this far from touchdown
 LANDING_DRIFT_M = 15.0
@@ -127,8 +133,8 @@ def flight_of_track(
 
     With ``takes_off`` (the track starts on the ground) the take-off climb is the leading
     samples that climb where the track starts; with ``lands``, the landing is the trailing
-    samples that only descend, ending on the ground within :data:`LANDING_DRIFT_M` of where
-    they touch down."""
+    samples that only descend (or rest within :data:`LANDED_NOISE_M` of the last one's
+    height), ending on the ground within :data:`LANDING_DRIFT_M` of where they touch down."""
     xy = frame.to_enu_xy(track.lat_deg, track.lon_deg) if len(track) else np.empty((0, 2))
     z = track.relative_alt_m if datum_amsl_m is None else track.alt_amsl_m - datum_amsl_m
     points = np.column_stack((xy, z)).astype(np.float64).reshape(-1, 3)
@@ -148,7 +154,10 @@ def flight_of_track(
         end = points[-1]
         while (
             last - 1 > first
-            and points[last - 1, 2] >= points[last, 2] - 1e-6
+            and (
+                points[last - 1, 2] >= points[last, 2] - 1e-6
+                or abs(points[last - 1, 2] - end[2]) <= LANDED_NOISE_M
+            )
             and math.hypot(*(points[last - 1, :2] - end[:2])) <= LANDING_DRIFT_M
         ):
             last -= 1
