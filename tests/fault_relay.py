@@ -16,7 +16,7 @@ with the wall time it passed. That is what the vehicle really did, against which
 ground station says can be judged.
 
 This lives with the tests, not in the product (issue 36: test harnesses leave the package).
-``uavplan/mavlink/faultproxy.py`` does part of this for the upload tests; this relay adds
+``tests/faultproxy.py`` does part of this for the upload tests; this relay adds
 what watching a flight needs: outages, a longer reordering, a restarted vehicle, the truth.
 """
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from uavplan import ground
-from uavplan.rehearsal import padded_scenario
+from uavplan.flown_safe import padded_scenario
 from uavplan.scenario import load_scenario
 
 
@@ -63,7 +63,7 @@ RIDGE = Path(__file__).resolve().parent.parent / "missions" / "jacksboro-ridge.y
 
 
 def test_a_wider_margin_over_the_same_posts_shares_the_field() -> None:
-    """``plan`` plans again with a wider margin (rehearsal.padded_scenario) while the first
+    """``plan`` plans again with a wider margin (flown_safe.padded_scenario) while the first
     scenario is still held: its ground is built of the same posts, so it holds the same
     field instead of a second one beside it (the 20 x 20 km ridge: 55 MB more at the peak)."""
     scn = load_scenario(RIDGE)

@@ -71,6 +71,8 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "reroute.py",
         "airspace.py",
         "rehearsal.py",
+        "flown_safe.py",
+        "worlds.py",
         "view/*.py",
         "verdict.py",
     ),
@@ -270,6 +272,63 @@ def test_import_uavplan_is_light() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+#: modules the flight-side use cases must not load: they check and fly, they never plan
+PLANNING_MODULES = ("uavplan.planners", "uavplan.planning", "uavplan.reroute")
+#: the use cases that fly, simulate or check a mission (``fly``, ``simulate``, ``validate``)
+FLIGHT_SIDE = ("uavplan.app.fly", "uavplan.app.simulate", "uavplan.app.check")
+
+
+def planning_loaded(modules: list[str]) -> list[str]:
+    """The modules of ``modules`` (names as in ``sys.modules``) that belong to the planning
+    side (:data:`PLANNING_MODULES` and the modules under them), sorted."""
+    return sorted(
+        m for m in modules if any(m == p or m.startswith(p + ".") for p in PLANNING_MODULES)
+    )
+
+
+def modules_after_import(module: str) -> list[str]:
+    """The uavplan modules a fresh interpreter holds after ``import module``."""
+    code = (
+        f"import sys, {module}; "
+        "print('\\n'.join(m for m in sys.modules if m.split('.')[0] == 'uavplan'))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return out.stdout.split()
+
+
+@pytest.mark.parametrize("module", FLIGHT_SIDE)
+def test_the_flight_side_does_not_load_the_planners(module: str) -> None:
+    """``fly``, ``simulate`` and ``validate`` rehearse and check against the worlds of
+    :mod:`uavplan.worlds`; planning again lives in :mod:`uavplan.flown_safe`. Importing them
+    loads no planner (issue 36: fly loaded 77 modules, the planners and their kernels)."""
+    loaded = modules_after_import(module)
+    assert module in loaded  # the subprocess did import it
+    assert planning_loaded(loaded) == []
+
+
+def test_the_checker_catches_a_planner_loaded() -> None:
+    """A test of the test: a module list as ``fly`` loaded before the fix (the planners'
+    base, planning and reroute) is flagged, and names that only start alike are not."""
+    before = [
+        "uavplan",
+        "uavplan.app.fly",
+        "uavplan.rehearsal",
+        "uavplan.planners",
+        "uavplan.planners.base",
+        "uavplan.planning",
+        "uavplan.reroute",
+        "uavplan.rerouted",
+        "uavplan.planning_notes",
+    ]
+    assert planning_loaded(before) == [
+        "uavplan.planners",
+        "uavplan.planners.base",
+        "uavplan.planning",
+        "uavplan.reroute",
+    ]
+    assert planning_loaded(["uavplan", "uavplan.rehearsal", "uavplan.worlds"]) == []
 
 
 def test_no_command_imports_another() -> None:

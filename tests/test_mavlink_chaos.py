@@ -13,18 +13,18 @@ import os
 import socket
 
 import pytest
-from mavlink_helpers import FAST
-
-from uavplan.mavlink.connection import MavlinkConnection
-from uavplan.mavlink.faultproxy import (
+from chaos import invariant_problem, run_upload
+from faultproxy import (
     MISSION_MESSAGE_IDS,
     FaultProxy,
     ProxyFaults,
     message_id,
 )
+from mavlink_helpers import FAST
+
+from uavplan.mavlink.connection import MavlinkConnection
 from uavplan.mavlink.messages import Heartbeat, MissionCount
 from uavplan.mission.items import Autopilot
-from uavplan.sim.chaos import invariant_problem, run_upload
 
 RUNS = int(os.environ.get("UAVPLAN_CHAOS_RUNS", "1"))
 N_ITEMS = int(os.environ.get("UAVPLAN_CHAOS_ITEMS", "100"))

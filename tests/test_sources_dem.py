@@ -176,3 +176,24 @@ def test_scenario_terrain_key_is_checked_to_cover_the_bounds(
         load_scenario(path)
     with pytest.raises(ScenarioError, match=r"terrain: none.tif: DEM file not found"):
         load_scenario(scenario(800, "none.tif"))
+
+
+def test_a_windowed_read_warns_nothing_and_keeps_rasterios_transform(slope_dem: Path) -> None:
+    """The window's transform is rasterio's ``window_transform`` to the bit, computed without
+    affine's deprecated ``*`` (it warned on every windowed DEM read)."""
+    import warnings
+
+    from rasterio.windows import Window
+
+    from uavplan.sources.dem import _window_transform
+
+    with rasterio.open(slope_dem) as src:
+        for window in (Window(0, 0, 3, 3), Window(7, 11, 5, 5), Window(-2, 3, 4, 4)):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                expected = tuple(src.window_transform(window))
+            assert tuple(_window_transform(src.transform, window)) == expected
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        terrain = Terrain.from_file(slope_dem, FRAME, area_xy_m=((-500, 500), (-500, 500)))
+    assert terrain.height_m(np.array([[0.0, 0.0]]))[0] == pytest.approx(500.0, abs=0.01)

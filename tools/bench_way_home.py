@@ -1,4 +1,4 @@
-"""Time the proof of the way home (``uavplan.wayhome.way_home``) on the bundled scenarios.
+"""Time the proof of the way home (``uavplan.wayhome.home.way_home``) on the bundled scenarios.
 
 Plans each scenario as ``uavplan plan`` does (its own settings and seed), then times the way
 home after it: the RTL proof from every point of the route, and the planned return where one
@@ -18,7 +18,7 @@ from pathlib import Path
 from uavplan.config import Autopilot
 from uavplan.planning import plan_route
 from uavplan.scenario import load_scenario
-from uavplan.wayhome import way_home
+from uavplan.wayhome.home import way_home
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -172,7 +172,7 @@ def one(
         row["margin_m"] = load_scenario(scenario).safety_margin_m
         row["track_clearance_m"] = scenario_clearance(scenario, flown_track)
     else:
-        from uavplan.reroute import DEFAULT_MARGIN_M
+        from uavplan.worlds import DEFAULT_MARGIN_M
 
         row["margin_m"] = DEFAULT_MARGIN_M
         row["track_clearance_m"] = fence_clearance(plan, flown_track)

@@ -2,8 +2,8 @@
 """Link chaos table: uploads of a 200-item mission through a seeded fault proxy.
 
 Each run starts a fresh mock vehicle holding an old mission, puts a
-:class:`uavplan.mavlink.faultproxy.FaultProxy` in front of it and uploads a new mission
-with read-back verification, as ``uavplan upload`` does (see :mod:`uavplan.sim.chaos`).
+:class:`FaultProxy` (tests/faultproxy.py) in front of it and uploads a new mission
+with read-back verification, as ``uavplan upload`` does (see tests/chaos.py).
 Cases:
 
 - ``lossy``: 20 % loss each way, 5 % duplicates, 5 % reordering, on every packet;
@@ -32,11 +32,16 @@ import math
 import statistics
 import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 
-from uavplan.mavlink.faultproxy import MISSION_MESSAGE_IDS, ProxyFaults
-from uavplan.mavlink.protocol import ProtocolTimeouts
-from uavplan.mission.items import Autopilot
-from uavplan.sim.chaos import RunResult, invariant_problem, run_upload, time_bound_s
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+from chaos import RunResult, invariant_problem, run_upload, time_bound_s  # noqa: E402  (the harness lives with the tests)
+from faultproxy import MISSION_MESSAGE_IDS, ProxyFaults  # noqa: E402
+
+from uavplan.mavlink.protocol import ProtocolTimeouts  # noqa: E402
+from uavplan.mission.items import Autopilot  # noqa: E402
 
 N_ITEMS = 200
 

@@ -9,7 +9,7 @@ applied to the waypoints the track came too close near, up to four rounds:
   round from NAV_ACC_RAD; ArduPilot Copter has no per-item radius, so it stops there);
 - ``stop``: no pass-through: a 1 s hold (param 1) makes both firmwares stop at the waypoint;
 - ``margin``: plan again with the margin grown by what the track lacked
-  (:func:`uavplan.rehearsal.plan_safe_as_flown`, what ``plan`` does).
+  (:func:`uavplan.flown_safe.plan_safe_as_flown`, what ``plan`` does).
 
 Prints, per scenario and flavour, the track's least clearance and the flight time as planned
 and after each option, and whether the margin is kept. docs/flying.md quotes the table.
@@ -30,9 +30,10 @@ from pathlib import Path
 import numpy as np
 
 from uavplan.config import Autopilot
+from uavplan.flown_safe import MAX_REPLANS, plan_safe_as_flown
 from uavplan.mission.items import MavCmd, MissionPlan
 from uavplan.planning import mission_for, plan_route
-from uavplan.rehearsal import MAX_REPLANS, CheckSite, Rehearsal, plan_safe_as_flown, rehearse
+from uavplan.rehearsal import CheckSite, Rehearsal, rehearse
 from uavplan.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -21,7 +21,6 @@ import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
 from uavplan.flight import Flight, FlightPrediction, flight_clearance
-from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
 from uavplan.obstacles import Obstacle
 from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
@@ -42,6 +41,7 @@ from uavplan.route import PlannedRoute, densify, flown_polyline
 from uavplan.scenario import Scenario, Site, Surroundings, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
+from uavplan.worlds import build_world, enu_frame
 
 if TYPE_CHECKING:
     from uavplan.mission.export import ExportExtras
@@ -177,20 +177,6 @@ class RouteResult:
 # Adapters: a Scenario's pieces for the layers
 
 
-def build_world(scenario: Scenario | Site) -> World:
-    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`, where
-    the planner flies it (:attr:`Scenario.site`: over a DEM, the ground's solids built for
-    this margin are pieces of the world too)."""
-    site = scenario.site if isinstance(scenario, Scenario) else scenario
-    b = site.bounds
-    return World.build(
-        site.obstacles,
-        bounds_xyz=(b.x_m, b.y_m, b.z_m),
-        margin_m=site.safety_margin_m,
-        ground=site.ground,
-    )
-
-
 def build_problem(scenario: Scenario, world: World | None = None) -> PathProblem:
     """The path-frame problem of ``scenario`` (reusable across runs and algorithms; each run
     sets its own fitness smoothing)."""
@@ -223,16 +209,6 @@ def physical_fitness(scenario: Scenario) -> PhysicalFitness | None:
         descent_rate_m_s=limits.speed_down_m_s,
         datum_amsl_m=scenario.site.origin.alt_m,
     )
-
-
-def enu_frame(scenario: Scenario | Site) -> EnuFrame:
-    """The local ENU frame the scenario is planned in (at its site's origin: over terrain at
-    the datum); one per origin, its transformer cached."""
-    origin = (scenario.site if isinstance(scenario, Scenario) else scenario).origin
-    return _frames.setdefault(origin, EnuFrame.at(origin))
-
-
-_frames: dict[Any, EnuFrame] = {}
 
 
 def reference_route(

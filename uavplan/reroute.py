@@ -57,14 +57,12 @@ from numpy.typing import NDArray
 
 from uavplan.airspace import (
     Airspace,
-    build_airspace,
-    check_volume,
     held_bounds,
     stretch_obstacles,
 )
 from uavplan.errors import InputError, NoPathError
-from uavplan.flight import Flight, FlightCheck, FlightPrediction, check_flight, flight_of_mission
-from uavplan.geo import EnuFrame, GeoPoint
+from uavplan.flight import FlightPrediction
+from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
 from uavplan.mission.items import (
     MavCmd,
@@ -78,9 +76,8 @@ from uavplan.planning import RouteResult, over_ground, plan_route
 from uavplan.route import EndAction, Follow, keeps_margin
 from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, Surroundings, VehicleConfig
 from uavplan.world import CEILING, World
+from uavplan.worlds import plan_frame, world_of_plan
 
-#: the safety margin when no scenario gives one (the scenario format's default)
-DEFAULT_MARGIN_M = 10.0
 #: consecutive positions closer than this horizontally are joined by a straight segment
 #: (checked, not planned: the planner needs a horizontal leg)
 MIN_LEG_M = 1.0
@@ -443,88 +440,6 @@ def _name(
 # Rerouting
 
 
-@dataclass(frozen=True, eq=False)
-class PlanWorld:
-    """Where a plan is rerouted: its ENU frame (at home, or at the ``--scenario``'s site
-    origin: over terrain the datum), the airspace (the fence's zones and the scenario's
-    obstacles, the flight volume), the world built from it (with the scenario's ground), the
-    safety margin, and home's position in the frame."""
-
-    frame: EnuFrame
-    airspace: Airspace
-    world: World
-    margin_m: float
-    home_xy: tuple[float, float]
-    ground: Ground | None = None
-
-    def check(self, flight: Flight) -> FlightCheck:
-        """``flight`` (in :attr:`frame`) checked in this world, as the rerouting checks the
-        plan it writes (:func:`uavplan.flight.check_flight`)."""
-        names = self.airspace.names
-        return check_flight(self.world, flight, name_of=lambda i: names[i], margin_m=self.margin_m)
-
-    def flight_of(self, plan: MissionPlan) -> Flight:
-        """``plan`` as the autopilot flies it in this world (over the ground, if any)."""
-        if self.ground is None:
-            return flight_of_mission(plan, self.frame)
-        return flight_of_mission(plan, self.frame, self.ground.z_at, self.ground.follow)
-
-
-def _frame_of(
-    plan: MissionPlan, base: Scenario | Surroundings | None, file: str | None
-) -> tuple[EnuFrame, Ground | None]:
-    """The frame a plan is read in (over terrain the site's, z above its datum) and the
-    scenario's ground."""
-    if plan.home is None:
-        raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
-    if base is None:
-        home = plan.home
-        return EnuFrame.at(GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)), None
-    site = base.site
-    return EnuFrame.at(site.origin), site.ground
-
-
-def _plan_world(
-    plan: MissionPlan,
-    points_m: NDArray[np.float64],
-    frame: EnuFrame,
-    ground: Ground | None,
-    base: Scenario | Surroundings | None,
-    file: str | None,
-) -> PlanWorld:
-    assert plan.home is not None
-    margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
-    airspace = build_airspace(plan, points_m, frame, margin_m=margin_m, base=base, file=file)
-    check_volume(airspace.bounds, file)
-    b = airspace.bounds
-    world = World.build(
-        airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m, ground=ground
-    )
-    hxy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg])[0]
-    return PlanWorld(frame, airspace, world, margin_m, (float(hxy[0]), float(hxy[1])), ground)
-
-
-def fence_world(
-    plan: MissionPlan, *, base: Scenario | Surroundings | None = None, file: str | None = None
-) -> tuple[PlanWorld, Flight]:
-    """The world the rerouting of ``plan`` plans in (its geofence's zones as obstacles, and
-    ``base``'s), spanning the plan's whole flight, and that flight (as the autopilot flies the
-    items, :func:`uavplan.flight.flight_of_mission`): what ``validate`` and ``render`` check
-    and draw a rerouted plan against when no scenario is given. Raises InputError for a plan
-    without a planned home or without a position to fly."""
-    frame, ground = _frame_of(plan, base, file)
-    try:
-        if ground is None:
-            flight = flight_of_mission(plan, frame)
-        else:
-            flight = flight_of_mission(plan, frame, ground.z_at, ground.follow)
-    except ValueError as err:
-        raise InputError(str(err), file=file) from None
-    if len(flight.points_enu) < 2:
-        raise InputError("the mission has fewer than two positions to fly", file=file)
-    return _plan_world(plan, flight.points_enu, frame, ground, base, file), flight
-
-
 def reroute_plan(
     plan: MissionPlan,
     *,
@@ -542,18 +457,18 @@ def reroute_plan(
     planner settings). ``file`` labels messages (``name`` when there is none).
     ``margin_pad_m``: the legs are planned (and judged straight) with the margin this much
     wider, so that the track an autopilot flies through them keeps it
-    (:func:`uavplan.rehearsal.reroute_safe_as_flown`); over terrain the same ground serves,
+    (:func:`uavplan.flown_safe.reroute_safe_as_flown`); over terrain the same ground serves,
     so the ceiling comes down by the pad too.
 
     Raises :class:`InputError` (exit 2) for what the user can fix in the plan and
     :class:`NoPathError` (exit 3) when a leg has no route. When ``should_stop`` ends the
     search the result says ``interrupted`` (and holds the plan unchanged).
     """
-    frame, ground = _frame_of(plan, base, file)
+    frame, ground = plan_frame(plan, base, file)
     origin = frame.origin
     route = read_user_route(plan, frame, file=file, ground=ground)
     points_m = np.array([p.point_m for p in route.positions])
-    pw = _plan_world(plan, points_m, frame, ground, base, file)
+    pw = world_of_plan(plan, points_m, frame, ground, base, file)
     airspace, world, margin_m, home_xy = pw.airspace, pw.world, pw.margin_m, pw.home_xy
     if not airspace.bounds.contains((*home_xy, max(0.0, airspace.bounds.z_m[0]))):
         raise InputError(

@@ -240,11 +240,11 @@ def no_fence(file: str, command: str) -> InputError:
 
 def _check_against_fence(file: str, base: Surroundings | None = None) -> FenceCheck:
     """``validate PLAN``: the plan's flight against its own geofence (and ``base``'s
-    obstacles) in the world of its rerouting (:func:`uavplan.reroute.fence_world`; the one
+    obstacles) in the world of its rerouting (:func:`uavplan.worlds.fence_world`; the one
     check, :func:`uavplan.flight.check_flight`)."""
     # the mission readers, numpy and the world: only for a mission
     from uavplan.mission.io import load_mission
-    from uavplan.reroute import fence_world
+    from uavplan.worlds import fence_world
 
     plan = load_mission(file)
     if not (plan.fence.polygons or plan.fence.circles) and base is None:
@@ -274,7 +274,7 @@ def mission_flight(plan: MissionPlan, scenario: Scenario, *, file: str | None = 
     legs flown over the ground as ArduPilot flies them)."""
     # numpy, pyproj and the world's kernels: not for `validate` of a scenario (test_startup)
     from uavplan.flight import flight_of_mission
-    from uavplan.planning import enu_frame
+    from uavplan.worlds import enu_frame
 
     site = scenario.site
     ground_z = None if site.ground is None else site.ground.z_at
@@ -290,7 +290,7 @@ def check_flight_in(scenario: Scenario, flight: Flight) -> FlightCheck:
     clearance, what is nearest, and whether it stays in the flight volume."""
     # numpy and the world's kernels: not for `validate` of a scenario (test_startup)
     from uavplan.flight import check_flight
-    from uavplan.planning import build_world
+    from uavplan.worlds import build_world
 
     return check_flight(build_world(scenario), flight, name_of=scenario.obstacle_name)
 

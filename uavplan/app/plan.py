@@ -20,11 +20,11 @@ from uavplan.app.outputs import Output, OutputSet, check_report_name
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
+from uavplan.flown_safe import MAX_REPLANS, grown_pad, plan_safe_as_flown, refresh_flight
 from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
-from uavplan.rehearsal import MAX_REPLANS, grown_pad, plan_safe_as_flown, refresh_flight
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from uavplan.route import PlannedRoute
     from uavplan.sim.simulate import FlownTrack
     from uavplan.verdict import FlightVerdict
-    from uavplan.wayhome import WayHome
+    from uavplan.wayhome.home import WayHome
 
 
 class InputKind(enum.Enum):
@@ -404,9 +404,9 @@ def _way_home(
     allowance_m: float = 0.0,
     flown: FlownTrack | None = None,
 ) -> WayHome:
-    """The way home of ``route`` (:func:`uavplan.wayhome.way_home`): a return planned with
+    """The way home of ``route`` (:func:`uavplan.wayhome.home.way_home`): a return planned with
     the feedback's progress bar and Ctrl-C flag when the mission needs one."""
-    from uavplan.wayhome import way_home
+    from uavplan.wayhome.home import way_home
 
     bar = feedback.progress
     started = False
@@ -440,7 +440,7 @@ def _return_safe_as_flown(
     """The planned return (``way``) flown with the route by the flight model; where the
     autopilot's flight of it comes closer than the margin (it cuts the return's corners as
     it cuts the route's), the return is planned again keeping what it lacked more, up to
-    :data:`~uavplan.rehearsal.MAX_REPLANS` times. The result's flight is that mission's."""
+    :data:`~uavplan.flown_safe.MAX_REPLANS` times. The result's flight is that mission's."""
     route = result.route
     assert route is not None
     allowance = 0.0

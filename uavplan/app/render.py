@@ -19,9 +19,9 @@ from uavplan.app.reroute import fence_scene
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.planning import enu_frame, plan_route, scene_around, scene_for
 from uavplan.render import RouteLayers, Scene, render_png, route_subtitle
-from uavplan.reroute import fence_world
 from uavplan.route import keeps_margin
 from uavplan.scenario import Scenario, load_surroundings
+from uavplan.worlds import fence_world
 
 if TYPE_CHECKING:
     from uavplan.verdict import FlightVerdict

@@ -16,8 +16,8 @@ from uavplan.app.feedback import Feedback, PlannerOptions, plural
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.config import PlannerConfig
 from uavplan.errors import InputError, NoPathError
+from uavplan.flown_safe import reroute_safe_as_flown
 from uavplan.mission.io import load_mission, mission_text
-from uavplan.rehearsal import reroute_safe_as_flown
 from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import Surroundings, load_surroundings
 
@@ -170,8 +170,8 @@ def written_infringements(plan: MissionPlan, base: Surroundings) -> list[str]:
     ``base`` its flight (as the autopilot flies it, in the scenario's site) enters or comes
     within the margin of: what the rerouting goes around."""
     from uavplan.flight import flight_of_mission
-    from uavplan.planning import enu_frame
     from uavplan.scenario.zones import infringements, zone_title
+    from uavplan.worlds import enu_frame
 
     zset = base.airspace
     assert zset is not None

@@ -390,7 +390,7 @@ def _world_and_problem(job: BenchJob, scn: Scenario) -> tuple[Any, Any]:
         hit = _cache.get(job.scenario_key)
     if hit is None:
         scn = job.scenario
-        from uavplan.planning import build_world
+        from uavplan.worlds import build_world
 
         world = build_world(scn)
         problem = build_problem(scn, world)

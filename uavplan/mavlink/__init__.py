@@ -13,8 +13,10 @@ Layers (each module imports only the ones above it):
 - :mod:`.transfer` - whole plans: firmware layout, mission + fence + rally, read-back;
 - :mod:`.flightmachines` - flying a mission: pre-flight checks, command sequences, the
   monitor, as state machines without I/O;
-- :mod:`.flightclient` - their driver over a link;
-- :mod:`.faultproxy` - a seeded UDP fault proxy between two endpoints.
+- :mod:`.flightclient` - their driver over a link.
+
+(The seeded UDP fault proxy the link-chaos tests put between two endpoints is test harness:
+tests/faultproxy.py.)
 
 The vehicle side (the simulated PX4 / ArduPilot vehicle, its mission-protocol server and its
 faults) is :mod:`uavplan.sim`, a layer above this one.

@@ -16,7 +16,6 @@ mavlink layers of the package; nothing below :mod:`uavplan.sim` imports it):
   machine (modes, arming, telemetry, parameters, the mission server, the flight model);
 - :mod:`.mock` - :class:`~.mock.MockVehicle`, the thin I/O loop that puts it on a real
   MAVLink endpoint (``uavplan mock-vehicle``);
-- :mod:`.chaos` - upload runs through a fault proxy to the vehicle (tests, tools).
 
 What the flight model covers and what it leaves out, with every parameter's source:
 docs/flight-model.md.

@@ -92,6 +92,7 @@ from uavplan.mission.items import Autopilot, MissionItem, MissionType, deg_to_e7
 from uavplan.sim.faults import FaultInjector, Faults
 from uavplan.sim.mission_server import MISSION_MESSAGES, MissionServer
 from uavplan.sim.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, nav_items
+from uavplan.sim.model import PX4_MIS_TAKEOFF_ALT_M as PX4_TAKEOFF_ALT_M  # one value
 from uavplan.sim.params import Parameters, ParamSpec, ParamType, UnknownParameter
 from uavplan.sim.power import X500, Battery, PowerState, VehicleSpec
 from uavplan.sim.simulate import MissionRefused, check_startable
@@ -105,8 +106,6 @@ DEFAULT_HOME = GeoPoint(47.397742, 8.545594, 488.0)
 MAX_CATCH_UP_S = 5.0
 #: PX4 disarms this long after landing (commander COM_DISARM_LAND, 2 s)
 PX4_DISARM_AFTER_LANDING_S = 2.0
-#: PX4's take-off altitude for a take-off command (navigator MIS_TAKEOFF_ALT, 2.5 m)
-PX4_TAKEOFF_ALT_M = 2.5
 #: MAV_CMD_COMPONENT_ARM_DISARM param2 that forces arming / disarming
 FORCE_MAGIC = 21196.0
 #: SYS_STATUS sensors: 3D gyro, accel, mag, absolute pressure, GPS, battery, and the pre-arm

@@ -140,7 +140,7 @@ class Terrain:
                 data = src.read(1, window=window, masked=True).astype(np.float64)
                 posts = np.ma.filled(data, np.nan)
                 unit = (src.units[0] or "").strip().lower() if src.units else ""
-                transform = src.window_transform(window)
+                transform = _window_transform(src.transform, window)
         except RasterioError as err:
             raise TerrainError(f"cannot read the DEM: {err}", file=str(path)) from None
         if unit in _FEET_UNITS:
@@ -495,6 +495,17 @@ def _check_posts(posts: NDArray[np.float64], file: str) -> None:
 def _apply(t: Any, u: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[Any, Any]:
     """An affine transform applied to coordinate arrays."""
     return t.a * u + t.b * v + t.c, t.d * u + t.e * v + t.f
+
+
+def _window_transform(t: Any, window: Any) -> Any:
+    """The affine transform of ``window`` of a raster whose transform is ``t``: the same numbers
+    as rasterio's ``window_transform`` (the window's corner, then a translation), computed from
+    the coefficients, because rasterio's applies the transform with affine's ``*``, which
+    affine deprecates (a PendingDeprecationWarning on every DEM read)."""
+    col, row = window.col_off or 0.0, window.row_off or 0.0
+    x = col * t.a + row * t.b + t.c
+    y = col * t.d + row * t.e + t.f
+    return type(t)(t.a, t.b, t.c + (x - t.c), t.d, t.e, t.f + (y - t.f))
 
 
 def _area_in_crs(

@@ -43,12 +43,12 @@ from uavplan.geo import EnuFrame
 from uavplan.mission.fence import Footprint, footprints_of
 from uavplan.mission.items import MavCmd, MissionPlan
 from uavplan.mission.track import Track
-from uavplan.planning import enu_frame
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse, return_seq
 from uavplan.route import keeps_margin
 from uavplan.scenario import Scenario
 from uavplan.view.mesh import Mesh, closed_rings, footprint_rings, prism_mesh
 from uavplan.world import World
+from uavplan.worlds import enu_frame
 
 __all__ = [
     "FIRMWARE",

@@ -1,18 +1,14 @@
 """The way home: the autopilot's return proven from every point of a route (:mod:`.proof`),
 and a planned scenario's way home with the parameters its mission relies on (:mod:`.home`).
-See docs/way-home.md."""
+See docs/way-home.md.
+
+Only the proof is re-exported here: :mod:`.home` plans (it imports the planners), and the
+proof is what ``fly``, ``simulate`` and ``validate`` need (through :mod:`uavplan.verdict`);
+importing the package must not load the planners for them. Import the planned way home from
+:mod:`uavplan.wayhome.home`."""
 
 from __future__ import annotations
 
-from uavplan.wayhome.home import (
-    LANDING,
-    WayHome,
-    corner_stops,
-    fence_parameters,
-    floor_world,
-    rtl_parameter,
-    way_home,
-)
 from uavplan.wayhome.proof import (
     RTL_PARAMETERS,
     RtlProof,
@@ -24,18 +20,11 @@ from uavplan.wayhome.proof import (
 )
 
 __all__ = [
-    "LANDING",
     "RTL_PARAMETERS",
     "RtlProof",
-    "WayHome",
-    "corner_stops",
-    "fence_parameters",
     "firmware_rtl",
-    "floor_world",
     "prove_rtl",
     "return_samples",
-    "rtl_parameter",
     "sample_step_m",
     "unsafe_returns",
-    "way_home",
 ]

@@ -1,4 +1,4 @@
-"""Link chaos: upload through a :class:`~uavplan.mavlink.faultproxy.FaultProxy` to a simulated
+"""Link chaos: upload through a :class:`faultproxy.FaultProxy` (tests/faultproxy.py) to a simulated
 vehicle and check the invariants of issue 12 on every run.
 
 One run (:func:`run_upload`): a fresh mock vehicle holding an *old* mission, a seeded fault
@@ -11,7 +11,8 @@ mission with read-back verification, exactly as ``uavplan upload`` does. Checked
 - every run ends within the stated bound (:func:`time_bound_s`).
 
 Used by ``tests/test_mavlink_chaos.py`` (a few runs) and ``tools/link_chaos.py`` (the full
-table). Nothing in the product imports it.
+table). Nothing in the product imports it, so it lives with the tests (``tools/link_chaos.py``
+puts ``tests/`` on ``sys.path``).
 """
 
 from __future__ import annotations
@@ -20,8 +21,9 @@ import math
 import time
 from dataclasses import dataclass
 
+from faultproxy import FaultProxy, ProxyFaults
+
 from uavplan.errors import UavplanError
-from uavplan.mavlink.faultproxy import FaultProxy, ProxyFaults
 from uavplan.mavlink.link import HEARTBEAT_TIMEOUT_S, VehicleLink
 from uavplan.mavlink.protocol import MissionClient, ProtocolTimeouts
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan

@@ -12,7 +12,7 @@ run's fault pattern depends only on the seed and the traffic.
 heartbeats pass and a 100 % loss run measures the mission protocol, not discovery).
 
 It runs in a background thread (a context manager) and is used by the link-chaos tests and
-``tools/link_chaos.py``. Nothing in the product imports it.
+``tools/link_chaos.py``. Nothing in the product imports it, so it lives with the tests.
 """
 
 from __future__ import annotations

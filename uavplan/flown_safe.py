@@ -1,0 +1,192 @@
+"""Plan routes that stay safe as flown: rehearse the planned mission (:mod:`uavplan.rehearsal`)
+and, while the track the flight model predicts breaks the margin, plan (or reroute) again with
+the margin grown by what it lacked.
+
+Why a wider planning margin, and not per-item acceptance radii or stops at the corners: see
+:mod:`uavplan.rehearsal` and docs/flying.md ("Plans that stay safe as flown"). This is the one
+part of the rehearsal that plans, so it lives apart: ``fly``, ``simulate`` and ``validate``
+rehearse without importing the planners.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import TypeVar
+
+from uavplan.config import Autopilot
+from uavplan.errors import InputError, NoPathError, ScenarioError
+from uavplan.flight import TrackCheck
+from uavplan.mission.items import MissionPlan
+from uavplan.planning import RouteResult, mission_for, plan_route
+from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
+from uavplan.reroute import RerouteResult, reroute_plan
+from uavplan.scenario import PlannerConfig, Scenario, Surroundings
+
+__all__ = [
+    "MAX_REPLANS",
+    "grown_pad",
+    "padded_scenario",
+    "plan_safe_as_flown",
+    "refresh_flight",
+    "reroute_safe_as_flown",
+]
+
+#: how often ``plan`` plans again with a wider margin before it gives up
+MAX_REPLANS = 4
+#: added to what the track lacked, each time the margin grows (m)
+PAD_STEP_M = 0.1
+#: what the margin grows by when the track leaves the flight volume (m)
+VOLUME_PAD_M = 1.0
+
+
+def plan_safe_as_flown(
+    scenario: Scenario,
+    result: RouteResult,
+    *,
+    should_stop: Callable[[], bool] | None = None,
+) -> RouteResult:
+    """``result`` (a planned route of ``scenario``) with its predicted flight
+    (``result.flight``): the mission flown as the scenario's autopilot flies it. When that
+    track comes closer than the margin, the route is planned again with the margin grown by
+    what it lacked (plus :data:`PAD_STEP_M`), up to :data:`MAX_REPLANS` times; the result's
+    notes say so. A result whose track still breaks the margin has ``flight.keeps_margin``
+    false (``plan`` then exits 3). An interrupted replanning returns the interrupted result.
+    """
+    autopilot = scenario.mission.autopilot
+    if result.route is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
+        return result
+    site = CheckSite.of_scenario(scenario)
+    margin = scenario.safety_margin_m
+    flying = conditions_of(scenario)
+    runtime_s = result.runtime_s
+
+    def fly(planned: RouteResult) -> Rehearsal:
+        assert planned.route is not None
+        return rehearse(mission_for(scenario, planned.route), site, **flying)
+
+    def plan_again(pad: float) -> RouteResult | str:
+        nonlocal runtime_s
+        try:
+            padded = padded_scenario(scenario, pad)
+        except ScenarioError as err:
+            return f"a margin {pad:.2f} m wider cannot be planned: {err.reason}"
+        again = plan_route(padded, should_stop=should_stop)
+        if again.interrupted:
+            return again
+        if again.route is None or not again.collision_free:
+            return f"no route keeps a margin {pad:.2f} m wider"
+        runtime_s += again.runtime_s
+        route = replace(again.route, safety_margin_m=margin)
+        return replace(again, route=route, runtime_s=runtime_s)
+
+    return _widened_until_flown_safe(result, fly, plan_again, autopilot, "planned")
+
+
+def refresh_flight(scenario: Scenario, result: RouteResult) -> RouteResult:
+    """``result`` with its predicted flight flown again (its route changed after
+    :func:`plan_safe_as_flown`: a planned return added by the way home), keeping how much
+    wider the margin was planned. A result without a prediction is returned as it is."""
+    before = result.flight
+    if before is None or result.route is None:
+        return result
+    site = CheckSite.of_scenario(scenario)
+    rehearsal = rehearse(mission_for(scenario, result.route), site, **conditions_of(scenario))
+    flight = rehearsal.prediction(margin_pad_m=before.margin_pad_m, gave_up=before.gave_up)
+    return replace(result, flight=flight)
+
+
+def reroute_safe_as_flown(
+    source: MissionPlan,
+    result: RerouteResult,
+    *,
+    base: Scenario | Surroundings | None,
+    planner: PlannerConfig,
+    name: str,
+    file: str | None,
+    should_stop: Callable[[], bool] | None = None,
+) -> RerouteResult:
+    """:func:`plan_safe_as_flown` for a rerouted QGroundControl plan: ``result`` (the
+    reroute of ``source``) with its predicted flight, rerouted again with a wider margin
+    (up to :data:`MAX_REPLANS` times) while the track breaks the margin of its airspace."""
+    autopilot = result.plan.autopilot
+    site = CheckSite.of_plan(result.plan, base=base, file=file)
+    if site is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
+        return result
+
+    def fly(rerouted: RerouteResult) -> Rehearsal:
+        return rehearse(rerouted.plan, site)
+
+    def reroute_again(pad: float) -> RerouteResult | str:
+        try:
+            return reroute_plan(source, base=base, planner=planner, name=name, file=file,
+                                should_stop=should_stop, margin_pad_m=pad)  # fmt: skip
+        except (InputError, NoPathError) as err:
+            return f"no reroute keeps a margin {pad:.2f} m wider: {err}"
+
+    return _widened_until_flown_safe(result, fly, reroute_again, autopilot, "rerouted")
+
+
+_R = TypeVar("_R", RouteResult, RerouteResult)
+
+
+def _widened_until_flown_safe(
+    result: _R,
+    fly: Callable[[_R], Rehearsal],
+    again_with: Callable[[float], _R | str],
+    autopilot: Autopilot,
+    verb: str,
+) -> _R:
+    """The one loop of :func:`plan_safe_as_flown` and :func:`reroute_safe_as_flown`: fly
+    ``result``; while its track breaks the margin, get it again from ``again_with(pad)`` (a
+    margin ``pad`` m wider, grown by :func:`grown_pad`; a string says why no wider margin
+    can be had), up to :data:`MAX_REPLANS` times. Returns the last result with its predicted
+    flight and the notes saying what was done; an interrupted result as it is."""
+    rehearsal = fly(result)
+    pad = 0.0
+    notes: list[str] = []
+    gave_up = ""
+    for attempt in range(MAX_REPLANS + 1):
+        check = rehearsal.check
+        assert check is not None
+        if check.ok:
+            break
+        grown = grown_pad(pad, check)
+        if attempt == MAX_REPLANS:
+            gave_up = f"{verb} {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
+            break
+        why = check.problem()
+        again = again_with(grown)
+        if isinstance(again, str):
+            gave_up = again
+            break
+        if again.interrupted:
+            return again
+        notes.append(
+            f"{autopilot.label} flight model: {why}; {verb} again with the margin "
+            f"{grown:.2f} m wider"
+        )
+        pad = grown
+        result = again
+        rehearsal = fly(result)
+    # the return to launch at the mission's end is judged with the whole flight, at the RTL
+    # altitude the mission relies on (uavplan.verdict), not here
+    flight = rehearsal.prediction(margin_pad_m=pad, gave_up=gave_up)
+    return replace(result, notes=(*result.notes, *notes), flight=flight)
+
+
+def padded_scenario(scenario: Scenario, pad_m: float) -> Scenario:
+    """``scenario`` planned ``pad_m`` more carefully: its margin grown by ``pad_m`` and its
+    ceiling lowered by as much (over terrain the ceiling's solids stand the margin above it,
+    so a wider margin alone would not keep the route further from the ceiling). Raises
+    :class:`ScenarioError` when the route points no longer fit."""
+    b = scenario.bounds
+    lowered = replace(b, z_m=(b.z_m[0], b.z_m[1] - pad_m))
+    return replace(scenario, safety_margin_m=scenario.safety_margin_m + pad_m, bounds=lowered)
+
+
+def grown_pad(pad: float, check: TrackCheck) -> float:
+    """The next planning pad: the last one plus what the track lacked, plus
+    :data:`PAD_STEP_M` (:data:`VOLUME_PAD_M` when the track left the flight volume)."""
+    lack = VOLUME_PAD_M if check.outside is not None else check.margin_m - check.min_clearance_m
+    return pad + max(lack, 0.0) + PAD_STEP_M

@@ -1,0 +1,134 @@
+"""The worlds a route is checked in, without the planners: a scenario's (:func:`build_world`
+in its :func:`enu_frame`) and a QGroundControl plan's (:func:`fence_world`: its geofence's
+zones, and a base scenario's obstacles, as obstacles of a flight volume).
+
+``plan`` and ``reroute`` plan in these worlds; ``fly``, ``simulate``, ``validate`` and the
+rehearsal only check in them, so they live below :mod:`uavplan.planning` and
+:mod:`uavplan.reroute` and import no planner (tests/test_layering.py holds the line).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from uavplan.airspace import Airspace, build_airspace, check_volume
+from uavplan.errors import InputError
+from uavplan.flight import Flight, FlightCheck, check_flight, flight_of_mission
+from uavplan.geo import EnuFrame, GeoPoint
+from uavplan.ground import Ground
+from uavplan.mission.items import MissionPlan
+from uavplan.scenario import Scenario, Site, Surroundings
+from uavplan.world import World
+
+#: the safety margin when no scenario gives one (the scenario format's default)
+DEFAULT_MARGIN_M = 10.0
+
+
+def build_world(scenario: Scenario | Site) -> World:
+    """The scenario's obstacles, flight bounds and safety margin as a :class:`World`, where
+    the planner flies it (:attr:`Scenario.site`: over a DEM, the ground's solids built for
+    this margin are pieces of the world too)."""
+    site = scenario.site if isinstance(scenario, Scenario) else scenario
+    b = site.bounds
+    return World.build(
+        site.obstacles,
+        bounds_xyz=(b.x_m, b.y_m, b.z_m),
+        margin_m=site.safety_margin_m,
+        ground=site.ground,
+    )
+
+
+def enu_frame(scenario: Scenario | Site) -> EnuFrame:
+    """The local ENU frame the scenario is planned in (at its site's origin: over terrain at
+    the datum); one per origin, its transformer cached."""
+    origin = (scenario.site if isinstance(scenario, Scenario) else scenario).origin
+    return _frames.setdefault(origin, EnuFrame.at(origin))
+
+
+_frames: dict[Any, EnuFrame] = {}
+
+
+@dataclass(frozen=True, eq=False)
+class PlanWorld:
+    """Where a plan is rerouted: its ENU frame (at home, or at the ``--scenario``'s site
+    origin: over terrain the datum), the airspace (the fence's zones and the scenario's
+    obstacles, the flight volume), the world built from it (with the scenario's ground), the
+    safety margin, and home's position in the frame."""
+
+    frame: EnuFrame
+    airspace: Airspace
+    world: World
+    margin_m: float
+    home_xy: tuple[float, float]
+    ground: Ground | None = None
+
+    def check(self, flight: Flight) -> FlightCheck:
+        """``flight`` (in :attr:`frame`) checked in this world, as the rerouting checks the
+        plan it writes (:func:`uavplan.flight.check_flight`)."""
+        names = self.airspace.names
+        return check_flight(self.world, flight, name_of=lambda i: names[i], margin_m=self.margin_m)
+
+    def flight_of(self, plan: MissionPlan) -> Flight:
+        """``plan`` as the autopilot flies it in this world (over the ground, if any)."""
+        if self.ground is None:
+            return flight_of_mission(plan, self.frame)
+        return flight_of_mission(plan, self.frame, self.ground.z_at, self.ground.follow)
+
+
+def plan_frame(
+    plan: MissionPlan, base: Scenario | Surroundings | None, file: str | None
+) -> tuple[EnuFrame, Ground | None]:
+    """The frame a plan is read in (over terrain the site's, z above its datum) and the
+    scenario's ground."""
+    if plan.home is None:
+        raise InputError("the plan has no planned home position (plannedHomePosition)", file=file)
+    if base is None:
+        home = plan.home
+        return EnuFrame.at(GeoPoint(home.lat_deg, home.lon_deg, home.alt_m)), None
+    site = base.site
+    return EnuFrame.at(site.origin), site.ground
+
+
+def world_of_plan(
+    plan: MissionPlan,
+    points_m: NDArray[np.float64],
+    frame: EnuFrame,
+    ground: Ground | None,
+    base: Scenario | Surroundings | None,
+    file: str | None,
+) -> PlanWorld:
+    assert plan.home is not None
+    margin_m = base.safety_margin_m if base is not None else DEFAULT_MARGIN_M
+    airspace = build_airspace(plan, points_m, frame, margin_m=margin_m, base=base, file=file)
+    check_volume(airspace.bounds, file)
+    b = airspace.bounds
+    world = World.build(
+        airspace.obstacles, bounds_xyz=(b.x_m, b.y_m, b.z_m), margin_m=margin_m, ground=ground
+    )
+    hxy = frame.to_enu_xy([plan.home.lat_deg], [plan.home.lon_deg])[0]
+    return PlanWorld(frame, airspace, world, margin_m, (float(hxy[0]), float(hxy[1])), ground)
+
+
+def fence_world(
+    plan: MissionPlan, *, base: Scenario | Surroundings | None = None, file: str | None = None
+) -> tuple[PlanWorld, Flight]:
+    """The world the rerouting of ``plan`` plans in (its geofence's zones as obstacles, and
+    ``base``'s), spanning the plan's whole flight, and that flight (as the autopilot flies the
+    items, :func:`uavplan.flight.flight_of_mission`): what ``validate`` and ``render`` check
+    and draw a rerouted plan against when no scenario is given. Raises InputError for a plan
+    without a planned home or without a position to fly."""
+    frame, ground = plan_frame(plan, base, file)
+    try:
+        if ground is None:
+            flight = flight_of_mission(plan, frame)
+        else:
+            flight = flight_of_mission(plan, frame, ground.z_at, ground.follow)
+    except ValueError as err:
+        raise InputError(str(err), file=file) from None
+    if len(flight.points_enu) < 2:
+        raise InputError("the mission has fewer than two positions to fly", file=file)
+    return world_of_plan(plan, flight.points_enu, frame, ground, base, file), flight
