@@ -13,6 +13,8 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * mavlink: the mission vocabulary only; pymavlink lives in one module of it;
 * sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
+* survey (camera arithmetic, lanes around holes, the sweep of least energy): vocabulary only,
+  pure geometry that knows nothing of files, the world, missions or MAVLink;
 * scenario (the YAML reader and the checked scenario values): vocabulary and sources;
 * wiring (planning, flight, estimate, wayhome/, reroute, bench, render, rehearsal,
   verdict, view/): everything but
@@ -60,6 +62,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "mavlink": ("mavlink/*.py",),
     "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
+    "survey": ("survey/*.py",),
     "scenario": ("scenario/*.py",),
     "wiring": (
         "planning.py",
@@ -78,7 +81,17 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "cli": ("cli/*.py", "__main__.py"),
 }
 
-_BELOW_WIRING = {"vocabulary", "world", "path", "planners", "mission", "mavlink", "sim", "sources"}
+_BELOW_WIRING = {
+    "vocabulary",
+    "world",
+    "path",
+    "planners",
+    "mission",
+    "mavlink",
+    "sim",
+    "sources",
+    "survey",
+}
 
 #: layer → the layers its modules may import
 ALLOWED: dict[str, set[str]] = {
@@ -90,6 +103,7 @@ ALLOWED: dict[str, set[str]] = {
     "mavlink": {"vocabulary", "mission", "mavlink"},
     "sim": {"vocabulary", "mission", "mavlink", "sim"},
     "sources": {"vocabulary", "sources"},
+    "survey": {"vocabulary", "survey"},
     "scenario": {"vocabulary", "sources", "scenario"},
     "wiring": _BELOW_WIRING | {"scenario", "wiring"},
     "app": _BELOW_WIRING | {"scenario", "wiring", "app"},
