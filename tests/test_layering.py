@@ -15,7 +15,8 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * sources (OSM, GIS and DEM readers): vocabulary only;
 * survey (camera arithmetic, lanes around holes, the sweep of least energy): vocabulary only,
   pure geometry that knows nothing of files, the world, missions or MAVLink;
-* scenario (the YAML reader and the checked scenario values): vocabulary and sources;
+* scenario (the YAML reader and the checked scenario values): vocabulary, sources and
+  survey (the ``survey:`` section's camera arithmetic);
 * wiring (planning, flight, estimate, wayhome/, reroute, bench, render, rehearsal,
   verdict, view/): everything but
   the application and CLI;
@@ -104,7 +105,7 @@ ALLOWED: dict[str, set[str]] = {
     "sim": {"vocabulary", "mission", "mavlink", "sim"},
     "sources": {"vocabulary", "sources"},
     "survey": {"vocabulary", "survey"},
-    "scenario": {"vocabulary", "sources", "scenario"},
+    "scenario": {"vocabulary", "sources", "survey", "scenario"},
     "wiring": _BELOW_WIRING | {"scenario", "wiring"},
     "app": _BELOW_WIRING | {"scenario", "wiring", "app"},
     "cli": _BELOW_WIRING | {"scenario", "wiring", "app", "cli"},

@@ -71,6 +71,7 @@ _SCENARIO_KEYS = {
     "terrain",
     "wind",
     "airspace",
+    "survey",
 }
 _MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files", "terrain"}
 
@@ -151,7 +152,11 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
     path = Path(path)
     chk = Checker(str(path))
     raw = read_yaml(path, "scenario")
-    chk.mapping(raw, "", _SCENARIO_KEYS, ("start", "goal") if route else ())
+    surveyed = isinstance(raw, dict) and "survey" in raw
+    required = (("start",) if surveyed else ("start", "goal")) if route else ()
+    chk.mapping(raw, "", _SCENARIO_KEYS, required)
+    if surveyed:
+        _survey(chk, raw)
 
     map_origin = map_bounds = None
     map_obstacles: tuple[Obstacle, ...] = ()
@@ -248,6 +253,24 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         wind=wind,
         files=tuple(files),
         airspace=zones,
+    )
+
+
+def _survey(chk: Checker, raw: dict[str, Any]) -> None:
+    """A scenario with ``survey:`` instead of ``goal:`` (docs/scenario-format.md): the
+    section is checked key by key, and then refused: no command plans a survey yet, and a
+    survey read as a route from start to start would be a pretend plan."""
+    if "goal" in raw:
+        raise chk.fail("survey", "a scenario has a goal or a survey, not both")
+    if "via" in raw:
+        raise chk.fail("via", "a survey has no via points (the lanes give the route)")
+    from uavplan.scenario.survey import read_survey
+
+    read_survey(chk, raw["survey"])
+    raise chk.fail(
+        "survey",
+        "the section is valid, but this version of uavplan does not plan surveys yet "
+        "(issue 33); give a goal: to plan a route",
     )
 
 
