@@ -77,6 +77,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "rehearsal.py",
         "view/*.py",
         "verdict.py",
+        "surveying.py",
     ),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),
