@@ -13,12 +13,14 @@ import yaml
 from shapely.geometry import LineString, Polygon
 
 from uavplan.errors import InputError
+from uavplan.mission.io import load_mission, save_mission
+from uavplan.mission.items import MavCmd
 from uavplan.planning import build_world
 from uavplan.scenario import load_scenario
 from uavplan.scenario.checker import Checker
 from uavplan.scenario.survey import read_survey
 from uavplan.survey import coverage
-from uavplan.surveying import plan_survey
+from uavplan.surveying import plan_survey, survey_mission
 
 TOWER = {"type": "box", "center": [400, 250], "size": [120, 80], "height": 90}
 SHED = {"type": "box", "center": [150, 100], "size": [20, 20], "height": 20}
@@ -113,3 +115,46 @@ def test_an_area_all_hole_is_a_user_error(tmp_path: Path) -> None:
     )
     with pytest.raises(InputError, match="no lane"):
         plan_survey(scn, spec)
+
+
+@pytest.mark.parametrize("suffix", [".plan", ".waypoints", ".geojson", ".kml"])
+def test_distance_trigger_mission_starts_and_stops_the_camera_per_lane(
+    tmp_path: Path, suffix: str
+) -> None:
+    scn = _scenario(tmp_path)
+    spec = read_survey(Checker("s"), SURVEY)
+    r = plan_survey(scn, spec)
+    plan = survey_mission(scn, spec, r)
+    cams = [it for it in plan.items if it.command == MavCmd.DO_SET_CAM_TRIGG_DIST]
+    assert len(cams) == 2 * r.lanes
+    on = [it.param1 for it in cams[0::2]]
+    off = [it.param1 for it in cams[1::2]]
+    assert (
+        on == pytest.approx([spec.spacing.trigger_distance_m] * r.lanes) and off == [0.0] * r.lanes
+    )
+    # every start follows a waypoint at a lane's start, every stop one at its end
+    idx = [i for i, it in enumerate(plan.items) if it.command == MavCmd.DO_SET_CAM_TRIGG_DIST]
+    assert all(plan.items[i - 1].command == MavCmd.NAV_WAYPOINT for i in idx)
+    out = tmp_path / f"m{suffix}"
+    save_mission(plan, out)
+    if suffix in (".plan", ".waypoints"):
+        back = load_mission(out, plan.autopilot)
+        assert [it.command for it in back.items] == [it.command for it in plan.items]
+        got = [it.param1 for it in back.items if it.command == MavCmd.DO_SET_CAM_TRIGG_DIST]
+        assert got == pytest.approx([it.param1 for it in cams], abs=1e-4)
+    else:
+        assert out.stat().st_size > 0
+
+
+def test_hover_mission_holds_and_captures_once_per_photo(tmp_path: Path) -> None:
+    scn = _scenario(tmp_path)
+    spec = read_survey(Checker("s"), {**SURVEY, "trigger": "hover"})
+    r = plan_survey(scn, spec)
+    plan = survey_mission(scn, spec, r)
+    caps = [i for i, it in enumerate(plan.items) if it.command == MavCmd.IMAGE_START_CAPTURE]
+    assert len(caps) == r.sweep.photos
+    for i in caps:
+        wp = plan.items[i - 1]
+        assert wp.command == MavCmd.NAV_WAYPOINT and wp.param1 == 1.0
+        assert plan.items[i].param3 == 1.0
+    assert not any(it.command == MavCmd.DO_SET_CAM_TRIGG_DIST for it in plan.items)

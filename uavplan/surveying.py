@@ -18,12 +18,17 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from uavplan.errors import InputError, NoPathError
-from uavplan.planning import build_world, reference_route
+from uavplan.mission.builder import build_mission
+from uavplan.mission.items import MavCmd, MavFrame, MissionItem, MissionPlan
+from uavplan.planning import build_world, enu_frame, reference_route
 from uavplan.scenario.survey import SurveySpec
 from uavplan.scenario.values import Scenario
 from uavplan.survey import coverage
 from uavplan.survey.sweep import Sweep, energy_of, plan_sweep
 from uavplan.world import World
+
+#: the hover before each photo of ``trigger: hover`` (s)
+HOVER_HOLD_S = 1.0
 
 #: the lanes' ground speed (m/s) when the scenario sets no cruise speed, for the energy
 #: that ranks sweep angles
@@ -145,4 +150,83 @@ def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) 
     )
 
 
-__all__ = ["DEFAULT_SURVEY_SPEED_M_S", "SurveyRoute", "plan_survey"]
+def _trigger_distance(distance_m: float) -> MissionItem:
+    """MAV_CMD_DO_SET_CAM_TRIGG_DIST: ``distance_m`` > 0 starts distance triggering (param3 = 1:
+    one photo at once), 0 stops it. Both autopilots run it from a mission: PX4's
+    drivers/camera_trigger (CameraTrigger::Run handles VEHICLE_CMD_DO_SET_CAM_TRIGG_DIST),
+    ArduPilot's AP_Mission::start_command_camera → AP_Camera::set_trigger_distance."""
+    return MissionItem(
+        command=MavCmd.DO_SET_CAM_TRIGG_DIST,
+        frame=MavFrame.MISSION,
+        param1=float(distance_m),
+        param2=0.0,  # shutter integration time: camera default
+        param3=1.0 if distance_m > 0 else 0.0,  # trigger once immediately
+        param4=0.0,
+    )
+
+
+def _capture_one() -> MissionItem:
+    """MAV_CMD_IMAGE_START_CAPTURE of one image (param3 = 1) by every camera (param1 = 0)."""
+    return MissionItem(
+        command=MavCmd.IMAGE_START_CAPTURE,
+        frame=MavFrame.MISSION,
+        param1=0.0,
+        param2=0.0,  # interval: none, one image
+        param3=1.0,  # total images
+        param4=0.0,  # sequence number: none
+    )
+
+
+def survey_mission(scn: Scenario, spec: SurveySpec, route: SurveyRoute) -> MissionPlan:
+    """The mission of ``route`` with ``scn``'s mission and vehicle settings: take-off over the
+    start, the lanes with camera items, back over the start and down (``mission.end`` rtl,
+    land or none; a planned ``return`` is the survey's own way back, so it lands).
+
+    ``trigger: distance``: DO_SET_CAM_TRIGG_DIST (the trigger distance) after each lane's
+    first waypoint and (0) after its last. ``trigger: hover``: a waypoint per photo along
+    each lane, a hold of :data:`HOVER_HOLD_S` there and IMAGE_START_CAPTURE of one image."""
+    w = route.waypoints_enu
+    rows: list[NDArray[np.float64]] = []
+    items: dict[int, list[MissionItem]] = {}
+    holds: dict[int, float] = {}
+    d = spec.spacing.trigger_distance_m
+    k = 0
+    while k < len(w):
+        if route.lane_start[k]:
+            a, b = w[k], w[k + 1]
+            if spec.trigger == "distance":
+                items[len(rows)] = [_trigger_distance(d)]
+                rows.append(a)
+                items[len(rows)] = [_trigger_distance(0.0)]
+                rows.append(b)
+            else:
+                xy = coverage.photo_positions(np.array([[a[:2], b[:2]]]), d)
+                for p in xy:
+                    items[len(rows)] = [_capture_one()]
+                    holds[len(rows)] = HOVER_HOLD_S
+                    rows.append(np.array([p[0], p[1], a[2]]))
+            k += 2
+        else:
+            rows.append(w[k])
+            k += 1
+    end = scn.mission.end if scn.mission.end != "return" else "land"
+    return build_mission(
+        np.vstack(rows),
+        enu_frame(scn),
+        autopilot=scn.mission.autopilot,
+        end=end,  # type: ignore[arg-type]
+        takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
+        cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
+        altitude="relative" if scn.mission.altitude == "terrain" else scn.mission.altitude,
+        row_items=items,
+        row_hold_s=holds,
+    )
+
+
+__all__ = [
+    "DEFAULT_SURVEY_SPEED_M_S",
+    "HOVER_HOLD_S",
+    "SurveyRoute",
+    "plan_survey",
+    "survey_mission",
+]
