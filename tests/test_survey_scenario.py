@@ -160,12 +160,8 @@ def _run(tmp_path: Path, extra: dict[str, Any], command: str = "validate") -> An
         ),
         ({}, "goal: missing required key"),
         ({"survey": {"area": AREA, "altitude": 60}}, "survey.lane_spacing_m: missing"),
-        (
-            {"survey": {"area": AREA, "altitude": 60, "lane_spacing_m": 30}},
-            "does not plan surveys yet",
-        ),
     ],
-    ids=["goal-and-survey", "neither", "malformed", "valid-not-planned"],
+    ids=["goal-and-survey", "neither", "malformed"],
 )
 def test_cli_exit_2_with_one_message(
     tmp_path: Path, command: str, extra: dict[str, Any], expected: str
@@ -175,3 +171,18 @@ def test_cli_exit_2_with_one_message(
     assert expected in result.output
     assert "Traceback" not in result.output
     assert not (tmp_path / "s.plan").exists()
+
+
+@pytest.mark.parametrize("command", ["validate", "render"])
+def test_commands_other_than_plan_refuse_a_valid_survey_clearly(
+    tmp_path: Path, command: str
+) -> None:
+    f = tmp_path / "s.yaml"
+    f.write_text(
+        yaml.safe_dump({**BASE, "survey": {"area": AREA, "altitude": 60, "lane_spacing_m": 30}})
+    )
+    args = [command, str(f)] + (["-o", str(tmp_path / "s.png")] if command == "render" else [])
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, result.output
+    assert "only uavplan plan flies a survey yet" in result.output
+    assert "Traceback" not in result.output
