@@ -4,6 +4,7 @@ does not take yet, exit 2 and nothing written."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -57,8 +58,13 @@ def test_plan_writes_the_survey_and_the_flight_keeps_the_margin(tmp_path: Path) 
         sum(it.command == MavCmd.DO_SET_CAM_TRIGG_DIST for it in items) == 2 * outcome.route.lanes
     )
     # the CLI prints the survey's figures and exits 0
-    result = CliRunner().invoke(main, ["plan", str(f), "-o", str(tmp_path / "cli.plan")])
+    report = tmp_path / "r.json"
+    args = ["plan", str(f), "-o", str(tmp_path / "cli.plan"), "--report", str(report)]
+    result = CliRunner().invoke(main, args)
     assert result.exit_code == 0, result.output
+    data = json.loads(report.read_text())
+    assert data["survey"]["lanes"] == outcome.route.lanes
+    assert data["whole_flight"]["flight_ok"] is True
     assert f"{outcome.route.lanes} lanes" in result.output
     assert f"{outcome.photos} photos" in result.output
     assert "keeps the 10 m margin" in result.output
@@ -70,11 +76,11 @@ def test_plan_writes_the_survey_and_the_flight_keeps_the_margin(tmp_path: Path) 
         ({"survey": {**FIELD["survey"], "area": [[0, 0], [3000, 0], [3000, 400], [0, 400]]},
           "bounds": {"x": [-200, 3100], "y": [-200, 500], "z": [0, 150]}},
          [], "does not leave the reserve"),
-        ({}, ["--report", "r.json"], "--report is not built for survey scenarios"),
+        ({}, ["--plot", "p.png"], "--plot is not built for survey scenarios"),
         ({"survey": {**FIELD["survey"], "area": [[0, 0], [900, 0], [900, 200], [0, 200]]}},
          [], "survey.area[1]: [900, 0] at the survey altitude 50 m is outside the bounds"),
     ],
-    ids=["over-battery", "report", "outside-bounds"],
+    ids=["over-battery", "plot", "outside-bounds"],
 )  # fmt: skip
 def test_plan_refuses_with_one_message_and_writes_nothing(
     tmp_path: Path, changes: dict[str, Any], args: list[str], expected: str
@@ -86,3 +92,24 @@ def test_plan_refuses_with_one_message_and_writes_nothing(
     assert expected in result.output
     assert "Traceback" not in result.output
     assert not out.exists()
+
+
+BUNDLED = Path(__file__).resolve().parent.parent / "missions" / "survey-helsinki-kamppi.yaml"
+
+
+def test_bundled_survey_plans_covers_and_keeps_the_margin_as_flown(tmp_path: Path) -> None:
+    out = tmp_path / "kamppi.plan"
+    outcome = plan(PlanRequest(str(BUNDLED), str(out)), Feedback())
+    assert isinstance(outcome, SurveyOutcome)
+    assert outcome.covered is not None and outcome.covered >= 0.99
+    assert outcome.route.rerouted >= 1  # the real buildings block some straight transitions
+    v = outcome.verdict
+    assert v is not None and v.flight_ok and v.flight_worst.clearance_m >= 5.0
+    assert outcome.estimate is not None and outcome.estimate.fits
+    # buildings above the survey altitude − margin are holes: some lanes are split
+    import numpy as np
+
+    a = np.radians(outcome.route.sweep.angle_deg)
+    across = outcome.route.sweep.pieces_xy[:, 0] @ [-np.sin(a), np.cos(a)]
+    ys = np.round(across, 3)
+    assert len(np.unique(ys)) < outcome.route.lanes

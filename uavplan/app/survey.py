@@ -6,6 +6,7 @@ flight keeps the margin."""
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass
@@ -13,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 from uavplan.app.feedback import Feedback
-from uavplan.app.outputs import OutputSet
+from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
 from uavplan.mission.io import format_for, mission_text
@@ -85,7 +86,6 @@ class SurveyOutcome:
 
 
 _NOT_FOR_SURVEYS = {
-    "report": "--report",
     "plot": "--plot",
     "view": "--view",
     "fence": "--fence",
@@ -102,7 +102,9 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
     format_for(request.output)  # an unknown extension fails before planning
     outputs = OutputSet(feedback.interrupts)
     outputs.reads(request.source, role="the scenario")
+    check_report_name(request.report)
     mission_out = outputs.file(request.output)
+    report_out = outputs.file(request.report) if request.report else None
     outputs.check()
     scn, spec = load_survey_scenario(request.source)
     outputs.reads(*scn.files)
@@ -136,6 +138,28 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
         covered = coverage.covered_fraction(route.free, fp)
     with outputs:
         mission_out.write_text(mission_text(mission, request.output))
+        if report_out is not None:
+            report: dict[str, object] = {
+                "survey": {
+                    "lanes": route.lanes,
+                    "angle_deg": route.sweep.angle_deg,
+                    "photos": route.sweep.photos,
+                    "lane_length_m": round(route.sweep.lane_length_m, 1),
+                    "area_m2": round(float(route.free.area), 1),
+                    "covered": None if covered is None else round(covered, 4),
+                    "transitions_routed": route.rerouted,
+                    "min_clearance_m": round(route.min_clearance_m, 3),
+                    "altitude_m": spec.altitude_m,
+                    "lane_spacing_m": s.lane_spacing_m,
+                    "trigger_distance_m": s.trigger_distance_m,
+                    "trigger": spec.trigger,
+                },
+            }
+            if estimate is not None:
+                report.update(estimate.report_fields())
+            if verdict is not None:
+                report["whole_flight"] = verdict.report()
+            report_out.write_text(json.dumps(report, indent=2) + "\n")
         outputs.commit()
     if verdict is not None:
         feedback.say(verdict.summary())
