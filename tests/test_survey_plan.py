@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -107,9 +108,34 @@ def test_bundled_survey_plans_covers_and_keeps_the_margin_as_flown(tmp_path: Pat
     assert v is not None and v.flight_ok and v.flight_worst.clearance_m >= 5.0
     assert outcome.estimate is not None and outcome.estimate.fits
     # buildings above the survey altitude − margin are holes: some lanes are split
-    import numpy as np
-
     a = np.radians(outcome.route.sweep.angle_deg)
     across = outcome.route.sweep.pieces_xy[:, 0] @ [-np.sin(a), np.cos(a)]
     ys = np.round(across, 3)
     assert len(np.unique(ys)) < outcome.route.lanes
+
+
+@pytest.mark.parametrize("trigger", ["distance", "hover"])
+def test_simulate_counts_the_photos_the_lanes_take(tmp_path: Path, trigger: str) -> None:
+    from uavplan.rehearsal import rehearse
+    from uavplan.sim.camera import photo_positions
+
+    f = _file(tmp_path, survey={**FIELD["survey"], "trigger": trigger})
+    out = tmp_path / "field.plan"
+    outcome = plan(PlanRequest(str(f), str(out)), Feedback())
+    assert isinstance(outcome, SurveyOutcome)
+    flown = rehearse(outcome.mission, None).flown
+    photos = photo_positions(flown)
+    expected = outcome.route.sweep.photos  # Σ (floor(lane length / trigger distance) + 1)
+    if trigger == "hover":
+        assert len(photos) == expected
+    else:
+        # the autopilot counts a lane's end reached within its acceptance radius, so a lane
+        # whose length is a whole number of trigger distances may lose its last photo
+        assert expected - outcome.route.lanes <= len(photos) <= expected
+        assert len(photos) >= 0.85 * expected
+    # every photo is taken at the survey altitude (the track's z: above home)
+    assert np.all(np.abs(photos[:, 2] - 50.0) < 2.0)
+    # the CLI prints the count
+    result = CliRunner().invoke(main, ["simulate", str(out)])
+    assert result.exit_code == 0, result.output
+    assert f"photos: {len(photos)} taken as flown" in result.output
