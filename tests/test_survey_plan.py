@@ -95,7 +95,9 @@ def test_plan_refuses_with_one_message_and_writes_nothing(
     assert not out.exists()
 
 
-BUNDLED = Path(__file__).resolve().parent.parent / "missions" / "survey-helsinki-kamppi.yaml"
+BUNDLED = (
+    Path(__file__).resolve().parent.parent / "missions" / "surveys" / "survey-helsinki-kamppi.yaml"
+)
 
 
 def test_bundled_survey_plans_covers_and_keeps_the_margin_as_flown(tmp_path: Path) -> None:
