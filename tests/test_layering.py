@@ -13,7 +13,10 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * mavlink: the mission vocabulary only; pymavlink lives in one module of it;
 * sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
 * sources (OSM, GIS and DEM readers): vocabulary only;
-* scenario (the YAML reader and the checked scenario values): vocabulary and sources;
+* survey (camera arithmetic, lanes around holes, the sweep of least energy): vocabulary only,
+  pure geometry that knows nothing of files, the world, missions or MAVLink;
+* scenario (the YAML reader and the checked scenario values): vocabulary, sources and
+  survey (the ``survey:`` section's camera arithmetic);
 * wiring (planning, flight, estimate, wayhome/, reroute, bench, render, rehearsal,
   verdict, view/): everything but
   the application and CLI;
@@ -60,6 +63,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "mavlink": ("mavlink/*.py",),
     "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
+    "survey": ("survey/*.py",),
     "scenario": ("scenario/*.py",),
     "wiring": (
         "planning.py",
@@ -75,12 +79,23 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "worlds.py",
         "view/*.py",
         "verdict.py",
+        "surveying.py",
     ),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),
 }
 
-_BELOW_WIRING = {"vocabulary", "world", "path", "planners", "mission", "mavlink", "sim", "sources"}
+_BELOW_WIRING = {
+    "vocabulary",
+    "world",
+    "path",
+    "planners",
+    "mission",
+    "mavlink",
+    "sim",
+    "sources",
+    "survey",
+}
 
 #: layer → the layers its modules may import
 ALLOWED: dict[str, set[str]] = {
@@ -92,7 +107,8 @@ ALLOWED: dict[str, set[str]] = {
     "mavlink": {"vocabulary", "mission", "mavlink"},
     "sim": {"vocabulary", "mission", "mavlink", "sim"},
     "sources": {"vocabulary", "sources"},
-    "scenario": {"vocabulary", "sources", "scenario"},
+    "survey": {"vocabulary", "survey"},
+    "scenario": {"vocabulary", "sources", "survey", "scenario"},
     "wiring": _BELOW_WIRING | {"scenario", "wiring"},
     "app": _BELOW_WIRING | {"scenario", "wiring", "app"},
     "cli": _BELOW_WIRING | {"scenario", "wiring", "app", "cli"},

@@ -26,8 +26,10 @@ from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
 from uavplan.scenario import Scenario
+from uavplan.scenario.values import is_survey_file
 
 if TYPE_CHECKING:
+    from uavplan.app.survey import SurveyOutcome
     from uavplan.flight import FlightPrediction
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
@@ -126,8 +128,9 @@ def flight_text(result: RouteResult) -> str:
     return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
-def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome:
-    """Plan ``request.source`` as what it is (:func:`recognise`)."""
+def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome | SurveyOutcome:
+    """Plan ``request.source`` as what it is (:func:`recognise`; a scenario with a
+    ``survey:`` section is a survey, :mod:`uavplan.app.survey`)."""
     kind = recognise(request.source)
     if kind is InputKind.QGC_PLAN:
         if request.view is not None:
@@ -152,6 +155,10 @@ def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutco
         )
     if request.scenario is not None:
         raise InputError("--scenario goes with a .plan input (the SCENARIO argument is one)")
+    if is_survey_file(request.source):
+        from uavplan.app.survey import plan_survey_file
+
+        return plan_survey_file(request, feedback)
     return plan_scenario(request, feedback)
 
 

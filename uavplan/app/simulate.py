@@ -138,6 +138,10 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         rehearsal = verdict.rehearsal
     else:
         rehearsal = rehearse(plan, None, autopilot=autopilot, params=held, **conditions)  # type: ignore[arg-type]
+    from uavplan.sim.camera import has_camera_items, photo_positions
+
+    if has_camera_items(rehearsal.flown):  # a survey: its camera items executed as flown
+        feedback.say(f"photos: {len(photo_positions(rehearsal.flown))} taken as flown")
     if request.track:
         rehearsal.track.save(request.track)
         feedback.say(f"track: {len(rehearsal.track)} samples written to {request.track}")

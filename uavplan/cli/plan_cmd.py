@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from uavplan.app.feedback import PlannerOptions
-from uavplan.app.plan import PlanOutcome, PlanRequest, plan
+from uavplan.app.plan import PlanRequest, plan
 from uavplan.cli import main
 from uavplan.cli.common import (
     check_threads_variable,
@@ -146,5 +146,7 @@ def plan_command(
             exit_interrupted()
         if not quiet:
             click.echo(outcome.summary(), err=True)
-            if isinstance(outcome, PlanOutcome) and outcome.estimate is not None:
-                click.echo(outcome.estimate.summary(), err=True)
+            # a planned route's or a survey's (uavplan.app.survey) estimate; none on a reroute
+            estimate = getattr(outcome, "estimate", None)
+            if estimate is not None:
+                click.echo(estimate.summary(), err=True)

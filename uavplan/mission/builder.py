@@ -17,7 +17,7 @@ The items are the same for every autopilot; ArduPilot's home at seq 0 is added b
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -65,6 +65,8 @@ def build_mission(
     return_enu: ArrayLike | None = None,
     return_ground_z_m: ArrayLike | None = None,
     return_stops: tuple[int, ...] = (),
+    row_items: Mapping[int, Sequence[MissionItem]] | None = None,
+    row_hold_s: Mapping[int, float] | None = None,
 ) -> MissionPlan:
     """Turn a planned path into mission items.
 
@@ -91,6 +93,10 @@ def build_mission(
     MAV_FRAME_GLOBAL_RELATIVE_ALT), ``"amsl"`` (MAV_FRAME_GLOBAL) or ``"terrain"`` (above
     the ground beneath each waypoint, MAV_FRAME_GLOBAL_TERRAIN_ALT); the take-off climbs
     ``takeoff_altitude_m`` above home in every mode.
+
+    ``row_items``: command items (no position, e.g. camera triggering) placed right after
+    the NAV_WAYPOINT of a row (rows >= 1); ``row_hold_s``: a hold time (s) at a row's
+    waypoint (rows >= 1). Both default to none, which leaves every other mission unchanged.
 
     Raises ``ValueError`` for malformed input (wrong shape, non-finite values, a waypoint
     at or below the ground, a non-positive speed or takeoff altitude, an unknown ``end``).
@@ -179,10 +185,19 @@ def build_mission(
     first_row = 1
     if abs(takeoff_agl - start_agl) > ALTITUDE_TOLERANCE_M:
         first_row = 0
-    items.extend(
-        _waypoint(float(lat_deg[i]), float(lon_deg[i]), float(item_z[i]), item_frame)
-        for i in range(first_row, len(points))
-    )
+    extra = dict(row_items or {})
+    holds = dict(row_hold_s or {})
+    for row in (*extra, *holds):
+        if not 1 <= row < len(points):
+            raise ValueError(
+                f"row_items / row_hold_s row {row} is not a waypoint row (1..{len(points) - 1})"
+            )
+    for i in range(first_row, len(points)):
+        wp = _waypoint(float(lat_deg[i]), float(lon_deg[i]), float(item_z[i]), item_frame)
+        if i in holds:
+            wp = replace(wp, param1=float(holds[i]))
+        items.append(wp)
+        items.extend(extra.get(i, ()))
     if end == "rtl":
         items.append(
             MissionItem(

@@ -51,6 +51,7 @@ from uavplan.scenario.settings import MissionConfig, ObstacleSources, VehicleCon
 from uavplan.scenario.yamlfile import read_yaml
 
 if TYPE_CHECKING:
+    from uavplan.scenario.survey import SurveySpec
     from uavplan.scenario.zones import ZoneSet
     from uavplan.sources.dem import Terrain
 
@@ -71,6 +72,7 @@ _SCENARIO_KEYS = {
     "terrain",
     "wind",
     "airspace",
+    "survey",
 }
 _MAP_KEYS = {"name", "origin", "bounds", "obstacles", "obstacle_files", "terrain"}
 
@@ -142,16 +144,24 @@ def _terrain(chk: Checker, raw: Any, path: Path, origin: GeoPoint, bounds: Bound
         raise chk.fail("terrain", f"{dem.name}: {err.reason}") from None
 
 
-def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any]:
+def read_scenario_file(
+    path: str | Path, *, route: bool = True, surveys: bool = False
+) -> dict[str, Any]:
     """The values of a scenario file (and of the map it names), checked key by key, as the
     keyword arguments of :class:`~uavplan.scenario.values.Scenario`, which checks them as a
     whole. ``route=False``: ``start`` and ``goal`` may be missing (None then); what the file
     gives is checked key by key all the same (the values of a
-    :class:`~uavplan.scenario.values.Surroundings`)."""
+    :class:`~uavplan.scenario.values.Surroundings`). ``surveys=True``: a ``survey:``
+    section is read into ``survey`` (a :class:`~uavplan.scenario.survey.SurveySpec`; the
+    caller pops it) and the goal is the area's corner farthest from the start at the survey
+    altitude (so the flight volume's grid spans the area); otherwise a survey is refused."""
     path = Path(path)
     chk = Checker(str(path))
     raw = read_yaml(path, "scenario")
-    chk.mapping(raw, "", _SCENARIO_KEYS, ("start", "goal") if route else ())
+    surveyed = isinstance(raw, dict) and "survey" in raw
+    required = (("start",) if surveyed else ("start", "goal")) if route else ()
+    chk.mapping(raw, "", _SCENARIO_KEYS, required)
+    spec = _survey(chk, raw, surveys) if surveyed else None
 
     map_origin = map_bounds = None
     map_obstacles: tuple[Obstacle, ...] = ()
@@ -202,6 +212,17 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         )
     start = chk.point(raw["start"], "start", 3) if "start" in raw else None
     goal = chk.point(raw["goal"], "goal", 3) if "goal" in raw else None
+    if spec is not None:
+        for i, (x, y) in enumerate(spec.area_m):
+            if not bounds.contains((x, y, spec.altitude_m)):
+                raise chk.fail(
+                    f"survey.area[{i}]",
+                    f"[{x:g}, {y:g}] at the survey altitude {spec.altitude_m:g} m is outside "
+                    "the bounds",
+                )
+    if spec is not None and start is not None:
+        far = max(spec.area_m, key=lambda p: (p[0] - start[0]) ** 2 + (p[1] - start[1]) ** 2)
+        goal = (far[0], far[1], spec.altitude_m)
     via_raw = raw.get("via", [])
     if not isinstance(via_raw, list):
         raise chk.fail("via", f"must be a list of [x, y, z] points, got {type_name(via_raw)}")
@@ -248,7 +269,28 @@ def read_scenario_file(path: str | Path, *, route: bool = True) -> dict[str, Any
         wind=wind,
         files=tuple(files),
         airspace=zones,
+        **({} if spec is None else {"survey": spec}),
     )
+
+
+def _survey(chk: Checker, raw: dict[str, Any], allowed: bool) -> SurveySpec:
+    """A scenario with ``survey:`` instead of ``goal:`` (docs/scenario-format.md): the
+    section checked key by key; refused unless ``allowed`` (only ``plan`` flies a survey: a
+    survey read as a route by another command would be a pretend one)."""
+    if "goal" in raw:
+        raise chk.fail("survey", "a scenario has a goal or a survey, not both")
+    if "via" in raw:
+        raise chk.fail("via", "a survey has no via points (the lanes give the route)")
+    from uavplan.scenario.survey import read_survey
+
+    spec = read_survey(chk, raw["survey"])
+    if not allowed:
+        raise chk.fail(
+            "survey",
+            "the section is valid, but only uavplan plan flies a survey yet (issue 33); "
+            "give a goal: to use this command",
+        )
+    return spec
 
 
 def _airspace(

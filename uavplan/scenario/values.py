@@ -33,7 +33,7 @@ from uavplan.config import (
     planner_entry,
     resolved_planner,
 )
-from uavplan.errors import InputError
+from uavplan.errors import InputError, ScenarioError, UavplanError
 from uavplan.fileio import InputFile
 from uavplan.geo import GeoPoint
 from uavplan.obstacles import Bounds, Obstacle
@@ -58,6 +58,7 @@ from uavplan.scenario.size import DEFAULT_GRID, fitted_grid, path_grid
 
 if TYPE_CHECKING:
     from uavplan.ground import Surface
+    from uavplan.scenario.survey import SurveySpec
     from uavplan.scenario.zones import ZoneSet
     from uavplan.vehicle.wind import Wind
 
@@ -171,6 +172,31 @@ class Scenario:
             params = build_params(cfg.algorithm, dict(options), cfg.algorithm)
             cfg = cfg.with_params(cfg.algorithm, params) if params is not None else cfg
         return replace(self, planner=cfg)
+
+
+def load_survey_scenario(path: str | Path) -> tuple[Scenario, SurveySpec]:
+    """Read and check a scenario with a ``survey:`` section: the scenario (its goal the
+    area's far corner at the survey altitude, see :func:`read_scenario_file`) and the
+    survey. A file without one is refused (``goal`` names the missing key)."""
+    kwargs = read_scenario_file(path, surveys=True)
+    spec = kwargs.pop("survey", None)
+    if spec is None:
+        raise ScenarioError(
+            "a survey scenario needs a survey: section", file=str(path), key="survey"
+        )
+    return Scenario(**kwargs), spec
+
+
+def is_survey_file(path: str | Path) -> bool:
+    """Does the YAML file ``path`` hold a top-level ``survey:`` section? False for anything
+    unreadable: the ordinary loader then says what is wrong with it."""
+    from uavplan.scenario.yamlfile import read_yaml
+
+    try:
+        raw = read_yaml(Path(path), "scenario")
+    except (UavplanError, OSError, ValueError):
+        return False
+    return isinstance(raw, dict) and "survey" in raw
 
 
 def load_scenario(path: str | Path) -> Scenario:

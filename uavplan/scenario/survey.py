@@ -1,0 +1,190 @@
+"""The ``survey:`` section of a scenario, checked key by key (one ScenarioError naming the
+file, the key path and the reason; exit 2).
+
+```yaml
+survey:
+  area: [[0, 0], [800, 0], [800, 500], [0, 500]]   # ENU metres
+  exclude: [[[300, 200], [400, 200], [400, 300]]]   # optional no-fly holes (ENU polygons)
+  altitude: 60              # height above the ground (m); or gsd_cm with a camera
+  lane_spacing_m: 30        # or a camera and the side overlap
+  camera: {sensor_width_mm: 13.2, sensor_height_mm: 8.8, image_width_px: 5472,
+           image_height_px: 3648, focal_length_mm: 8.8, orientation: landscape}
+  gsd_cm: 2.0
+  front_overlap_pct: 70
+  side_overlap_pct: 70
+  angle_deg: auto           # or a lane direction, degrees CCW from east
+  trigger: distance         # or hover
+```
+
+Either ``lane_spacing_m`` with ``altitude`` (the trigger distance is then the lane spacing),
+or a ``camera`` with ``gsd_cm`` or ``altitude`` and the overlaps (QGroundControl's
+CameraCalc: :mod:`uavplan.survey.camera`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from shapely.geometry import Polygon
+
+from uavplan.config import short_repr, type_name
+from uavplan.scenario.checker import Checker, join
+from uavplan.scenario.limits import MAX_ALTITUDE_M
+from uavplan.survey.camera import Camera, Spacing, camera_spacing, plain_spacing
+
+_KEYS = {
+    "area",
+    "exclude",
+    "altitude",
+    "lane_spacing_m",
+    "camera",
+    "gsd_cm",
+    "front_overlap_pct",
+    "side_overlap_pct",
+    "angle_deg",
+    "trigger",
+}
+_CAMERA_KEYS = {
+    "sensor_width_mm",
+    "sensor_height_mm",
+    "image_width_px",
+    "image_height_px",
+    "focal_length_mm",
+    "orientation",
+}
+#: at most this many vertices in the area and in each excluded polygon
+MAX_POLYGON_POINTS = 10_000
+#: at most this many excluded polygons
+MAX_EXCLUDES = 1_000
+
+Trigger = Literal["distance", "hover"]
+
+
+@dataclass(frozen=True)
+class SurveySpec:
+    """A checked ``survey:`` section (ENU metres; heights above the ground)."""
+
+    area_m: tuple[tuple[float, float], ...]
+    exclude_m: tuple[tuple[tuple[float, float], ...], ...]
+    spacing: Spacing
+    #: lane direction, degrees CCW from east; None: ``auto`` (the least energy)
+    angle_deg: float | None
+    trigger: Trigger
+    camera: Camera | None = None
+
+    @property
+    def altitude_m(self) -> float:
+        return self.spacing.altitude_m
+
+
+def _polygon(chk: Checker, raw: Any, key: str) -> tuple[tuple[float, float], ...]:
+    if not isinstance(raw, list) or len(raw) < 3:
+        raise chk.fail(key, f"must be a list of at least 3 [x, y] points, got {short_repr(raw)}")
+    if len(raw) > MAX_POLYGON_POINTS:
+        raise chk.fail(key, f"{len(raw):,} points (at most {MAX_POLYGON_POINTS:,})")
+    pts = tuple(chk.point(p, f"{key}[{i}]", 2) for i, p in enumerate(raw))
+    xy = tuple((p[0], p[1]) for p in pts)
+    poly = Polygon(xy)
+    if not poly.is_valid or poly.area <= 0:
+        raise chk.fail(key, "must be a simple polygon with an area (its edges may not cross)")
+    return xy
+
+
+def _camera(chk: Checker, raw: Any, key: str) -> Camera:
+    m = chk.mapping(raw, key, _CAMERA_KEYS, sorted(_CAMERA_KEYS - {"orientation"}))
+    values: dict[str, float] = {}
+    for name in sorted(_CAMERA_KEYS - {"orientation"}):
+        v = chk.number(m[name], join(key, name), minimum=0, strict=True)
+        if name.endswith("_px") and v != int(v):
+            raise chk.fail(join(key, name), f"must be a whole number of pixels, got {v:g}")
+        values[name] = v
+    orientation = chk.string(
+        m.get("orientation", "landscape"), join(key, "orientation"), ("landscape", "portrait")
+    )
+    return Camera(
+        sensor_width_mm=values["sensor_width_mm"],
+        sensor_height_mm=values["sensor_height_mm"],
+        image_width_px=int(values["image_width_px"]),
+        image_height_px=int(values["image_height_px"]),
+        focal_length_mm=values["focal_length_mm"],
+        orientation="portrait" if orientation == "portrait" else "landscape",
+    )
+
+
+def read_survey(chk: Checker, raw: Any, key: str = "survey") -> SurveySpec:
+    """The ``survey:`` section ``raw`` of the file ``chk`` reads, checked."""
+    m = chk.mapping(raw, key, _KEYS, ("area",))
+    area = _polygon(chk, m["area"], join(key, "area"))
+    ex_raw = m.get("exclude", [])
+    if not isinstance(ex_raw, list):
+        raise chk.fail(join(key, "exclude"), f"must be a list of polygons, got {type_name(ex_raw)}")
+    if len(ex_raw) > MAX_EXCLUDES:
+        raise chk.fail(join(key, "exclude"), f"{len(ex_raw):,} polygons (at most {MAX_EXCLUDES:,})")
+    exclude = tuple(_polygon(chk, p, f"{join(key, 'exclude')}[{i}]") for i, p in enumerate(ex_raw))
+
+    def number(
+        name: str, *, minimum: float = 0, strict: bool = True, maximum: float | None = None
+    ) -> float | None:
+        if name not in m:
+            return None
+        return chk.number(m[name], join(key, name), minimum=minimum, strict=strict, maximum=maximum)
+
+    altitude = number("altitude", maximum=MAX_ALTITUDE_M)
+    gsd = number("gsd_cm")
+    lane = number("lane_spacing_m")
+    front = number("front_overlap_pct", strict=False, maximum=99)
+    side = number("side_overlap_pct", strict=False, maximum=99)
+    camera = _camera(chk, m["camera"], join(key, "camera")) if "camera" in m else None
+    if camera is None:
+        for name in ("gsd_cm", "front_overlap_pct", "side_overlap_pct"):
+            if name in m:
+                raise chk.fail(join(key, name), "needs a camera (survey.camera)")
+        if altitude is None or lane is None:
+            missing = "altitude" if altitude is None else "lane_spacing_m"
+            raise chk.fail(
+                join(key, missing),
+                "missing required key (without a camera a survey needs altitude and "
+                "lane_spacing_m)",
+            )
+        spacing = plain_spacing(altitude, lane)
+    else:
+        if lane is not None:
+            raise chk.fail(
+                join(key, "lane_spacing_m"),
+                "comes from the camera and side_overlap_pct: give one or the other",
+            )
+        if (altitude is None) == (gsd is None):
+            raise chk.fail(key, "with a camera give exactly one of altitude and gsd_cm")
+        spacing = camera_spacing(
+            camera,
+            altitude_m=altitude,
+            gsd_cm=gsd,
+            front_overlap_pct=70.0 if front is None else front,
+            side_overlap_pct=70.0 if side is None else side,
+        )
+        if spacing.altitude_m > MAX_ALTITUDE_M:
+            raise chk.fail(
+                join(key, "gsd_cm"),
+                f"needs an altitude of {spacing.altitude_m:.0f} m (at most {MAX_ALTITUDE_M:g})",
+            )
+    angle: float | None = None
+    raw_angle = m.get("angle_deg", "auto")
+    if raw_angle != "auto":
+        if isinstance(raw_angle, str):
+            raise chk.fail(
+                join(key, "angle_deg"), f"must be auto or a number, got {short_repr(raw_angle)}"
+            )
+        angle = chk.number(raw_angle, join(key, "angle_deg"), minimum=-360, maximum=360)
+    trigger = chk.string(m.get("trigger", "distance"), join(key, "trigger"), ("distance", "hover"))
+    return SurveySpec(
+        area_m=area,
+        exclude_m=exclude,
+        spacing=spacing,
+        angle_deg=angle,
+        trigger="hover" if trigger == "hover" else "distance",
+        camera=camera,
+    )
+
+
+__all__ = ["SurveySpec", "Trigger", "read_survey"]

@@ -1,0 +1,231 @@
+"""Area coverage around holes: parallel lanes clipped to the free area, in flying order.
+
+Pure plane geometry in local ENU metres (numpy + shapely): no files, no MAVLink, no world.
+
+* :func:`holes` — every ``exclude`` polygon and every obstacle whose top reaches above the
+  survey altitude minus the margin, each buffered by the margin;
+* :func:`lanes` — parallel lane lines at the sweep angle, spaced so the first and the last lie
+  at most half a spacing inside the area, each clipped against (area − holes); every piece is
+  kept (Mission Planner's rule: a lane split by a hole becomes two pieces), so no piece crosses
+  a hole and every piece runs to the boundary;
+* :func:`order` — the pieces in flying order from a start point: nearest free end first
+  (boustrophedon on a convex area), each piece flown from its nearer end;
+* :func:`photo_positions` / :func:`covered_fraction` — where distance triggering takes photos
+  and how much of the free area their footprints cover.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+from numpy.typing import ArrayLike, NDArray
+from shapely.geometry import LineString, MultiPolygon, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+
+from uavplan.obstacles import CylinderObstacle, Obstacle
+
+#: pieces shorter than this (m) are dropped: a lane grazing a corner of the free area
+MIN_PIECE_M = 1e-6
+
+#: segments per quarter circle of a buffered hole or a cylinder
+QUAD_SEGS = 8
+
+
+def _outer_buffer(geom: BaseGeometry, distance_m: float) -> BaseGeometry:
+    """``geom`` grown by at least ``distance_m`` everywhere: shapely's round joins are chords
+    inside the circle, so the radius is raised until the chords' midpoints lie on it."""
+    if distance_m <= 0:
+        return geom
+    return geom.buffer(distance_m / math.cos(math.pi / (4 * QUAD_SEGS)), quad_segs=QUAD_SEGS)
+
+
+def polygon(points_m: ArrayLike, key: str = "polygon") -> Polygon:
+    """A valid shapely polygon from ``(n, 2)`` ENU points (n ≥ 3, non-zero area)."""
+    p = np.asarray(points_m, dtype=np.float64)
+    if p.ndim != 2 or p.shape[0] < 3 or p.shape[1] != 2 or not np.all(np.isfinite(p)):
+        raise ValueError(f"{key} must be a list of at least 3 finite [x, y] points")
+    poly = Polygon(p)
+    if not poly.is_valid or poly.area <= 0:
+        raise ValueError(f"{key} must be a simple polygon with an area (no self-crossing)")
+    return poly
+
+
+def _footprint(obstacle: Obstacle) -> BaseGeometry:
+    if isinstance(obstacle, CylinderObstacle):
+        return _outer_buffer(Point(obstacle.center_m), obstacle.radius_m)
+    return Polygon(obstacle.footprint())
+
+
+def holes(
+    obstacles: Sequence[Obstacle],
+    exclude: Sequence[Polygon],
+    *,
+    altitude_m: float,
+    margin_m: float,
+) -> BaseGeometry:
+    """The union of every ``exclude`` polygon and every obstacle footprint whose top is above
+    ``altitude_m − margin_m`` (heights above the ground), each grown by ``margin_m``."""
+    shapes: list[BaseGeometry] = list(exclude)
+    shapes += [_footprint(o) for o in obstacles if o.height_m > altitude_m - margin_m]
+    if not shapes:
+        return Polygon()
+    return shapely.union_all([_outer_buffer(s, margin_m) for s in shapes])
+
+
+def free_area(area: Polygon, hole: BaseGeometry) -> BaseGeometry:
+    """``area`` minus ``hole``: where lanes may run."""
+    return area.difference(hole) if not hole.is_empty else area
+
+
+def _rotation(angle_deg: float) -> NDArray[np.float64]:
+    a = math.radians(angle_deg)
+    return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+
+
+def lane_offsets_m(width_m: float, spacing_m: float) -> NDArray[np.float64]:
+    """Offsets (m) of the lane lines across an extent of ``width_m`` from its low edge: the
+    fewest lanes ``spacing_m`` apart whose outer lanes lie at most half a spacing inside."""
+    if not spacing_m > 0:
+        raise ValueError("lane spacing must be > 0")
+    n = max(1, math.ceil(width_m / spacing_m - 1e-9))
+    first = (width_m - (n - 1) * spacing_m) / 2.0
+    return first + spacing_m * np.arange(n, dtype=np.float64)
+
+
+def lanes(
+    area: Polygon, free: BaseGeometry, *, angle_deg: float, spacing_m: float
+) -> NDArray[np.float64]:
+    """Lane pieces ``(n, 2, 2)`` (piece, end, xy) along ``angle_deg`` (CCW from east), the
+    lane lines spaced over ``area`` and clipped against ``free``; ordered lane by lane across
+    the area, pieces of one lane in the sweep direction."""
+    rot = _rotation(angle_deg)
+    # the area in the lane frame: lanes run along +u, spaced along v
+    corners = np.asarray(area.exterior.coords, dtype=np.float64) @ rot
+    u0, v0 = corners.min(axis=0) - 1.0
+    u1, v1 = corners.max(axis=0) + 1.0
+    vs = v0 + 1.0 + lane_offsets_m(v1 - v0 - 2.0, spacing_m)
+    lines_uv = np.stack(
+        [np.column_stack([np.full_like(vs, u0), vs]), np.column_stack([np.full_like(vs, u1), vs])],
+        axis=1,
+    )
+    lines_xy = lines_uv @ rot.T
+    clipped = shapely.intersection(shapely.linestrings(lines_xy), free)
+    pieces: list[NDArray[np.float64]] = []
+    for geom in clipped:
+        for part in shapely.get_parts(geom):
+            if not isinstance(part, LineString) or part.length < MIN_PIECE_M:
+                continue
+            xy = np.asarray(part.coords, dtype=np.float64)
+            ends = np.array([xy[0], xy[-1]])
+            if (ends @ rot)[0, 0] > (ends @ rot)[1, 0]:
+                ends = ends[::-1]
+            pieces.append(ends)
+    if not pieces:
+        return np.zeros((0, 2, 2))
+    out = np.array(pieces)
+    # lane by lane (v), then along the lane (u)
+    uv = out[:, 0, :] @ rot
+    keys = np.lexsort((uv[:, 0], np.round(uv[:, 1], 6)))
+    return out[keys]
+
+
+def order(pieces: NDArray[np.float64], start_xy: ArrayLike) -> NDArray[np.float64]:
+    """``pieces`` ``(n, 2, 2)`` in flying order from ``start_xy``: each next piece is the one
+    with the free end nearest to where the last ended, flown from that end."""
+    rest = np.asarray(pieces, dtype=np.float64).copy()
+    at = np.asarray(start_xy, dtype=np.float64)[:2]
+    out = np.empty_like(rest)
+    alive = np.ones(len(rest), dtype=bool)
+    for k in range(len(rest)):
+        d = np.linalg.norm(rest - at, axis=2)  # (n, 2)
+        d[~alive] = np.inf
+        i, end = np.unravel_index(int(np.argmin(d)), d.shape)
+        piece = rest[i] if end == 0 else rest[i][::-1]
+        out[k] = piece
+        alive[i] = False
+        at = piece[1]
+    return out
+
+
+def path_xy(ordered: NDArray[np.float64], start_xy: ArrayLike) -> NDArray[np.float64]:
+    """The straight-line flight ``(m, 2)``: start, every piece end to end, back to start."""
+    s = np.asarray(start_xy, dtype=np.float64)[:2]
+    return np.vstack([s, ordered.reshape(-1, 2), s])
+
+
+def photo_positions(ordered: NDArray[np.float64], trigger_m: float) -> NDArray[np.float64]:
+    """Where distance triggering takes photos ``(k, 2)``: at each piece's start and then every
+    ``trigger_m`` of the piece (the autopilots take the first photo when triggering starts)."""
+    if not trigger_m > 0:
+        raise ValueError("trigger distance must be > 0")
+    out: list[NDArray[np.float64]] = []
+    for a, b in ordered:
+        length = float(np.hypot(*(b - a)))
+        s = np.arange(0.0, length + 1e-9, trigger_m)
+        t = s / length if length > 0 else np.zeros(1)
+        out.append(a + t[:, None] * (b - a))
+    return np.vstack(out) if out else np.zeros((0, 2))
+
+
+def photo_count(ordered: NDArray[np.float64], trigger_m: float) -> int:
+    """How many photos distance triggering takes over ``ordered`` (see :func:`photo_positions`)."""
+    lengths = np.hypot(*(ordered[:, 1] - ordered[:, 0]).T) if len(ordered) else np.zeros(0)
+    return int(np.sum(np.floor(lengths / trigger_m + 1e-9) + 1))
+
+
+def footprints(
+    positions_xy: ArrayLike, angle_deg: float, side_m: float, front_m: float
+) -> NDArray[np.float64]:
+    """Image footprints ``(k, 4, 2)`` at ``positions_xy``: ``front_m`` along the lane
+    direction ``angle_deg``, ``side_m`` across it."""
+    p = np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2)
+    half = np.array(
+        [[-front_m, -side_m], [front_m, -side_m], [front_m, side_m], [-front_m, side_m]]
+    )
+    corners = (half / 2.0) @ _rotation(angle_deg).T
+    return p[:, None, :] + corners[None, :, :]
+
+
+def covered_fraction(free: BaseGeometry, footprints_xy: NDArray[np.float64]) -> float:
+    """The share of ``free``'s area that the footprints ``(k, 4, 2)`` cover."""
+    if free.is_empty or free.area <= 0:
+        return 1.0
+    union = shapely.union_all(shapely.polygons(footprints_xy))
+    return float(free.intersection(union).area / free.area)
+
+
+def candidate_angles_deg(area: Polygon, step_deg: float = 5.0) -> NDArray[np.float64]:
+    """Sweep angles to try: every ``step_deg`` over [0, 180) and the longest edge's direction."""
+    xy = np.asarray(area.exterior.coords, dtype=np.float64)
+    d = np.diff(xy, axis=0)
+    k = int(np.argmax(np.hypot(d[:, 0], d[:, 1])))
+    edge = math.degrees(math.atan2(d[k, 1], d[k, 0])) % 180.0
+    grid = np.arange(0.0, 180.0, step_deg)
+    return np.unique(np.append(grid, round(edge, 9)))
+
+
+def as_multipolygon(geom: BaseGeometry) -> MultiPolygon:
+    """``geom``'s polygons as one MultiPolygon (empty when it holds none)."""
+    parts = [p for p in shapely.get_parts(geom) if isinstance(p, Polygon) and not p.is_empty]
+    return MultiPolygon(parts)
+
+
+__all__ = [
+    "MIN_PIECE_M",
+    "as_multipolygon",
+    "candidate_angles_deg",
+    "covered_fraction",
+    "footprints",
+    "free_area",
+    "holes",
+    "lane_offsets_m",
+    "lanes",
+    "order",
+    "path_xy",
+    "photo_count",
+    "photo_positions",
+    "polygon",
+]

@@ -1,0 +1,232 @@
+"""A survey flown in the world: the lanes of :mod:`uavplan.survey` from the scenario's start
+and back, every lane checked against the world at the margin, and every transition whose
+straight line is blocked routed around the obstacles by the grid A* planner
+(:func:`uavplan.planning.reference_route`).
+
+Heights are above flat ground (z = 0): a scenario over a DEM is refused, terrain following
+is not built. The lanes are flown at the survey altitude; the flight climbs vertically over
+the start to that altitude and comes back down over it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
+
+from uavplan.errors import InputError, NoPathError
+from uavplan.mission.builder import build_mission
+from uavplan.mission.items import MavCmd, MavFrame, MissionItem, MissionPlan
+from uavplan.planning import build_world, enu_frame, reference_route
+from uavplan.scenario.survey import SurveySpec
+from uavplan.scenario.values import Scenario
+from uavplan.survey import coverage
+from uavplan.survey.sweep import Sweep, energy_of, plan_sweep
+from uavplan.world import World
+
+#: the hover before each photo of ``trigger: hover`` (s)
+HOVER_HOLD_S = 1.0
+
+#: the lanes' ground speed (m/s) when the scenario sets no cruise speed, for the energy
+#: that ranks sweep angles
+DEFAULT_SURVEY_SPEED_M_S = 8.0
+
+
+@dataclass(frozen=True)
+class SurveyRoute:
+    """A survey as flown: the pattern, the flight through the world and its figures."""
+
+    sweep: Sweep
+    #: area minus holes (ENU m): what the photos must cover
+    free: BaseGeometry
+    #: the whole flight (m, 3), start to start, transitions routed
+    waypoints_enu: NDArray[np.float64]
+    #: per waypoint: True where a photographed lane starts (the next leg is a lane)
+    lane_start: NDArray[np.bool_]
+    #: transitions (of len(pieces) + 1) whose straight line was blocked and were routed
+    rerouted: int
+    #: smallest distance from the flight's polyline to any obstacle (m), as planned
+    min_clearance_m: float
+
+    @property
+    def lanes(self) -> int:
+        return len(self.sweep.pieces_xy)
+
+
+def _route_leg(
+    scn: Scenario, world: World, a: NDArray[np.float64], b: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Interior points of the transition a → b: none when the straight line is free, else the
+    grid A* route around the obstacles."""
+    if bool(world.segments_free(a[None], b[None])[0]):
+        return np.zeros((0, 3))
+    ta = (float(a[0]), float(a[1]), float(a[2]))
+    tb = (float(b[0]), float(b[1]), float(b[2]))
+    route = reference_route(scn, world=world, start_m=ta, goal_m=tb)
+    if not route.found or route.path_enu is None:
+        raise NoPathError(
+            f"no route for the survey transition from ({a[0]:.0f}, {a[1]:.0f}) to "
+            f"({b[0]:.0f}, {b[1]:.0f}) around the obstacles"
+        )
+    path = np.asarray(route.path_enu, dtype=np.float64)
+    if not np.all(world.segments_free(path[:-1], path[1:])):
+        raise NoPathError(
+            f"the survey transition from ({a[0]:.0f}, {a[1]:.0f}) to ({b[0]:.0f}, "
+            f"{b[1]:.0f}) breaks the margin"
+        )
+    return path[1:-1]
+
+
+def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) -> SurveyRoute:
+    """Plan ``spec`` over ``scn`` (its obstacles, margin, vehicle, wind) from ``scn``'s start
+    and back. Raises InputError for what the user must change (terrain, a survey with no
+    lane outside the holes), NoPathError when a lane or a transition cannot keep the margin."""
+    if scn.terrain is not None:
+        raise InputError("surveys over a DEM (terrain) are not supported yet", key="survey")
+    world = world or build_world(scn)
+    margin = scn.safety_margin_m
+    alt = spec.altitude_m
+    area = Polygon(spec.area_m)
+    hole = coverage.holes(
+        scn.obstacles, [Polygon(p) for p in spec.exclude_m], altitude_m=alt, margin_m=margin
+    )
+    free = coverage.free_area(area, hole)
+    speed = scn.vehicle.cruise_speed_m_s or DEFAULT_SURVEY_SPEED_M_S
+    energy = energy_of(scn.vehicle.profile, altitude_m=alt, speed_m_s=speed, wind=scn.wind)
+    start = np.asarray(scn.start_m, dtype=np.float64)
+    try:
+        sweep = plan_sweep(
+            area,
+            free,
+            spacing_m=spec.spacing.lane_spacing_m,
+            trigger_m=spec.spacing.trigger_distance_m,
+            start_xy=start[:2],
+            energy=energy,
+            angle_deg=spec.angle_deg,
+        )
+    except ValueError as err:
+        raise InputError(str(err), key="survey") from None
+    pieces = np.concatenate(
+        [sweep.pieces_xy, np.full((*sweep.pieces_xy.shape[:2], 1), alt)], axis=2
+    )
+    a, b = pieces[:, 0], pieces[:, 1]
+    lanes_free = world.segments_free(a, b)
+    if not np.all(lanes_free):
+        k = int(np.argmin(lanes_free))
+        raise NoPathError(
+            f"survey lane {k + 1} from ({a[k, 0]:.0f}, {a[k, 1]:.0f}) to ({b[k, 0]:.0f}, "
+            f"{b[k, 1]:.0f}) at {alt:g} m breaks the margin or leaves the bounds"
+        )
+    above = np.array([start[0], start[1], alt])
+    points: list[NDArray[np.float64]] = [start[None], above[None]]
+    starts: list[bool] = [False, False]
+    at = above
+    rerouted = 0
+    for k in range(len(pieces)):
+        via = _route_leg(scn, world, at, a[k])
+        rerouted += bool(len(via))
+        points += [via, pieces[k]]
+        starts += [False] * len(via) + [True, False]
+        at = b[k]
+    via = _route_leg(scn, world, at, above)
+    rerouted += bool(len(via))
+    points += [via, above[None], start[None]]
+    starts += [False] * len(via) + [False, False]
+    waypoints = np.vstack(points)
+    free_legs = world.segments_free(waypoints[:-1], waypoints[1:])
+    if not np.all(free_legs):  # the climb over the start or the descent onto it
+        k = int(np.argmin(free_legs))
+        raise NoPathError(f"survey leg {k + 1} (the climb or descent over the start) is blocked")
+    return SurveyRoute(
+        sweep=sweep,
+        free=free,
+        waypoints_enu=waypoints,
+        lane_start=np.array(starts, dtype=bool),
+        rerouted=rerouted,
+        min_clearance_m=world.polyline_clearance(waypoints),
+    )
+
+
+def _trigger_distance(distance_m: float) -> MissionItem:
+    """MAV_CMD_DO_SET_CAM_TRIGG_DIST: ``distance_m`` > 0 starts distance triggering (param3 = 1:
+    one photo at once), 0 stops it. Both autopilots run it from a mission: PX4's
+    drivers/camera_trigger (CameraTrigger::Run handles VEHICLE_CMD_DO_SET_CAM_TRIGG_DIST),
+    ArduPilot's AP_Mission::start_command_camera → AP_Camera::set_trigger_distance."""
+    return MissionItem(
+        command=MavCmd.DO_SET_CAM_TRIGG_DIST,
+        frame=MavFrame.MISSION,
+        param1=float(distance_m),
+        param2=0.0,  # shutter integration time: camera default
+        param3=1.0 if distance_m > 0 else 0.0,  # trigger once immediately
+        param4=0.0,
+    )
+
+
+def _capture_one() -> MissionItem:
+    """MAV_CMD_IMAGE_START_CAPTURE of one image (param3 = 1) by every camera (param1 = 0)."""
+    return MissionItem(
+        command=MavCmd.IMAGE_START_CAPTURE,
+        frame=MavFrame.MISSION,
+        param1=0.0,
+        param2=0.0,  # interval: none, one image
+        param3=1.0,  # total images
+        param4=0.0,  # sequence number: none
+    )
+
+
+def survey_mission(scn: Scenario, spec: SurveySpec, route: SurveyRoute) -> MissionPlan:
+    """The mission of ``route`` with ``scn``'s mission and vehicle settings: take-off over the
+    start, the lanes with camera items, back over the start and down (``mission.end`` rtl,
+    land or none; a planned ``return`` is the survey's own way back, so it lands).
+
+    ``trigger: distance``: DO_SET_CAM_TRIGG_DIST (the trigger distance) after each lane's
+    first waypoint and (0) after its last. ``trigger: hover``: a waypoint per photo along
+    each lane, a hold of :data:`HOVER_HOLD_S` there and IMAGE_START_CAPTURE of one image."""
+    w = route.waypoints_enu
+    rows: list[NDArray[np.float64]] = []
+    items: dict[int, list[MissionItem]] = {}
+    holds: dict[int, float] = {}
+    d = spec.spacing.trigger_distance_m
+    k = 0
+    while k < len(w):
+        if route.lane_start[k]:
+            a, b = w[k], w[k + 1]
+            if spec.trigger == "distance":
+                items[len(rows)] = [_trigger_distance(d)]
+                rows.append(a)
+                items[len(rows)] = [_trigger_distance(0.0)]
+                rows.append(b)
+            else:
+                xy = coverage.photo_positions(np.array([[a[:2], b[:2]]]), d)
+                for p in xy:
+                    items[len(rows)] = [_capture_one()]
+                    holds[len(rows)] = HOVER_HOLD_S
+                    rows.append(np.array([p[0], p[1], a[2]]))
+            k += 2
+        else:
+            rows.append(w[k])
+            k += 1
+    end = scn.mission.end if scn.mission.end != "return" else "land"
+    return build_mission(
+        np.vstack(rows),
+        enu_frame(scn),
+        autopilot=scn.mission.autopilot,
+        end=end,  # type: ignore[arg-type]
+        takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
+        cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
+        altitude="relative" if scn.mission.altitude == "terrain" else scn.mission.altitude,
+        row_items=items,
+        row_hold_s=holds,
+    )
+
+
+__all__ = [
+    "DEFAULT_SURVEY_SPEED_M_S",
+    "HOVER_HOLD_S",
+    "SurveyRoute",
+    "plan_survey",
+    "survey_mission",
+]
