@@ -227,14 +227,26 @@ class FlightCheck:
     nearest: str
     margin_m: float
     outside: int | None
+    #: kept beyond the margin by a flight the flight model predicts, for the firmware's
+    #: tracking error the model does not fly (:data:`uavplan.rehearsal.TRACKING_ALLOWANCE_M`)
+    allowance_m: float = 0.0
 
     @property
     def min_clearance_m(self) -> float:
         return float(self.clearance_m[self.worst]) if self.clearance_m.size else math.inf
 
     @property
+    def required_m(self) -> float:
+        """The clearance the flight must keep: the margin and the allowance."""
+        return self.margin_m + self.allowance_m
+
+    @property
     def keeps_margin(self) -> bool:
-        return keeps_margin(self.min_clearance_m, self.margin_m)
+        return keeps_margin(self.min_clearance_m, self.required_m)
+
+    def margin_words(self) -> str:
+        """``10 m`` or ``10 m, and 0.6 m for the autopilot's tracking error``."""
+        return margin_words(self.margin_m, self.allowance_m)
 
     @property
     def ok(self) -> bool:
@@ -249,9 +261,17 @@ class FlightCheck:
         if not self.keeps_margin:
             return (
                 f"leg {self.worst} of the flown path comes within {self.min_clearance_m:.2f} m "
-                f"of {self.nearest} (safety margin {self.margin_m:g} m)"
+                f"of {self.nearest} (safety margin {self.margin_words()})"
             )
         return None
+
+
+def margin_words(margin_m: float, allowance_m: float) -> str:
+    """The clearance a check asks for, in words: the margin, and the tracking allowance
+    kept beyond it when there is one."""
+    if allowance_m <= 0.0:
+        return f"{margin_m:g} m"
+    return f"{margin_m:g} m, and {allowance_m:g} m for the autopilot's tracking error"
 
 
 def flight_clearance(
@@ -288,10 +308,12 @@ def check_flight(
     name_of: Callable[[int], str],
     margin_m: float | None = None,
     volume_tol_m: float = VOLUME_TOL_M,
+    allowance_m: float = 0.0,
 ) -> FlightCheck:
     """Measure ``flight`` in ``world`` (see :class:`FlightCheck`); ``name_of(i)`` names
     obstacle ``i`` of the world for the message; ``margin_m`` defaults to the world's; a
-    point up to ``volume_tol_m`` outside the flight volume counts as inside."""
+    point up to ``volume_tol_m`` outside the flight volume counts as inside;
+    ``allowance_m``: kept beyond the margin (a predicted flight's tracking allowance)."""
     margin = world.margin_m if margin_m is None else float(margin_m)
     dist, owner, _ = flight_clearance(world, flight)
     p = flight.points_enu
@@ -306,7 +328,7 @@ def check_flight(
     nearest = "nothing"
     if dist.size and owner[worst] != -1:
         nearest = _describe(world, int(owner[worst]), p[worst], p[worst + 1], name_of)
-    return FlightCheck(flight, dist, worst, nearest, margin, outside)
+    return FlightCheck(flight, dist, worst, nearest, margin, outside, allowance_m)
 
 
 def _describe(
@@ -346,6 +368,13 @@ class TrackCheck:
         return self.check.margin_m
 
     @property
+    def required_m(self) -> float:
+        return self.check.required_m
+
+    def margin_words(self) -> str:
+        return self.check.margin_words()
+
+    @property
     def nearest(self) -> str:
         return self.check.nearest
 
@@ -378,7 +407,7 @@ class TrackCheck:
             sample = int(self.samples[check.worst])
             return (
                 f"{self.when(sample)} the track comes within {check.min_clearance_m:.2f} m "
-                f"of {check.nearest} (safety margin {check.margin_m:g} m)"
+                f"of {check.nearest} (safety margin {check.margin_words()})"
             )
         return None
 
@@ -392,10 +421,12 @@ def check_track(
     datum_amsl_m: float | None = None,
     takes_off: bool = True,
     lands: bool,
+    allowance_m: float = 0.0,
 ) -> TrackCheck:
     """``track`` (see :func:`flight_of_track`) measured in ``world`` by the one check, its
     line thinned to within :data:`THIN_TOL_M` first (the take-off and landing's ends kept);
-    a sample up to :data:`TRACK_VOLUME_TOL_M` outside the volume counts as inside."""
+    a sample up to :data:`TRACK_VOLUME_TOL_M` outside the volume counts as inside;
+    ``allowance_m``: kept beyond the margin (a predicted track's tracking allowance)."""
     flight = flight_of_track(
         track, frame, datum_amsl_m=datum_amsl_m, takes_off=takes_off, lands=lands
     )
@@ -410,7 +441,9 @@ def check_track(
         thinned = Flight(flight.points_enu[kept], (int(where[0]), int(where[1])))
     else:
         thinned = flight
-    check = check_flight(world, thinned, name_of=name_of, volume_tol_m=TRACK_VOLUME_TOL_M)
+    check = check_flight(
+        world, thinned, name_of=name_of, volume_tol_m=TRACK_VOLUME_TOL_M, allowance_m=allowance_m
+    )
     return TrackCheck(check, kept, track)
 
 

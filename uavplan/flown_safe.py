@@ -188,5 +188,5 @@ def padded_scenario(scenario: Scenario, pad_m: float) -> Scenario:
 def grown_pad(pad: float, check: TrackCheck) -> float:
     """The next planning pad: the last one plus what the track lacked, plus
     :data:`PAD_STEP_M` (:data:`VOLUME_PAD_M` when the track left the flight volume)."""
-    lack = VOLUME_PAD_M if check.outside is not None else check.margin_m - check.min_clearance_m
+    lack = VOLUME_PAD_M if check.outside is not None else check.required_m - check.min_clearance_m
     return pad + max(lack, 0.0) + PAD_STEP_M

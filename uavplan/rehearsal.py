@@ -44,6 +44,7 @@ from uavplan.world import World
 from uavplan.worlds import build_world, enu_frame, fence_world
 
 __all__ = [
+    "TRACKING_ALLOWANCE_M",
     "CheckSite",
     "Rehearsal",
     "max_deviation_m",
@@ -52,6 +53,22 @@ __all__ = [
     "rtl_start",
     "track_of",
 ]
+
+
+#: what a flight the model predicts keeps beyond the margin, per firmware (m): the firmware's
+#: tracking error, which the model does not fly. PX4 SIH trails its trajectory and cut corners
+#: up to 0.53 m closer to an obstacle than the model (issue 32: helsinki-centre 4.53 m flown
+#: where the model predicted 5.06 m, paper-env2 9.63 against 10.14, paper-env3 9.57 against
+#: 10.02; tools/sitl_compare.py, speed-up 8). ArduPilot SITL never came more than 0.07 m
+#: closer than the model, within the position's noise. ``fly`` judges the flown track itself
+#: against the margin alone: the allowance is for predictions.
+TRACKING_ALLOWANCE_M: dict[Autopilot, float] = {Autopilot.PX4: 0.6, Autopilot.ARDUPILOT: 0.0}
+
+
+def tracking_allowance_m(autopilot: Autopilot) -> float:
+    """What a predicted flight of ``autopilot`` keeps beyond the margin
+    (:data:`TRACKING_ALLOWANCE_M`; 0 for a flavour the model does not fly)."""
+    return TRACKING_ALLOWANCE_M.get(autopilot, 0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,8 +230,12 @@ class CheckSite:
 
         return ground_z
 
-    def check(self, track: Track, *, takes_off: bool = True, lands: bool) -> TrackCheck:
-        """``track`` measured here by the one check (:func:`uavplan.flight.check_track`)."""
+    def check(
+        self, track: Track, *, takes_off: bool = True, lands: bool, allowance_m: float = 0.0
+    ) -> TrackCheck:
+        """``track`` measured here by the one check (:func:`uavplan.flight.check_track`);
+        ``allowance_m``: kept beyond the margin (a predicted track:
+        :func:`tracking_allowance_m`)."""
         return check_track(
             self.world,
             track,
@@ -223,6 +244,7 @@ class CheckSite:
             datum_amsl_m=self.datum_amsl_m,
             takes_off=takes_off,
             lands=lands,
+            allowance_m=allowance_m,
         )
 
 
@@ -331,11 +353,14 @@ def rehearse(
     deviation = max_deviation_m(flown.enu_m[:end], planned)
     if site is None or not check:
         return Rehearsal(flown, track, deviation, start)
-    part = site.check(track.until(end), lands=start is None)
+    allowance = tracking_allowance_m(flown.autopilot)
+    part = site.check(track.until(end), lands=start is None, allowance_m=allowance)
     return_check = None
     if start is not None and len(track) - start >= 2:
         back = track.since(start)
-        return_check = site.check(back, takes_off=False, lands=flown.ended == "landed")
+        return_check = site.check(
+            back, takes_off=False, lands=flown.ended == "landed", allowance_m=allowance
+        )
     return Rehearsal(flown, track, deviation, start, part, return_check)
 
 

@@ -41,7 +41,7 @@ from uavplan.config import Autopilot
 from uavplan.flight import TrackCheck, flight_of_track
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
-from uavplan.rehearsal import CheckSite, Rehearsal, rehearsal_of, rehearse
+from uavplan.rehearsal import CheckSite, Rehearsal, rehearsal_of, rehearse, tracking_allowance_m
 from uavplan.sim.params import FlightLimits, Parameters, flight_limits, param_table
 from uavplan.sim.power import VehicleSpec
 from uavplan.sim.simulate import FlownTrack
@@ -102,12 +102,14 @@ class Finding:
     clearance_m: float
     margin_m: float
     outside: bool = False
+    #: kept beyond the margin: a predicted flight's tracking allowance (m)
+    allowance_m: float = 0.0
 
     @property
     def keeps_margin(self) -> bool:
         from uavplan.route import keeps_margin
 
-        return not self.outside and keeps_margin(self.clearance_m, self.margin_m)
+        return not self.outside and keeps_margin(self.clearance_m, self.margin_m + self.allowance_m)
 
     def when(self) -> str:
         if self.time_s is None:
@@ -134,6 +136,7 @@ class Finding:
             "nearest": self.nearest,
             "clearance_m": round(self.clearance_m, 3) if math.isfinite(self.clearance_m) else None,
             "margin_m": self.margin_m,
+            "allowance_m": self.allowance_m,
             "outside": self.outside,
         }
 
@@ -338,17 +341,23 @@ class FlightVerdict:
             f"{ended}, {minutes} min {seconds:02d} s, against {self.site_label})"
         )
 
+    def _margin_text(self) -> str:
+        """``10 m margin``, and the tracking allowance a predicted flight keeps beyond it."""
+        extra = self.check.check.allowance_m
+        text = f"{self.margin_m:g} m margin"
+        return text + (f" and {extra:g} m for the autopilot's tracking error" if extra else "")
+
     def summary(self) -> str:
         """One line: the flight and the failsafe, as every command prints them."""
         w = self.flight_worst
         text = f"{self._head()}: "
         if self.flight_ok:
             text += (
-                f"keeps the {self.margin_m:g} m margin, least {w.clearance_m:.2f} m from "
+                f"keeps the {self._margin_text()}, least {w.clearance_m:.2f} m from "
                 f"{w.nearest} ({w.when() or 'planned'}, {w.phase.value})"
             )
         else:
-            text += f"breaks the {self.margin_m:g} m margin: {w.text()}"
+            text += f"breaks the {self._margin_text()}: {w.text()}"
         if self.failsafe is not None:
             text += (
                 f"; {self.failsafe.summary()}"
@@ -362,7 +371,8 @@ class FlightVerdict:
         margin inside the flight volume."""
         if self.flight_ok:
             return None
-        return f"{self._head()}: {self.flight_worst.text()} (safety margin {self.margin_m:g} m)"
+        words = self.check.margin_words()
+        return f"{self._head()}: {self.flight_worst.text()} (safety margin {words})"
 
     def warnings(self) -> list[str]:
         """``warning:`` lines: a failsafe return that would break the margin, a flight that
@@ -389,6 +399,7 @@ class FlightVerdict:
             "ended": self.ended,
             "flight_time_s": round(self.flight_time_s, 1),
             "margin_m": self.margin_m,
+            "tracking_allowance_m": self.check.check.allowance_m,
             "worst": self.worst.report(),
             "flight_worst": self.flight_worst.report(),
             "failsafe": None if self.failsafe is None else self.failsafe.report(),
@@ -455,7 +466,9 @@ def judge_flight(
     else:
         held, relied, given = held_parameters(plan, flavour, params)
     rehearsal = None
+    allowance = 0.0  # a flown track is the firmware's own: judged against the margin alone
     if track is None:
+        allowance = tracking_allowance_m(flavour)
         if flown is not None and flown.autopilot == flavour and _same_flight(flown, held, plan):
             rehearsal = rehearsal_of(flown)
         else:
@@ -469,7 +482,7 @@ def judge_flight(
     else:
         lands = bool(len(track)) and float(track.relative_alt_m[-1]) <= _LANDED_M
         ended = "landed" if lands else "track_end"
-    check = site.check(track, lands=lands)
+    check = site.check(track, lands=lands, allowance_m=allowance)
     wire = replace(plan, autopilot=flavour).wire_items(MissionType.MISSION)
     marks = _Marks.of(wire)
     finding = _flight_finding(check, marks, site.world)
@@ -557,7 +570,10 @@ def _flight_finding(check: TrackCheck, marks: _Marks, world: World) -> Finding:
     track = check.track
     n = len(track)
     if not len(points) or not len(check.samples):
-        return Finding(Phase.ROUTE, None, None, (0.0, 0.0, 0.0), "nothing", math.inf, fc.margin_m)
+        return Finding(
+            Phase.ROUTE, None, None, (0.0, 0.0, 0.0), "nothing", math.inf, fc.margin_m,
+            allowance_m=fc.allowance_m,
+        )  # fmt: skip
     first = int(check.samples[fc.flight.airborne[0]])
     last = int(check.samples[fc.flight.airborne[1]])
     if fc.outside is not None:
@@ -579,6 +595,7 @@ def _flight_finding(check: TrackCheck, marks: _Marks, world: World) -> Finding:
             clearance,
             fc.margin_m,
             outside=True,
+            allowance_m=fc.allowance_m,
         )
     k = fc.worst
     a, b = points[k], points[min(k + 1, len(points) - 1)]
@@ -604,6 +621,7 @@ def _flight_finding(check: TrackCheck, marks: _Marks, world: World) -> Finding:
         fc.nearest,
         fc.min_clearance_m,
         fc.margin_m,
+        allowance_m=fc.allowance_m,
     )
 
 
