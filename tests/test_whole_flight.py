@@ -299,7 +299,7 @@ def test_the_verdict_finding_names_phase_time_place_and_clearance(env1_rtl: Path
 
 
 # ---------------------------------------------------------------------------------------------
-# PX4's tracking allowance (issue 32: PX4 SIH flew 0.45-0.53 m closer than the model predicted)
+# PX4's tracking allowance (issue 32: PX4 SIH flew up to 0.70 m closer than the model predicted)
 
 
 @pytest.fixture(scope="module")
@@ -321,7 +321,7 @@ def test_a_px4_prediction_keeps_the_tracking_allowance_a_flown_track_does_not(
     from uavplan.rehearsal import TRACKING_ALLOWANCE_M
 
     allowance = TRACKING_ALLOWANCE_M[PX4]
-    assert allowance > 0.53 and TRACKING_ALLOWANCE_M[AP] == 0.0  # PX4 SIH: 0.53 m, issue 32
+    assert allowance >= 0.7 and TRACKING_ALLOWANCE_M[AP] == 0.0  # PX4 SIH: 0.70 m, issue 32
     scn = load_scenario(ENV1)
     site = CheckSite.of_scenario(scn)
     plan = load_mission(env1_ap)
@@ -329,7 +329,7 @@ def test_a_px4_prediction_keeps_the_tracking_allowance_a_flown_track_does_not(
     least = predicted.flight_worst.clearance_m
     assert 10.0 <= least < 10.0 + allowance, least
     assert not predicted.flight_ok
-    assert "0.6 m for the autopilot's tracking error" in (predicted.problem() or "")
+    assert f"{allowance:g} m for the autopilot's tracking error" in (predicted.problem() or "")
     flown = judge_flight(plan, site, autopilot=PX4, failsafe=False, track=predicted.track)
     assert flown.flight_ok and flown.flight_worst.clearance_m == pytest.approx(least, abs=0.05)
     as_planned = judge_flight(plan, site, failsafe=False, **conditions_of(scn))  # ArduPilot
@@ -343,5 +343,7 @@ def test_plan_for_px4_keeps_the_allowance_as_flown(tmp_path: Path) -> None:
     code, text = run("plan", ENV1, "-o", out, "--autopilot", "px4", "--report", tmp_path / "r.json")
     assert code == 0, text
     worst = json.loads((tmp_path / "r.json").read_text())["whole_flight"]["flight_worst"]
-    assert worst["allowance_m"] == 0.6
-    assert worst["clearance_m"] >= 10.6 - 0.01
+    from uavplan.rehearsal import TRACKING_ALLOWANCE_M
+
+    assert worst["allowance_m"] == TRACKING_ALLOWANCE_M[PX4]
+    assert worst["clearance_m"] >= 10.0 + TRACKING_ALLOWANCE_M[PX4] - 0.01
