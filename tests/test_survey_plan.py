@@ -116,6 +116,21 @@ def test_bundled_survey_plans_covers_and_keeps_the_margin_as_flown(tmp_path: Pat
     assert len(np.unique(ys)) < outcome.route.lanes
 
 
+def test_a_px4_survey_keeps_the_tracking_allowance_as_flown(tmp_path: Path) -> None:
+    """PX4 SIH flew up to 0.70 m closer to obstacles than the model (issue 32): a PX4 survey
+    keeps its lanes and transitions the allowance further away, so its predicted flight
+    passes the verdict that asks for it (before: exit 3 on the bundled survey)."""
+    from uavplan.rehearsal import TRACKING_ALLOWANCE_M
+
+    out = tmp_path / "kamppi-px4.plan"
+    outcome = plan(PlanRequest(str(BUNDLED), str(out), autopilot="px4"), Feedback())
+    assert isinstance(outcome, SurveyOutcome)
+    v = outcome.verdict
+    assert v is not None and v.flight_ok, v.problem()
+    assert v.flight_worst.clearance_m >= 5.0 + TRACKING_ALLOWANCE_M[v.autopilot] - 0.01
+    assert outcome.covered is not None and outcome.covered >= 0.99
+
+
 @pytest.mark.parametrize("trigger", ["distance", "hover"])
 def test_simulate_counts_the_photos_the_lanes_take(tmp_path: Path, trigger: str) -> None:
     from uavplan.rehearsal import rehearse

@@ -17,8 +17,10 @@ from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
+from uavplan.flown_safe import padded_scenario
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
+from uavplan.rehearsal import tracking_allowance_m
 from uavplan.scenario.values import load_survey_scenario
 from uavplan.survey import coverage
 from uavplan.surveying import SurveyRoute, plan_survey, survey_mission
@@ -114,7 +116,10 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
         scn = replace(
             scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(request.autopilot))
         )
-    route = plan_survey(scn, spec)
+    # the lanes and transitions keep the firmware's tracking allowance beyond the margin, as
+    # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M)
+    allowance = tracking_allowance_m(scn.mission.autopilot)
+    route = plan_survey(padded_scenario(scn, allowance) if allowance else scn, spec)
     mission = survey_mission(scn, spec, route)
     verdict = _judge(scn, mission)
     if verdict is not None and verdict.problem() is not None:
