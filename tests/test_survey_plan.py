@@ -74,9 +74,9 @@ def test_plan_writes_the_survey_and_the_flight_keeps_the_margin(tmp_path: Path) 
 @pytest.mark.parametrize(
     ("changes", "args", "expected"),
     [
-        ({"survey": {**FIELD["survey"], "area": [[0, 0], [3000, 0], [3000, 400], [0, 400]]},
-          "bounds": {"x": [-200, 3100], "y": [-200, 500], "z": [0, 150]}},
-         [], "does not leave the reserve"),
+        ({"survey": {**FIELD["survey"], "area": [[0, 0], [30000, 0], [30000, 40], [0, 40]]},
+          "bounds": {"x": [-200, 30100], "y": [-200, 500], "z": [0, 150]}, "obstacles": []},
+         [], "alone, flown from the start and back"),
         ({}, ["--plot", "p.png"], "--plot is not built for survey scenarios"),
         ({"survey": {**FIELD["survey"], "area": [[0, 0], [900, 0], [900, 200], [0, 200]]}},
          [], "survey.area[1]: [900, 0] at the survey altitude 50 m is outside the bounds"),

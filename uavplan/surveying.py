@@ -10,7 +10,8 @@ the start to that altitude and comes back down over it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -94,8 +95,7 @@ def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) 
         scn.obstacles, [Polygon(p) for p in spec.exclude_m], altitude_m=alt, margin_m=margin
     )
     free = coverage.free_area(area, hole)
-    speed = scn.vehicle.cruise_speed_m_s or DEFAULT_SURVEY_SPEED_M_S
-    energy = energy_of(scn.vehicle.profile, altitude_m=alt, speed_m_s=speed, wind=scn.wind)
+    energy = lane_energy(scn, spec)
     start = np.asarray(scn.start_m, dtype=np.float64)
     try:
         sweep = plan_sweep(
@@ -109,6 +109,47 @@ def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) 
         )
     except ValueError as err:
         raise InputError(str(err), key="survey") from None
+    return _flown_over(scn, world, sweep, free, alt)
+
+
+def part_of(
+    scn: Scenario, spec: SurveySpec, route: SurveyRoute, lanes: slice, *, world: World | None = None
+) -> SurveyRoute:
+    """The survey of ``route``'s lanes ``lanes`` alone (in their order), from ``scn``'s start
+    and back to it: one mission of a survey split across batteries. Raises NoPathError as
+    :func:`plan_survey` does."""
+    world = world or build_world(scn)
+    pieces = route.sweep.pieces_xy[lanes]
+    if not len(pieces):
+        raise ValueError("a survey part needs at least one lane")
+    start = np.asarray(scn.start_m, dtype=np.float64)
+    lengths = np.hypot(*(pieces[:, 1] - pieces[:, 0]).T)
+    path = coverage.path_xy(pieces, start[:2])
+    sweep = replace(
+        route.sweep,
+        pieces_xy=pieces,
+        path_xy=path,
+        energy_wh=float(lane_energy(scn, spec)(path)),
+        photos=coverage.photo_count(pieces, spec.spacing.trigger_distance_m),
+        lane_length_m=float(lengths.sum()),
+    )
+    return _flown_over(scn, world, sweep, route.free, spec.altitude_m)
+
+
+def lane_energy(scn: Scenario, spec: SurveySpec) -> Callable[[NDArray[np.float64]], float]:
+    """The energy of a path at the survey altitude (what ranks the sweep angles)."""
+    speed = scn.vehicle.cruise_speed_m_s or DEFAULT_SURVEY_SPEED_M_S
+    return energy_of(
+        scn.vehicle.profile, altitude_m=spec.altitude_m, speed_m_s=speed, wind=scn.wind
+    )
+
+
+def _flown_over(
+    scn: Scenario, world: World, sweep: Sweep, free: BaseGeometry, alt: float
+) -> SurveyRoute:
+    """The flight from ``scn``'s start over ``sweep``'s lanes at ``alt`` and back, every lane
+    checked and every blocked transition routed."""
+    start = np.asarray(scn.start_m, dtype=np.float64)
     pieces = np.concatenate(
         [sweep.pieces_xy, np.full((*sweep.pieces_xy.shape[:2], 1), alt)], axis=2
     )
@@ -227,6 +268,8 @@ __all__ = [
     "DEFAULT_SURVEY_SPEED_M_S",
     "HOVER_HOLD_S",
     "SurveyRoute",
+    "lane_energy",
+    "part_of",
     "plan_survey",
     "survey_mission",
 ]

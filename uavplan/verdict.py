@@ -351,7 +351,9 @@ class FlightVerdict:
         """One line: the flight and the failsafe, as every command prints them."""
         w = self.flight_worst
         text = f"{self._head()}: "
-        if self.flight_ok:
+        if self.flight_ok and not math.isfinite(w.clearance_m):
+            text += f"keeps the {self._margin_text()}: nothing to keep clear of"
+        elif self.flight_ok:
             text += (
                 f"keeps the {self._margin_text()}, least {w.clearance_m:.2f} m from "
                 f"{w.nearest} ({w.when() or 'planned'}, {w.phase.value})"

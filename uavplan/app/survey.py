@@ -6,12 +6,15 @@ flight keeps the margin."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
@@ -23,11 +26,15 @@ from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.rehearsal import tracking_allowance_m
 from uavplan.scenario.values import load_survey_scenario
 from uavplan.survey import coverage
-from uavplan.surveying import SurveyRoute, plan_survey, survey_mission
+from uavplan.surveying import SurveyRoute, lane_energy, part_of, plan_survey, survey_mission
+from uavplan.vehicle import EnergyBudgetError
+from uavplan.worlds import build_world
 
 if TYPE_CHECKING:
     from uavplan.scenario import Scenario
+    from uavplan.scenario.survey import SurveySpec
     from uavplan.verdict import FlightVerdict
+    from uavplan.world import World
 
 
 class SurveyRequest(Protocol):
@@ -71,6 +78,9 @@ class SurveyOutcome:
     elapsed_s: float = math.nan
     estimate: FlightEstimate | None = None
     verdict: FlightVerdict | None = None
+    #: the missions a survey larger than one battery was split into (written instead of
+    #: ``output``), each from the start and back to it; empty: one mission
+    parts: tuple[SurveyPart, ...] = ()
 
     @property
     def interrupted(self) -> bool:
@@ -78,13 +88,66 @@ class SurveyOutcome:
 
     def summary(self) -> str:
         cover = "" if self.covered is None else f" ({100 * self.covered:.1f} % covered)"
+        if self.parts:
+            head = (
+                f"{Path(self.output).name}: split into {len(self.parts)} missions, one battery "
+                f"each: {self.route.lanes} lanes at {self.route.sweep.angle_deg:g}°, "
+                f"{self.photos} photos, {self.area_m2 / 1e4:.2f} ha{cover}, planned in "
+                f"{self.elapsed_s:.2f} s"
+            )
+            return "\n".join([head, *(p.summary() for p in self.parts)])
         return (
             f"{Path(self.output).name}: {len(self.mission.items)} items, "
             f"{self.route.lanes} lanes at {self.route.sweep.angle_deg:g}°, {self.photos} photos, "
             f"{self.area_m2 / 1e4:.2f} ha{cover}, {self.route.rerouted} transitions routed "
-            f"around obstacles, min clearance {self.route.min_clearance_m:.2f} m planned, in "
+            f"around obstacles, {_clearance(self.route.min_clearance_m)}, in "
             f"{self.elapsed_s:.2f} s"
         )
+
+
+def _finite(value: float) -> float | None:
+    """``value`` for a JSON report (rounded), None when infinite (JSON has no infinity)."""
+    return round(value, 3) if math.isfinite(value) else None
+
+
+def _clearance(clearance_m: float) -> str:
+    """``min clearance 5.02 m planned``, or that nothing stands near the flight."""
+    if not math.isfinite(clearance_m):
+        return "nothing to keep clear of"
+    return f"min clearance {clearance_m:.2f} m planned"
+
+
+@dataclass(frozen=True)
+class SurveyPart:
+    """One mission of a survey split across batteries: its lanes (``route``, from the start
+    and back), the mission written to ``output``, its whole-flight verdict and its estimate
+    (within the battery and the reserve); ``area_m2``: the free area its lanes sweep."""
+
+    output: str
+    route: SurveyRoute
+    mission: MissionPlan
+    verdict: FlightVerdict | None
+    estimate: FlightEstimate
+    area_m2: float
+
+    def summary(self) -> str:
+        e = self.estimate
+        return (
+            f"  {Path(self.output).name}: {self.route.lanes} lanes, {self.route.sweep.photos} "
+            f"photos, {self.area_m2 / 1e4:.2f} ha, {_clearance(self.route.min_clearance_m)}; "
+            f"{e.energy.summary(e.reserve_pct)}"
+        )
+
+    def report(self) -> dict[str, object]:
+        return {
+            "output": self.output,
+            "lanes": self.route.lanes,
+            "photos": self.route.sweep.photos,
+            "area_m2": round(self.area_m2, 1),
+            "min_clearance_m": _finite(self.route.min_clearance_m),
+            **self.estimate.report_fields(),
+            "whole_flight": None if self.verdict is None else self.verdict.report(),
+        }
 
 
 _NOT_FOR_SURVEYS = {
@@ -119,20 +182,29 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
     # the lanes and transitions keep the firmware's tracking allowance beyond the margin, as
     # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M)
     allowance = tracking_allowance_m(scn.mission.autopilot)
-    route = plan_survey(padded_scenario(scn, allowance) if allowance else scn, spec)
+    planned_in = padded_scenario(scn, allowance) if allowance else scn
+    world = build_world(planned_in)
+    route = plan_survey(planned_in, spec, world=world)
     mission = survey_mission(scn, spec, route)
     verdict = _judge(scn, mission)
     if verdict is not None and verdict.problem() is not None:
         raise NoPathError(str(verdict.problem()))
     reserve = DEFAULT_RESERVE_PCT if request.reserve_pct is None else request.reserve_pct
     estimate = None
+    parts: tuple[SurveyPart, ...] = ()
     if verdict is not None and verdict.rehearsal is not None:
         estimate = estimate_flown(scn, verdict.rehearsal.flown, reserve_pct=reserve)
-        # a survey over the battery is refused (exit 2) unless --allow-over-battery; it is
-        # not split into missions yet
-        warning = estimate.check(allow_over_battery=request.allow_over_battery)
-        if warning is not None:
-            feedback.warn(warning)
+        if not estimate.fits and not request.allow_over_battery:
+            feedback.say(
+                f"the survey needs {estimate.energy.energy_wh:.1f} Wh, more than one battery "
+                f"leaves above the {reserve:g} % reserve: splitting it into missions that "
+                "each start and end at the start"
+            )
+            parts = _split(scn, planned_in, spec, route, world, estimate, request.output)
+        else:
+            warning = estimate.check(allow_over_battery=request.allow_over_battery)
+            if warning is not None:
+                feedback.warn(warning)
     covered = None
     s = spec.spacing
     if s.footprint_side_m is not None and s.footprint_front_m is not None:
@@ -141,35 +213,57 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
             photos_xy, route.sweep.angle_deg, s.footprint_side_m, s.footprint_front_m
         )
         covered = coverage.covered_fraction(route.free, fp)
-    with outputs:
-        mission_out.write_text(mission_text(mission, request.output))
-        if report_out is not None:
-            report: dict[str, object] = {
-                "survey": {
-                    "lanes": route.lanes,
-                    "angle_deg": route.sweep.angle_deg,
-                    "photos": route.sweep.photos,
-                    "lane_length_m": round(route.sweep.lane_length_m, 1),
-                    "area_m2": round(float(route.free.area), 1),
-                    "covered": None if covered is None else round(covered, 4),
-                    "transitions_routed": route.rerouted,
-                    "min_clearance_m": round(route.min_clearance_m, 3),
-                    "altitude_m": spec.altitude_m,
-                    "lane_spacing_m": s.lane_spacing_m,
-                    "trigger_distance_m": s.trigger_distance_m,
-                    "trigger": spec.trigger,
-                },
-            }
-            if estimate is not None:
-                report.update(estimate.report_fields())
-            if verdict is not None:
-                report["whole_flight"] = verdict.report()
-            report_out.write_text(json.dumps(report, indent=2) + "\n")
-        outputs.commit()
-    if verdict is not None:
-        feedback.say(verdict.summary())
-        for line in verdict.warnings():
-            feedback.warn(line)
+    report: dict[str, object] = {
+        "survey": {
+            "lanes": route.lanes,
+            "angle_deg": route.sweep.angle_deg,
+            "photos": route.sweep.photos,
+            "lane_length_m": round(route.sweep.lane_length_m, 1),
+            "area_m2": round(float(route.free.area), 1),
+            "covered": None if covered is None else round(covered, 4),
+            "transitions_routed": route.rerouted,
+            "min_clearance_m": _finite(route.min_clearance_m),
+            "altitude_m": spec.altitude_m,
+            "lane_spacing_m": s.lane_spacing_m,
+            "trigger_distance_m": s.trigger_distance_m,
+            "trigger": spec.trigger,
+        },
+    }
+    if parts:
+        # the parts are written instead of the one mission, all of them or none
+        outputs = OutputSet(feedback.interrupts)
+        outputs.reads(request.source, role="the scenario")
+        outputs.reads(*scn.files)
+        part_outs = [outputs.file(p.output) for p in parts]
+        report_out = outputs.file(request.report) if request.report else None
+        outputs.check()
+        report["missions"] = [p.report() for p in parts]
+        with outputs:
+            for out, part in zip(part_outs, parts, strict=True):
+                out.write_text(mission_text(part.mission, part.output))
+            if report_out is not None:
+                report_out.write_text(json.dumps(report, indent=2) + "\n")
+            outputs.commit()
+        for k, part in enumerate(parts, start=1):
+            if part.verdict is not None:
+                feedback.say(f"mission {k}: {part.verdict.summary()}")
+                for line in part.verdict.warnings():
+                    feedback.warn(f"mission {k}: {line}")
+        estimate = None  # each part has its own (SurveyPart.summary)
+    else:
+        with outputs:
+            mission_out.write_text(mission_text(mission, request.output))
+            if report_out is not None:
+                if estimate is not None:
+                    report.update(estimate.report_fields())
+                if verdict is not None:
+                    report["whole_flight"] = verdict.report()
+                report_out.write_text(json.dumps(report, indent=2) + "\n")
+            outputs.commit()
+        if verdict is not None:
+            feedback.say(verdict.summary())
+            for line in verdict.warnings():
+                feedback.warn(line)
     return SurveyOutcome(
         scn,
         route,
@@ -181,6 +275,84 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
         time.perf_counter() - t0,
         estimate,
         verdict,
+        parts,
+    )
+
+
+#: how often a split survey is cut again, each time by an allowance this much smaller
+SPLIT_TRIES = 12
+SPLIT_SHRINK = 0.93
+
+
+def _split(
+    scn: Scenario,
+    planned_in: Scenario,
+    spec: SurveySpec,
+    route: SurveyRoute,
+    world: World,
+    whole: FlightEstimate,
+    output: str,
+) -> tuple[SurveyPart, ...]:
+    """``route``'s lanes split, in their order, into consecutive groups whose missions (each
+    from the start and back) keep the margin as flown and fit the battery with its reserve.
+
+    Each group takes lanes while the energy of its path (start, its lanes, start; the
+    vehicle's power model, scaled by what the flight model's whole flight needed over that
+    path's estimate) stays within one battery's allowance; every group's mission is then
+    judged and estimated like any other. While one does not fit, the allowance the groups are
+    cut by shrinks by :data:`SPLIT_SHRINK` and they are cut again. Raises EnergyBudgetError
+    when one lane alone does not fit, NoPathError when a mission breaks the margin."""
+    e = whole.energy
+    allowed = e.usable_wh * (100.0 - whole.reserve_pct) / 100.0
+    pieces = route.sweep.pieces_xy
+    start = np.asarray(scn.start_m, dtype=np.float64)[:2]
+    energy = lane_energy(planned_in, spec)
+    scale = e.energy_wh / max(energy(route.sweep.path_xy), 1e-9)
+
+    def cost(a: int, b: int) -> float:
+        return scale * energy(coverage.path_xy(pieces[a:b], start))
+
+    path = Path(output)
+    budget = allowed
+    for _ in range(SPLIT_TRIES):
+        bounds = [0]
+        while bounds[-1] < len(pieces):
+            a = b = bounds[-1]
+            while b < len(pieces) and (b == a or cost(a, b + 1) <= budget):
+                b += 1
+            if cost(a, b) > allowed and b - a == 1:
+                raise EnergyBudgetError(
+                    f"the survey cannot be split into missions that fit the battery: lane "
+                    f"{a + 1} alone, flown from the start and back, needs about "
+                    f"{cost(a, b):.1f} Wh where {allowed:.1f} Wh are allowed with the "
+                    f"{whole.reserve_pct:g} % reserve; --allow-over-battery plans it as one "
+                    "mission",
+                    key="survey",
+                )
+            bounds.append(b)
+        parts: list[SurveyPart] = []
+        for k, (a, b) in enumerate(itertools.pairwise(bounds), start=1):
+            part = part_of(planned_in, spec, route, slice(a, b), world=world)
+            mission = survey_mission(scn, spec, part)
+            verdict = _judge(scn, mission)
+            if verdict is not None and verdict.problem() is not None:
+                raise NoPathError(f"mission {k} of the split survey: {verdict.problem()}")
+            if verdict is None or verdict.rehearsal is None:
+                raise InputError("a survey is split only for a vehicle the flight model flies")
+            estimate = estimate_flown(scn, verdict.rehearsal.flown, reserve_pct=whole.reserve_pct)
+            if not estimate.fits:
+                break
+            out = str(path.with_name(f"{path.stem}-{k}{path.suffix}"))
+            swept = coverage.swept_area(part.sweep.pieces_xy, spec.spacing.lane_spacing_m)
+            area = float(swept.intersection(route.free).area)
+            parts.append(SurveyPart(out, part, mission, verdict, estimate, area))
+        else:
+            return tuple(parts)
+        budget *= SPLIT_SHRINK
+    raise EnergyBudgetError(
+        f"the survey could not be split into missions that fit the battery in {SPLIT_TRIES} "
+        "tries; --allow-over-battery plans it as one mission",
+        key="survey",
     )
 
 
@@ -195,4 +367,4 @@ def _judge(scn: Scenario, mission: MissionPlan) -> FlightVerdict | None:
     return judge_flight(mission, CheckSite.of_scenario(scn), **conditions_of(scn))
 
 
-__all__ = ["SurveyOutcome", "plan_survey_file"]
+__all__ = ["SurveyOutcome", "SurveyPart", "plan_survey_file"]

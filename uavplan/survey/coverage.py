@@ -197,6 +197,13 @@ def covered_fraction(free: BaseGeometry, footprints_xy: NDArray[np.float64]) -> 
     return float(free.intersection(union).area / free.area)
 
 
+def swept_area(ordered: NDArray[np.float64], spacing_m: float) -> BaseGeometry:
+    """What the lanes ``ordered`` ``(n, 2, 2)`` sweep: each a strip ``spacing_m`` wide,
+    flat at its ends (one lane's share of the area between its neighbours)."""
+    strips = [LineString(piece).buffer(spacing_m / 2.0, cap_style="flat") for piece in ordered]
+    return shapely.union_all(strips)
+
+
 def candidate_angles_deg(area: Polygon, step_deg: float = 5.0) -> NDArray[np.float64]:
     """Sweep angles to try: every ``step_deg`` over [0, 180) and the longest edge's direction."""
     xy = np.asarray(area.exterior.coords, dtype=np.float64)
@@ -228,4 +235,5 @@ __all__ = [
     "photo_count",
     "photo_positions",
     "polygon",
+    "swept_area",
 ]
