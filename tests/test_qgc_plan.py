@@ -635,7 +635,9 @@ def test_invalid_json(text: str, match: str) -> None:
         plan_from_json(text, file="x.plan")
 
 
-def test_complex_items_are_rejected_clearly() -> None:
+def test_complex_items_we_do_not_fly_are_rejected_clearly() -> None:
+    """A StructureScan is refused; a Survey saved without its items too (a Survey with its
+    items is read: tests/test_qgc_survey.py)."""
     doc = _good_doc()
     doc["mission"]["items"][2] = {
         "type": "ComplexItem",
@@ -643,9 +645,13 @@ def test_complex_items_are_rejected_clearly() -> None:
         "version": 5,
         "TransectStyleComplexItem": {"Items": []},
     }
-    assert qgc_loader_errors(doc) == []  # QGC can load it; we do not
-    with pytest.raises(MissionFileError, match=r"ComplexItem \(survey\).*SimpleItems") as info:
+    assert qgc_loader_errors(doc) == []  # QGC can load it; it holds nothing to fly
+    with pytest.raises(MissionFileError, match=r"the survey item holds no mission items") as info:
         plan_from_json(json.dumps(doc), file="survey.plan")
+    assert info.value.key == "mission.items[2].TransectStyleComplexItem.Items"
+    doc["mission"]["items"][2]["complexItemType"] = "StructureScan"
+    with pytest.raises(MissionFileError, match=r"ComplexItem \(StructureScan\)") as info:
+        plan_from_json(json.dumps(doc), file="scan.plan")
     assert info.value.key == "mission.items[2]"
 
 

@@ -17,16 +17,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from uavplan.app.feedback import Feedback
+from uavplan.app.inputs import mission_kind
 from uavplan.app.outputs import check_output
 from uavplan.config import Autopilot
-from uavplan.errors import InputError, NoPathError
+from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.fileio import InputFile
 from uavplan.flight import TrackCheck
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
-from uavplan.scenario import Scenario, load_scenario
+from uavplan.scenario import Scenario, load_scenario, load_surroundings
 from uavplan.sim.params import ParameterValueError, parameters_from
 from uavplan.verdict import FlightVerdict, held_parameters, judge_flight
 
@@ -118,13 +119,25 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
     scenario: Scenario | None = None
     conditions: dict[str, object] = {}
     if request.scenario is not None:
-        scenario = load_scenario(request.scenario)
-        if request.track:  # nor any file of the scenario
-            check_output(request.track, *scenario.files)
-        if request.view:
-            check_output(request.view, *scenario.files)
-        site = CheckSite.of_scenario(scenario)
-        conditions = conditions_of(scenario)
+        try:
+            scenario = load_scenario(request.scenario)
+        except ScenarioError as err:
+            if mission_kind(request.mission) != "plan" or err.key not in ("start", "goal"):
+                raise
+            # a map or a scenario without a route (as `plan X.plan --scenario S` takes one):
+            # the plan in its rerouting's world, its fence and the scenario's obstacles
+            base = load_surroundings(request.scenario)
+            for out in (request.track, request.view):
+                if out:
+                    check_output(out, *base.files)
+            site = CheckSite.of_plan(plan, base=base, file=request.mission)
+        else:
+            if request.track:  # nor any file of the scenario
+                check_output(request.track, *scenario.files)
+            if request.view:
+                check_output(request.view, *scenario.files)
+            site = CheckSite.of_scenario(scenario)
+            conditions = conditions_of(scenario)
     else:
         site = CheckSite.of_plan(plan, file=request.mission)
     if request.wind_en_m_s is not None:

@@ -12,7 +12,10 @@ in QGC's own spelling (5→0, 6→3, 11→10: synonyms on the wire).
 Reader: as tolerant as QGroundControl (unknown keys ignored, frames 5/6 accepted, null
 numbers) and as strict: whatever QGC's loader rejects (§5.6) raises
 :class:`~uavplan.errors.MissionFileError` naming the file, the key path and the reason.
-``ComplexItem``\\ s (surveys etc.) are rejected: uavplan writes and reads SimpleItems only.
+A Survey or CorridorScan ``ComplexItem`` is read as the mission items QGroundControl saved
+with it (``TransectStyleComplexItem.Items``: what QGC uploads while the pattern is not
+edited); other complex items (StructureScan) are rejected. uavplan writes SimpleItems only,
+so a plan read with a survey is written back with the survey's items as SimpleItems.
 
 DO_JUMP: in the file, param1 is the target's ``doJumpId``; in a :class:`MissionPlan` it is
 the target's wire sequence number for the plan's autopilot (ArduPilot counts its home slot
@@ -47,6 +50,8 @@ FILE_TYPE = "Plan"
 PLAN_VERSION = 1
 MISSION_VERSION = 2
 FENCE_VERSION = 2
+#: the ComplexItems whose saved mission items are read (QGroundControl's complexItemType)
+TRANSECT_ITEM_TYPES = ("survey", "CorridorScan")
 RALLY_VERSION = 2
 #: version of each polygon / circle object inside ``geoFence``
 FENCE_SHAPE_VERSION = 1
@@ -465,13 +470,15 @@ class _PlanReader:
                 self.fail(path, f"must be a JSON object, not {_json_type(value)}")
             item_type = self.require(value, "type", path)
             if item_type == "ComplexItem":
-                kind = value.get("complexItemType", "unknown")
-                kind = kind if isinstance(kind, str) and len(kind) <= 40 else _short(kind)
-                self.fail(
-                    path,
-                    f"ComplexItem ({kind}) is not supported: uavplan reads only SimpleItems "
-                    "(one MAVLink command each)",
-                )
+                for inner, inner_path in self.transect_items(value, path):
+                    items.append(self.simple_item(inner, inner_path))
+                    jump_id = inner.get("doJumpId")
+                    jump_ids.append(
+                        None
+                        if jump_id is None
+                        else self.integer(jump_id, _join(inner_path, "doJumpId"))
+                    )
+                continue
             if item_type != "SimpleItem":
                 self.fail(_join(path, "type"), f"unknown item type {_short(item_type)}")
             items.append(self.simple_item(value, path))
@@ -480,6 +487,40 @@ class _PlanReader:
                 None if jump_id is None else self.integer(jump_id, _join(path, "doJumpId"))
             )
         return self.resolve_jumps(items, jump_ids, autopilot)
+
+    def transect_items(self, value: dict[str, Any], path: str) -> list[tuple[dict[str, Any], str]]:
+        """A Survey or CorridorScan ComplexItem's mission items, as QGroundControl saved them
+        in ``TransectStyleComplexItem.Items`` (what QGC uploads while the pattern is not
+        edited): the items the vehicle flies, each with its key path. Other complex items
+        (StructureScan), and a transect item saved without its items, are refused."""
+        kind = value.get("complexItemType", "unknown")
+        kind = kind if isinstance(kind, str) and len(kind) <= 40 else _short(kind)
+        if kind not in TRANSECT_ITEM_TYPES:
+            self.fail(
+                path,
+                f"ComplexItem ({kind}) is not supported: uavplan reads SimpleItems and the "
+                "items of Survey and CorridorScan complex items",
+            )
+        transect = value.get("TransectStyleComplexItem")
+        where = _join(path, "TransectStyleComplexItem")
+        if not isinstance(transect, dict):
+            self.fail(where, f"a {kind} item needs its TransectStyleComplexItem object")
+        inner = transect.get("Items")
+        if not isinstance(inner, list) or not inner:
+            self.fail(
+                _join(where, "Items"),
+                f"the {kind} item holds no mission items (QGroundControl saves them with the "
+                "pattern: open the plan in QGroundControl and save it again)",
+            )
+        out = []
+        for j, item in enumerate(inner):
+            item_path = f"{where}.Items[{j}]"
+            if not isinstance(item, dict):
+                self.fail(item_path, f"must be a JSON object, not {_json_type(item)}")
+            if self.require(item, "type", item_path) != "SimpleItem":
+                self.fail(_join(item_path, "type"), "a transect's items must be SimpleItems")
+            out.append((item, item_path))
+        return out
 
     def simple_item(self, value: dict[str, Any], path: str) -> MissionItem:
         command = self.integer(self.require(value, "command", path), _join(path, "command"))
