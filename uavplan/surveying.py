@@ -14,6 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
+import shapely
+import shapely.geometry.polygon
 from numpy.typing import NDArray
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
@@ -166,8 +168,12 @@ def _flown_over(
     starts: list[bool] = [False, False]
     at = above
     rerouted = 0
+    inside = _Inside(free)
     for k in range(len(pieces)):
-        via = _route_leg(scn, world, at, a[k])
+        # between lanes: inside the area where the straight line would leave it
+        via = _route_leg(scn, world, at, a[k]) if k == 0 else inside.route(world, at, a[k])
+        if via is None:
+            via = _route_leg(scn, world, at, a[k])
         rerouted += bool(len(via))
         points += [via, pieces[k]]
         starts += [False] * len(via) + [True, False]
@@ -189,6 +195,125 @@ def _flown_over(
         rerouted=rerouted,
         min_clearance_m=world.polyline_clearance(waypoints),
     )
+
+
+#: how far inside the free area (the area minus the holes) a transition between lanes bends
+#: round a corner (m): more than the flight model cuts a corner (up to 2 m,
+#: docs/flight-model.md), so the flown turn keeps the holes' margin too; and how far outside
+#: the free area a transition's line may pass (its lane ends lie on the boundary)
+INSIDE_INSET_M = 2.5
+INSIDE_TOL_M = 0.05
+
+
+class _Inside:
+    """Transitions between lanes that stay inside the free area: the straight line where it
+    does, else the shortest path through the free area's reflex corners (inset by
+    :data:`INSIDE_INSET_M`; a visibility graph built once per survey), as QGroundControl's
+    and Mission Planner's straight transitions do not (they cross concave notches and the
+    holes)."""
+
+    def __init__(self, free: BaseGeometry) -> None:
+        self.tol = free.buffer(INSIDE_TOL_M)
+        shapely.prepare(self.tol)
+        inset = free.buffer(-INSIDE_INSET_M, join_style="mitre").simplify(0.5)
+        nodes = []
+        for poly in shapely.get_parts(inset):
+            if poly.is_empty:
+                continue
+            poly = shapely.geometry.polygon.orient(poly, sign=1.0)
+            for ring in (poly.exterior, *poly.interiors):
+                nodes.append(_reflex(np.asarray(ring.coords)[:-1]))
+        self.nodes = np.vstack(nodes) if nodes else np.zeros((0, 2))
+        self._graph: NDArray[np.float64] | None = None
+
+    def _within(self, p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.bool_]:
+        lines = shapely.linestrings(np.stack([p, q], axis=1))
+        return np.asarray(shapely.within(lines, self.tol), dtype=bool)
+
+    def _edges(self, p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The lengths of the lines p → q that stay in the free area (inf: the others)."""
+        ok = self._within(p, q)
+        return np.where(ok, np.hypot(*(q - p).T), np.inf)
+
+    def graph(self) -> NDArray[np.float64]:
+        """Corner to corner: the visibility graph's weights (built on first use)."""
+        if self._graph is None:
+            n = len(self.nodes)
+            w = np.full((n, n), np.inf)
+            i, j = np.triu_indices(n, k=1)
+            if len(i):
+                w[i, j] = self._edges(self.nodes[i], self.nodes[j])
+                w[j, i] = w[i, j]
+            self._graph = w
+        return self._graph
+
+    def route(
+        self, world: World, a: NDArray[np.float64], b: NDArray[np.float64]
+    ) -> NDArray[np.float64] | None:
+        """Interior points of a transition a → b (empty: the straight line) that stays in the
+        free area and keeps the margin in ``world``; None when there is none (the caller
+        routes around the obstacles instead)."""
+        if bool(self._within(a[None, :2], b[None, :2])[0]):
+            return np.zeros((0, 3)) if bool(world.segments_free(a[None], b[None])[0]) else None
+        n = len(self.nodes)
+        if n == 0:
+            return None
+        weight = np.full((n + 2, n + 2), np.inf)
+        weight[2:, 2:] = self.graph()
+        for k, end in ((0, a[:2]), (1, b[:2])):
+            e = self._edges(np.repeat(end[None], n, axis=0), self.nodes)
+            weight[k, 2:] = e
+            weight[2:, k] = e
+        prev = _shortest_from_first(weight)
+        if prev[1] < 0:
+            return None
+        order = []
+        k = int(prev[1])
+        while k > 0:
+            order.append(k)
+            k = int(prev[k])
+        via = self.nodes[np.array(order[::-1]) - 2]
+        via3 = np.column_stack([via, np.full(len(via), a[2])])
+        path = np.vstack([a, via3, b])
+        if not np.all(world.segments_free(path[:-1], path[1:])):
+            return None
+        return via3
+
+
+def _reflex(ring: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The corners of a ring (the free area on its left) where a shortest path can bend:
+    those that turn right."""
+    if len(ring) < 3:
+        return ring
+    before = ring - np.roll(ring, 1, axis=0)
+    after = np.roll(ring, -1, axis=0) - ring
+    cross = before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0]
+    return ring[cross < 0]
+
+
+def _shortest_from_first(weight: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Dijkstra from node 0 over the dense symmetric ``weight`` matrix (inf: no edge): each
+    node's predecessor (-1: unreached; node 0's is 0). One vectorised relaxation per node of
+    the graph (the free area's corners: tens to a few hundred)."""
+    n = len(weight)
+    dist = np.full(n, np.inf)
+    dist[0] = 0.0
+    prev = np.full(n, -1, dtype=np.int64)
+    prev[0] = 0
+    done = np.zeros(n, dtype=bool)
+    for _ in range(n):
+        open_dist = np.where(done, np.inf, dist)
+        u = int(np.argmin(open_dist))
+        if not np.isfinite(open_dist[u]):
+            break
+        done[u] = True
+        if u == 1:
+            break
+        alt = dist[u] + weight[u]
+        better = (alt < dist) & ~done
+        dist[better] = alt[better]
+        prev[better] = u
+    return prev
 
 
 def _trigger_distance(distance_m: float) -> MissionItem:

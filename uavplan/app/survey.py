@@ -10,19 +10,23 @@ import itertools
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
+import shapely
+import shapely.geometry.polygon
+from shapely.geometry import Polygon
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
-from uavplan.flown_safe import padded_scenario
+from uavplan.flown_safe import MAX_REPLANS, grown_pad, padded_scenario
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
+from uavplan.obstacles import PrismObstacle
 from uavplan.rehearsal import tracking_allowance_m
 from uavplan.scenario.values import load_survey_scenario
 from uavplan.survey import coverage
@@ -174,21 +178,33 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
     scn, spec = load_survey_scenario(request.source)
     outputs.reads(*scn.files)
     if request.autopilot:
-        from dataclasses import replace
-
         scn = replace(
             scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(request.autopilot))
         )
     # the lanes and transitions keep the firmware's tracking allowance beyond the margin, as
     # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M)
-    allowance = tracking_allowance_m(scn.mission.autopilot)
-    planned_in = padded_scenario(scn, allowance) if allowance else scn
-    world = build_world(planned_in)
-    route = plan_survey(planned_in, spec, world=world)
-    mission = survey_mission(scn, spec, route)
-    verdict = _judge(scn, mission)
-    if verdict is not None and verdict.problem() is not None:
-        raise NoPathError(str(verdict.problem()))
+    scn = with_no_fly(scn, spec)
+    # while the flight as flown breaks it, the holes and transitions keep a wider margin (the
+    # widen loop of uavplan.flown_safe: what the track lacked, plus a step)
+    pad = tracking_allowance_m(scn.mission.autopilot)
+    for attempt in range(MAX_REPLANS + 1):
+        planned_in = padded_scenario(scn, pad) if pad else scn
+        world = build_world(planned_in)
+        route = plan_survey(planned_in, spec, world=world)
+        mission = survey_mission(scn, spec, route)
+        verdict = _judge(scn, mission)
+        if verdict is None or verdict.flight_ok:
+            break
+        if attempt == MAX_REPLANS:
+            raise NoPathError(
+                f"{verdict.problem()} (planned {MAX_REPLANS} more times, the margin up to "
+                f"{pad:.2f} m wider)"
+            )
+        pad = grown_pad(pad, verdict.check)
+        feedback.say(
+            f"{verdict.autopilot.label} flight model: {verdict.check.problem()}; planned again "
+            f"with the margin {pad:.2f} m wider"
+        )
     reserve = DEFAULT_RESERVE_PCT if request.reserve_pct is None else request.reserve_pct
     estimate = None
     parts: tuple[SurveyPart, ...] = ()
@@ -354,6 +370,32 @@ def _split(
         "tries; --allow-over-battery plans it as one mission",
         key="survey",
     )
+
+
+#: how high the ``exclude`` polygons stand as obstacles above the flight volume's top (m)
+NO_FLY_ABOVE_M = 1000.0
+
+
+def with_no_fly(scn: Scenario, spec: SurveySpec) -> Scenario:
+    """``scn`` with the survey's ``exclude`` polygons standing as obstacles from the ground to
+    far above the flight volume (named ``survey.exclude[j] (no-fly)``): no lane, transition
+    or return may cross a no-fly hole at any height, and the whole-flight verdict checks the
+    margin from them as from a building."""
+    if not spec.exclude_m:
+        return scn
+    height = float(scn.bounds.z_m[1]) + NO_FLY_ABOVE_M
+    prisms = []
+    for poly in spec.exclude_m:
+        ring = shapely.geometry.polygon.orient(Polygon(poly), sign=1.0)
+        coords = tuple((float(x), float(y)) for x, y in np.asarray(ring.exterior.coords)[:-1])
+        prisms.append(PrismObstacle(coords, height))
+    names = tuple(f"survey.exclude[{j}] (no-fly)" for j in range(len(prisms)))
+    src = scn.obstacle_sources
+    if src.zones_from is None:
+        src = replace(src, zones_from=len(scn.obstacles), zone_titles=names)
+    else:  # the airspace's solids are the last obstacles: the holes follow them
+        src = replace(src, zone_titles=(*src.zone_titles, *names))
+    return replace(scn, obstacles=(*scn.obstacles, *prisms), obstacle_sources=src)
 
 
 def _judge(scn: Scenario, mission: MissionPlan) -> FlightVerdict | None:

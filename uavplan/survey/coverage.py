@@ -30,6 +30,10 @@ from uavplan.obstacles import CylinderObstacle, Obstacle
 #: pieces shorter than this (m) are dropped: a lane grazing a corner of the free area
 MIN_PIECE_M = 1e-6
 
+#: what a hole keeps beyond the margin (m): a lane ends exactly on the grown hole, so a
+#: transition that leaves that end at a slant would otherwise graze the margin
+HOLE_SLACK_M = 0.1
+
 #: segments per quarter circle of a buffered hole or a cylinder
 QUAD_SEGS = 8
 
@@ -67,12 +71,13 @@ def holes(
     margin_m: float,
 ) -> BaseGeometry:
     """The union of every ``exclude`` polygon and every obstacle footprint whose top is above
-    ``altitude_m − margin_m`` (heights above the ground), each grown by ``margin_m``."""
+    ``altitude_m − margin_m`` (heights above the ground), each grown by ``margin_m`` and
+    :data:`HOLE_SLACK_M`."""
     shapes: list[BaseGeometry] = list(exclude)
     shapes += [_footprint(o) for o in obstacles if o.height_m > altitude_m - margin_m]
     if not shapes:
         return Polygon()
-    return shapely.union_all([_outer_buffer(s, margin_m) for s in shapes])
+    return shapely.union_all([_outer_buffer(s, margin_m + HOLE_SLACK_M) for s in shapes])
 
 
 def free_area(area: Polygon, hole: BaseGeometry) -> BaseGeometry:
