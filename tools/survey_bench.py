@@ -49,17 +49,10 @@ import numpy as np
 import shapely
 import yaml
 from shapely.geometry import LineString, Polygon
+from survey_timing import CAMERA  # the same camera as the timing fields
 
 ROOT = Path(__file__).resolve().parent.parent
 KAMPPI = ROOT / "missions" / "surveys" / "survey-helsinki-kamppi.yaml"
-CAMERA = {
-    "sensor_width_mm": 13.2,
-    "sensor_height_mm": 8.8,
-    "image_width_px": 5472,
-    "image_height_px": 3648,
-    "focal_length_mm": 10.4,
-    "orientation": "landscape",
-}
 ALTITUDE_M = 50.0
 
 
