@@ -311,7 +311,7 @@ class DocRunner:
         for name in ("missions", "maps", "tools"):
             (workdir / name).mkdir()
             for src in (ROOT / name).iterdir():
-                if src.is_file():
+                if src.is_file() or src.is_dir():  # missions/surveys/ too
                     (workdir / name / src.name).symlink_to(src)
         for name, content in files.items():
             (workdir / name).write_text(content, encoding="utf-8")

@@ -3,13 +3,16 @@ and back, every lane checked against the world at the margin, and every transiti
 straight line is blocked routed around the obstacles by the grid A* planner
 (:func:`uavplan.planning.reference_route`).
 
-Heights are above flat ground (z = 0): a scenario over a DEM is refused, terrain following
-is not built. The lanes are flown at the survey altitude; the flight climbs vertically over
-the start to that altitude and comes back down over it.
+The lanes are flown at the survey altitude above the ground: on flat ground two waypoints a
+lane; over a DEM the lane gets waypoints where the ground's slope changes
+(:func:`lane_profile`), so its height above the ground stays within
+:data:`HAG_TOLERANCE_M`, and every waypoint is written with its own AMSL altitude. The flight
+climbs vertically over the start to that height and comes back down over it.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -53,6 +56,17 @@ class SurveyRoute:
     rerouted: int
     #: smallest distance from the flight's polyline to any obstacle (m), as planned
     min_clearance_m: float
+    #: per waypoint: True where a photographed lane ends (None: the point after each start;
+    #: over a DEM a lane has waypoints in between, where the ground's slope changes)
+    lane_end: NDArray[np.bool_] | None = None
+
+    def lane_rows(self) -> list[tuple[int, int]]:
+        """Each lane's first and last waypoint index, in flying order."""
+        starts = np.flatnonzero(self.lane_start)
+        if self.lane_end is None:
+            return [(int(k), int(k) + 1) for k in starts]
+        ends = np.flatnonzero(self.lane_end)
+        return [(int(a), int(ends[np.searchsorted(ends, a + 1)])) for a in starts]
 
     @property
     def lanes(self) -> int:
@@ -87,8 +101,6 @@ def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) 
     """Plan ``spec`` over ``scn`` (its obstacles, margin, vehicle, wind) from ``scn``'s start
     and back. Raises InputError for what the user must change (terrain, a survey with no
     lane outside the holes), NoPathError when a lane or a transition cannot keep the margin."""
-    if scn.terrain is not None:
-        raise InputError("surveys over a DEM (terrain) are not supported yet", key="survey")
     world = world or build_world(scn)
     margin = scn.safety_margin_m
     alt = spec.altitude_m
@@ -98,7 +110,7 @@ def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) 
     )
     free = coverage.free_area(area, hole)
     energy = lane_energy(scn, spec)
-    start = np.asarray(scn.start_m, dtype=np.float64)
+    start = np.asarray(scn.site.start_m, dtype=np.float64)
     try:
         sweep = plan_sweep(
             area,
@@ -124,7 +136,7 @@ def part_of(
     pieces = route.sweep.pieces_xy[lanes]
     if not len(pieces):
         raise ValueError("a survey part needs at least one lane")
-    start = np.asarray(scn.start_m, dtype=np.float64)
+    start = np.asarray(scn.site.start_m, dtype=np.float64)
     lengths = np.hypot(*(pieces[:, 1] - pieces[:, 0]).T)
     path = coverage.path_xy(pieces, start[:2])
     sweep = replace(
@@ -149,39 +161,42 @@ def lane_energy(scn: Scenario, spec: SurveySpec) -> Callable[[NDArray[np.float64
 def _flown_over(
     scn: Scenario, world: World, sweep: Sweep, free: BaseGeometry, alt: float
 ) -> SurveyRoute:
-    """The flight from ``scn``'s start over ``sweep``'s lanes at ``alt`` and back, every lane
-    checked and every blocked transition routed."""
-    start = np.asarray(scn.start_m, dtype=np.float64)
-    pieces = np.concatenate(
-        [sweep.pieces_xy, np.full((*sweep.pieces_xy.shape[:2], 1), alt)], axis=2
-    )
-    a, b = pieces[:, 0], pieces[:, 1]
-    lanes_free = world.segments_free(a, b)
-    if not np.all(lanes_free):
-        k = int(np.argmin(lanes_free))
-        raise NoPathError(
-            f"survey lane {k + 1} from ({a[k, 0]:.0f}, {a[k, 1]:.0f}) to ({b[k, 0]:.0f}, "
-            f"{b[k, 1]:.0f}) at {alt:g} m breaks the margin or leaves the bounds"
-        )
-    above = np.array([start[0], start[1], alt])
+    """The flight from ``scn``'s start over ``sweep``'s lanes at ``alt`` above the ground and
+    back, every lane checked and every blocked transition routed. Over a DEM each lane gets
+    waypoints where the ground's slope changes (:func:`lane_profile`)."""
+    start = np.asarray(scn.site.start_m, dtype=np.float64)
+    height = survey_height(scn, alt)
+    lanes = [lane_profile(piece, height) for piece in sweep.pieces_xy]
+    for k, lane in enumerate(lanes):
+        free_legs = world.segments_free(lane[:-1], lane[1:])
+        if not np.all(free_legs):
+            a, b = lane[0], lane[-1]
+            raise NoPathError(
+                f"survey lane {k + 1} from ({a[0]:.0f}, {a[1]:.0f}) to ({b[0]:.0f}, "
+                f"{b[1]:.0f}) at {alt:g} m breaks the margin or leaves the bounds"
+            )
+    above = np.array([start[0], start[1], float(height(start[None, :2])[0])])
     points: list[NDArray[np.float64]] = [start[None], above[None]]
     starts: list[bool] = [False, False]
+    ends: list[bool] = [False, False]
     at = above
     rerouted = 0
-    inside = _Inside(free)
-    for k in range(len(pieces)):
+    inside = _Inside(free, height)
+    for k, lane in enumerate(lanes):
         # between lanes: inside the area where the straight line would leave it
-        via = _route_leg(scn, world, at, a[k]) if k == 0 else inside.route(world, at, a[k])
+        via = _route_leg(scn, world, at, lane[0]) if k == 0 else inside.route(world, at, lane[0])
         if via is None:
-            via = _route_leg(scn, world, at, a[k])
+            via = _route_leg(scn, world, at, lane[0])
         rerouted += bool(len(via))
-        points += [via, pieces[k]]
-        starts += [False] * len(via) + [True, False]
-        at = b[k]
+        points += [via, lane]
+        starts += [False] * len(via) + [True] + [False] * (len(lane) - 1)
+        ends += [False] * len(via) + [False] * (len(lane) - 1) + [True]
+        at = lane[-1]
     via = _route_leg(scn, world, at, above)
     rerouted += bool(len(via))
     points += [via, above[None], start[None]]
     starts += [False] * len(via) + [False, False]
+    ends += [False] * len(via) + [False, False]
     waypoints = np.vstack(points)
     free_legs = world.segments_free(waypoints[:-1], waypoints[1:])
     if not np.all(free_legs):  # the climb over the start or the descent onto it
@@ -194,7 +209,68 @@ def _flown_over(
         lane_start=np.array(starts, dtype=bool),
         rerouted=rerouted,
         min_clearance_m=world.polyline_clearance(waypoints),
+        lane_end=np.array(ends, dtype=bool),
     )
+
+
+#: over a DEM: the most the planned height above the ground may differ from the survey
+#: altitude anywhere along a lane, between its waypoints (m; QGroundControl's terrain
+#: following allows 10 m), and the step the ground is sampled at along a lane (m, well under
+#: the bundled DEM's 3 arc-second, about 70-90 m, posts)
+HAG_TOLERANCE_M = 2.0
+PROFILE_STEP_M = 5.0
+
+
+def survey_height(
+    scn: Scenario, alt: float
+) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """The survey's height (site z) over points ``(n, 2)``: ``alt`` above the ground (the
+    DEM's surface over terrain, z = 0 on flat ground)."""
+    ground = scn.site.ground
+    if ground is None:
+        return lambda xy: np.full(len(xy), float(alt))
+    return lambda xy: np.asarray(ground.z_at(np.asarray(xy, dtype=np.float64)), float) + alt
+
+
+def lane_profile(
+    piece: NDArray[np.float64], height: Callable[[NDArray[np.float64]], NDArray[np.float64]]
+) -> NDArray[np.float64]:
+    """A lane ``(2, 2)`` as waypoints ``(m, 3)`` at ``height``: its two ends on flat ground;
+    over a DEM, the ground sampled every :data:`PROFILE_STEP_M` and the fewest samples kept
+    (Douglas-Peucker on the profile) so that the straight legs between them stay within half
+    of :data:`HAG_TOLERANCE_M` of the height at every sample."""
+    a, b = piece
+    length = float(np.hypot(*(b - a)))
+    n = max(2, math.ceil(length / PROFILE_STEP_M) + 1)
+    s = np.linspace(0.0, length, n)
+    xy = a + (s / max(length, 1e-9))[:, None] * (b - a)
+    z = height(xy)
+    if np.ptp(z) == 0.0:
+        return np.column_stack([xy[[0, -1]], z[[0, -1]]])
+    keep = _profile_breaks(s, z, HAG_TOLERANCE_M / 2.0)
+    return np.column_stack([xy[keep], z[keep]])
+
+
+def _profile_breaks(
+    s: NDArray[np.float64], z: NDArray[np.float64], tol: float
+) -> NDArray[np.int64]:
+    """Douglas-Peucker on the profile (s, z): the indices to keep so that the straight line
+    between kept neighbours is within ``tol`` of every z between them (vertically)."""
+    keep = np.zeros(len(s), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(s) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        t = (s[i + 1 : j] - s[i]) / (s[j] - s[i])
+        err = np.abs(z[i + 1 : j] - (z[i] + t * (z[j] - z[i])))
+        k = int(np.argmax(err))
+        if err[k] > tol:
+            m = i + 1 + k
+            keep[m] = True
+            stack += [(i, m), (m, j)]
+    return np.flatnonzero(keep)
 
 
 #: how far inside the free area (the area minus the holes) a transition between lanes bends
@@ -212,7 +288,10 @@ class _Inside:
     and Mission Planner's straight transitions do not (they cross concave notches and the
     holes)."""
 
-    def __init__(self, free: BaseGeometry) -> None:
+    def __init__(
+        self, free: BaseGeometry, height: Callable[[NDArray[np.float64]], NDArray[np.float64]]
+    ) -> None:
+        self.height = height
         self.tol = free.buffer(INSIDE_TOL_M)
         shapely.prepare(self.tol)
         inset = free.buffer(-INSIDE_INSET_M, join_style="mitre").simplify(0.5)
@@ -273,7 +352,7 @@ class _Inside:
             order.append(k)
             k = int(prev[k])
         via = self.nodes[np.array(order[::-1]) - 2]
-        via3 = np.column_stack([via, np.full(len(via), a[2])])
+        via3 = np.column_stack([via, self.height(via)])
         path = np.vstack([a, via3, b])
         if not np.all(world.segments_free(path[:-1], path[1:])):
             return None
@@ -356,34 +435,54 @@ def survey_mission(scn: Scenario, spec: SurveySpec, route: SurveyRoute) -> Missi
     items: dict[int, list[MissionItem]] = {}
     holds: dict[int, float] = {}
     d = spec.spacing.trigger_distance_m
+    lane_at = dict(route.lane_rows())
     k = 0
     while k < len(w):
-        if route.lane_start[k]:
-            a, b = w[k], w[k + 1]
+        if k in lane_at:
+            lane = w[k : lane_at[k] + 1]
             if spec.trigger == "distance":
                 items[len(rows)] = [_trigger_distance(d)]
-                rows.append(a)
+                rows.extend(lane[:-1])
                 items[len(rows)] = [_trigger_distance(0.0)]
-                rows.append(b)
+                rows.append(lane[-1])
             else:
-                xy = coverage.photo_positions(np.array([[a[:2], b[:2]]]), d)
-                for p in xy:
+                xy = coverage.photo_positions(np.array([[lane[0, :2], lane[-1, :2]]]), d)
+                along = np.concatenate(
+                    ([0.0], np.cumsum(np.hypot(*np.diff(lane[:, :2], axis=0).T)))
+                )
+                at = np.hypot(*(xy - lane[0, :2]).T)
+                z = np.asarray(np.interp(at, along, lane[:, 2]), dtype=np.float64)
+                for p in np.column_stack([xy, z]):
                     items[len(rows)] = [_capture_one()]
                     holds[len(rows)] = HOVER_HOLD_S
-                    rows.append(np.array([p[0], p[1], a[2]]))
-            k += 2
+                    rows.append(p)
+            k = lane_at[k] + 1
         else:
             rows.append(w[k])
             k += 1
     end = scn.mission.end if scn.mission.end != "return" else "land"
+    points = np.vstack(rows)
+    ground = scn.site.ground
+    altitude = scn.mission.altitude
+    under = None
+    if ground is None:
+        altitude = "relative" if altitude == "terrain" else altitude
+    else:
+        # over a DEM every waypoint gets its own AMSL altitude, for both flavours: the lanes'
+        # waypoints already follow the ground's profile (lane_profile); PX4 flies no terrain
+        # frames, and ArduPilot's terrain following lags on a slope (the flight model: 7 m
+        # on the bundled ridge survey, docs/survey.md) and needs a terrain database
+        under = np.asarray(ground.z_at(points[:, :2]), dtype=np.float64)
+        altitude = "amsl"
     return build_mission(
-        np.vstack(rows),
+        points,
         enu_frame(scn),
         autopilot=scn.mission.autopilot,
         end=end,  # type: ignore[arg-type]
         takeoff_altitude_m=scn.vehicle.takeoff_altitude_m,
         cruise_speed_m_s=scn.vehicle.cruise_speed_m_s,
-        altitude="relative" if scn.mission.altitude == "terrain" else scn.mission.altitude,
+        ground_z_m=under,
+        altitude=altitude,
         row_items=items,
         row_hold_s=holds,
     )
@@ -391,10 +490,13 @@ def survey_mission(scn: Scenario, spec: SurveySpec, route: SurveyRoute) -> Missi
 
 __all__ = [
     "DEFAULT_SURVEY_SPEED_M_S",
+    "HAG_TOLERANCE_M",
     "HOVER_HOLD_S",
     "SurveyRoute",
     "lane_energy",
+    "lane_profile",
     "part_of",
     "plan_survey",
+    "survey_height",
     "survey_mission",
 ]
