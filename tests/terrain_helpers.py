@@ -80,8 +80,11 @@ def raw_ground(terrain_file: str | Path, frame: EnuFrame) -> Callable[[NDArray],
     def amsl(xy: NDArray) -> NDArray:
         xy = np.atleast_2d(np.asarray(xy, dtype=float))
         lat, lon, _ = frame.to_geodetic(np.column_stack([xy[:, :2], np.zeros(len(xy))]))
-        x, y = to_crs.transform(lon, lat)
-        col, row = ~t * (np.asarray(x), np.asarray(y))
+        # as lists: pyproj < 3.7 turns a one-element array into a float (NumPy deprecates it)
+        x, y = (np.asarray(v) for v in to_crs.transform(list(lon), list(lat)))
+        inv = ~t  # by its coefficients: affine deprecates `*` on a point, `@` is newer
+        x, y = np.asarray(x), np.asarray(y)
+        col, row = inv.a * x + inv.b * y + inv.c, inv.d * x + inv.e * y + inv.f
         return np.asarray(interp(np.column_stack([row, col])))
 
     return amsl

@@ -84,8 +84,11 @@ def independent_ground(scenario, frame: EnuFrame):
     def ground_z(xy: np.ndarray) -> np.ndarray:
         xy = np.atleast_2d(xy)
         lat, lon, _ = frame.to_geodetic(np.column_stack([xy[:, :2], np.zeros(len(xy))]))
-        x, y = to_crs.transform(lon, lat)
-        col, row = ~t * (np.asarray(x), np.asarray(y))
+        # as lists: pyproj < 3.7 turns a one-element array into a float (NumPy deprecates it)
+        x, y = (np.asarray(v) for v in to_crs.transform(list(lon), list(lat)))
+        inv = ~t  # by its coefficients: affine deprecates `*` on a point, `@` is newer
+        x, y = np.asarray(x), np.asarray(y)
+        col, row = inv.a * x + inv.b * y + inv.c, inv.d * x + inv.e * y + inv.f
         return interp(np.column_stack([row, col])) - datum
 
     return ground_z

@@ -106,9 +106,15 @@ mission: {spacing: 50, end: land}
 """
 
 
+def _lists(*arrays: np.ndarray) -> list[list[float]]:
+    """Coordinates for pyproj as lists: pyproj < 3.7 turns a one-element array into a float,
+    which NumPy 1.25+ deprecates (a warning per call with the lowest declared pyproj)."""
+    return [np.atleast_1d(np.asarray(a, dtype=float)).tolist() for a in arrays]
+
+
 def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
     """The known surface at geodetic positions: independent of uavplan's DEM code."""
-    e, n = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+    e, n = TO_UTM.transform(*_lists(lon, lat))
     return slope(np.asarray(e), np.asarray(n))
 
 
@@ -119,7 +125,7 @@ def hill_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
 
     e, n = posts()
     interp = RegularGridInterpolator((n[::-1, 0], e[0]), hill(e, n)[::-1], method="linear")
-    ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+    ee, nn = TO_UTM.transform(*_lists(lon, lat))
     return np.asarray(interp(np.column_stack([nn, ee])))
 
 
@@ -189,7 +195,7 @@ def test_the_exact_ground_is_the_dem_surface(tmp_path: Path) -> None:
 
     def bilinear_z(xy: np.ndarray) -> np.ndarray:
         lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
-        ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+        ee, nn = TO_UTM.transform(*_lists(lon, lat))
         return np.asarray(interp(np.column_stack([nn, ee]))) - datum
 
     xy = rng.uniform(-480, 480, (400, 2))
@@ -338,7 +344,7 @@ def test_route_stays_under_the_ceiling_above_the_ground(tmp_path: Path) -> None:
 
     def ground_z(xy: np.ndarray) -> np.ndarray:
         lat, lon, _ = frame.to_geodetic(np.column_stack([xy, np.zeros(len(xy))]))
-        ee, nn = TO_UTM.transform(np.asarray(lon), np.asarray(lat))
+        ee, nn = TO_UTM.transform(*_lists(lon, lat))
         return np.asarray(interp(np.column_stack([nn, ee]))) - datum
 
     flown = mission_polyline_enu(load_mission(out), frame, ground_z)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import threading
@@ -57,6 +57,20 @@ def import_in_background(module: str = "pyproj") -> threading.Thread | None:
     thread = threading.Thread(target=run, name=f"import {module}", daemon=True)
     thread.start()
     return thread
+
+
+def transform_arrays(transformer: Any, *coords: Any, **kwargs: Any) -> tuple[Any, ...]:
+    """``transformer.transform(*coords, **kwargs)`` for coordinate arrays, one point as Python
+    floats: pyproj before 3.7 tries its single-point path first and converts a one-element
+    array to a float there, which NumPy 1.25+ deprecates (a warning per call: tens of
+    thousands in a test run with the lowest declared pyproj). Returns arrays."""
+    import numpy as np
+
+    arrays = [np.asarray(c, dtype=np.float64) for c in coords]
+    if arrays and all(a.size == 1 for a in arrays):
+        out = transformer.transform(*(float(a.reshape(-1)[0]) for a in arrays), **kwargs)
+        return tuple(np.array([v], dtype=np.float64) for v in out)
+    return tuple(transformer.transform(*arrays, **kwargs))
 
 
 @dataclass(frozen=True)
@@ -173,8 +187,8 @@ class EnuFrame:
         import numpy as np
 
         ecef = self.to_ecef(points_enu)
-        lon_deg, lat_deg, alt_m = self._transformer.transform(
-            ecef[:, 0], ecef[:, 1], ecef[:, 2], direction="INVERSE"
+        lon_deg, lat_deg, alt_m = transform_arrays(
+            self._transformer, ecef[:, 0], ecef[:, 1], ecef[:, 2], direction="INVERSE"
         )
         lat = np.array(lat_deg, dtype=np.float64).reshape(-1)
         lon = np.array(lon_deg, dtype=np.float64).reshape(-1)
@@ -192,7 +206,7 @@ class EnuFrame:
         import numpy as np
 
         lat, lon, alt = _as_geodetic(lat_deg, lon_deg, alt_m)
-        x, y, z = self._transformer.transform(lon, lat, alt)
+        x, y, z = transform_arrays(self._transformer, lon, lat, alt)
         ecef = np.column_stack(
             (np.asarray(x).reshape(-1), np.asarray(y).reshape(-1), np.asarray(z).reshape(-1))
         )

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uavplan.errors import InputError
+from uavplan.geo import transform_arrays
 from uavplan.limits import MAX_DEM_POSTS, MAX_GROUND_AMSL_M, MIN_GROUND_AMSL_M
 
 if TYPE_CHECKING:
@@ -183,7 +184,7 @@ class Terrain:
         p = np.atleast_2d(np.asarray(points_xy, dtype=np.float64))[:, :2]
         enu = np.column_stack((p, np.zeros(len(p))))
         lat, lon, _ = self.frame.to_geodetic(enu)
-        x, y = self._to_crs.transform(lon, lat)
+        x, y = transform_arrays(self._to_crs, lon, lat)
         col, row = _apply(self._to_pixel, np.asarray(x), np.asarray(y))
         return np.asarray(col, dtype=np.float64), np.asarray(row, dtype=np.float64)
 
@@ -302,7 +303,7 @@ class Terrain:
         nrows, ncols = self.posts_amsl_m.shape
         cols, rows = np.meshgrid(np.arange(ncols) + 0.5, np.arange(nrows) + 0.5)
         x, y = _apply(self.transform, cols.ravel(), rows.ravel())
-        lon, lat = self._from_crs.transform(np.asarray(x), np.asarray(y))
+        lon, lat = transform_arrays(self._from_crs, x, y)
         xy = self.frame.to_enu_xy(np.asarray(lat), np.asarray(lon))
         return xy.reshape(nrows, ncols, 2)
 
@@ -432,7 +433,7 @@ class Terrain:
             raise TerrainError("the DEM has nodata posts inside the area", file=self.source)
         cols, rows = np.meshgrid(np.arange(c0, c1) + 1.0, np.arange(r0, r1) + 1.0)
         x, y = _apply(self.transform, cols.ravel(), rows.ravel())
-        lon, lat = self._from_crs.transform(np.asarray(x), np.asarray(y))
+        lon, lat = transform_arrays(self._from_crs, x, y)
         centres = self.frame.to_enu_xy(np.asarray(lat), np.asarray(lon))
         return (
             np.ascontiguousarray(xy[r0 : r1 + 1, c0 : c1 + 1]),

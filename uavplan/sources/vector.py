@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
+from uavplan.geo import transform_arrays
 from uavplan.sources.base import Feature, ObstacleFileSpec, SourceError, parse_height_m
 
 
@@ -126,7 +127,7 @@ def _to_lonlat(crs: str, spec: ObstacleFileSpec) -> Any:
     transformer = Transformer.from_crs(src, wgs84, always_xy=True)
 
     def fn(coords: Any) -> Any:
-        lon, lat = transformer.transform(coords[:, 0], coords[:, 1])
+        lon, lat = transform_arrays(transformer, coords[:, 0], coords[:, 1])
         out = np.column_stack((lon, lat))
         if not np.all(np.isfinite(out)):
             raise SourceError(
