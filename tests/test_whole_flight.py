@@ -274,6 +274,7 @@ def test_a_900_km_route_far_over_the_battery_is_an_error(tmp_path: Path) -> None
     code, text = run("validate", far)
     assert code == 2, text
     assert "does not leave the reserve" in text and "Traceback" not in text
+    assert str(far) in text  # one message that names the file (the fuzz test's rule)
     match = re.search(r"\((\d+) % of the", text)
     assert match and int(match.group(1)) > 1000
     code, text = run("validate", far, "--allow-over-battery")

@@ -150,7 +150,12 @@ def validate(
 
         reserve = DEFAULT_RESERVE_PCT if reserve_pct is None else reserve_pct
         estimate = estimate_straight_route(scn, reserve_pct=reserve)
-        warning = estimate.check(allow_over_battery=allow_over_battery)
+        try:
+            warning = estimate.check(allow_over_battery=allow_over_battery)
+        except InputError as err:  # one message that names the file it is about
+            if err.file is not None:
+                raise
+            raise type(err)(err.reason, key=err.key, file=file) from None
         return ScenarioCheck(file, scn, estimate, warning)
     try:
         scenario = load_scenario(scenario_path)
