@@ -46,16 +46,17 @@ def write_utm_dem(
     """A float64 GeoTIFF in UTM 32N centred near (LAT0, LON0): ``size`` × ``size`` posts
     ``cell_m`` apart, each the value of ``surface(east, north)`` at its pixel centre."""
     import rasterio
-    from rasterio.transform import from_origin
+    from rasterio.transform import Affine
 
     e0, n0 = utm_origin()
     west = round(e0) - size * cell_m / 2.0
     north = round(n0) + size * cell_m / 2.0
     cols, rows = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
     z = surface(west + cols * cell_m, north - rows * cell_m)
+    # what rasterio.transform.from_origin returns, without its `*` (affine 3.0 deprecates it)
     profile = {
         "driver": "GTiff", "height": size, "width": size, "count": 1, "dtype": "float64",
-        "crs": UTM, "transform": from_origin(west, north, cell_m, cell_m),
+        "crs": UTM, "transform": Affine(cell_m, 0.0, west, 0.0, -cell_m, north),
     }  # fmt: skip
     with rasterio.open(path, "w", **profile) as dst:
         dst.write(z.astype(np.float64), 1)

@@ -153,9 +153,10 @@ def ridge(n: int = 60) -> np.ndarray:
 
 
 def north_up(res: float = 5e-4) -> Any:
-    from rasterio.transform import from_origin
+    from rasterio.transform import Affine
 
-    return from_origin(8.53, 47.41, res, res)
+    # what rasterio.transform.from_origin returns, without its `*` (affine 3.0 deprecates it)
+    return Affine(res, 0.0, 8.53, 0.0, -res, 47.41)
 
 
 # =============================================================================================
@@ -295,9 +296,12 @@ def test_dem_with_a_zero_pixel_size_is_refused(tmp_path: Path) -> None:
 
 
 def test_a_single_post_dem_names_the_file(tmp_path: Path) -> None:
-    from rasterio.transform import from_origin
+    from rasterio.transform import Affine
 
-    dem = write_dem(tmp_path / "post.tif", np.array([[400.0]]), from_origin(8.5, 47.45, 0.1, 0.1))
+    # what rasterio.transform.from_origin returns, without its `*` (affine 3.0 deprecates it)
+    dem = write_dem(
+        tmp_path / "post.tif", np.array([[400.0]]), Affine(0.1, 0.0, 8.5, 0.0, -0.1, 47.45)
+    )
     scenario = tmp_path / "s.yaml"
     scenario.write_text(DEM_SCENARIO.format(dem=dem.name))
     result = run("validate", str(scenario))

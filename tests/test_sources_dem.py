@@ -11,7 +11,7 @@ import pytest
 rasterio = pytest.importorskip("rasterio")
 
 from pyproj import Transformer  # noqa: E402
-from rasterio.transform import from_origin  # noqa: E402
+from rasterio.transform import Affine  # noqa: E402
 
 from uavplan.geo import EnuFrame, GeoPoint  # noqa: E402
 from uavplan.sources.dem import Terrain, TerrainError  # noqa: E402
@@ -43,7 +43,8 @@ def write_dem(
         "count": 1,
         "dtype": "float32",
         "crs": UTM,
-        "transform": from_origin(WEST, NORTH, CELL_M, CELL_M),
+        # what rasterio.transform.from_origin returns, without its `*` (affine 3.0 deprecates it)
+        "transform": Affine(CELL_M, 0.0, WEST, 0.0, -CELL_M, NORTH),
     }
     if nodata is not None:
         profile["nodata"] = nodata
@@ -66,7 +67,8 @@ def slope_dem(tmp_path: Path) -> Path:
 
 
 def enu_of_utm(e: np.ndarray, n: np.ndarray) -> np.ndarray:
-    lon, lat = FROM_UTM.transform(e, n)
+    # as lists: pyproj < 3.7 turns a one-element array into a float (NumPy deprecates it)
+    lon, lat = FROM_UTM.transform(np.atleast_1d(e).tolist(), np.atleast_1d(n).tolist())
     return FRAME.to_enu_xy(np.asarray(lat), np.asarray(lon))
 
 

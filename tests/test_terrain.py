@@ -17,7 +17,7 @@ rasterio = pytest.importorskip("rasterio")
 
 from click.testing import CliRunner  # noqa: E402
 from pyproj import Transformer  # noqa: E402
-from rasterio.transform import from_origin  # noqa: E402
+from rasterio.transform import Affine  # noqa: E402
 from terrain_helpers import independent_ground_check  # noqa: E402
 
 from uavplan.cli import main  # noqa: E402
@@ -59,7 +59,8 @@ def write_dem(path: Path, z: np.ndarray) -> Path:
         "count": 1,
         "dtype": "float64",
         "crs": UTM,
-        "transform": from_origin(WEST, NORTH, CELL_M, CELL_M),
+        # what rasterio.transform.from_origin returns, without its `*` (affine 3.0 deprecates it)
+        "transform": Affine(CELL_M, 0.0, WEST, 0.0, -CELL_M, NORTH),
     }
     with rasterio.open(path, "w", **profile) as dst:
         dst.write(z.astype(np.float64), 1)
