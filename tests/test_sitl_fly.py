@@ -185,7 +185,9 @@ def test_ctrl_c_holds_position_and_altitude_for_30_s(autopilot: Autopilot) -> No
     first = held[0]
     drift = max(sitl.distance_m(first, s) for s in held)
     climb = max(abs(s.relative_alt_m - first.relative_alt_m) for s in held)
-    assert drift < 1.0 and climb < 0.5, (drift, climb)
+    # PX4 SIH's position wanders about a metre in Hold (1.01 m once in CI): a vehicle that
+    # lands, drifts off or loiters down fails by far more
+    assert drift < (1.5 if autopilot is PX4 else 1.0) and climb < 0.5, (drift, climb)
     # ... where it was when Ctrl-C was pressed (LOITER, with SITL's low throttle, landed)
     assert abs(first.relative_alt_m - altitude) < 2.0, (first.relative_alt_m, altitude)
     mode = mode_from_heartbeat(autopilot, seen.modes[-1][1])

@@ -109,9 +109,9 @@ def flight_of_mission(
 
 #: a landed vehicle's altitude estimate wanders by this much while it settles: samples this
 #: close to the track's final altitude are the landing, not a climb (PX4 SIH, landed in CI,
-#: reported 0.5 m below home inside what the check took for the flight, "outside the flight
-#: volume", tests/test_sitl_fly.py)
-LANDED_NOISE_M = 0.5
+#: reported 0.5 m, and on a later run 0.6 m, below home inside what the check took for the
+#: flight, "outside the flight volume", tests/test_sitl_fly.py)
+LANDED_NOISE_M = 1.0
 
 #: a flown landing drifts onto its landing point while it descends (PX4 starts the descent
 #: once within its acceptance radius): the final descent may begin this far from touchdown
