@@ -58,5 +58,7 @@ def test_freed_large_arrays_go_back_to_the_system() -> None:
 def test_without_it_they_stay() -> None:
     """The measure can fail: glibc's own dynamic threshold keeps them resident, more than the
     bound above allows (how much more depends on numpy's allocations: 14 MiB of the 32 with
-    numpy 1.26, over 16 with numpy 2)."""
-    assert _kept_kib("dynamic") > 8 * 1024
+    numpy 1.26, over 16 with numpy 2). The most of three runs: once in CI (the lowest
+    versions' pass, 2026-11-29) glibc handed them back anyway (4 KiB kept), which it passed
+    three times out of three when rerun alone; the claim is that glibc can keep them."""
+    assert max(_kept_kib("dynamic") for _ in range(3)) > 8 * 1024
