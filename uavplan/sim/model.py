@@ -666,21 +666,22 @@ class _SmoothingTrack(_Motion):
         turn = max_speed_in_waypoint(alpha, z_acc, self.limits.altitude_acceptance_m)
         return min(turn, z_limit)
 
-    def _l1_point(self) -> tuple[float, float]:
-        """Where PX4 aims while turning onto the leg prev → target (PositionSmoothing)."""
-        px, py, _ = self.prev_wp
-        tx, ty, _ = self.target
-        ux, uy = tx - px, ty - py
-        n = math.hypot(ux, uy)
+    def _l1_point(self) -> Vec:
+        """Where PX4 aims while turning onto the leg prev → target (PositionSmoothing's
+        _getL1Point): the point L1 = max(acceptance, 5 m) ahead on the leg, in 3-D. On a leg
+        that climbs or descends it lies on the slope: aiming at the target's altitude instead
+        would drop the vehicle down a descending lane before it moved along it."""
+        u = sub(self.target, self.prev_wp)
+        n = norm(u)
         if n < 1e-9:
-            return tx, ty
-        ux, uy = ux / n, uy / n
-        along = (self.pos[0] - px) * ux + (self.pos[1] - py) * uy
-        cx, cy = px + ux * along, py + uy * along
-        crosstrack = math.hypot(cx - self.pos[0], cy - self.pos[1])
+            return self.target
+        u = scale(u, 1.0 / n)
+        rel = sub(self.pos, self.prev_wp)
+        closest = add(self.prev_wp, scale(u, rel[0] * u[0] + rel[1] * u[1] + rel[2] * u[2]))
+        crosstrack = norm(sub(closest, self.pos))
         l1 = max(self.acceptance_m, 5.0)
         ahead = math.sqrt(l1 * l1 - crosstrack * crosstrack) if l1 > crosstrack else 0.0
-        return cx + ahead * ux, cy + ahead * uy
+        return add(closest, scale(u, ahead))
 
     def step(self, dt: float) -> None:
         lim = self.limits
@@ -695,8 +696,8 @@ class _SmoothingTrack(_Motion):
             else 1.0
         )
         turning = speed_now > 0.2 and cos_align < 0.98 and xy_dist > self.acceptance_m
-        cx, cy = self._l1_point() if turning else (tx, ty)
-        dz = tz - z
+        cx, cy, cz = self._l1_point() if turning else self.target
+        dz = cz - z
         d = unit((cx - x, cy - y, dz))
         h = math.hypot(d[0], d[1])
         # the commanded speed is through the air: along this direction the wind makes it
@@ -734,7 +735,7 @@ class _SmoothingTrack(_Motion):
         z_speed = min(
             z_limit,
             max_speed_from_distance(
-                lim.jerk_m_s3, z_acc, abs(dz), self._arrival_z_speed(z_limit, z_acc)
+                lim.jerk_m_s3, z_acc, abs(tz - z), self._arrival_z_speed(z_limit, z_acc)
             ),
         )
         total = math.hypot(xy_speed, z_speed)
