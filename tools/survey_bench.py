@@ -13,26 +13,36 @@ flight model, judged by the same check and estimated by the same power model:
 * ``qgc``: QGroundControl's transect rule, re-implemented from its published behaviour
   (SurveyComplexItem: each lane clipped to the polygon at the two crossings farthest apart,
   so it flies straight across concave notches; no holes, no obstacles; lanes flown in turn
-  back and forth, the turnaround distance 0 of a multirotor);
+  back and forth, straight between them; without the turnaround extension, which QGC's
+  multirotor default sets to 10 m past each lane end (TransectStyle.SettingsGroup.json) and
+  which would only lengthen its path outside the area). Over a DEM, its "follow terrain"
+  (TransectStyleComplexItem, "calc above terrain", :func:`qgc_terrain_rows`): AMSL waypoints
+  at the lane ends and at every terrain sample kept by its 10 m tolerance;
 * ``mp``: Mission Planner's grid (ExtLibs/Utilities/Grid.cs: each lane split at every
   crossing of the polygon; no holes, no obstacles), pieces flown lane by lane back and
-  forth, straight between them.
+  forth, straight between them. Over a DEM, the lane ends in ArduPilot's terrain frame
+  (Mission Planner's altitude mode "Terrain"): the autopilot follows the ground.
+
+Over a DEM, qgc and mp take off as uavplan does and fly straight from there to their first
+lane and from their last lane back (nothing routes their transitions).
 
 Fields (seeded): convex, concave, with ``exclude`` holes, with buildings inside (some taller
-than the altitude), and the bundled survey of a real OpenStreetMap block of Helsinki
-(missions/surveys/survey-helsinki-kamppi.yaml). None is over a DEM: a survey over a DEM is
-refused by uavplan today, so there is nothing to compare there.
+than the altitude), the bundled survey of a real OpenStreetMap block of Helsinki
+(missions/surveys/survey-helsinki-kamppi.yaml), fields on the ridge of the bundled DEM, and
+the bundled ridge survey (missions/surveys/survey-jacksboro-ridge.yaml).
 
 Per field and method: the length of the pattern (first lane start to last lane end) outside
 the area and over the ``exclude`` (no-fly) polygons (m), the least clearance of the flight as
 flown from the obstacles and the no-fly polygons (and whether it breaks the margin), the
 share of the area outside the holes inside the photos' footprints,
-flight time, Wh, and the planning time (uavplan: the whole ``plan``, the flight model and
-the verdict included; qgc and mp: the lanes only). GSD is the same everywhere over flat
-ground (one altitude), so it is not a column.
+flight time, Wh, the planning time (uavplan: the whole ``plan``, the flight model and
+the verdict included; qgc and mp: the lanes only), the GSD of the photos the flight model
+took (from their height above the ground as flown) and how many of them are more than 2 m
+above or below the survey altitude.
 
     python tools/survey_bench.py            # all fields
     python tools/survey_bench.py --fields 6 # the first six
+    python tools/survey_bench.py --only DEM # the fields over the DEM
 """
 
 from __future__ import annotations
@@ -51,9 +61,17 @@ import yaml
 from shapely.geometry import LineString, Polygon
 from survey_timing import CAMERA  # the same camera as the timing fields
 
+from uavplan.survey.camera import Camera
+
 ROOT = Path(__file__).resolve().parent.parent
 KAMPPI = ROOT / "missions" / "surveys" / "survey-helsinki-kamppi.yaml"
+RIDGE = ROOT / "missions" / "surveys" / "survey-jacksboro-ridge.yaml"
 ALTITUDE_M = 50.0
+#: where the generated DEM fields lie on the ridge (site m): 130-230 m of relief each
+DEM_OFFSETS = ((-3300.0, 300.0), (-2900.0, 1100.0), (-1300.0, 300.0), (-900.0, 1500.0))
+#: QGroundControl's "follow terrain" tolerance (TransectStyle.SettingsGroup.json,
+#: TerrainAdjustTolerance, default 10 m; its climb and descent rate limits default to 0, off)
+QGC_TERRAIN_TOLERANCE_M = 10.0
 
 
 def _convex(rng: np.random.Generator) -> list[list[float]]:
@@ -126,6 +144,11 @@ def fields() -> list[tuple[str, str, dict[str, Any] | Path]]:
             })  # fmt: skip
         out.append((f"buildings-{k + 1}", "buildings", _scenario(area, obstacles=obstacles)))
     out.append(("helsinki-kamppi", "OSM block", KAMPPI))
+    for k, offset in enumerate(DEM_OFFSETS):
+        area = _convex(rng) if k % 2 == 0 else _concave(rng, k)
+        moved = (np.asarray(area) + offset).round(1).tolist()
+        out.append((f"dem-{k + 1}", "DEM", _dem_scenario(moved, offset)))
+    out.append(("jacksboro-ridge", "DEM", RIDGE))
     return out
 
 
@@ -155,6 +178,21 @@ def _scenario(
         "obstacles": obstacles or [],
         "survey": survey,
     }
+
+
+def _dem_scenario(area: list[list[float]], offset: tuple[float, float]) -> dict[str, Any]:
+    """A field over the bundled DEM's ridge (the bundled ridge survey's site: its origin,
+    terrain, bounds and masts), started 60 m off its corner."""
+    data = _scenario(area)
+    ridge = yaml.safe_load(RIDGE.read_text(encoding="utf-8"))
+    data.update(
+        origin=ridge["origin"],
+        terrain=str((RIDGE.parent / ridge["terrain"]).resolve()),
+        bounds=ridge["bounds"],
+        start=[offset[0] - 60.0, offset[1] - 60.0, 20],
+        obstacles=ridge["obstacles"],
+    )
+    return data
 
 
 def _lane_lines(area: Polygon, angle_deg: float, spacing_m: float) -> list[LineString]:
@@ -207,31 +245,104 @@ def mp_pieces(area: Polygon, angle_deg: float, spacing_m: float) -> np.ndarray:
     return np.array(out)
 
 
-def _fly(scn: Any, spec: Any, pieces: np.ndarray, free: Any, angle: float) -> dict[str, Any]:
+def qgc_terrain_rows(
+    pieces: np.ndarray, height: Any, step_m: float
+) -> tuple[list[np.ndarray], list[bool], list[bool]]:
+    """QGroundControl's "follow terrain" over ``pieces`` (TransectStyleComplexItem, altitude
+    mode "calc above terrain"): every lane end at ``height`` (the survey altitude above the
+    ground); a point at every terrain sample between them and along each turn to the next
+    lane; then walking forward, a sample is kept only where its altitude differs from the last
+    point kept by more than the tolerance (_adjustForTolerance). The ground is sampled every
+    ``step_m`` (uavplan's own step, so both read the same terrain). Rows, lane-start and
+    lane-end flags."""
+    pts: list[np.ndarray] = []
+    added: list[bool] = []
+    start: list[bool] = []
+    end: list[bool] = []
+
+    def segment(a: np.ndarray, b: np.ndarray, lane: bool) -> None:
+        n = max(2, math.ceil(float(np.hypot(*(b - a))) / step_m) + 1)
+        xy = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+        z = height(xy)
+        inner = range(1, n - 1)
+        for k in inner:
+            pts.append(np.array([xy[k, 0], xy[k, 1], z[k]]))
+            added.append(True)
+            start.append(False)
+            end.append(False)
+        if lane:
+            pts.append(np.array([xy[-1, 0], xy[-1, 1], z[-1]]))
+            added.append(False)
+            start.append(False)
+            end.append(True)
+
+    for j, (a, b) in enumerate(pieces):
+        if j > 0:
+            segment(pieces[j - 1][1], a, lane=False)
+        pts.append(np.array([a[0], a[1], float(height(a[None])[0])]))
+        added.append(False)
+        start.append(True)
+        end.append(False)
+        segment(a, b, lane=True)
+    rows, starts, ends = [pts[0]], [start[0]], [end[0]]
+    last = pts[0][2]
+    for p, was_added, s0, e0 in zip(pts[1:], added[1:], start[1:], end[1:], strict=True):
+        if not was_added or abs(p[2] - last) > QGC_TERRAIN_TOLERANCE_M:
+            rows.append(p)
+            starts.append(s0)
+            ends.append(e0)
+            last = p[2]
+    return rows, starts, ends
+
+
+def _fly(
+    scn: Any, spec: Any, pieces: np.ndarray, free: Any, angle: float, method: str, ends: Any
+) -> dict[str, Any]:
     """A straight-line mission over ``pieces`` built, flown and judged as uavplan's are."""
     from uavplan.estimate import estimate_flown
     from uavplan.rehearsal import CheckSite, conditions_of
     from uavplan.survey import coverage
     from uavplan.survey.sweep import Sweep
-    from uavplan.surveying import SurveyRoute, survey_mission
+    from uavplan.surveying import PROFILE_STEP_M, SurveyRoute, survey_height, survey_mission
     from uavplan.verdict import judge_flight
 
     start = np.asarray(scn.start_m, dtype=np.float64)
     alt = spec.altitude_m
-    above = np.array([start[0], start[1], alt])
-    rows = [start, above]
-    starts = [False, False]
-    for a, b in pieces:
-        rows += [np.array([a[0], a[1], alt]), np.array([b[0], b[1], alt])]
-        starts += [True, False]
-    rows += [above, start]
-    starts += [False, False]
+    lane_end = None
+    if scn.site.ground is None:
+        above = np.array([start[0], start[1], alt])
+        rows = [start, above]
+        starts = [False, False]
+        for a, b in pieces:
+            rows += [np.array([a[0], a[1], alt]), np.array([b[0], b[1], alt])]
+            starts += [True, False]
+        rows += [above, start]
+        starts += [False, False]
+    else:
+        # over a DEM: the lanes at the survey's height above the ground, each method its way
+        # (``ends``: uavplan's start, take-off altitude above it, and its last two rows)
+        height = survey_height(scn, alt)
+        if method == "qgc":
+            lane_rows, starts, lane_ends = qgc_terrain_rows(pieces, height, PROFILE_STEP_M)
+        else:  # mp: the lane ends; the terrain frame makes the autopilot follow the ground
+            lane_rows, starts, lane_ends = [], [], []
+            for a, b in pieces:
+                za, zb = height(np.array([a, b]))
+                lane_rows += [np.array([a[0], a[1], za]), np.array([b[0], b[1], zb])]
+                starts += [True, False]
+                lane_ends += [False, True]
+        # QGC's and MP's missions fly straight from the take-off to the first lane and from
+        # the last lane back: nothing routes them over the ground in between (climbing above
+        # the start to the first lane's altitude instead leaves the flight volume's ceiling)
+        rows = [*ends[:2], *lane_rows, *ends[2:]]
+        starts = [False, False, *starts, False, False]
+        lane_end = np.array([False, False, *lane_ends, False, False])
     lengths = np.hypot(*(pieces[:, 1] - pieces[:, 0]).T)
     trig = spec.spacing.trigger_distance_m
     sweep = Sweep(angle, pieces, coverage.path_xy(pieces, start[:2]), math.nan,
                   coverage.photo_count(pieces, trig), float(lengths.sum()))  # fmt: skip
-    route = SurveyRoute(sweep, free, np.vstack(rows), np.array(starts), 0, math.nan)
-    mission = survey_mission(scn, spec, route)
+    route = SurveyRoute(sweep, free, np.vstack(rows), np.array(starts), 0, math.nan, lane_end)
+    mission = survey_mission(scn, spec, route, over_terrain="terrain" if method == "mp" else "amsl")
     site = CheckSite.of_scenario(scn)
     verdict = judge_flight(mission, site, failsafe=False, **conditions_of(scn))
     assert verdict.rehearsal is not None
@@ -239,8 +350,27 @@ def _fly(scn: Any, spec: Any, pieces: np.ndarray, free: Any, angle: float) -> di
     return {"route": route, "verdict": verdict, "estimate": estimate}
 
 
-def _metrics(area: Polygon, free: Any, spec: Any, route: Any, verdict: Any, estimate: Any,
-             plan_s: float) -> dict[str, Any]:  # fmt: skip
+#: a photo's height above the ground counts as off when it misses the survey altitude by more
+#: than uavplan's stated tolerance (uavplan.surveying.HAG_TOLERANCE_M, 2 m)
+HAG_TOLERANCE_M = 2.0
+
+
+def photo_heights(scn: Any, flown: Any) -> np.ndarray:
+    """The height above the ground (m) of every photo the flight model took."""
+    from uavplan.geo import EnuFrame
+    from uavplan.sim.camera import photo_positions
+
+    photos = photo_positions(flown)  # ENU at home, z above home
+    home = EnuFrame.at(flown.home)
+    lat, lon, _ = home.to_geodetic(np.column_stack([photos[:, :2], np.zeros(len(photos))]))
+    xy = np.asarray(EnuFrame.at(scn.site.origin).to_enu_xy(lat, lon)).reshape(-1, 2)
+    site_z = flown.home.alt_m + photos[:, 2] - scn.site.origin.alt_m
+    ground = scn.site.ground
+    return site_z - (0.0 if ground is None else np.asarray(ground.z_at(xy), dtype=np.float64))
+
+
+def _metrics(scn: Any, area: Polygon, free: Any, spec: Any, route: Any, verdict: Any,
+             estimate: Any, plan_s: float) -> dict[str, Any]:  # fmt: skip
     from uavplan.survey import coverage
 
     w = route.waypoints_enu
@@ -254,11 +384,19 @@ def _metrics(area: Polygon, free: Any, spec: Any, route: Any, verdict: Any, esti
     photos = coverage.photo_positions(route.sweep.pieces_xy, s.trigger_distance_m)
     fp = coverage.footprints(photos, route.sweep.angle_deg, s.footprint_side_m, s.footprint_front_m)
     worst = verdict.flight_worst
+    hag = photo_heights(scn, verdict.rehearsal.flown)
+    gsd = Camera(**CAMERA).gsd_cm(1.0) * hag
     return {
+        "gsd": (float(gsd.min()), float(gsd.mean()), float(gsd.max())),
+        "hag": (float(hag.min()), float(hag.max())),
+        "photos": len(hag),
+        "off": int(np.sum(np.abs(hag - spec.altitude_m) > HAG_TOLERANCE_M)),
         "outside_m": outside,
         "in_holes_m": in_holes,
         "clearance_m": worst.clearance_m,
         "breach": not verdict.flight_ok,
+        # what it came closest to: an obstacle's name, "the terrain", "the ceiling", ...
+        "nearest": worst.nearest.split(" at ")[0].split(" (")[0].removeprefix("the "),
         "covered": coverage.covered_fraction(free, fp),
         "time_s": estimate.energy.time_s,
         "wh": estimate.energy.energy_wh,
@@ -289,14 +427,15 @@ def bench(name: str, source: dict[str, Any] | Path, work: Path) -> dict[str, dic
     free = route.free
     angle = route.sweep.angle_deg
     verdict, estimate = outcome.verdict, outcome.estimate  # type: ignore[union-attr]
-    rows = {"uavplan": _metrics(area, free, spec, route, verdict, estimate, uav_s)}
+    rows = {"uavplan": _metrics(scn, area, free, spec, route, verdict, estimate, uav_s)}
     spacing = spec.spacing.lane_spacing_m
     for method, maker in (("qgc", qgc_pieces), ("mp", mp_pieces)):
         t0 = time.perf_counter()
         pieces = maker(area, angle, spacing)
         lanes_s = time.perf_counter() - t0
-        flown = _fly(scn, spec, pieces, free, angle)
-        rows[method] = _metrics(area, free, spec, flown["route"], flown["verdict"],
+        w = route.waypoints_enu
+        flown = _fly(scn, spec, pieces, free, angle, method, [w[0], w[1], w[-2], w[-1]])
+        rows[method] = _metrics(scn, area, free, spec, flown["route"], flown["verdict"],
                                 flown["estimate"], lanes_s)  # fmt: skip
     return rows
 
@@ -304,14 +443,16 @@ def bench(name: str, source: dict[str, Any] | Path, work: Path) -> dict[str, dic
 def _clear(m: dict[str, Any]) -> str:
     c = m["clearance_m"]
     text = "-" if not math.isfinite(c) else f"{c:.1f}"
-    return text + (" **breach**" if m["breach"] else "")
+    return text + (f" **breach** ({m['nearest']})" if m["breach"] else "")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--fields", type=int, default=None, help="only the first N fields")
+    ap.add_argument("--only", default="", help="comma-separated field names or kinds")
     args = ap.parse_args()
-    chosen = fields()[: args.fields]
+    only = {n for n in args.only.split(",") if n}
+    chosen = [f for f in fields()[: args.fields] if not only or only & {f[0], f[1]}]
     results = []
     with tempfile.TemporaryDirectory() as d:
         for name, kind, source in chosen:
@@ -323,8 +464,10 @@ def main() -> int:
     print("| field | kind | outside m (uavplan / qgc / mp) | over no-fly holes m (uavplan / "
           "qgc / mp) | least clearance as flown m "
           "(uavplan / qgc / mp) | covered % (uavplan / qgc / mp) | flight s (uavplan / qgc / "
-          "mp) | Wh (uavplan / qgc / mp) | plan s (uavplan / qgc / mp) |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|")
+          "mp) | Wh (uavplan / qgc / mp) | plan s (uavplan / qgc / mp) | GSD cm as flown, "
+          "min-max (uavplan / qgc / mp) | photos off the altitude by > 2 m (uavplan / qgc / "
+          "mp) |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name, kind, r in results:
         cells = [
             " / ".join(f"{r[m]['outside_m']:.0f}" for m in methods),
@@ -334,13 +477,16 @@ def main() -> int:
             " / ".join(f"{r[m]['time_s']:.0f}" for m in methods),
             " / ".join(f"{r[m]['wh']:.1f}" for m in methods),
             " / ".join(f"{r[m]['plan_s']:.2f}" for m in methods),
+            " / ".join(f"{r[m]['gsd'][0]:.2f}-{r[m]['gsd'][2]:.2f}" for m in methods),
+            " / ".join(f"{r[m]['off']} of {r[m]['photos']}" for m in methods),
         ]
         print(f"| {name} | {kind} | " + " | ".join(cells) + " |")
     print()
     print("| method | fields | fields with the pattern outside the area | outside m in all | "
           "over no-fly holes m in all | margin breaches as flown | least covered % | "
-          "flight time / uavplan's | Wh / uavplan's |")  # fmt: skip
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "flight time / uavplan's | Wh / uavplan's | GSD cm as flown min / mean / max | "
+          "photos off the altitude by > 2 m |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for m in methods:
         outside = [r[m]["outside_m"] for _, _, r in results]
         t = [r[m]["time_s"] / r["uavplan"]["time_s"] for _, _, r in results]
@@ -351,7 +497,12 @@ def main() -> int:
             f"{sum(r[m]['breach'] for _, _, r in results)} | "
             f"{100 * min(r[m]['covered'] for _, _, r in results):.1f} | "
             f"{min(t):.2f}-{max(t):.2f} (mean {np.mean(t):.2f}) | "
-            f"{min(e):.2f}-{max(e):.2f} (mean {np.mean(e):.2f}) |"
+            f"{min(e):.2f}-{max(e):.2f} (mean {np.mean(e):.2f}) | "
+            f"{min(r[m]['gsd'][0] for _, _, r in results):.2f} / "
+            f"{np.mean([r[m]['gsd'][1] for _, _, r in results]):.2f} / "
+            f"{max(r[m]['gsd'][2] for _, _, r in results):.2f} | "
+            f"{sum(r[m]['off'] for _, _, r in results)} of "
+            f"{sum(r[m]['photos'] for _, _, r in results)} |"
         )
     return 0
 

@@ -422,10 +422,16 @@ def _capture_one() -> MissionItem:
     )
 
 
-def survey_mission(scn: Scenario, spec: SurveySpec, route: SurveyRoute) -> MissionPlan:
+def survey_mission(
+    scn: Scenario, spec: SurveySpec, route: SurveyRoute, *, over_terrain: str = "amsl"
+) -> MissionPlan:
     """The mission of ``route`` with ``scn``'s mission and vehicle settings: take-off over the
     start, the lanes with camera items, back over the start and down (``mission.end`` rtl,
     land or none; a planned ``return`` is the survey's own way back, so it lands).
+
+    ``over_terrain``: the altitude frame of every waypoint over a DEM, ``"amsl"`` (what
+    ``plan`` writes, below) or ``"terrain"`` (ArduPilot's terrain frame, as Mission Planner
+    writes a survey: tools/survey_bench.py compares them).
 
     ``trigger: distance``: DO_SET_CAM_TRIGG_DIST (the trigger distance) after each lane's
     first waypoint and (0) after its last. ``trigger: hover``: a waypoint per photo along
@@ -473,7 +479,7 @@ def survey_mission(scn: Scenario, spec: SurveySpec, route: SurveyRoute) -> Missi
         # frames, and ArduPilot's terrain following lags on a slope (the flight model: 7 m
         # on the bundled ridge survey, docs/survey.md) and needs a terrain database
         under = np.asarray(ground.z_at(points[:, :2]), dtype=np.float64)
-        altitude = "amsl"
+        altitude = over_terrain
     return build_mission(
         points,
         enu_frame(scn),
