@@ -10,6 +10,7 @@ are relative to the file that names them. The values are checked key by key here
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -161,7 +162,6 @@ def read_scenario_file(
     surveyed = isinstance(raw, dict) and "survey" in raw
     required = (("start",) if surveyed else ("start", "goal")) if route else ()
     chk.mapping(raw, "", _SCENARIO_KEYS, required)
-    spec = _survey(chk, raw, surveys) if surveyed else None
 
     map_origin = map_bounds = None
     map_obstacles: tuple[Obstacle, ...] = ()
@@ -189,6 +189,10 @@ def read_scenario_file(
     else:
         raise chk.fail("bounds", "missing required key (not set here nor in the map)")
 
+    spec = None
+    if surveyed:
+        spec, area_files = _survey(chk, raw, surveys, path, origin)
+        files += area_files
     terrain = None
     if "terrain" in raw:
         terrain = _terrain(chk, raw["terrain"], path, origin, bounds)
@@ -215,8 +219,9 @@ def read_scenario_file(
     if spec is not None:
         for i, (x, y) in enumerate(spec.area_m):
             if not bounds.contains((x, y, spec.altitude_m)):
+                where = "survey.area_file" if "area_file" in raw["survey"] else "survey.area"
                 raise chk.fail(
-                    f"survey.area[{i}]",
+                    f"{where}[{i}]",
                     f"[{x:g}, {y:g}] at the survey altitude {spec.altitude_m:g} m is outside "
                     "the bounds",
                 )
@@ -273,24 +278,75 @@ def read_scenario_file(
     )
 
 
-def _survey(chk: Checker, raw: dict[str, Any], allowed: bool) -> SurveySpec:
+def _survey(
+    chk: Checker, raw: dict[str, Any], allowed: bool, path: Path, origin: GeoPoint
+) -> tuple[SurveySpec, list[InputFile]]:
     """A scenario with ``survey:`` instead of ``goal:`` (docs/scenario-format.md): the
     section checked key by key; refused unless ``allowed`` (only ``plan`` flies a survey: a
-    survey read as a route by another command would be a pretend one)."""
+    survey read as a route by another command would be a pretend one). With the
+    ``area_file`` it read."""
     if "goal" in raw:
         raise chk.fail("survey", "a scenario has a goal or a survey, not both")
     if "via" in raw:
         raise chk.fail("via", "a survey has no via points (the lanes give the route)")
     from uavplan.scenario.survey import read_survey
 
-    spec = read_survey(chk, raw["survey"])
+    read: list[InputFile] = []
+
+    def read_area(value: Any, key: str) -> tuple[tuple[tuple[float, float], ...], list[Any]]:
+        name = (path.parent / chk.string(value, key)).resolve()
+        ring, holes = _area_file(chk, name, key, origin)
+        read.append(InputFile(str(name), f"the survey area of {path}"))
+        return ring, holes
+
+    spec = read_survey(chk, raw["survey"], read_area=read_area)
     if not allowed:
         raise chk.fail(
             "survey",
             "the section is valid, but only uavplan plan flies a survey yet (issue 33); "
             "give a goal: to use this command",
         )
-    return spec
+    return spec, read
+
+
+def _area_file(
+    chk: Checker, name: Path, key: str, origin: GeoPoint
+) -> tuple[tuple[tuple[float, float], ...], list[Any]]:
+    """The survey area in a GIS file (GeoJSON, KML, GeoPackage, Shapefile: pyogrio, any CRS
+    it declares), as ENU rings: its polygon features joined into one polygon (its outer ring,
+    and its holes as no-fly holes)."""
+    import numpy as np
+    import shapely
+
+    from uavplan.sources import SourceError
+    from uavplan.sources.base import ObstacleFileSpec
+    from uavplan.sources.vector import read_vector_features
+
+    if not name.is_file():
+        raise chk.fail(key, f"no such file: {name}")
+    skipped: Counter[str] = Counter()
+    try:
+        features = read_vector_features(ObstacleFileSpec(name), skipped, Counter())
+    except SourceError as err:
+        raise chk.fail(key, err.reason) from None
+    if not features:
+        raise chk.fail(key, f"{name.name} holds no polygon (the survey area)")
+    merged = shapely.union_all([f.geometry for f in features])
+    if merged.geom_type != "Polygon":
+        parts = len(getattr(merged, "geoms", ()))
+        raise chk.fail(
+            key,
+            f"{name.name} holds {parts} separate polygons: one survey area per scenario "
+            "(split the file, or join them)",
+        )
+    frame = EnuFrame.at(origin)
+
+    def enu(ring: Any) -> tuple[tuple[float, float], ...]:
+        lonlat = np.asarray(ring.coords)[:-1]
+        xy = np.asarray(frame.to_enu_xy(lonlat[:, 1], lonlat[:, 0])).reshape(-1, 2)
+        return tuple((round(float(x), 3), round(float(y), 3)) for x, y in xy)
+
+    return enu(merged.exterior), [enu(r) for r in merged.interiors]
 
 
 def _airspace(

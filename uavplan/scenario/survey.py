@@ -3,7 +3,7 @@ file, the key path and the reason; exit 2).
 
 ```yaml
 survey:
-  area: [[0, 0], [800, 0], [800, 500], [0, 500]]   # ENU metres
+  area: [[0, 0], [800, 0], [800, 500], [0, 500]]   # ENU metres; or area_file: field.geojson
   exclude: [[[300, 200], [400, 200], [400, 300]]]   # optional no-fly holes (ENU polygons)
   altitude: 60              # height above the ground (m); or gsd_cm with a camera
   lane_spacing_m: 30        # or a camera and the side overlap
@@ -23,6 +23,7 @@ CameraCalc: :mod:`uavplan.survey.camera`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -35,6 +36,7 @@ from uavplan.survey.camera import Camera, Spacing, camera_spacing, plain_spacing
 
 _KEYS = {
     "area",
+    "area_file",
     "exclude",
     "altitude",
     "lane_spacing_m",
@@ -59,6 +61,9 @@ MAX_POLYGON_POINTS = 10_000
 MAX_EXCLUDES = 1_000
 
 Trigger = Literal["distance", "hover"]
+#: reads ``area_file``'s value (key path for messages): the area's outer ring and its holes
+#: (ENU m); raises the checker's failure itself
+AreaReader = Callable[[Any, str], tuple[tuple[tuple[float, float], ...], list[Any]]]
 
 
 @dataclass(frozen=True)
@@ -112,16 +117,36 @@ def _camera(chk: Checker, raw: Any, key: str) -> Camera:
     )
 
 
-def read_survey(chk: Checker, raw: Any, key: str = "survey") -> SurveySpec:
-    """The ``survey:`` section ``raw`` of the file ``chk`` reads, checked."""
-    m = chk.mapping(raw, key, _KEYS, ("area",))
-    area = _polygon(chk, m["area"], join(key, "area"))
+def read_survey(
+    chk: Checker, raw: Any, key: str = "survey", *, read_area: AreaReader | None = None
+) -> SurveySpec:
+    """The ``survey:`` section ``raw`` of the file ``chk`` reads, checked. ``read_area``
+    reads an ``area_file`` (the scenario's loader: it knows the file's folder and the ENU
+    frame); without it an ``area_file`` is refused."""
+    m = chk.mapping(raw, key, _KEYS, ())
+    holes_of_file: list[Any] = []
+    if "area" not in m and "area_file" not in m:
+        raise chk.fail(join(key, "area"), "missing required key (or area_file: a GIS file)")
+    if "area" in m and "area_file" in m:
+        raise chk.fail(join(key, "area_file"), "give the area as area or as area_file, not both")
+    if "area" in m:
+        area = _polygon(chk, m["area"], join(key, "area"))
+    else:
+        if read_area is None:
+            raise chk.fail(join(key, "area_file"), "is read only in a scenario file")
+        ring, holes_of_file = read_area(m["area_file"], join(key, "area_file"))
+        area = _polygon(chk, [list(p) for p in ring], join(key, "area_file"))
     ex_raw = m.get("exclude", [])
     if not isinstance(ex_raw, list):
         raise chk.fail(join(key, "exclude"), f"must be a list of polygons, got {type_name(ex_raw)}")
     if len(ex_raw) > MAX_EXCLUDES:
         raise chk.fail(join(key, "exclude"), f"{len(ex_raw):,} polygons (at most {MAX_EXCLUDES:,})")
     exclude = tuple(_polygon(chk, p, f"{join(key, 'exclude')}[{i}]") for i, p in enumerate(ex_raw))
+    # the holes of the file's polygon are no-fly holes like exclude's
+    exclude += tuple(
+        _polygon(chk, [list(p) for p in h], f"{join(key, 'area_file')} (hole {i + 1})")
+        for i, h in enumerate(holes_of_file)
+    )
 
     def number(
         name: str, *, minimum: float = 0, strict: bool = True, maximum: float | None = None
@@ -187,4 +212,4 @@ def read_survey(chk: Checker, raw: Any, key: str = "survey") -> SurveySpec:
     )
 
 
-__all__ = ["SurveySpec", "Trigger", "read_survey"]
+__all__ = ["AreaReader", "SurveySpec", "Trigger", "read_survey"]
