@@ -30,6 +30,7 @@ from uavplan.planning import build_world, enu_frame, reference_route
 from uavplan.scenario.survey import SurveySpec
 from uavplan.scenario.values import Scenario
 from uavplan.survey import coverage
+from uavplan.survey.corridor import plan_corridor
 from uavplan.survey.sweep import Sweep, energy_of, plan_sweep
 from uavplan.world import World
 
@@ -70,7 +71,7 @@ class SurveyRoute:
 
     @property
     def lanes(self) -> int:
-        return len(self.sweep.pieces_xy)
+        return self.sweep.lanes
 
 
 def _route_leg(
@@ -112,15 +113,26 @@ def plan_survey(scn: Scenario, spec: SurveySpec, *, world: World | None = None) 
     energy = lane_energy(scn, spec)
     start = np.asarray(scn.site.start_m, dtype=np.float64)
     try:
-        sweep = plan_sweep(
-            area,
-            free,
-            spacing_m=spec.spacing.lane_spacing_m,
-            trigger_m=spec.spacing.trigger_distance_m,
-            start_xy=start[:2],
-            energy=energy,
-            angle_deg=spec.angle_deg,
-        )
+        if spec.corridor_m is not None and spec.width_m is not None:
+            sweep = plan_corridor(
+                spec.corridor_m,
+                spec.width_m,
+                free,
+                spacing_m=spec.spacing.lane_spacing_m,
+                trigger_m=spec.spacing.trigger_distance_m,
+                start_xy=start[:2],
+                energy=energy,
+            )
+        else:
+            sweep = plan_sweep(
+                area,
+                free,
+                spacing_m=spec.spacing.lane_spacing_m,
+                trigger_m=spec.spacing.trigger_distance_m,
+                start_xy=start[:2],
+                energy=energy,
+                angle_deg=spec.angle_deg,
+            )
     except ValueError as err:
         raise InputError(str(err), key="survey") from None
     return _flown_over(scn, world, sweep, free, alt)
@@ -136,6 +148,10 @@ def part_of(
     pieces = route.sweep.pieces_xy[lanes]
     if not len(pieces):
         raise ValueError("a survey part needs at least one lane")
+    joined = None
+    if route.sweep.joined is not None:
+        joined = route.sweep.joined[lanes].copy()
+        joined[0] = False  # a part starts a lane (a split falls between lanes)
     start = np.asarray(scn.site.start_m, dtype=np.float64)
     lengths = np.hypot(*(pieces[:, 1] - pieces[:, 0]).T)
     path = coverage.path_xy(pieces, start[:2])
@@ -144,8 +160,9 @@ def part_of(
         pieces_xy=pieces,
         path_xy=path,
         energy_wh=float(lane_energy(scn, spec)(path)),
-        photos=coverage.photo_count(pieces, spec.spacing.trigger_distance_m),
+        photos=coverage.photo_count(pieces, spec.spacing.trigger_distance_m, joined),
         lane_length_m=float(lengths.sum()),
+        joined=joined,
     )
     return _flown_over(scn, world, sweep, route.free, spec.altitude_m)
 
@@ -182,7 +199,15 @@ def _flown_over(
     at = above
     rerouted = 0
     inside = _Inside(free, height)
+    joined = sweep.joined if sweep.joined is not None else np.zeros(len(lanes), dtype=bool)
     for k, lane in enumerate(lanes):
+        if k and joined[k]:  # the lane goes on through a bend: its next straight piece
+            ends[-1] = False
+            points.append(lane[1:])
+            starts += [False] * (len(lane) - 1)
+            ends += [False] * (len(lane) - 2) + [True]
+            at = lane[-1]
+            continue
         # between lanes: inside the area where the straight line would leave it
         via = _route_leg(scn, world, at, lane[0]) if k == 0 else inside.route(world, at, lane[0])
         if via is None:
@@ -452,13 +477,14 @@ def survey_mission(
                 items[len(rows)] = [_trigger_distance(0.0)]
                 rows.append(lane[-1])
             else:
-                xy = coverage.photo_positions(np.array([[lane[0, :2], lane[-1, :2]]]), d)
+                # a photo every d metres along the lane (through a corridor's bends), its
+                # height on the lane's profile there
                 along = np.concatenate(
                     ([0.0], np.cumsum(np.hypot(*np.diff(lane[:, :2], axis=0).T)))
                 )
-                at = np.hypot(*(xy - lane[0, :2]).T)
-                z = np.asarray(np.interp(at, along, lane[:, 2]), dtype=np.float64)
-                for p in np.column_stack([xy, z]):
+                at = np.arange(0.0, along[-1] + 1e-9, d)
+                xyz = np.column_stack([np.interp(at, along, lane[:, i]) for i in range(3)])
+                for p in xyz:
                     items[len(rows)] = [_capture_one()]
                     holds[len(rows)] = HOVER_HOLD_S
                     rows.append(p)

@@ -95,18 +95,28 @@ class SurveyOutcome:
         if self.parts:
             head = (
                 f"{Path(self.output).name}: split into {len(self.parts)} missions, one battery "
-                f"each: {self.route.lanes} lanes at {self.route.sweep.angle_deg:g}°, "
+                f"each: {self.route.lanes} lanes {_direction(self.route)}, "
                 f"{self.photos} photos, {self.area_m2 / 1e4:.2f} ha{cover}, planned in "
                 f"{self.elapsed_s:.2f} s"
             )
             return "\n".join([head, *(p.summary() for p in self.parts)])
         return (
             f"{Path(self.output).name}: {len(self.mission.items)} items, "
-            f"{self.route.lanes} lanes at {self.route.sweep.angle_deg:g}°, {self.photos} photos, "
+            f"{self.route.lanes} lanes {_direction(self.route)}, {self.photos} photos, "
             f"{self.area_m2 / 1e4:.2f} ha{cover}, {self.route.rerouted} transitions routed "
             f"around obstacles, {_clearance(self.route.min_clearance_m)}, in "
             f"{self.elapsed_s:.2f} s"
         )
+
+
+def _lanes(n: int) -> str:
+    return f"{n} lane" if n == 1 else f"{n} lanes"
+
+
+def _direction(route: SurveyRoute) -> str:
+    """``at 35°``, or ``along the corridor`` for a corridor scan's bending lanes."""
+    angle = route.sweep.angle_deg
+    return "along the corridor" if math.isnan(angle) else f"at {angle:g}°"
 
 
 def _finite(value: float) -> float | None:
@@ -137,7 +147,7 @@ class SurveyPart:
     def summary(self) -> str:
         e = self.estimate
         return (
-            f"  {Path(self.output).name}: {self.route.lanes} lanes, {self.route.sweep.photos} "
+            f"  {Path(self.output).name}: {_lanes(self.route.lanes)}, {self.route.sweep.photos} "
             f"photos, {self.area_m2 / 1e4:.2f} ha, {_clearance(self.route.min_clearance_m)}; "
             f"{e.energy.summary(e.reserve_pct)}"
         )
@@ -224,15 +234,16 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
     covered = None
     s = spec.spacing
     if s.footprint_side_m is not None and s.footprint_front_m is not None:
-        photos_xy = coverage.photo_positions(route.sweep.pieces_xy, s.trigger_distance_m)
-        fp = coverage.footprints(
-            photos_xy, route.sweep.angle_deg, s.footprint_side_m, s.footprint_front_m
+        photos_xy, heading = coverage.photos_along(
+            route.sweep.pieces_xy, s.trigger_distance_m, route.sweep.joined
         )
+        fp = coverage.footprints(photos_xy, heading, s.footprint_side_m, s.footprint_front_m)
         covered = coverage.covered_fraction(route.free, fp)
     report: dict[str, object] = {
         "survey": {
             "lanes": route.lanes,
-            "angle_deg": route.sweep.angle_deg,
+            "angle_deg": _finite(route.sweep.angle_deg),
+            "corridor": spec.corridor_m is not None,
             "photos": route.sweep.photos,
             "lane_length_m": round(route.sweep.lane_length_m, 1),
             "area_m2": round(float(route.free.area), 1),
@@ -325,16 +336,21 @@ def _split(
     energy = lane_energy(planned_in, spec)
     scale = e.energy_wh / max(energy(route.sweep.path_xy), 1e-9)
 
+    # the groups are cut between lanes: ``first[i]`` is lane i's first piece (a corridor's
+    # bent lane is several straight pieces)
+    first = [a for a, _ in coverage.runs(len(pieces), route.sweep.joined)] + [len(pieces)]
+    lanes = len(first) - 1
+
     def cost(a: int, b: int) -> float:
-        return scale * energy(coverage.path_xy(pieces[a:b], start))
+        return scale * energy(coverage.path_xy(pieces[first[a] : first[b]], start))
 
     path = Path(output)
     budget = allowed
     for _ in range(SPLIT_TRIES):
         bounds = [0]
-        while bounds[-1] < len(pieces):
+        while bounds[-1] < lanes:
             a = b = bounds[-1]
-            while b < len(pieces) and (b == a or cost(a, b + 1) <= budget):
+            while b < lanes and (b == a or cost(a, b + 1) <= budget):
                 b += 1
             if cost(a, b) > allowed and b - a == 1:
                 raise EnergyBudgetError(
@@ -348,7 +364,7 @@ def _split(
             bounds.append(b)
         parts: list[SurveyPart] = []
         for k, (a, b) in enumerate(itertools.pairwise(bounds), start=1):
-            part = part_of(planned_in, spec, route, slice(a, b), world=world)
+            part = part_of(planned_in, spec, route, slice(first[a], first[b]), world=world)
             mission = survey_mission(scn, spec, part)
             verdict = _judge(scn, mission)
             if verdict is not None and verdict.problem() is not None:

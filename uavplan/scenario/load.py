@@ -219,6 +219,12 @@ def read_scenario_file(
     if spec is not None:
         for i, (x, y) in enumerate(spec.area_m):
             if not bounds.contains((x, y, spec.altitude_m)):
+                if spec.corridor_m is not None:
+                    raise chk.fail(
+                        "survey.corridor",
+                        f"its {spec.width_m:g} m strip reaches [{x:.0f}, {y:.0f}], outside "
+                        "the bounds",
+                    )
                 where = "survey.area_file" if "area_file" in raw["survey"] else "survey.area"
                 raise chk.fail(
                     f"{where}[{i}]",

@@ -4,6 +4,7 @@ file, the key path and the reason; exit 2).
 ```yaml
 survey:
   area: [[0, 0], [800, 0], [800, 500], [0, 500]]   # ENU metres; or area_file: field.geojson
+  # or a corridor scan: corridor: [[0, 0], [500, 100], ...] and width_m: 60
   exclude: [[[300, 200], [400, 200], [400, 300]]]   # optional no-fly holes (ENU polygons)
   altitude: 60              # height above the ground (m); or gsd_cm with a camera
   lane_spacing_m: 30        # or a camera and the side overlap
@@ -23,7 +24,7 @@ CameraCalc: :mod:`uavplan.survey.camera`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -37,6 +38,8 @@ from uavplan.survey.camera import Camera, Spacing, camera_spacing, plain_spacing
 _KEYS = {
     "area",
     "area_file",
+    "corridor",
+    "width_m",
     "exclude",
     "altitude",
     "lane_spacing_m",
@@ -77,6 +80,10 @@ class SurveySpec:
     angle_deg: float | None
     trigger: Trigger
     camera: Camera | None = None
+    #: a corridor scan: the polyline (ENU m) its lanes follow, and the strip's width (m);
+    #: ``area_m`` is then the strip
+    corridor_m: tuple[tuple[float, float], ...] | None = None
+    width_m: float | None = None
 
     @property
     def altitude_m(self) -> float:
@@ -125,11 +132,19 @@ def read_survey(
     frame); without it an ``area_file`` is refused."""
     m = chk.mapping(raw, key, _KEYS, ())
     holes_of_file: list[Any] = []
-    if "area" not in m and "area_file" not in m:
-        raise chk.fail(join(key, "area"), "missing required key (or area_file: a GIS file)")
-    if "area" in m and "area_file" in m:
-        raise chk.fail(join(key, "area_file"), "give the area as area or as area_file, not both")
-    if "area" in m:
+    given = [k for k in ("area", "area_file", "corridor") if k in m]
+    if not given:
+        raise chk.fail(
+            join(key, "area"), "missing required key (or area_file: a GIS file, or corridor)"
+        )
+    if len(given) > 1:
+        raise chk.fail(join(key, given[1]), f"give one of {' / '.join(given)}, not both")
+    corridor, width = None, None
+    if "width_m" in m and "corridor" not in m:
+        raise chk.fail(join(key, "width_m"), "is a corridor's width: give corridor too")
+    if "corridor" in m:
+        corridor, width, area = _corridor(chk, m, key)
+    elif "area" in m:
         area = _polygon(chk, m["area"], join(key, "area"))
     else:
         if read_area is None:
@@ -195,6 +210,8 @@ def read_survey(
             )
     angle: float | None = None
     raw_angle = m.get("angle_deg", "auto")
+    if corridor is not None and raw_angle != "auto":
+        raise chk.fail(join(key, "angle_deg"), "a corridor's lanes follow the corridor")
     if raw_angle != "auto":
         if isinstance(raw_angle, str):
             raise chk.fail(
@@ -209,7 +226,45 @@ def read_survey(
         angle_deg=angle,
         trigger="hover" if trigger == "hover" else "distance",
         camera=camera,
+        corridor_m=corridor,
+        width_m=width,
     )
+
+
+def _corridor(
+    chk: Checker, m: Mapping[str, Any], key: str
+) -> tuple[tuple[tuple[float, float], ...], float, tuple[tuple[float, float], ...]]:
+    """``corridor`` and ``width_m``: the polyline, the width, and the strip's polygon."""
+    import numpy as np
+    from shapely.geometry import LineString
+
+    from uavplan.survey.corridor import strip
+
+    k = join(key, "corridor")
+    raw = m["corridor"]
+    if not isinstance(raw, list) or len(raw) < 2:
+        raise chk.fail(k, f"must be a list of at least 2 [x, y] points, got {short_repr(raw)}")
+    if len(raw) > MAX_POLYGON_POINTS:
+        raise chk.fail(k, f"{len(raw):,} points (at most {MAX_POLYGON_POINTS:,})")
+    pts = tuple(chk.point(p, f"{k}[{i}]", 2) for i, p in enumerate(raw))
+    xy = tuple((p[0], p[1]) for p in pts)
+    steps = np.hypot(*np.diff(np.asarray(xy), axis=0).T)
+    if np.any(steps < 1.0):
+        i = int(np.argmax(steps < 1.0))
+        raise chk.fail(f"{k}[{i + 1}]", "is less than 1 m from the point before it")
+    if not LineString(xy).is_simple:
+        raise chk.fail(k, "must not cross itself")
+    if "width_m" not in m:
+        raise chk.fail(join(key, "width_m"), "missing required key (the corridor's width)")
+    width = chk.number(m["width_m"], join(key, "width_m"), minimum=0, strict=True)
+    poly = strip(xy, width)
+    # a mitred strip's area is the line's length times the width; a strip that overlaps
+    # itself (legs closer than the width) is smaller by the overlap
+    overlaps = poly.area < 0.97 * LineString(xy).length * width
+    if overlaps or poly.geom_type != "Polygon" or len(poly.interiors) or not poly.is_valid:
+        raise chk.fail(k, f"its {width:g} m strip overlaps itself (a bend tighter than the width)")
+    ring = np.asarray(poly.exterior.coords)[:-1]
+    return xy, width, tuple((float(x), float(y)) for x, y in ring)
 
 
 __all__ = ["AreaReader", "SurveySpec", "Trigger", "read_survey"]

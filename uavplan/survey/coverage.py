@@ -161,37 +161,76 @@ def path_xy(ordered: NDArray[np.float64], start_xy: ArrayLike) -> NDArray[np.flo
     return np.vstack([s, ordered.reshape(-1, 2), s])
 
 
-def photo_positions(ordered: NDArray[np.float64], trigger_m: float) -> NDArray[np.float64]:
-    """Where distance triggering takes photos ``(k, 2)``: at each piece's start and then every
-    ``trigger_m`` of the piece (the autopilots take the first photo when triggering starts)."""
+def runs(n: int, joined: ArrayLike | None) -> list[tuple[int, int]]:
+    """The lanes of ``n`` pieces as ``[first, last)`` piece ranges: a piece whose ``joined``
+    flag is set continues the lane of the piece before it (a corridor's lane bends); without
+    flags every piece is a lane."""
+    if joined is None:
+        return [(k, k + 1) for k in range(n)]
+    j = np.asarray(joined, dtype=bool).copy()
+    if n:
+        j[0] = False
+    starts = np.flatnonzero(~j)
+    return [(int(a), int(b)) for a, b in zip(starts, [*starts[1:], n], strict=True)]
+
+
+def photos_along(
+    ordered: NDArray[np.float64], trigger_m: float, joined: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where distance triggering takes photos ``(k, 2)`` and the lane's direction there
+    (degrees CCW from east, ``(k,)``): at each lane's start and then every ``trigger_m`` of
+    path along it (the autopilots take the first photo when triggering starts, and count the
+    distance flown along a lane through its bends)."""
     if not trigger_m > 0:
         raise ValueError("trigger distance must be > 0")
-    out: list[NDArray[np.float64]] = []
-    for a, b in ordered:
-        length = float(np.hypot(*(b - a)))
-        s = np.arange(0.0, length + 1e-9, trigger_m)
-        t = s / length if length > 0 else np.zeros(1)
-        out.append(a + t[:, None] * (b - a))
-    return np.vstack(out) if out else np.zeros((0, 2))
+    pos: list[NDArray[np.float64]] = []
+    head: list[NDArray[np.float64]] = []
+    for a, b in runs(len(ordered), joined):
+        lane = ordered[a:b]
+        seg = lane[:, 1] - lane[:, 0]
+        lengths = np.hypot(seg[:, 0], seg[:, 1])
+        cum = np.concatenate(([0.0], np.cumsum(lengths)))
+        s = np.arange(0.0, cum[-1] + 1e-9, trigger_m)
+        k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(lane) - 1)
+        t = np.where(lengths[k] > 0, (s - cum[k]) / np.maximum(lengths[k], 1e-12), 0.0)
+        pos.append(lane[k, 0] + t[:, None] * seg[k])
+        head.append(np.degrees(np.arctan2(seg[k, 1], seg[k, 0])))
+    if not pos:
+        return np.zeros((0, 2)), np.zeros(0)
+    return np.vstack(pos), np.concatenate(head)
 
 
-def photo_count(ordered: NDArray[np.float64], trigger_m: float) -> int:
-    """How many photos distance triggering takes over ``ordered`` (see :func:`photo_positions`)."""
+def photo_positions(
+    ordered: NDArray[np.float64], trigger_m: float, joined: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """Where distance triggering takes photos ``(k, 2)`` (see :func:`photos_along`)."""
+    return photos_along(ordered, trigger_m, joined)[0]
+
+
+def photo_count(
+    ordered: NDArray[np.float64], trigger_m: float, joined: ArrayLike | None = None
+) -> int:
+    """How many photos distance triggering takes over ``ordered`` (see :func:`photos_along`)."""
     lengths = np.hypot(*(ordered[:, 1] - ordered[:, 0]).T) if len(ordered) else np.zeros(0)
-    return int(np.sum(np.floor(lengths / trigger_m + 1e-9) + 1))
+    per_lane = np.array([lengths[a:b].sum() for a, b in runs(len(ordered), joined)])
+    return int(np.sum(np.floor(per_lane / trigger_m + 1e-9) + 1)) if len(per_lane) else 0
 
 
 def footprints(
-    positions_xy: ArrayLike, angle_deg: float, side_m: float, front_m: float
+    positions_xy: ArrayLike, angle_deg: ArrayLike, side_m: float, front_m: float
 ) -> NDArray[np.float64]:
     """Image footprints ``(k, 4, 2)`` at ``positions_xy``: ``front_m`` along the lane
-    direction ``angle_deg``, ``side_m`` across it."""
+    direction ``angle_deg`` (one for all, or one per position), ``side_m`` across it."""
     p = np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2)
-    half = np.array(
-        [[-front_m, -side_m], [front_m, -side_m], [front_m, side_m], [-front_m, side_m]]
+    half = (
+        np.array([[-front_m, -side_m], [front_m, -side_m], [front_m, side_m], [-front_m, side_m]])
+        / 2.0
     )
-    corners = (half / 2.0) @ _rotation(angle_deg).T
-    return p[:, None, :] + corners[None, :, :]
+    a = np.radians(np.broadcast_to(np.asarray(angle_deg, dtype=np.float64), (len(p),)))
+    c, s = np.cos(a)[:, None], np.sin(a)[:, None]
+    x = half[None, :, 0] * c - half[None, :, 1] * s
+    y = half[None, :, 0] * s + half[None, :, 1] * c
+    return p[:, None, :] + np.stack([x, y], axis=2)
 
 
 def covered_fraction(free: BaseGeometry, footprints_xy: NDArray[np.float64]) -> float:

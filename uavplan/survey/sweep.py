@@ -38,6 +38,14 @@ class Sweep:
     energy_wh: float
     photos: int
     lane_length_m: float
+    #: per piece: True where it continues the lane of the piece before it (a corridor's
+    #: lanes bend with the corridor; an area's lanes are straight: None)
+    joined: NDArray[np.bool_] | None = None
+
+    @property
+    def lanes(self) -> int:
+        """How many lanes (a corridor's bent lane is one, its straight pieces several)."""
+        return len(coverage.runs(len(self.pieces_xy), self.joined))
 
 
 def energy_of(
