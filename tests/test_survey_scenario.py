@@ -184,5 +184,5 @@ def test_commands_other_than_plan_refuse_a_valid_survey_clearly(
     args = [command, str(f)] + (["-o", str(tmp_path / "s.png")] if command == "render" else [])
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 2, result.output
-    assert "only uavplan plan flies a survey yet" in result.output
+    assert "uavplan plan plans a survey" in result.output and "give a goal" in result.output
     assert "Traceback" not in result.output

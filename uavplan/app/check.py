@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from uavplan.app.feedback import plural
 from uavplan.app.inputs import load_scenario_file, mission_kind
 from uavplan.errors import InputError, NoPathError, ScenarioError
-from uavplan.scenario import Scenario, Surroundings, load_scenario, load_surroundings
+from uavplan.scenario import Scenario, Surroundings, load_site, load_surroundings
 
 if TYPE_CHECKING:
     from uavplan.estimate import FlightEstimate
@@ -158,7 +158,7 @@ def validate(
             raise type(err)(err.reason, key=err.key, file=file) from None
         return ScenarioCheck(file, scn, estimate, warning)
     try:
-        scenario = load_scenario(scenario_path)
+        scenario = load_site(scenario_path)
     except ScenarioError as err:
         if mission_kind(file) == "plan" and err.key in ("start", "goal"):
             # a map or a scenario without a route (as `plan X.plan --scenario S` takes one):

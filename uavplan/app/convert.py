@@ -71,9 +71,9 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
             raise InputError("--scenario only adds obstacles to a .geojson or .kml")
         # the scenario's obstacles, in its site's frame: numpy and pyproj load for them
         from uavplan.planning import export_extras
-        from uavplan.scenario import load_scenario
+        from uavplan.scenario import load_site
 
-        scenario = load_scenario(request.scenario)
+        scenario = load_site(request.scenario)
         outputs.reads(*scenario.files)
         try:
             extras = export_extras(scenario, plan=plan)

@@ -72,7 +72,7 @@ from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
 from uavplan.mission.track import Track, check_track_path, observed_stretches
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearse, return_seq
 from uavplan.route import keeps_margin
-from uavplan.scenario import Scenario, load_scenario
+from uavplan.scenario import Scenario, load_site
 from uavplan.sim.simulate import MissionRefused, distance_to_polyline
 from uavplan.world import CEILING, GROUND
 
@@ -302,7 +302,7 @@ def fly(request: FlyRequest, feedback: Feedback) -> FlyOutcome:
         )
     site = None
     if request.scenario is not None:
-        scenario = load_scenario(request.scenario)
+        scenario = load_site(request.scenario)
         if request.track:  # nor any file of the scenario
             check_output(request.track, *scenario.files)
         check_scenario_matches(request.mission, plan, request.scenario, scenario)

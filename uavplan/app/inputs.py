@@ -15,7 +15,7 @@ import re
 from pathlib import Path
 
 from uavplan.errors import InputError, ScenarioError
-from uavplan.scenario import Scenario, load_scenario
+from uavplan.scenario import Scenario, load_scenario, load_site
 
 #: how much of a file is looked at to recognise a mission file
 _SNIFF_BYTES = 4096
@@ -97,14 +97,15 @@ def not_a_scenario(path: str, kind: str, command: str) -> InputError:
     return InputError(f"this is {_WHAT[kind]}, not a scenario: {advice}", file=path)
 
 
-def load_scenario_file(path: str, command: str) -> Scenario:
+def load_scenario_file(path: str, command: str, *, site: bool = False) -> Scenario:
     """The scenario file ``path`` given to ``command``; a mission file or a map export is
-    refused with a message that says what it is and what takes it."""
+    refused with a message that says what it is and what takes it. ``site``: the scenario a
+    mission is checked against (a survey scenario's site too: :func:`load_site`)."""
     kind = mission_kind(path)
     if kind is not None:
         raise not_a_scenario(path, kind, command)
     try:
-        return load_scenario(path)
+        return load_site(path) if site else load_scenario(path)
     except ScenarioError:
         sniffed = sniff_mission_kind(os.fspath(path))
         if sniffed is not None:

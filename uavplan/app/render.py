@@ -77,7 +77,7 @@ def render(request: RenderRequest, feedback: Feedback) -> RenderOutcome:
         elif request.no_plan and request.mission is None:
             outcome = _render_scenario(request, feedback, outputs)
         else:
-            scn = load_scenario_file(request.scenario, "render")
+            scn = load_scenario_file(request.scenario, "render", site=request.mission is not None)
             outputs.reads(*scn.files)
             if request.mission is not None:
                 outcome = _render_mission(scn, request, feedback)

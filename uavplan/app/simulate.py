@@ -27,7 +27,7 @@ from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
-from uavplan.scenario import Scenario, load_scenario, load_surroundings
+from uavplan.scenario import Scenario, load_site, load_surroundings
 from uavplan.sim.params import ParameterValueError, parameters_from
 from uavplan.verdict import FlightVerdict, held_parameters, judge_flight
 
@@ -120,7 +120,7 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
     conditions: dict[str, object] = {}
     if request.scenario is not None:
         try:
-            scenario = load_scenario(request.scenario)
+            scenario = load_site(request.scenario)
         except ScenarioError as err:
             if mission_kind(request.mission) != "plan" or err.key not in ("start", "goal"):
                 raise

@@ -15,9 +15,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
-import shapely
-import shapely.geometry.polygon
-from shapely.geometry import Polygon
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
@@ -26,8 +23,8 @@ from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
 from uavplan.flown_safe import MAX_REPLANS, grown_pad, padded_scenario
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
-from uavplan.obstacles import PrismObstacle
 from uavplan.rehearsal import tracking_allowance_m
+from uavplan.scenario.survey import with_no_fly
 from uavplan.scenario.values import load_survey_scenario
 from uavplan.survey import coverage
 from uavplan.surveying import SurveyRoute, lane_energy, part_of, plan_survey, survey_mission
@@ -388,32 +385,6 @@ def _split(
     )
 
 
-#: how high the ``exclude`` polygons stand as obstacles above the flight volume's top (m)
-NO_FLY_ABOVE_M = 1000.0
-
-
-def with_no_fly(scn: Scenario, spec: SurveySpec) -> Scenario:
-    """``scn`` with the survey's ``exclude`` polygons standing as obstacles from the ground to
-    far above the flight volume (named ``survey.exclude[j] (no-fly)``): no lane, transition
-    or return may cross a no-fly hole at any height, and the whole-flight verdict checks the
-    margin from them as from a building."""
-    if not spec.exclude_m:
-        return scn
-    height = float(scn.bounds.z_m[1]) + NO_FLY_ABOVE_M
-    prisms = []
-    for poly in spec.exclude_m:
-        ring = shapely.geometry.polygon.orient(Polygon(poly), sign=1.0)
-        coords = tuple((float(x), float(y)) for x, y in np.asarray(ring.exterior.coords)[:-1])
-        prisms.append(PrismObstacle(coords, height))
-    names = tuple(f"survey.exclude[{j}] (no-fly)" for j in range(len(prisms)))
-    src = scn.obstacle_sources
-    if src.zones_from is None:
-        src = replace(src, zones_from=len(scn.obstacles), zone_titles=names)
-    else:  # the airspace's solids are the last obstacles: the holes follow them
-        src = replace(src, zone_titles=(*src.zone_titles, *names))
-    return replace(scn, obstacles=(*scn.obstacles, *prisms), obstacle_sources=src)
-
-
 def _judge(scn: Scenario, mission: MissionPlan) -> FlightVerdict | None:
     """The whole flight of ``mission`` as the scenario's vehicle flies it (None for an
     autopilot the flight model does not fly), as :mod:`uavplan.app.plan` judges a route."""
@@ -425,4 +396,4 @@ def _judge(scn: Scenario, mission: MissionPlan) -> FlightVerdict | None:
     return judge_flight(mission, CheckSite.of_scenario(scn), **conditions_of(scn))
 
 
-__all__ = ["SurveyOutcome", "SurveyPart", "plan_survey_file"]
+__all__ = ["SurveyOutcome", "SurveyPart", "plan_survey_file", "with_no_fly"]

@@ -172,9 +172,9 @@ def enforce_parameters(
         raise ParametersDiffer(results, advice, step)
     assert scenario is not None
     if isinstance(scenario, str):
-        from uavplan.scenario import load_scenario
+        from uavplan.scenario import load_site
 
-        scenario = load_scenario(scenario)
+        scenario = load_site(scenario)
     autopilot = vehicle if vehicle in (Autopilot.PX4, Autopilot.ARDUPILOT) else plan.autopilot
     values = vehicle_values(client, autopilot, results)
     problems = reprove_with_vehicle_parameters(plan, scenario, autopilot, values)

@@ -309,8 +309,9 @@ def _survey(
     if not allowed:
         raise chk.fail(
             "survey",
-            "the section is valid, but only uavplan plan flies a survey yet (issue 33); "
-            "give a goal: to use this command",
+            "the section is valid: uavplan plan plans a survey (and validate, simulate, "
+            "render --mission and fly take it as --scenario, the site of its mission); this "
+            "command plans or checks a route from start to goal: give a goal: instead",
         )
     return spec, read
 

@@ -25,15 +25,22 @@ CameraCalc: :mod:`uavplan.survey.camera`).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Any, Literal
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Literal, Protocol, TypeVar
 
+import numpy as np
+import shapely.geometry.polygon
 from shapely.geometry import Polygon
 
 from uavplan.config import short_repr, type_name
+from uavplan.obstacles import PrismObstacle
 from uavplan.scenario.checker import Checker, join
 from uavplan.scenario.limits import MAX_ALTITUDE_M
 from uavplan.survey.camera import Camera, Spacing, camera_spacing, plain_spacing
+
+if TYPE_CHECKING:
+    from uavplan.obstacles import Bounds, Obstacle
+    from uavplan.scenario.settings import ObstacleSources
 
 _KEYS = {
     "area",
@@ -64,6 +71,20 @@ MAX_POLYGON_POINTS = 10_000
 MAX_EXCLUDES = 1_000
 
 Trigger = Literal["distance", "hover"]
+
+
+class _Obstructed(Protocol):
+    """A Scenario or the Surroundings of one: what :func:`with_no_fly` adds holes to."""
+
+    @property
+    def bounds(self) -> Bounds: ...
+    @property
+    def obstacles(self) -> tuple[Obstacle, ...]: ...
+    @property
+    def obstacle_sources(self) -> ObstacleSources: ...
+
+
+_Site = TypeVar("_Site", bound=_Obstructed)
 #: reads ``area_file``'s value (key path for messages): the area's outer ring and its holes
 #: (ENU m); raises the checker's failure itself
 AreaReader = Callable[[Any, str], tuple[tuple[tuple[float, float], ...], list[Any]]]
@@ -235,7 +256,6 @@ def _corridor(
     chk: Checker, m: Mapping[str, Any], key: str
 ) -> tuple[tuple[tuple[float, float], ...], float, tuple[tuple[float, float], ...]]:
     """``corridor`` and ``width_m``: the polyline, the width, and the strip's polygon."""
-    import numpy as np
     from shapely.geometry import LineString
 
     from uavplan.survey.corridor import strip
@@ -267,4 +287,32 @@ def _corridor(
     return xy, width, tuple((float(x), float(y)) for x, y in ring)
 
 
-__all__ = ["AreaReader", "SurveySpec", "Trigger", "read_survey"]
+#: how high the ``exclude`` polygons stand as obstacles above the flight volume's top (m)
+NO_FLY_ABOVE_M = 1000.0
+
+
+def with_no_fly(scn: _Site, spec: SurveySpec) -> _Site:
+    """``scn`` with the survey's ``exclude`` polygons standing as obstacles from the ground to
+    far above the flight volume (named ``survey.exclude[j] (no-fly)``): no lane, transition
+    or return may cross a no-fly hole at any height, and the whole-flight verdict checks the
+    margin from them as from a building. ``scn``: a Scenario or the Surroundings of one."""
+    if not spec.exclude_m:
+        return scn
+    height = float(scn.bounds.z_m[1]) + NO_FLY_ABOVE_M
+    prisms = []
+    for poly in spec.exclude_m:
+        ring = shapely.geometry.polygon.orient(Polygon(poly), sign=1.0)
+        coords = tuple((float(x), float(y)) for x, y in np.asarray(ring.exterior.coords)[:-1])
+        prisms.append(PrismObstacle(coords, height))
+    names = tuple(f"survey.exclude[{j}] (no-fly)" for j in range(len(prisms)))
+    src = scn.obstacle_sources
+    if src.zones_from is None:
+        src = replace(src, zones_from=len(scn.obstacles), zone_titles=names)
+    else:  # the airspace's solids are the last obstacles: the holes follow them
+        src = replace(src, zone_titles=(*src.zone_titles, *names))
+    return replace(  # type: ignore[type-var]  # both kinds of site are dataclasses
+        scn, obstacles=(*scn.obstacles, *prisms), obstacle_sources=src
+    )
+
+
+__all__ = ["AreaReader", "SurveySpec", "Trigger", "read_survey", "with_no_fly"]

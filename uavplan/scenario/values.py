@@ -204,6 +204,21 @@ def load_scenario(path: str | Path) -> Scenario:
     return Scenario.from_file(path)
 
 
+def load_site(path: str | Path) -> Scenario:
+    """A scenario file to check a mission against (``--scenario`` of ``validate``,
+    ``simulate``, ``fly``, ``convert``, ``render --mission``): a route scenario as it is; a
+    survey scenario (planned by ``plan``) as the site ``plan`` judged its mission in: its
+    ``exclude`` polygons no-fly obstacles, its goal the area's far corner (a route scenario
+    must have one; nothing here plans to it)."""
+    kwargs = read_scenario_file(path, surveys=True)
+    spec = kwargs.pop("survey", None)
+    if spec is None:
+        return Scenario(**kwargs)
+    from uavplan.scenario.survey import with_no_fly
+
+    return with_no_fly(Scenario(**kwargs), spec)
+
+
 @dataclass(frozen=True)
 class Surroundings:
     """What a scenario file says about where a route is flown, without the route: origin,
@@ -237,8 +252,16 @@ class Surroundings:
 
     @classmethod
     def from_file(cls, path: str | Path) -> Surroundings:
-        """Read and check a scenario or map file; ``start`` and ``goal`` are optional."""
-        return cls(**read_scenario_file(path, route=False))
+        """Read and check a scenario or map file; ``start`` and ``goal`` are optional. A
+        survey scenario's surroundings are its site: no goal, its ``exclude`` polygons
+        no-fly obstacles (:func:`uavplan.scenario.survey.with_no_fly`)."""
+        kwargs = read_scenario_file(path, route=False, surveys=True)
+        spec = kwargs.pop("survey", None)
+        if spec is None:
+            return cls(**kwargs)
+        from uavplan.scenario.survey import with_no_fly
+
+        return with_no_fly(cls(**{**kwargs, "goal_m": None}), spec)
 
     def obstacle_name(self, index: int) -> str:
         """How messages name obstacle ``index`` (as :meth:`Scenario.obstacle_name`)."""

@@ -1,0 +1,98 @@
+"""A survey scenario is the site its mission is checked in: ``validate``, ``simulate``,
+``render --mission`` (and ``fly``, ``convert``) take it as ``--scenario``, its ``exclude``
+polygons standing as no-fly obstacles as ``plan`` judged them; a mission through a no-fly
+hole fails there (exit 3) where the survey's map alone would pass it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from uavplan.cli import main
+from uavplan.scenario import load_site, load_surroundings
+
+SURVEY = {
+    "name": "field",
+    "origin": {"lat": 60.0, "lon": 25.0},
+    "bounds": {"x": [-100, 500], "y": [-100, 350], "z": [0, 120]},
+    "start": [-40, -40, 20],
+    "safety_margin": 10,
+    "survey": {
+        "area": [[0, 0], [400, 0], [400, 250], [0, 250]],
+        "exclude": [[[150, 100], [230, 100], [230, 160], [150, 160]]],
+        "altitude": 50,
+        "lane_spacing_m": 30,
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    d = tmp_path_factory.mktemp("site")
+    src = d / "field.yaml"
+    src.write_text(yaml.safe_dump(SURVEY))
+    out = d / "field.plan"
+    result = CliRunner().invoke(main, ["plan", str(src), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    return src, out
+
+
+def test_the_site_has_the_no_fly_holes(planned: tuple[Path, Path]) -> None:
+    src, _ = planned
+    site = load_site(src)
+    assert site.obstacle_name(len(site.obstacles) - 1) == "survey.exclude[0] (no-fly)"
+    around = load_surroundings(src)
+    assert len(around.obstacles) == len(site.obstacles) and around.goal_m is None
+
+
+@pytest.mark.parametrize("command", ["validate", "simulate"])
+def test_the_survey_mission_checks_in_its_scenario(
+    planned: tuple[Path, Path], command: str
+) -> None:
+    src, plan = planned
+    result = CliRunner().invoke(main, [command, str(plan), "--scenario", str(src)])
+    assert result.exit_code == 0, result.output
+    if command == "simulate":
+        assert "taken as flown" in result.output
+
+
+def test_render_draws_the_survey_mission_in_its_scenario(
+    planned: tuple[Path, Path], tmp_path: Path
+) -> None:
+    src, plan = planned
+    png = tmp_path / "f.png"
+    result = CliRunner().invoke(main, ["render", str(src), "--mission", str(plan), "-o", str(png)])
+    assert result.exit_code == 0, result.output
+    assert png.stat().st_size > 10_000
+
+
+def test_a_mission_through_the_no_fly_hole_fails_in_the_survey_s_scenario(
+    planned: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The planned mission with one lane waypoint moved into the middle of the hole: the
+    survey scenario refuses it, naming the hole; the same scenario without its survey
+    section (the map alone) has nothing there and passes it."""
+    src, plan = planned
+    data = json.loads(plan.read_text())
+    items = data["mission"]["items"]
+    moved = next(i for i in items if i["command"] == 16 and i["params"][4] > 60.0)
+    site = load_site(src)
+    from uavplan.geo import EnuFrame
+
+    lat, lon, _ = EnuFrame.at(site.origin).to_geodetic([[190.0, 130.0, 0.0]])
+    moved["params"][4], moved["params"][5] = float(lat[0]), float(lon[0])
+    bad = tmp_path / "through.plan"
+    bad.write_text(json.dumps(data))
+    result = CliRunner().invoke(main, ["validate", str(bad), "--scenario", str(src)])
+    assert result.exit_code in (2, 3), result.output
+    assert "survey.exclude[0] (no-fly)" in result.output
+    plain = {k: v for k, v in SURVEY.items() if k != "survey"}
+    plain["goal"] = [400, 250, 50]
+    map_only = tmp_path / "map.yaml"
+    map_only.write_text(yaml.safe_dump(plain))
+    result = CliRunner().invoke(main, ["validate", str(bad), "--scenario", str(map_only)])
+    assert "survey.exclude" not in result.output
