@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -70,6 +71,34 @@ def test_render_draws_the_survey_mission_in_its_scenario(
     assert png.stat().st_size > 10_000
 
 
+def test_the_picture_s_survey_layers(planned: tuple[Path, Path]) -> None:
+    """The area, and every photo the flight model took with its footprint, in the scenario's
+    frame: inside the area (a photo is taken on a lane)."""
+
+    import shapely
+
+    from uavplan.app.check import judged, read_mission_flight
+    from uavplan.app.render import survey_layers
+    from uavplan.planning import enu_frame
+    from uavplan.rehearsal import CheckSite
+    from uavplan.render import RouteLayers
+
+    src, plan = planned
+    scn = load_site(src)
+    mission, flight = read_mission_flight(str(plan), scn)
+    verdict = judged(mission, CheckSite.of_scenario(scn), scn)
+    layers = survey_layers(
+        RouteLayers.from_mission(mission, enu_frame(scn), flight.points_enu), str(src), scn, verdict
+    )
+    assert layers.survey_area_xy is not None and len(layers.survey_area_xy) == 4
+    assert layers.photos_xy is not None and len(layers.photos_xy) > 20
+    area = shapely.Polygon(layers.survey_area_xy).buffer(1.0)
+    assert all(area.contains(shapely.Point(p)) for p in layers.photos_xy)
+    # without a camera the lanes' spacing is the footprint: no footprint is drawn
+    assert layers.photo_footprints_xy is None
+    assert np.isfinite(layers.photos_xy).all()
+
+
 def test_a_mission_through_the_no_fly_hole_fails_in_the_survey_s_scenario(
     planned: tuple[Path, Path], tmp_path: Path
 ) -> None:
@@ -96,3 +125,26 @@ def test_a_mission_through_the_no_fly_hole_fails_in_the_survey_s_scenario(
     map_only.write_text(yaml.safe_dump(plain))
     result = CliRunner().invoke(main, ["validate", str(bad), "--scenario", str(map_only)])
     assert "survey.exclude" not in result.output
+
+
+def test_a_camera_survey_s_picture_has_a_footprint_per_photo(tmp_path: Path) -> None:
+    from uavplan.app.check import judged, read_mission_flight
+    from uavplan.app.render import survey_layers
+    from uavplan.planning import enu_frame
+    from uavplan.rehearsal import CheckSite
+    from uavplan.render import RouteLayers
+
+    src = Path(__file__).resolve().parent.parent / "missions" / "surveys" / "survey-power-line.yaml"
+    out = tmp_path / "line.plan"
+    assert CliRunner().invoke(main, ["plan", str(src), "-o", str(out), "-q"]).exit_code == 0
+    scn = load_site(src)
+    mission, flight = read_mission_flight(str(out), scn)
+    verdict = judged(mission, CheckSite.of_scenario(scn), scn)
+    base = RouteLayers.from_mission(mission, enu_frame(scn), flight.points_enu)
+    layers = survey_layers(base, str(src), scn, verdict)
+    assert layers.photos_xy is not None and layers.photo_footprints_xy is not None
+    assert layers.photo_footprints_xy.shape == (len(layers.photos_xy), 4, 2)
+    # each footprint is the camera's (50.8 m across the lane at 40 m, 33.8 m along it)
+    fp = layers.photo_footprints_xy[len(layers.photos_xy) // 2]
+    sides = np.hypot(*np.diff(np.vstack([fp, fp[:1]]), axis=0).T)
+    assert sorted(np.round(sides, 1))[::2] == [33.8, 50.8]

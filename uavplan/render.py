@@ -67,6 +67,8 @@ _COLORS = {
     "fence_inclusion": "#2ca02c",
     "bounds": "#777777",
     "track": "#e377c2",
+    "survey": "#2ca02c",
+    "photo": "#1f77b4",
 }
 _OBSTACLE_CMAP = "Greys"
 _LIGHT_XY = np.array([-0.55, -0.83])  # walls facing south-west are lit
@@ -101,6 +103,8 @@ class Scene:
     #: airspace zones: obstacle index → the label written on it in the top view (the zone's
     #: name, floor and ceiling), on the first solid of each zone
     zone_labels: Mapping[int, str] = field(default_factory=dict)
+    #: False for a survey, which starts and ends at the start: no goal is drawn
+    has_goal: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
@@ -141,6 +145,11 @@ class RouteLayers:
     waypoints_enu: NDArray[np.float64] | None = None
     fence: tuple[FenceOutline, ...] = field(default_factory=tuple)
     track_enu: NDArray[np.float64] | None = None
+    #: a survey's area outline ``(k, 2)``, its photos ``(n, 2)`` and their image footprints
+    #: on the ground ``(n, 4, 2)`` (top view only)
+    survey_area_xy: NDArray[np.float64] | None = None
+    photos_xy: NDArray[np.float64] | None = None
+    photo_footprints_xy: NDArray[np.float64] | None = None
 
     @classmethod
     def from_mission(
@@ -591,6 +600,7 @@ def _draw_top(
             x, y, r = zone.circle_enu
             ax.add_patch(Circle((x, y), r, **style))
 
+    _draw_survey(ax, layers, scale)
     _draw_paths(ax, layers, scale, three_d=False)
     _start_goal(ax, scene, scale, three_d=False)
 
@@ -606,6 +616,37 @@ def _draw_top(
     mappable = ScalarMappable(norm=shade.norm, cmap=shade.cmap)
     mappable.set_array([])
     return mappable
+
+
+def _draw_survey(ax: Any, layers: RouteLayers, scale: float) -> None:
+    """A survey's area, its photos' footprints and its photo positions (under the route)."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Polygon
+
+    if layers.photo_footprints_xy is not None and len(layers.photo_footprints_xy):
+        ax.add_collection(
+            PolyCollection(
+                list(layers.photo_footprints_xy),
+                facecolors=_COLORS["photo"],
+                edgecolors=_COLORS["photo"],
+                alpha=0.06,
+                linewidths=0.3 * scale,
+                zorder=1,
+            )
+        )
+    if layers.survey_area_xy is not None:
+        ax.add_patch(
+            Polygon(
+                layers.survey_area_xy,
+                closed=True,
+                fill=False,
+                lw=1.6 * scale,
+                ec=_COLORS["survey"],
+                zorder=4,
+            )
+        )
+    if layers.photos_xy is not None and len(layers.photos_xy):
+        ax.scatter(*layers.photos_xy.T, s=2.5 * scale, color=_COLORS["photo"], zorder=4.5)
 
 
 def _draw_paths(ax: Any, layers: RouteLayers, scale: float, *, three_d: bool) -> None:
@@ -666,7 +707,10 @@ def _start_goal(ax: Any, scene: Scene, scale: float, *, three_d: bool) -> None:
                 fontsize=8 * scale,
                 zorder=10,
             )
-    for point, marker, key in ((scene.start_enu, "^", "start"), (scene.goal_enu, "*", "goal")):
+    ends = [(scene.start_enu, "^", "start")]
+    if scene.has_goal:
+        ends.append((scene.goal_enu, "*", "goal"))
+    for point, marker, key in ends:
         coords = point if three_d else point[:2]
         kwargs: dict[str, Any] = {"depthshade": False} if three_d else {}
         ax.scatter(
@@ -734,6 +778,23 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
         handles.append(
             Line2D([], [], ls="--", color=_COLORS["track"], lw=1.0 * lw, label="flown track")
         )
+    if layers.survey_area_xy is not None:
+        handles.append(Line2D([], [], color=_COLORS["survey"], lw=1.6 * lw, label="survey area"))
+    if layers.photos_xy is not None:
+        n = len(layers.photos_xy)
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker="o",
+                markersize=2.5,
+                color=_COLORS["photo"],
+                label=f"photos as flown ({n:,})",
+            )
+        )
+    if layers.photo_footprints_xy is not None:
+        handles.append(Patch(fc=_COLORS["photo"], alpha=0.25, label="photo footprints"))
     if any(not z.inclusion for z in layers.fence):
         handles.append(
             Line2D(
@@ -781,18 +842,19 @@ def _legend_handles(scene: Scene, layers: RouteLayers, scale: float) -> list[Any
                 label="via point (in order)",
             )
         )
-    handles.append(
-        Line2D(
-            [],
-            [],
-            ls="",
-            marker="*",
-            color=_COLORS["goal"],
-            mec="black",
-            markersize=11,
-            label="goal",
+    if scene.has_goal:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker="*",
+                color=_COLORS["goal"],
+                mec="black",
+                markersize=11,
+                label="goal",
+            )
         )
-    )
     return handles
 
 

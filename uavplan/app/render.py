@@ -17,10 +17,12 @@ from uavplan.app.inputs import load_scenario_file, mission_kind
 from uavplan.app.outputs import OutputSet
 from uavplan.app.reroute import fence_scene
 from uavplan.errors import InputError, NoPathError, ScenarioError
+from uavplan.geo import EnuFrame
 from uavplan.planning import enu_frame, plan_route, scene_around, scene_for
 from uavplan.render import RouteLayers, Scene, render_png, route_subtitle
 from uavplan.route import keeps_margin
 from uavplan.scenario import Scenario, load_surroundings
+from uavplan.scenario.values import is_survey_file
 from uavplan.worlds import fence_world
 
 if TYPE_CHECKING:
@@ -271,6 +273,8 @@ def _render_mission(scn: Scenario, request: RenderRequest, feedback: Feedback) -
         check = check_flight_in(scn, flight)
         verdict = judged(plan, CheckSite.of_scenario(scn), scn)
         failure = _judged(verdict, request.mission, feedback)
+        if is_survey_file(request.scenario):
+            layers = survey_layers(layers, request.scenario, scn, verdict)
         if math.isfinite(check.min_clearance_m):
             clearance = check.min_clearance_m
             close = not keeps_margin(clearance, scn.safety_margin_m) or failure is not None
@@ -278,8 +282,11 @@ def _render_mission(scn: Scenario, request: RenderRequest, feedback: Feedback) -
                 f", min clearance {clearance:.2f} m{_flown(verdict)} (margin "
                 f"{scn.safety_margin_m:g} m)" + ("  (closer than the margin!)" if close else "")
             )
+    scene = scene_for(scn)
+    if layers.survey_area_xy is not None:  # a survey starts and ends at its start
+        scene = replace(scene, has_goal=False)
     return _draw(
-        scene_for(scn),
+        scene,
         request,
         layers,
         subtitle,
@@ -287,6 +294,46 @@ def _render_mission(scn: Scenario, request: RenderRequest, feedback: Feedback) -
         scenario=scn,
         failure=failure,
     )
+
+
+def survey_layers(
+    layers: RouteLayers, source: str, scn: Scenario, verdict: FlightVerdict | None
+) -> RouteLayers:
+    """``layers`` with the survey layers of the survey scenario ``source``: its area, and
+    the photos the flight model took flying the mission (``verdict``'s rehearsal) with their
+    footprints (with a camera), in ``scn``'s frame."""
+    import numpy as np
+
+    from uavplan.scenario.values import load_survey_scenario
+    from uavplan.sim.camera import photo_positions
+    from uavplan.survey import coverage
+
+    _, spec = load_survey_scenario(source)
+    area = np.asarray(spec.area_m, dtype=np.float64)
+    if verdict is None or verdict.rehearsal is None:
+        return replace(layers, survey_area_xy=area)
+    flown = verdict.rehearsal.flown
+    photos = photo_positions(flown)
+    if not len(photos):
+        return replace(layers, survey_area_xy=area)
+    lat, lon, _ = EnuFrame.at(flown.home).to_geodetic(
+        np.column_stack([photos[:, :2], np.zeros(len(photos))])
+    )
+    xy = np.asarray(enu_frame(scn).to_enu_xy(lat, lon)).reshape(-1, 2)
+    footprints = None
+    side, front = spec.spacing.footprint_side_m, spec.spacing.footprint_front_m
+    if side is not None and front is not None:
+        # each photo's direction: toward the next one on its lane, else from the last one
+        step = np.diff(xy, axis=0)
+        gap = np.hypot(step[:, 0], step[:, 1])
+        near = gap <= 1.5 * spec.spacing.trigger_distance_m
+        ahead = np.vstack([step, step[-1:]]) if len(step) else np.zeros((1, 2))
+        behind = np.vstack([step[:1], step]) if len(step) else np.zeros((1, 2))
+        use_ahead = np.append(near, False)
+        d = np.where(use_ahead[:, None], ahead, behind)
+        heading = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+        footprints = coverage.footprints(xy, heading, side, front)
+    return replace(layers, survey_area_xy=area, photos_xy=xy, photo_footprints_xy=footprints)
 
 
 def _render_planned(scn: Scenario, request: RenderRequest, feedback: Feedback) -> _Drawn:
