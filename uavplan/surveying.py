@@ -424,7 +424,8 @@ def _trigger_distance(distance_m: float) -> MissionItem:
     """MAV_CMD_DO_SET_CAM_TRIGG_DIST: ``distance_m`` > 0 starts distance triggering (param3 = 1:
     one photo at once), 0 stops it. Both autopilots run it from a mission: PX4's
     drivers/camera_trigger (CameraTrigger::Run handles VEHICLE_CMD_DO_SET_CAM_TRIGG_DIST),
-    ArduPilot's AP_Mission::start_command_camera → AP_Camera::set_trigger_distance."""
+    ArduPilot's AP_Mission::start_command_camera → AP_Camera::handle_command, which sets
+    the distance and takes the first photo for param3 = 1."""
     return MissionItem(
         command=MavCmd.DO_SET_CAM_TRIGG_DIST,
         frame=MavFrame.MISSION,
@@ -436,7 +437,9 @@ def _trigger_distance(distance_m: float) -> MissionItem:
 
 
 def _capture_one() -> MissionItem:
-    """MAV_CMD_IMAGE_START_CAPTURE of one image (param3 = 1) by every camera (param1 = 0)."""
+    """MAV_CMD_IMAGE_START_CAPTURE of one image (param3 = 1) by every camera (param1 = 0):
+    ArduPilot's AP_Camera::handle_command takes one picture; PX4 sends it on to a MAVLink
+    camera (docs/survey.md)."""
     return MissionItem(
         command=MavCmd.IMAGE_START_CAPTURE,
         frame=MavFrame.MISSION,
