@@ -148,3 +148,59 @@ def test_a_camera_survey_s_picture_has_a_footprint_per_photo(tmp_path: Path) -> 
     fp = layers.photo_footprints_xy[len(layers.photos_xy) // 2]
     sides = np.hypot(*np.diff(np.vstack([fp, fp[:1]]), axis=0).T)
     assert sorted(np.round(sides, 1))[::2] == [33.8, 50.8]
+
+
+def test_the_exports_carry_the_area_photos_and_footprints(tmp_path: Path) -> None:
+    """convert --scenario SURVEY to GeoJSON and KML: the area, one footprint per photo and
+    the photos the mission's camera items ask for (as many as plan counted), each inside
+    the area."""
+    import shapely
+
+    src = Path(__file__).resolve().parent.parent / "missions" / "surveys" / "survey-power-line.yaml"
+    plan = tmp_path / "line.plan"
+    result = CliRunner().invoke(main, ["plan", str(src), "-o", str(plan)])
+    assert result.exit_code == 0, result.output
+    photos = int(result.output.split(" photos,")[0].rsplit(" ", 1)[1])
+    out = tmp_path / "line.geojson"
+    result = CliRunner().invoke(main, ["convert", str(plan), str(out), "--scenario", str(src)])
+    assert result.exit_code == 0, result.output
+    features = json.loads(out.read_text())["features"]
+    kinds = [f["properties"]["kind"] for f in features]
+    assert kinds.count("survey_area") == 1 and kinds.count("photos") == 1
+    shot = next(f for f in features if f["properties"]["kind"] == "photos")
+    assert shot["properties"]["count"] == photos == kinds.count("photo_footprint")
+    area = next(f for f in features if f["properties"]["kind"] == "survey_area")
+    ring = shapely.Polygon(area["geometry"]["coordinates"][0]).buffer(1e-5)  # about 1 m
+    assert all(ring.contains(shapely.Point(p)) for p in shot["geometry"]["coordinates"])
+    kml = tmp_path / "line.kml"
+    result = CliRunner().invoke(main, ["convert", str(plan), str(kml), "--scenario", str(src)])
+    assert result.exit_code == 0, result.output
+    text = kml.read_text()
+    assert "<name>Survey</name>" in text and f"photos ({photos})" in text
+
+
+def test_mission_photos_follow_the_camera_items() -> None:
+    """Distance triggering counts path through a waypoint (a photo every 30 m of the L,
+    not restarting at its corner), starts with a photo, and stops; a capture is one photo."""
+    from uavplan.geo import EnuFrame, GeoPoint
+    from uavplan.mission.builder import build_mission
+    from uavplan.mission.camera import mission_photos
+    from uavplan.mission.items import MavCmd, MavFrame, MissionItem
+
+    frame = EnuFrame.at(GeoPoint(60.0, 25.0, 0.0))
+    start = MissionItem(command=MavCmd.DO_SET_CAM_TRIGG_DIST, frame=MavFrame.MISSION,
+                        param1=30.0, param2=0.0, param3=1.0)  # fmt: skip
+    stop = MissionItem(command=MavCmd.DO_SET_CAM_TRIGG_DIST, frame=MavFrame.MISSION,
+                       param1=0.0, param2=0.0, param3=0.0)  # fmt: skip
+    shot = MissionItem(command=MavCmd.IMAGE_START_CAPTURE, frame=MavFrame.MISSION,
+                       param1=0.0, param2=0.0, param3=1.0)  # fmt: skip
+    rows = np.array([[0, 0, 20], [0, 0, 25], [100, 0, 25], [100, 100, 25], [150, 100, 25],
+                     [0, 0, 25]], dtype=float)  # fmt: skip
+    plan = build_mission(rows, frame, autopilot="ardupilot", end="land",
+                         row_items={1: [start], 3: [stop], 4: [shot]})  # fmt: skip
+    xy = mission_photos(plan, frame)
+    # 0, 30, ..., 180 m along the L from (0, 0): 7 photos, then the capture at (150, 100)
+    assert len(xy) == 8
+    assert np.allclose(xy[4], [100.0, 20.0], atol=0.05)
+    assert np.allclose(xy[6], [100.0, 80.0], atol=0.05)
+    assert np.allclose(xy[7], [150.0, 100.0], atol=0.05)

@@ -4,12 +4,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet
 from uavplan.errors import InputError
 from uavplan.mission.io import format_for, load_mission, mission_text
 from uavplan.mission.items import Autopilot, GeoFence, MissionPlan
+
+if TYPE_CHECKING:
+    from uavplan.mission.export import ExportExtras
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,10 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
             extras = export_extras(scenario, plan=plan)
         except ValueError as err:  # an item's altitude cannot be placed
             raise InputError(str(err), file=request.source) from None
+        from uavplan.scenario.values import is_survey_file
+
+        if is_survey_file(request.scenario):
+            extras = _with_survey(extras, request.scenario, plan)
     elif out_format.dumps_extras is not None and _terrain_frame_items(plan):
         notes.append(
             "terrain-frame altitudes are heights above the terrain: without --scenario (and "
@@ -88,6 +96,31 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
         output.write_text(mission_text(plan, request.output, extras=extras))
         outputs.commit()
     return ConvertOutcome(plan, request.output, out_format.name, request.source, tuple(notes))
+
+
+def _with_survey(extras: ExportExtras, source: str, plan: MissionPlan) -> ExportExtras:
+    """``extras`` with the survey of the scenario ``source``: its area, the photos ``plan``'s
+    camera items ask for and, with a camera, their footprints."""
+    import numpy as np
+
+    from uavplan.mission.camera import mission_photos
+    from uavplan.scenario.values import load_survey_scenario
+    from uavplan.survey import coverage
+
+    _, spec = load_survey_scenario(source)
+    assert extras.frame is not None
+    photos = mission_photos(plan, extras.frame)
+    footprints = None
+    side, front = spec.spacing.footprint_side_m, spec.spacing.footprint_front_m
+    if side is not None and front is not None and len(photos):
+        heading = coverage.photo_headings(photos, spec.spacing.trigger_distance_m)
+        footprints = coverage.footprints(photos, heading, side, front)
+    return replace(
+        extras,
+        survey_area_enu=np.asarray(spec.area_m, dtype=np.float64),
+        photos_enu=photos,
+        photo_footprints_enu=footprints,
+    )
 
 
 def _terrain_frame_items(plan: MissionPlan) -> bool:

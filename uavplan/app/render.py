@@ -323,15 +323,7 @@ def survey_layers(
     footprints = None
     side, front = spec.spacing.footprint_side_m, spec.spacing.footprint_front_m
     if side is not None and front is not None:
-        # each photo's direction: toward the next one on its lane, else from the last one
-        step = np.diff(xy, axis=0)
-        gap = np.hypot(step[:, 0], step[:, 1])
-        near = gap <= 1.5 * spec.spacing.trigger_distance_m
-        ahead = np.vstack([step, step[-1:]]) if len(step) else np.zeros((1, 2))
-        behind = np.vstack([step[:1], step]) if len(step) else np.zeros((1, 2))
-        use_ahead = np.append(near, False)
-        d = np.where(use_ahead[:, None], ahead, behind)
-        heading = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+        heading = coverage.photo_headings(xy, spec.spacing.trigger_distance_m)
         footprints = coverage.footprints(xy, heading, side, front)
     return replace(layers, survey_area_xy=area, photos_xy=xy, photo_footprints_xy=footprints)
 

@@ -104,10 +104,20 @@ class ExportExtras:
     #: more properties of some obstacles, by index: an airspace zone's name, class, floor and
     #: ceiling as its file writes them (``zone``, ``zone_class``, ``floor``, ``ceiling``)
     obstacle_labels: Mapping[int, Mapping[str, Any]] = field(default_factory=dict)
+    #: a survey's area outline ``(k, 2)``, its photos ``(n, 2)`` and their image footprints
+    #: on the ground ``(n, 4, 2)`` (ENU metres in ``frame``)
+    survey_area_enu: NDArray[np.float64] | None = None
+    photos_enu: NDArray[np.float64] | None = None
+    photo_footprints_enu: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obstacles", footprints_of(self.obstacles))
-        needs_frame = self.planned_path_enu is not None or self.flown_enu is not None
+        needs_frame = (
+            self.planned_path_enu is not None
+            or self.flown_enu is not None
+            or self.survey_area_enu is not None
+            or self.photos_enu is not None
+        )
         if self.frame is None and (self.obstacles or needs_frame):
             raise ValueError("obstacles and planned or flown paths need their ENU frame")
         for name in ("planned_path_enu", "flown_enu"):
@@ -184,6 +194,7 @@ class _Scene:
     areas: tuple[_Area, ...]
     properties: dict[str, Any]
     absolute: bool = False  # altitudes AMSL (over terrain) instead of above flat ground
+    photos_lonlat: NDArray[np.float64] | None = None  # a survey's photos (k, 2)
 
 
 def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
@@ -243,6 +254,19 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
                 props["top_amsl_m"] = round(top, METRE_DECIMALS)
             areas.append(_Area("obstacle", ring, props, top))
     areas.extend(_fence_areas(plan))
+    photos = None
+    if extras.survey_area_enu is not None:
+        assert extras.frame is not None
+        ring = orient_ccw(_xy_to_lonlat(np.asarray(extras.survey_area_enu), extras.frame))
+        areas.append(_Area("survey_area", ring, {"kind": "survey_area", "name": "survey area"}))
+    if extras.photo_footprints_enu is not None:
+        assert extras.frame is not None
+        for k, fp in enumerate(extras.photo_footprints_enu):
+            ring = orient_ccw(_xy_to_lonlat(np.asarray(fp), extras.frame))
+            areas.append(_Area("photo_footprint", ring, {"kind": "photo_footprint", "photo": k}))
+    if extras.photos_enu is not None and len(extras.photos_enu):
+        assert extras.frame is not None
+        photos = _xy_to_lonlat(np.asarray(extras.photos_enu), extras.frame)
     length = float(np.linalg.norm(np.diff(route_enu, axis=0), axis=1).sum())
     properties: dict[str, Any] = {
         "autopilot": plan.autopilot.label,
@@ -264,6 +288,7 @@ def _scene(plan: MissionPlan, extras: ExportExtras | None) -> _Scene:
         areas=tuple(areas),
         properties=properties,
         absolute=datum is not None,
+        photos_lonlat=photos,
     )
 
 
@@ -368,8 +393,9 @@ def to_geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> dict[st
 
     Positions are ``[lon, lat]`` or ``[lon, lat, height]`` (height above home, metres).
     Polygon rings are closed and counter-clockwise (RFC 7946 §3.1.6). Every feature has a
-    ``kind`` property: ``route``, ``planned_path``, ``home``, ``waypoint``, ``obstacle`` or
-    ``fence``.
+    ``kind`` property: ``route``, ``planned_path``, ``home``, ``waypoint``, ``obstacle``,
+    ``fence``, and for a survey ``survey_area``, ``photo_footprint`` and ``photos`` (one
+    MultiPoint).
     """
     scene = _scene(plan, extras)
     features: list[dict[str, Any]] = []
@@ -414,6 +440,10 @@ def to_geojson(plan: MissionPlan, extras: ExportExtras | None = None) -> dict[st
         ring = [_position(lon, lat) for lon, lat in area.ring_lonlat]
         ring.append(ring[0])
         features.append(_feature({"type": "Polygon", "coordinates": [ring]}, area.properties))
+    if scene.photos_lonlat is not None:
+        points = [_position(lon, lat) for lon, lat in scene.photos_lonlat]
+        props = {"kind": "photos", "name": "photos", "count": len(points)}
+        features.append(_feature({"type": "MultiPoint", "coordinates": points}, props))
     return {"type": "FeatureCollection", "features": features}
 
 
@@ -449,6 +479,8 @@ _KML_STYLES = {
     "obstacle": ("ff505050", 1.0, "c0a0a0a0"),
     "fence-inclusion": ("ff00c000", 2.0, "00000000"),
     "fence-exclusion": ("ff0000e0", 2.0, "400000e0"),
+    "survey": ("ff2ca02c", 2.0, "00000000"),
+    "footprint": ("40b4771f", 0.5, "18b4771f"),
 }
 
 
@@ -524,6 +556,26 @@ def kml_dumps(plan: MissionPlan, extras: ExportExtras | None = None) -> str:
             mark = _placemark(folder, name, f"fence-{kind}")
             _extended_data(mark, area.properties)
             _polygon(mark, area.ring_lonlat, None)
+
+    survey = [a for a in scene.areas if a.kind in ("survey_area", "photo_footprint")]
+    if survey or scene.photos_lonlat is not None:
+        folder = _folder(doc, "Survey")
+        for area in survey:
+            if area.kind == "survey_area":
+                mark = _placemark(folder, "survey area", "survey")
+            else:
+                mark = _placemark(
+                    folder, f"photo {area.properties['photo']} footprint", "footprint"
+                )
+            _polygon(mark, area.ring_lonlat, None)
+        if scene.photos_lonlat is not None:
+            n = len(scene.photos_lonlat)
+            mark = _placemark(folder, f"photos ({n})", "waypoint")
+            multi = _sub(mark, "MultiGeometry")
+            for lon, lat in scene.photos_lonlat:
+                point = _sub(multi, "Point")
+                _sub(point, "altitudeMode", "clampToGround")
+                _sub(point, "coordinates", _coordinates([(lon, lat)]))
 
     ET.indent(root, space=" ")
     body = ET.tostring(root, encoding="unicode")

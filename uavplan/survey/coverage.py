@@ -233,6 +233,21 @@ def footprints(
     return p[:, None, :] + np.stack([x, y], axis=2)
 
 
+def photo_headings(photos_xy: ArrayLike, trigger_m: float) -> NDArray[np.float64]:
+    """Each photo's lane direction (degrees CCW from east) from the photos alone: toward the
+    next photo when it is on the same lane (within 1.5 trigger distances), else from the one
+    before (a lane's last photo)."""
+    xy = np.asarray(photos_xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) < 2:
+        return np.zeros(len(xy))
+    step = np.diff(xy, axis=0)
+    near = np.hypot(step[:, 0], step[:, 1]) <= 1.5 * trigger_m
+    ahead = np.vstack([step, step[-1:]])
+    behind = np.vstack([step[:1], step])
+    d = np.where(np.append(near, False)[:, None], ahead, behind)
+    return np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+
+
 def covered_fraction(free: BaseGeometry, footprints_xy: NDArray[np.float64]) -> float:
     """The share of ``free``'s area that the footprints ``(k, 4, 2)`` cover."""
     if free.is_empty or free.area <= 0:
