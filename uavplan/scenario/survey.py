@@ -111,13 +111,20 @@ class SurveySpec:
         return self.spacing.altitude_m
 
 
-def _polygon(chk: Checker, raw: Any, key: str) -> tuple[tuple[float, float], ...]:
-    if not isinstance(raw, list) or len(raw) < 3:
-        raise chk.fail(key, f"must be a list of at least 3 [x, y] points, got {short_repr(raw)}")
+def _points(chk: Checker, raw: Any, key: str, least: int) -> tuple[tuple[float, float], ...]:
+    """A list of at least ``least`` (and at most MAX_POLYGON_POINTS) ``[x, y]`` points."""
+    if not isinstance(raw, list) or len(raw) < least:
+        raise chk.fail(
+            key, f"must be a list of at least {least} [x, y] points, got {short_repr(raw)}"
+        )
     if len(raw) > MAX_POLYGON_POINTS:
         raise chk.fail(key, f"{len(raw):,} points (at most {MAX_POLYGON_POINTS:,})")
     pts = tuple(chk.point(p, f"{key}[{i}]", 2) for i, p in enumerate(raw))
-    xy = tuple((p[0], p[1]) for p in pts)
+    return tuple((p[0], p[1]) for p in pts)
+
+
+def _polygon(chk: Checker, raw: Any, key: str) -> tuple[tuple[float, float], ...]:
+    xy = _points(chk, raw, key, 3)
     poly = Polygon(xy)
     if not poly.is_valid or poly.area <= 0:
         raise chk.fail(key, "must be a simple polygon with an area (its edges may not cross)")
@@ -261,13 +268,7 @@ def _corridor(
     from uavplan.survey.corridor import strip
 
     k = join(key, "corridor")
-    raw = m["corridor"]
-    if not isinstance(raw, list) or len(raw) < 2:
-        raise chk.fail(k, f"must be a list of at least 2 [x, y] points, got {short_repr(raw)}")
-    if len(raw) > MAX_POLYGON_POINTS:
-        raise chk.fail(k, f"{len(raw):,} points (at most {MAX_POLYGON_POINTS:,})")
-    pts = tuple(chk.point(p, f"{k}[{i}]", 2) for i, p in enumerate(raw))
-    xy = tuple((p[0], p[1]) for p in pts)
+    xy = _points(chk, m["corridor"], k, 2)
     steps = np.hypot(*np.diff(np.asarray(xy), axis=0).T)
     if np.any(steps < 1.0):
         i = int(np.argmax(steps < 1.0))
