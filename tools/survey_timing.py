@@ -12,7 +12,14 @@ flight model's rehearsal and the failsafe returns, the battery estimate, writing
 * ``2000-hover``: the same with ``trigger: hover``: a waypoint, a 1 s hold and a capture at
   each of the 2,000 positions (some 6,500 mission items, hours of flight).
 
-Both are larger than one x500 battery: they are planned with ``--allow-over-battery`` (a
+and, for the issue's "long missions scale" (a QGC plan of 877 items rerouted):
+
+* ``qgc-873``: a QGroundControl plan of 873 items (take-off, speed 5 m/s, 870 waypoints 90 m
+  apart in 29 rows, RTL: 78 km, about 270 minutes of flight) rerouted by ``uavplan plan
+  long.plan --scenario site.yaml`` around 18 boxes placed on its legs (none on the straight
+  way home from the last waypoint).
+
+All are larger than one x500 battery: they are planned with ``--allow-over-battery`` (a
 survey is not split across batteries yet), so the estimate is printed as a warning.
 
 Per field: lanes, photos, flight minutes, the child's CPU seconds (user + system, every
@@ -27,6 +34,8 @@ with the most cumulative time).
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
 import re
 import subprocess
@@ -39,7 +48,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-FIELDS = ("1km2-20holes", "2000-photos", "2000-hover")
+FIELDS = ("1km2-20holes", "2000-photos", "2000-hover", "qgc-873")
 CAMERA = {
     "sensor_width_mm": 13.2,
     "sensor_height_mm": 8.8,
@@ -94,21 +103,82 @@ def scenario(field: str) -> dict[str, Any]:
     }
 
 
-def run(field: str, work: Path) -> dict[str, Any]:
+def long_qgc_plan(work: Path) -> tuple[Path, Path]:
+    """The ``qgc-873`` field: a QGroundControl plan and the scenario it is rerouted in."""
+    lat0, lon0 = 47.40, 8.50
+    per_lat = 111_132.0
+    per_lon = 111_320.0 * math.cos(math.radians(lat0))
+    pts = []
+    for r in range(29):
+        xs = 100.0 + np.arange(30) * 90.0
+        pts += [(float(x), 100.0 + 90.0 * r) for x in (xs[::-1] if r % 2 else xs)]
+
+    def simple(command: int, frame: int, params: list[Any]) -> dict[str, Any]:
+        return {"autoContinue": True, "command": command, "frame": frame, "params": params,
+                "type": "SimpleItem"}  # fmt: skip
+
+    items = [simple(22, 3, [0, 0, 0, None, lat0, lon0, 40.0])]
+    items.append(simple(178, 2, [1, 5.0, -1, 0, 0, 0, 0]))
+    items += [simple(16, 3, [0, 0, 0, None, lat0 + y / per_lat, lon0 + x / per_lon, 40.0])
+              for x, y in pts]  # fmt: skip
+    items.append(simple(20, 2, [0, 0, 0, 0, 0, 0, 0]))
+    for k, item in enumerate(items):
+        item["doJumpId"] = k + 1
+    plan = {"fileType": "Plan", "groundStation": "QGroundControl", "version": 1,
+            "geoFence": {"circles": [], "polygons": [], "version": 2},
+            "rallyPoints": {"points": [], "version": 2},
+            "mission": {"cruiseSpeed": 5.0, "firmwareType": 3, "globalPlanAltitudeMode": 1,
+                        "hoverSpeed": 5.0, "plannedHomePosition": [lat0, lon0, 400.0],
+                        "vehicleType": 2, "version": 2, "items": items}}  # fmt: skip
+    rng = np.random.default_rng(1)
+    home, last = np.zeros(2), np.array(pts[-1])
+    u = (last - home) / np.linalg.norm(last - home)
+    boxes = []
+    for _ in range(20):  # on a leg, half-way between two waypoints; not on the way home
+        i, r = rng.integers(0, 29, 2)
+        c = np.array([145.0 + 90.0 * i, 100.0 + 90.0 * r])
+        if abs(u[0] * c[1] - u[1] * c[0]) > 80.0:
+            boxes.append({"type": "box", "center": c.tolist(), "size": [12, 12], "height": 80})
+    site = {"name": "qgc-873", "origin": {"lat": lat0, "lon": lon0, "alt": 400.0},
+            "bounds": {"x": [-300, 3200], "y": [-300, 3000], "z": [0, 150]},
+            "start": [0, 0, 0], "goal": [100, 100, 40], "safety_margin": 10,
+            "obstacles": boxes, "vehicle": {"profile": "x500"}}  # fmt: skip
+    plan_path, site_path = work / "long.plan", work / "site.yaml"
+    plan_path.write_text(json.dumps(plan))
+    site_path.write_text(yaml.safe_dump(site))
+    return plan_path, site_path
+
+
+def command(field: str, work: Path) -> list[str]:
+    """``uavplan plan``'s arguments for ``field`` (its inputs written to ``work``)."""
+    out = work / f"{field}.plan"
+    if field == "qgc-873":
+        plan_path, site = long_qgc_plan(work)
+        return ["plan", str(plan_path), "--scenario", str(site), "-o", str(out),
+                "--allow-over-battery"]  # fmt: skip
     src = work / f"{field}.yaml"
     src.write_text(yaml.safe_dump(scenario(field)))
-    out = work / f"{field}.plan"
-    cmd = [sys.executable, "-m", "uavplan", "plan", str(src), "-o", str(out)]
-    cmd.append("--allow-over-battery")
+    return ["plan", str(src), "-o", str(out), "--allow-over-battery"]
+
+
+def run(field: str, work: Path, tree: Path | None = None) -> dict[str, Any]:
+    cmd = [sys.executable, "-m", "uavplan", *command(field, work)]
+    env = dict(os.environ)
+    if tree is not None:  # another checkout's uavplan (its C kernels built in place)
+        env["PYTHONPATH"] = str(tree)
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+    )
     assert proc.stdout is not None
     text = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     code = os.waitstatus_to_exitcode(status)
     line = next((ln for ln in text.splitlines() if ln.startswith(f"{field}.plan:")), "")
-    flight = re.search(r"flight (\d+) min (\d+) s", text)
+    flight = re.search(r"flight (\d+) min (\d+) s", line) or re.search(
+        r"flight (\d+) min (\d+) s", text
+    )
     lanes = re.search(r"(\d+) lanes", line)
     photos = re.search(r"(\d+) photos", line)
     return {
@@ -132,9 +202,11 @@ def profile(field: str, work: Path) -> None:
     from uavplan.app.feedback import Feedback
     from uavplan.app.plan import PlanRequest, plan
 
-    src = work / f"{field}.yaml"
-    src.write_text(yaml.safe_dump(scenario(field)))
-    request = PlanRequest(str(src), str(work / f"{field}.plan"), allow_over_battery=True)
+    args = command(field, work)
+    scenario_file = args[args.index("--scenario") + 1] if "--scenario" in args else None
+    request = PlanRequest(
+        args[1], args[args.index("-o") + 1], scenario=scenario_file, allow_over_battery=True
+    )
     prof = cProfile.Profile()
     cpu0 = time.process_time()
     prof.enable()
@@ -148,14 +220,21 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--profile", metavar="FIELD", choices=FIELDS)
     ap.add_argument("--show", action="store_true", help="print each plan's output too")
+    ap.add_argument("--only", default="", help="comma-separated fields")
+    ap.add_argument("--tree", type=Path, default=None,
+                    help="time another checkout's uavplan (e.g. a git worktree of an older "
+                         "commit with its C kernels built in place)")  # fmt: skip
     args = ap.parse_args()
+    chosen = [f for f in FIELDS if not args.only or f in args.only.split(",")]
     with tempfile.TemporaryDirectory() as d:
         work = Path(d)
         if args.profile:
             profile(args.profile, work)
             return 0
-        rows = [run(f, work) for f in FIELDS]
-    print(f"`python tools/survey_timing.py`, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+        rows = [run(f, work, args.tree) for f in chosen]
+    tree = f" --tree {args.tree}" if args.tree else ""
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    print(f"`python tools/survey_timing.py{tree}`, {when}")
     print()
     print("| field | exit | lanes | photos | flight | CPU s | wall s | peak MB | load |")
     print("|---|---:|---:|---:|---|---:|---:|---:|---:|")

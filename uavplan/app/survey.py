@@ -188,9 +188,9 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
         scn = replace(
             scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(request.autopilot))
         )
-    # the lanes and transitions keep the firmware's tracking allowance beyond the margin, as
-    # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M)
     scn = with_no_fly(scn, spec)
+    # the lanes and transitions keep the firmware's tracking allowance beyond the margin, as
+    # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M);
     # while the flight as flown breaks it, the holes and transitions keep a wider margin (the
     # widen loop of uavplan.flown_safe: what the track lacked, plus a step)
     pad = tracking_allowance_m(scn.mission.autopilot)
