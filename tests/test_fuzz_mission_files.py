@@ -484,14 +484,14 @@ def fuzz_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, Path]
     upload connection that fails before it opens anything."""
     scenario = tmp_path / "scenario.yaml"
     scenario.write_text(SCENARIO_YAML, encoding="utf-8")
-    loaded = app_check.load_scenario(str(scenario))
+    loaded = app_check.load_site(str(scenario))
 
     def cached_scenario(path: str) -> Any:
         # the scenario is the same file every time; only the mission file is fuzzed
         return loaded if path == str(scenario) else _original_load(path)
 
-    _original_load = app_check.load_scenario
-    monkeypatch.setattr(app_check, "load_scenario", cached_scenario)
+    _original_load = app_check.load_site
+    monkeypatch.setattr(app_check, "load_site", cached_scenario)
 
     def no_connect(*_args: Any, **_kwargs: Any) -> Any:
         raise LinkError(STOPPED, step="connect")
