@@ -167,8 +167,10 @@ def run(field: str, work: Path, tree: Path | None = None) -> dict[str, Any]:
     if tree is not None:  # another checkout's uavplan (its C kernels built in place)
         env["PYTHONPATH"] = str(tree)
     t0 = time.perf_counter()
+    # run in the work folder: ``python -m`` puts the current folder first on the path, which
+    # would shadow ``--tree``
     proc = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=work
     )
     assert proc.stdout is not None
     text = proc.stdout.read()
