@@ -409,3 +409,42 @@ def plan_params(plan: MissionPlan, autopilot: Autopilot) -> dict[str, float]:
     hold (each within the plan's bounds)."""
     names = {spec.name for spec in param_table(autopilot)}
     return {p.name: p.value for p in plan.parameters if p.name in names}
+
+
+def lane_errors(
+    plan_path: Path, path: FlownPath, marks: tuple[float, ...]
+) -> list[tuple[int, int, float, float, list[float]]]:
+    """Per photographed lane (the waypoint before a DO_SET_CAM_TRIGG_DIST > 0 to the next
+    waypoint): (first item, next item, climb m, length m, the track's altitude minus the
+    lane's line at each of ``marks`` metres along it)."""
+    plan = load_mission(plan_path)
+    assert plan.home is not None
+    home = EnuFrame.at(plan.home)
+    wire = plan.wire_items(MissionType.MISSION)  # the seq the tracks record
+    wp = {i: it for i, it in enumerate(wire) if it.command == int(MavCmd.NAV_WAYPOINT)}
+    seqs = sorted(wp)
+    lat = np.array([wp[i].x for i in seqs])
+    lon = np.array([wp[i].y for i in seqs])
+    xy = np.asarray(home.to_enu_xy(lat, lon)).reshape(-1, 2)
+    at = {s: np.array([*xy[k], wp[s].z - plan.home.alt_m]) for k, s in enumerate(seqs)}
+    out = []
+    for i, it in enumerate(wire):
+        if it.command != int(MavCmd.DO_SET_CAM_TRIGG_DIST) or it.param1 <= 0:
+            continue
+        a = max(s for s in seqs if s < i)
+        b = min(s for s in seqs if s > i)
+        A, B = at[a], at[b]
+        length = float(np.hypot(*(B[:2] - A[:2])))
+        u = (B[:2] - A[:2]) / length
+        pts = path.xyz[path.seq >= b]
+        along = (pts[:, :2] - A[:2]) @ u
+        line_z = A[2] + np.clip(along / length, 0.0, 1.0) * (B[2] - A[2])
+        errs = []
+        for d in marks:
+            if d > length:
+                errs.append(float("nan"))
+                continue
+            k = int(np.argmax(along >= d))
+            errs.append(float(pts[k, 2] - line_z[k]))
+        out.append((a, b, float(B[2] - A[2]), length, errs))
+    return out

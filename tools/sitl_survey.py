@@ -32,50 +32,10 @@ sys.path.insert(0, str(ROOT / "tests"))
 import sitl  # noqa: E402  (the SITL helpers live with the tests)
 import sitl_flight as sf  # noqa: E402
 
-from uavplan.geo import EnuFrame  # noqa: E402
 from uavplan.mission.io import load_mission  # noqa: E402
-from uavplan.mission.items import Autopilot, MavCmd, MissionType  # noqa: E402
+from uavplan.mission.items import Autopilot, MavCmd  # noqa: E402
 
 RIDGE = ROOT / "missions" / "surveys" / "survey-jacksboro-ridge.yaml"
-
-
-def lane_errors(
-    plan_path: Path, path: sf.FlownPath, marks: tuple[float, ...]
-) -> list[tuple[int, int, float, float, list[float]]]:
-    """Per photographed lane (the waypoint before a DO_SET_CAM_TRIGG_DIST > 0 to the next
-    waypoint): (first item, next item, climb m, length m, the track's altitude minus the
-    lane's line at each of ``marks`` metres along it)."""
-    plan = load_mission(plan_path)
-    assert plan.home is not None
-    home = EnuFrame.at(plan.home)
-    wire = plan.wire_items(MissionType.MISSION)  # the seq the tracks record
-    wp = {i: it for i, it in enumerate(wire) if it.command == int(MavCmd.NAV_WAYPOINT)}
-    seqs = sorted(wp)
-    lat = np.array([wp[i].x for i in seqs])
-    lon = np.array([wp[i].y for i in seqs])
-    xy = np.asarray(home.to_enu_xy(lat, lon)).reshape(-1, 2)
-    at = {s: np.array([*xy[k], wp[s].z - plan.home.alt_m]) for k, s in enumerate(seqs)}
-    out = []
-    for i, it in enumerate(wire):
-        if it.command != int(MavCmd.DO_SET_CAM_TRIGG_DIST) or it.param1 <= 0:
-            continue
-        a = max(s for s in seqs if s < i)
-        b = min(s for s in seqs if s > i)
-        A, B = at[a], at[b]
-        length = float(np.hypot(*(B[:2] - A[:2])))
-        u = (B[:2] - A[:2]) / length
-        pts = path.xyz[path.seq >= b]
-        along = (pts[:, :2] - A[:2]) @ u
-        line_z = A[2] + np.clip(along / length, 0.0, 1.0) * (B[2] - A[2])
-        errs = []
-        for d in marks:
-            if d > length:
-                errs.append(float("nan"))
-                continue
-            k = int(np.argmax(along >= d))
-            errs.append(float(pts[k, 2] - line_z[k]))
-        out.append((a, b, float(B[2] - A[2]), length, errs))
-    return out
 
 
 def main() -> int:
@@ -134,8 +94,8 @@ def main() -> int:
     fw_phases = sf.phases(fw_path, takeoff_seq, end_seq, landing_z)
     model_path = sf.FlownPath.from_model(model)
     m_phases = sf.phases(model_path, takeoff_seq, end_seq, landing_z)
-    rows_m = lane_errors(plan_path, model_path, marks)
-    rows_f = lane_errors(plan_path, fw_path, marks)
+    rows_m = sf.lane_errors(plan_path, model_path, marks)
+    rows_f = sf.lane_errors(plan_path, fw_path, marks)
     print(
         f"`python tools/sitl_survey.py --autopilot {flavour.label}`: {RIDGE.name}, "
         f"{flavour.label} SITL (exit {flight.exit_code}) at speed-up {flight.speedup:g}; "
