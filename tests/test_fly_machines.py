@@ -325,6 +325,27 @@ def test_a_mode_another_ground_station_commanded_is_said_at_once_and_ends_the_wa
     assert machine.finished is MonitorEnd.HELD
 
 
+def test_an_acknowledgement_after_the_mode_change_still_names_the_other_station() -> None:
+    """The other station's COMMAND_ACK can reach fly just after the heartbeats that show the
+    mode (seen in CI under load): the change is said at once, and said again with its author
+    when the acknowledgement comes."""
+    from uavplan.mavlink.messages import Received
+
+    state, machine = _flying(rules=WatchRules(takeover_wait_s=10.0))
+    machine.on_message(heartbeat(AP, ModeKind.HOLD, armed=True), 0.06)
+    machine.on_message(heartbeat(AP, ModeKind.HOLD, armed=True), 0.07)
+    (first,) = state.notices
+    assert "BRAKE, not commanded by this ground station" in first.text
+    ack = CommandAck(MavCommand.DO_SET_MODE, MavResult.ACCEPTED, 255, 191)
+    machine.on_overheard(Received(ack, 1, 1), 0.08)
+    assert len(state.notices) == 2
+    again = state.notices[1]
+    assert again.kind is NoticeKind.MODE_CHANGED
+    assert "BRAKE, commanded by another ground station (system 255, component 191)" in again.text
+    machine.on_overheard(Received(ack, 1, 1), 0.09)  # a second copy says nothing more
+    assert len(state.notices) == 2
+
+
 def test_the_mission_resuming_in_time_goes_on() -> None:
     state, machine = _flying(rules=WatchRules(takeover_wait_s=10.0))
     for t in (0.1, 0.2):

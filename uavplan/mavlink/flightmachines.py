@@ -976,6 +976,9 @@ class MonitorMachine(FlightMachine):
         self._gaps_seen = len(state.gaps)
         self._restarts_seen = len(state.restarts)
         self._others: list[tuple[float, int, int, int]] = []
+        #: a mode change said without its author (when, the mode, what fly does about it):
+        #: the other station's acknowledgement can arrive just after the heartbeat
+        self._unattributed: tuple[float, FlightMode | None, str, str] | None = None
         #: the mode the ground station did not command, while the vehicle is in it
         self.foreign_mode: FlightMode | None = None
         #: the vehicle's clock when a foreign hold began (None: none, or a return / landing)
@@ -1141,6 +1144,16 @@ class MonitorMachine(FlightMachine):
                 # 5: MAV_RESULT_IN_PROGRESS
                 self._others.append((now, m.command, m.target_system, m.target_component))
                 del self._others[:-8]
+                late = self._unattributed
+                if late is not None and now - late[0] <= self.rules.other_command_s:
+                    _when, mode, name, then = late
+                    if mode is not None and mode == self.foreign_mode:
+                        self._notice(
+                            NoticeKind.MODE_CHANGED,
+                            f"the vehicle switched to {name}, {self._who(now)}; {then}",
+                            now,
+                        )
+                self._unattributed = None
             return []
         if isinstance(m, MissionAck) and m.type == MissionResult.ACCEPTED:
             who = (
@@ -1209,11 +1222,12 @@ class MonitorMachine(FlightMachine):
                 f"waiting up to {self.rules.takeover_wait_s:g} s of the vehicle's time for "
                 "the mission to go on"
             )
-        self._notice(
-            NoticeKind.MODE_CHANGED,
-            f"the vehicle switched to {name}, {self._who(now)}; {then}",
-            now,
-        )
+        who = self._who(now)
+        self._notice(NoticeKind.MODE_CHANGED, f"the vehicle switched to {name}, {who}; {then}", now)
+        self._unattributed = None if self._others_recent(now) else (now, mode, name, then)
+
+    def _others_recent(self, now: float) -> bool:
+        return any(now - o[0] <= self.rules.other_command_s for o in self._others)
 
     def _on_mission_current(self, message: MissionCurrent, now: float) -> list[Message]:
         total = message.total
