@@ -2,7 +2,7 @@
 
 Used by the SITL flight tests (tests/test_sitl_fly.py) and by ``tools/sitl_compare.py``. The
 flown track is the observer's (GLOBAL_POSITION_INT on its own link, stamped with the vehicle's
-clock: simulated seconds); the model's is :func:`uavplan.sim.simulate.simulate`'s. Both are
+clock: simulated seconds); the model's is :func:`uavplan.autopilot.simulate.simulate`'s. Both are
 measured the same way:
 
 - **phases**: lift-off and touchdown where the altitude above home crosses
@@ -37,12 +37,12 @@ import sitl
 from scipy.spatial import cKDTree
 from track_check import scenario_clearance
 
+from uavplan.autopilot.params import param_table
+from uavplan.autopilot.simulate import FlownTrack, simulate
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import Autopilot, MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
-from uavplan.sim.params import param_table
-from uavplan.sim.simulate import FlownTrack, simulate
 
 #: above this height over home the vehicle counts as in the air (both tracks alike)
 AIRBORNE_M = 0.5

@@ -454,7 +454,7 @@ def test_exports_and_pictures_name_the_zones(tmp_path: Path) -> None:
     kml = tmp_path / "o.kml"
     assert CliRunner().invoke(main, ["plan", str(path), "-o", str(kml), "-q"]).exit_code == 0
     assert "<name>CROSS (R, restricted, GND–500ft AGL)</name>" in kml.read_text()
-    from uavplan.planning import scene_for
+    from uavplan.render import scene_for
 
     assert scene_for(Scenario.from_file(path)).zone_labels == {0: "CROSS\nGND–500ft AGL"}
     png = tmp_path / "o.png"

@@ -11,15 +11,24 @@ for it in :data:`ALLOWED`. Every import counts: module level, inside functions a
 * world (+ the _geom kernels) → path → planners: know nothing of files, missions or MAVLink;
 * mission (items, builder, files, fence, exports): knows nothing of optimisers or MAVLink;
 * mavlink: the mission vocabulary only; pymavlink lives in one module of it;
-* sim (the simulated vehicle and its flight model): vocabulary, mission and mavlink;
+* autopilot (the firmware's parameters, kinematics, RTL, the flight model and the offline
+  flight, ``simulate``): the vocabulary and the mission layer only, no wire vocabulary;
+* sim (the simulated MAVLink vehicle, its mission server, faults and I/O loop): vocabulary,
+  mission, mavlink and autopilot; nothing but the CLI (``mock-vehicle``) imports it;
 * sources (OSM, GIS and DEM readers): vocabulary only;
 * survey (camera arithmetic, lanes around holes, the sweep of least energy): vocabulary only,
   pure geometry that knows nothing of files, the world, missions or MAVLink;
 * scenario (the YAML reader and the checked scenario values): vocabulary, sources and
   survey (the ``survey:`` section's camera arithmetic);
-* wiring (planning, flight, estimate, wayhome/, reroute, bench, render, rehearsal,
-  verdict, view/): everything but
-  the application and CLI;
+* the wiring, in four ordered tiers, each importing the layers below it and the tiers
+  before it, never a later one:
+
+  - site (worlds, airspace, flight): the World a scenario makes and a track's clearance in it;
+  - flying (estimate, rehearsal, the way-home proof, verdict): how the autopilot flies a
+    mission there, and whether that keeps the margin;
+  - planning (planning, reroute, surveying, the way home's planning, flown_safe): the
+    searches and the routes made safe as flown;
+  - presentation (render, view/, bench/): pictures, the page, the comparison tables;
 * app (the use cases): everything but the CLI;
 * cli: thin; nothing imports it.
 
@@ -61,30 +70,26 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "planners": ("planners/*.py", "warmup.py"),
     "mission": ("mission/*.py",),
     "mavlink": ("mavlink/*.py",),
+    "autopilot": ("autopilot/*.py",),
     "sim": ("sim/*.py",),
     "sources": ("sources/*.py", "sources/**/*.py"),
     "survey": ("survey/*.py",),
     "scenario": ("scenario/*.py",),
-    "wiring": (
-        "planning.py",
-        "flight.py",
-        "wayhome/*.py",
+    "site": ("worlds.py", "airspace.py", "flight.py"),
+    "flying": (
         "estimate.py",
-        "bench/*.py",
-        "render.py",
-        "reroute.py",
-        "airspace.py",
         "rehearsal.py",
-        "flown_safe.py",
-        "worlds.py",
-        "view/*.py",
+        "wayhome/__init__.py",
+        "wayhome/proof.py",
         "verdict.py",
-        "surveying.py",
     ),
+    "planning": ("planning.py", "reroute.py", "surveying.py", "wayhome/home.py", "flown_safe.py"),
+    "presentation": ("render.py", "view/*.py", "bench/*.py"),
     "app": ("app/*.py",),
     "cli": ("cli/*.py", "__main__.py"),
 }
 
+#: the layers below the wiring that the wiring may use (not the simulated vehicle)
 _BELOW_WIRING = {
     "vocabulary",
     "world",
@@ -92,10 +97,14 @@ _BELOW_WIRING = {
     "planners",
     "mission",
     "mavlink",
-    "sim",
+    "autopilot",
     "sources",
     "survey",
+    "scenario",
 }
+
+#: the wiring's tiers, in order: each may import the ones before it, never a later one
+WIRING = ("site", "flying", "planning", "presentation")
 
 #: layer → the layers its modules may import
 ALLOWED: dict[str, set[str]] = {
@@ -105,13 +114,14 @@ ALLOWED: dict[str, set[str]] = {
     "planners": {"vocabulary", "world", "path", "planners"},
     "mission": {"vocabulary", "mission"},
     "mavlink": {"vocabulary", "mission", "mavlink"},
-    "sim": {"vocabulary", "mission", "mavlink", "sim"},
+    "autopilot": {"vocabulary", "mission", "autopilot"},
+    "sim": {"vocabulary", "mission", "mavlink", "autopilot", "sim"},
     "sources": {"vocabulary", "sources"},
     "survey": {"vocabulary", "survey"},
     "scenario": {"vocabulary", "sources", "survey", "scenario"},
-    "wiring": _BELOW_WIRING | {"scenario", "wiring"},
-    "app": _BELOW_WIRING | {"scenario", "wiring", "app"},
-    "cli": _BELOW_WIRING | {"scenario", "wiring", "app", "cli"},
+    **{tier: _BELOW_WIRING | set(WIRING[: i + 1]) for i, tier in enumerate(WIRING)},
+    "app": _BELOW_WIRING | set(WIRING) | {"app"},
+    "cli": _BELOW_WIRING | set(WIRING) | {"sim", "app", "cli"},
 }
 
 #: the CLI's shared support: commands import it, it imports no command
@@ -269,8 +279,77 @@ def test_the_checker_catches_an_upward_import(tmp_path: Path) -> None:
     )
     found = violations(root)
     assert "world.py (world) imports uavplan.mission.items (mission)" in found
-    assert "geo.py (vocabulary) imports uavplan.planning (wiring)" in found
+    assert "geo.py (vocabulary) imports uavplan.planning (planning)" in found
     assert len(found) == 2
+
+
+#: (file, planted import, the line the checker must print): one per rule of the autopilot
+#: layer, the simulated vehicle and the wiring's order
+PLANTED = [
+    (
+        "autopilot/simulate.py",
+        "from uavplan.mavlink.modes import ModeKind",
+        "autopilot/simulate.py (autopilot) imports uavplan.mavlink.modes (mavlink)",
+    ),
+    (
+        "autopilot/model.py",
+        "from uavplan.sim.vehicle import SimVehicle",
+        "autopilot/model.py (autopilot) imports uavplan.sim.vehicle (sim)",
+    ),
+    (
+        "app/fly.py",
+        "from uavplan.sim.vehicle import SimVehicle",
+        "app/fly.py (app) imports uavplan.sim.vehicle (sim)",
+    ),
+    (
+        "rehearsal.py",
+        "from uavplan.sim.faults import Faults",
+        "rehearsal.py (flying) imports uavplan.sim.faults (sim)",
+    ),
+    (
+        "flight.py",
+        "from uavplan.rehearsal import simulate",
+        "flight.py (site) imports uavplan.rehearsal (flying)",
+    ),
+    (
+        "estimate.py",
+        "from uavplan.planning import plan_route",
+        "estimate.py (flying) imports uavplan.planning (planning)",
+    ),
+    (
+        "planning.py",
+        "from uavplan.render import Scene",
+        "planning.py (planning) imports uavplan.render (presentation)",
+    ),
+]
+
+
+@pytest.mark.parametrize(("rel", "planted", "expected"), PLANTED, ids=[p[0] for p in PLANTED])
+def test_the_checker_catches_each_new_rule(
+    tmp_path: Path, rel: str, planted: str, expected: str
+) -> None:
+    """A test of the test: in a copy of the package, one import inside a function that breaks
+    one rule (the autopilot below the wire and the vehicle; only the CLI imports the vehicle;
+    the wiring's tiers in order), and the checker names exactly it."""
+    root = tmp_path / "uavplan"
+    shutil.copytree(PKG, root, ignore=shutil.ignore_patterns("__pycache__"))
+    target = root / rel
+    target.write_text(
+        target.read_text(encoding="utf-8") + f"\n\ndef _late():\n    {planted}\n",
+        encoding="utf-8",
+    )
+    assert violations(root) == [expected]
+
+
+def test_the_wiring_tiers_are_ordered() -> None:
+    """Each tier may use the ones before it and none after it; the application uses them all
+    and the simulated vehicle only through the CLI."""
+    for i, tier in enumerate(WIRING):
+        assert set(WIRING[: i + 1]) <= ALLOWED[tier]
+        assert not set(WIRING[i + 1 :]) & ALLOWED[tier]
+        assert "sim" not in ALLOWED[tier]
+    assert "sim" not in ALLOWED["app"] and "sim" in ALLOWED["cli"]
+    assert ALLOWED["autopilot"] == {"vocabulary", "mission", "autopilot"}
 
 
 @pytest.mark.parametrize("layer", sorted(LAYERS))

@@ -29,6 +29,8 @@ from click.testing import CliRunner
 from mavlink_helpers import client_conn, running_mock
 from track_check import fence_clearance, scenario_clearance, scenario_for
 
+from uavplan.autopilot.model import FlightModel, nav_items
+from uavplan.autopilot.params import Parameters
 from uavplan.cli import main
 from uavplan.geo import EnuFrame
 from uavplan.mission.io import load_mission
@@ -36,8 +38,6 @@ from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.mission.track import Track
 from uavplan.rehearsal import CheckSite, conditions_of
 from uavplan.scenario import load_scenario
-from uavplan.sim.model import FlightModel, nav_items
-from uavplan.sim.params import Parameters
 from uavplan.sim.vehicle import VehicleConfig
 from uavplan.verdict import judge_flight
 

@@ -11,8 +11,8 @@ import tracemalloc
 import numpy as np
 import pytest
 
+from uavplan.autopilot.simulate import distance_to_polyline
 from uavplan.rehearsal import DEVIATION_CHUNK, max_deviation_m
-from uavplan.sim.simulate import distance_to_polyline
 
 
 def _track_along(legs: np.ndarray, rng: np.random.Generator, per_leg: int, noise_m: float):

@@ -23,8 +23,7 @@ from uavplan.mission.builder import build_mission
 from uavplan.mission.fence import build_geofence, geofence_for_route
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot
-from uavplan.planning import scene_for
-from uavplan.render import RouteLayers, Scene, render_scene
+from uavplan.render import RouteLayers, Scene, render_scene, scene_for
 from uavplan.route import PlannedRoute, flown_polyline
 from uavplan.scenario import load_scenario
 

@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uavplan.planning import scene_for
-from uavplan.render import RouteLayers, draw_scene
+from uavplan.render import RouteLayers, draw_scene, scene_for
 from uavplan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -17,6 +17,8 @@ import pytest
 from mavlink_helpers import synthetic_mission
 
 from uavplan.app.check import read_mission_flight
+from uavplan.autopilot.power import X500, Battery, PowerState, spec_for
+from uavplan.autopilot.simulate import simulate
 from uavplan.config import Autopilot
 from uavplan.estimate import estimate_flight, estimate_mission, mission_limits
 from uavplan.geo import EnuFrame, GeoPoint
@@ -27,8 +29,6 @@ from uavplan.mission.io import mission_text
 from uavplan.mission.items import MissionPlan, MissionType
 from uavplan.planning import mission_for, plan_route
 from uavplan.scenario import load_scenario
-from uavplan.sim.power import X500, Battery, PowerState, spec_for
-from uavplan.sim.simulate import simulate
 from uavplan.sim.vehicle import SimVehicle, VehicleConfig
 from uavplan.vehicle import hover_power_w, resolve
 

@@ -29,12 +29,12 @@ from typing import Any
 import pytest
 from mavlink_helpers import client_conn, planned_scenario, running_mock, synthetic_mission
 
+from uavplan.autopilot.model import EventKind, FlightEvent
+from uavplan.autopilot.simulate import simulate
 from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
 from uavplan.sim.mock import MockVehicle
-from uavplan.sim.model import EventKind, FlightEvent
-from uavplan.sim.simulate import simulate
 from uavplan.sim.vehicle import VehicleConfig
 
 pytestmark = pytest.mark.timeout(120)

@@ -9,10 +9,10 @@ import tracemalloc
 
 import numpy as np
 
+from uavplan.autopilot.simulate import TRACK_COLUMNS, simulate
 from uavplan.config import Autopilot
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.builder import build_mission
-from uavplan.sim.simulate import TRACK_COLUMNS, simulate
 
 HOME = GeoPoint(47.4, 8.5, 400.0)
 

@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 from mavlink_helpers import HOME, planned_scenario, synthetic_mission
 
+from uavplan.autopilot.kinematics import Profile, SCurve
+from uavplan.autopilot.model import EventKind, FlightModel, NavItem
+from uavplan.autopilot.params import ARDUPILOT_PARAMS, PX4_PARAMS, Parameters, UnknownParameter
+from uavplan.autopilot.power import X500
+from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline, simulate
 from uavplan.config import Autopilot
 from uavplan.mission.items import MavCmd, MissionItem
-from uavplan.sim.kinematics import Profile, SCurve
-from uavplan.sim.model import EventKind, FlightModel, NavItem
-from uavplan.sim.params import ARDUPILOT_PARAMS, PX4_PARAMS, Parameters, UnknownParameter
-from uavplan.sim.power import X500
-from uavplan.sim.simulate import MissionRefused, distance_to_polyline, simulate
 from uavplan.vehicle import air_density_kg_m3, electrical_power_w, hover_power_w
 
 AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4

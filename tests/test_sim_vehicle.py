@@ -11,6 +11,7 @@ from dataclasses import replace
 import pytest
 from mavlink_helpers import HOME, synthetic_mission
 
+from uavplan.autopilot.simulate import simulate
 from uavplan.mavlink.messages import (
     BatteryStatus,
     CommandAck,
@@ -45,7 +46,6 @@ from uavplan.mavlink.modes import px4_custom_mode
 from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
 from uavplan.sim.faults import Faults
-from uavplan.sim.simulate import simulate
 from uavplan.sim.vehicle import MAX_CATCH_UP_S, SimVehicle, VehicleConfig
 
 AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4

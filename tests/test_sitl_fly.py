@@ -25,13 +25,13 @@ import sitl_flight as sf
 from click.testing import CliRunner
 from track_check import fence_clearance, scenario_clearance
 
+from uavplan.autopilot.params import param_table
 from uavplan.cli import main
 from uavplan.mavlink.modes import ModeKind, mode_from_heartbeat
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.mission.track import Track
 from uavplan.scenario import load_scenario
-from uavplan.sim.params import param_table
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 

@@ -133,8 +133,8 @@ def test_a_px4_survey_keeps_the_tracking_allowance_as_flown(tmp_path: Path) -> N
 
 @pytest.mark.parametrize("trigger", ["distance", "hover"])
 def test_simulate_counts_the_photos_the_lanes_take(tmp_path: Path, trigger: str) -> None:
+    from uavplan.autopilot.camera import photo_positions
     from uavplan.rehearsal import rehearse
-    from uavplan.sim.camera import photo_positions
 
     f = _file(tmp_path, survey={**FIELD["survey"], "trigger": trigger})
     out = tmp_path / "field.plan"

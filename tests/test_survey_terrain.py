@@ -14,9 +14,9 @@ from test_end_to_end import independent_ground
 from uavplan.app.feedback import Feedback
 from uavplan.app.plan import PlanRequest, plan
 from uavplan.app.survey import SurveyOutcome
+from uavplan.autopilot.camera import photo_positions
 from uavplan.geo import EnuFrame
 from uavplan.mission.items import MavFrame
-from uavplan.sim.camera import photo_positions
 from uavplan.surveying import HAG_TOLERANCE_M, lane_profile
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -145,8 +145,7 @@ def test_pictures_label_heights_above_the_ground_and_amsl(ridge: dict[str, Path]
     """The colour bar gives the obstacles' heights above the ground (35 and 60 m), the contour
     labels and the 3-D view's height axis altitudes AMSL. Before: "obstacle height 476-477.75"
     and contours in the datum."""
-    from uavplan.planning import scene_for
-    from uavplan.render import draw_scene
+    from uavplan.render import draw_scene, scene_for
 
     scn = load_scenario(ridge["terrain"])
     fig = draw_scene(scene_for(scn))

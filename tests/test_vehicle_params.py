@@ -23,6 +23,7 @@ import pytest
 from click.testing import CliRunner, Result
 from mavlink_helpers import HOME, client_conn, running_mock, synthetic_mission
 
+from uavplan.autopilot.params import Parameters, param_table
 from uavplan.cli import main
 from uavplan.errors import InputError
 from uavplan.geo import EnuFrame
@@ -31,7 +32,6 @@ from uavplan.mavlink.parameters import ParamMachine, ParamRequest, ParamStatus
 from uavplan.mission.builder import build_mission
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType, VehicleParameter
-from uavplan.sim.params import Parameters, param_table
 from uavplan.sim.vehicle import SimVehicle, VehicleConfig
 
 pytestmark = pytest.mark.timeout(180)

@@ -15,6 +15,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from uavplan.autopilot.model import FlightModel, nav_items
+from uavplan.autopilot.params import Parameters
+from uavplan.autopilot.simulate import simulate
 from uavplan.cli import main
 from uavplan.config import Autopilot
 from uavplan.flight import Flight, check_flight, flight_of_mission
@@ -24,9 +27,6 @@ from uavplan.mission.items import MavCmd, MissionType
 from uavplan.obstacles import BoxObstacle
 from uavplan.planning import build_world
 from uavplan.scenario import load_scenario
-from uavplan.sim.model import FlightModel, nav_items
-from uavplan.sim.params import Parameters
-from uavplan.sim.simulate import simulate
 from uavplan.wayhome import prove_rtl, unsafe_returns
 from uavplan.world import World
 
@@ -421,8 +421,8 @@ def test_a_px4_return_during_the_mission_flies_it_on_to_the_planned_landing(
 
 
 def test_ardupilots_return_stays_under_an_enabled_altitude_fence() -> None:
-    from uavplan.sim.params import flight_limits
-    from uavplan.sim.rtl import return_altitude_m
+    from uavplan.autopilot.params import flight_limits
+    from uavplan.autopilot.rtl import return_altitude_m
 
     high = {"RTL_ALT": 8000.0}
     fenced = {**high, "FENCE_ENABLE": 1.0, "FENCE_ALT_MAX": 50.0}

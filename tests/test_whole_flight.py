@@ -23,6 +23,7 @@ from click.testing import CliRunner
 from mavlink_helpers import client_conn, running_mock
 from track_check import scenario_clearance
 
+from uavplan.autopilot.params import Parameters, flight_limits
 from uavplan.cli import main
 from uavplan.config import Autopilot
 from uavplan.flight import Flight
@@ -31,7 +32,6 @@ from uavplan.mission.track import Track
 from uavplan.obstacles import BoxObstacle
 from uavplan.rehearsal import CheckSite, conditions_of
 from uavplan.scenario import load_scenario
-from uavplan.sim.params import Parameters, flight_limits
 from uavplan.sim.vehicle import VehicleConfig
 from uavplan.verdict import held_parameters, judge_flight
 from uavplan.wayhome import prove_rtl

@@ -97,11 +97,11 @@ def simulated_table() -> list[str]:
     from pathlib import Path
 
     from uavplan.app.check import read_mission_flight
+    from uavplan.autopilot.simulate import simulate
     from uavplan.estimate import estimate_mission
     from uavplan.mission.io import mission_text
     from uavplan.planning import mission_for, plan_route
     from uavplan.scenario import load_scenario
-    from uavplan.sim.simulate import simulate
 
     rows = [
         "| scenario | autopilot | end | estimate s | simulated s | estimate Wh | simulated Wh "

@@ -3,7 +3,7 @@
 For every scenario (default: every ``missions/*.yaml``) and both flavours, the mission is
 planned by the command line as a user would (``uavplan plan S -o M.plan --autopilot F``, the
 scenario's own seed), then flown through the flight model in this process
-(:func:`uavplan.sim.simulate.simulate`, the take-off to the end the mission asks for, calm
+(:func:`uavplan.autopilot.simulate.simulate`, the take-off to the end the mission asks for, calm
 air) ``--repeat`` times. The table gives the simulated flight (take-off to touchdown, the same
 in every repeat) and the fastest wall time of a run, with the date and the machine's load
 (docs/flight-model.md, "How fast, how close"):
@@ -22,9 +22,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from uavplan.autopilot.simulate import simulate
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import Autopilot
-from uavplan.sim.simulate import simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -357,8 +357,8 @@ HAG_TOLERANCE_M = 2.0
 
 def photo_heights(scn: Any, flown: Any) -> np.ndarray:
     """The height above the ground (m) of every photo the flight model took."""
+    from uavplan.autopilot.camera import photo_positions
     from uavplan.geo import EnuFrame
-    from uavplan.sim.camera import photo_positions
 
     photos = photo_positions(flown)  # ENU at home, z above home
     home = EnuFrame.at(flown.home)

@@ -17,7 +17,7 @@ file against a scenario, or a scenario's straight route) and the physical fitnes
   air at the goal).
 
 The autopilot's defaults come from the simulated vehicle's parameter tables
-(:mod:`uavplan.sim.params`, each with its source), so the estimate and ``simulate`` fly by
+(:mod:`uavplan.autopilot.params`, each with its source), so the estimate and ``simulate`` fly by
 the same numbers. Corners, accelerations and the RTL cone are not modelled here (the
 simulation flies them; docs/energy.md says how far the two differ).
 """
@@ -37,10 +37,10 @@ from uavplan.errors import InputError
 from uavplan.mission.items import MavCmd, MissionPlan
 
 if TYPE_CHECKING:
+    from uavplan.autopilot.simulate import FlownTrack
     from uavplan.flight import Flight
-    from uavplan.sim.simulate import FlownTrack
+from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits
 from uavplan.scenario import Scenario
-from uavplan.sim.params import FlightLimits, Parameters, flight_limits
 from uavplan.vehicle import DEFAULT_RESERVE_PCT, FlightEnergy, Legs, VehicleProfile, Wind
 from uavplan.vehicle import flight_energy as _flight_energy
 

@@ -35,7 +35,7 @@ from uavplan.route import Follow, keeps_margin
 from uavplan.world import CEILING, GROUND, World
 
 if TYPE_CHECKING:
-    from uavplan.sim.simulate import FlownTrack
+    from uavplan.autopilot.simulate import FlownTrack
 
 #: consecutive points closer than this horizontally are "the same place" (a climb or a
 #: descent): files round positions to about a centimetre

@@ -38,7 +38,7 @@ from uavplan.path.post import (
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.registry import make_planner
 from uavplan.route import PlannedRoute, densify, flown_polyline
-from uavplan.scenario import Scenario, Site, Surroundings, resolved_config
+from uavplan.scenario import Scenario, resolved_config
 from uavplan.warmup import warm_up
 from uavplan.world import World
 from uavplan.worlds import build_world, enu_frame
@@ -48,7 +48,6 @@ if TYPE_CHECKING:
     from uavplan.mission.fence import FenceBuild, Footprint
     from uavplan.mission.items import MissionPlan
     from uavplan.planners.astar import GridRoute
-    from uavplan.render import Scene
 
 
 _Point = tuple[float, float, float]
@@ -855,52 +854,3 @@ def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:
         return_ground_z_m=route.return_ground_z_m,
         return_stops=route.return_stops,
     )
-
-
-def scene_for(scenario: Scenario) -> Scene:
-    """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
-    scene = _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
-    if scenario.airspace is None:
-        return scene
-    return replace(scene, zone_labels=scenario.airspace.picture_labels())
-
-
-def _scene(name: str, site: Site, margin_m: float, written: Sequence[Obstacle]) -> Scene:
-    """``written``: the obstacles as the file gives them (over terrain, their heights above
-    the ground, which the picture's colour bar shows)."""
-    from uavplan.render import Scene
-
-    sx, sy, sz = (float(v) for v in site.start_m)
-    gx, gy, gz = (float(v) for v in site.goal_m)
-    terrain = None
-    if site.ground is not None:
-        (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
-        xs, ys = np.linspace(x0, x1, 80), np.linspace(y0, y1, 80)
-        grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-        terrain = (xs, ys, site.ground.z_at(grid).reshape(len(ys), len(xs)))
-    return Scene(
-        name=name,
-        bounds=site.bounds,
-        obstacles=site.obstacles,
-        safety_margin_m=margin_m,
-        start_enu=(sx, sy, sz),
-        goal_enu=(gx, gy, gz),
-        terrain=terrain,
-        via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
-        datum_amsl_m=site.datum_amsl_m,
-        heights_agl_m=None if site.ground is None else tuple(float(o.height_m) for o in written),
-    )
-
-
-def scene_around(around: Surroundings) -> Scene:
-    """The picture's scene of a scenario file whose route points are not valid (``render
-    --no-plan``): its obstacles, bounds and terrain, and the points where the file puts them."""
-    from uavplan.scenario.site import flat_site, terrain_site
-
-    assert around.start_m is not None and around.goal_m is not None
-    args = (around.origin, around.bounds, around.start_m, around.goal_m, around.via_m)
-    if around.terrain is None:
-        site = flat_site(*args, around.obstacles, around.safety_margin_m)
-    else:
-        site = terrain_site(*args, around.obstacles, around.safety_margin_m, around.terrain)
-    return _scene(around.name, site, around.safety_margin_m, around.obstacles)

@@ -3,7 +3,7 @@ flown track with the one mission check (:mod:`uavplan.flown_safe` plans the rout
 safe as flown).
 
 :func:`rehearse` flies a :class:`~uavplan.mission.items.MissionPlan` through
-:func:`uavplan.sim.simulate.simulate` (the same model the simulated vehicle flies) and, with
+:func:`uavplan.autopilot.simulate.simulate` (the same model the simulated vehicle flies) and, with
 a scenario, measures the track with :func:`uavplan.flight.check_flight`: the mission's part
 (take-off to where the autopilot's return to launch begins, or the landing) against the
 scenario's margin, and the return leg apart (the autopilot flies it at its RTL altitude, it
@@ -28,18 +28,20 @@ from typing import Any
 
 import numpy as np
 
+from uavplan.autopilot.model import EventKind
+from uavplan.autopilot.params import Parameters
+from uavplan.autopilot.power import VehicleSpec
+from uavplan.autopilot.simulate import FlownTrack, distance_to_polyline, simulate
 from uavplan.config import Autopilot
 from uavplan.flight import FlightPrediction, TrackCheck, check_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground
+from uavplan.mavlink.modes import ModeKind, mode_named
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
 from uavplan.obstacles import Obstacle
 from uavplan.scenario import Scenario, Surroundings
 from uavplan.scenario.settings import DEFAULT_LEGAL_CEILING_M
-from uavplan.sim.params import Parameters
-from uavplan.sim.power import VehicleSpec
-from uavplan.sim.simulate import FlownTrack, distance_to_polyline, simulate
 from uavplan.world import World
 from uavplan.worlds import build_world, enu_frame, fence_world
 
@@ -101,8 +103,6 @@ class Rehearsal:
     @property
     def airborne_s(self) -> float | None:
         """Take-off to touchdown (None: the flight did not both take off and land)."""
-        from uavplan.sim.model import EventKind
-
         times = {e.kind: e.t_s for e in reversed(self.flown.events)}
         up, down = times.get(EventKind.TAKEOFF), times.get(EventKind.LANDED)
         if up is None or down is None:
@@ -262,10 +262,22 @@ def track_of(flown: FlownTrack, source: str) -> Track:
         relative_alt_m=flown.z_m,
         speed_m_s=flown.speed_m_s,
         current_seq=flown.current_seq,
-        mode=flown.modes(),
+        mode=modes_of(flown),
         source=source,
         autopilot=autopilot.label,
     )
+
+
+def modes_of(flown: FlownTrack) -> tuple[str, ...]:
+    """The flight mode the vehicle reports at each sample of ``flown``: PX4 Mission, then
+    Return from its RTL item; ArduPilot AUTO throughout (it flies the mission's RTL inside
+    AUTO)."""
+    mission = mode_named(flown.autopilot, ModeKind.MISSION).name
+    rtl_at = [e.t_s for e in flown.events if e.kind is EventKind.RTL]
+    if flown.autopilot != Autopilot.PX4 or not rtl_at:
+        return (mission,) * len(flown.t_s)
+    back = mode_named(flown.autopilot, ModeKind.RETURN).name
+    return tuple(back if t >= rtl_at[0] - 1e-9 else mission for t in flown.t_s)
 
 
 def rtl_start(flown: FlownTrack) -> int | None:
@@ -291,7 +303,7 @@ def conditions_of(scenario: Scenario) -> dict[str, Any]:
     """How ``scenario``'s vehicle flies: its power model (the profile it names, default x500)
     and its wind as one (east, north) vector, at the mean height of the flight volume above
     the ground (the flight model's wind does not vary with height)."""
-    from uavplan.sim.power import spec_for
+    from uavplan.autopilot.power import spec_for
 
     out: dict[str, Any] = {"vehicle": spec_for(scenario.vehicle.profile)}
     wind = scenario.wind
@@ -317,7 +329,7 @@ def rehearse(
     apart (``check`` false: the flight only, over ``site``'s ground; the whole flight's
     verdict, :func:`uavplan.verdict.judge_flight`, checks it as one).
 
-    Raises :class:`~uavplan.sim.simulate.MissionRefused` (exit 2) when the autopilot would
+    Raises :class:`~uavplan.autopilot.simulate.MissionRefused` (exit 2) when the autopilot would
     refuse to start the mission, ``ValueError`` for a plan without a home."""
     flavour = autopilot or plan.autopilot
     if plan.home is None:
@@ -382,7 +394,7 @@ DEVIATION_CHUNK = 256
 
 def max_deviation_m(points: np.ndarray, polyline: np.ndarray) -> float:
     """The largest distance of ``points`` ``(n, 3)`` from the polyline ``(m, 3)``: the
-    maximum of :func:`~uavplan.sim.simulate.distance_to_polyline`, the same value, in memory
+    maximum of :func:`~uavplan.autopilot.simulate.distance_to_polyline`, the same value, in memory
     and time that grow with n (0.0 for no points).
 
     That function measures every point against every segment at once, n × (m − 1) triples of

@@ -1,7 +1,7 @@
 """Pictures of a scenario and a route: a 3-D view and a top view side by side (PNG).
 
 :func:`render_scene` draws a :class:`Scene` (plain values: obstacles, bounds, margin, start
-and goal; ``uavplan.planning.scene_for`` makes one from a scenario) with the obstacles as
+and goal; ``scene_for`` makes one from a scenario) with the obstacles as
 solids coloured by height, the start and the goal, and whatever :class:`RouteLayers` it is
 given: the planner's raw best path (its node polyline), the smoothed path, and the route the
 autopilot flies. For a route that was just planned that is its
@@ -24,7 +24,7 @@ import inspect
 import io
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -38,6 +38,7 @@ from uavplan.mission.fence import FenceBuild, Footprint, ZoneStatus, footprints_
 from uavplan.mission.items import MissionPlan
 from uavplan.obstacles import Bounds, Obstacle
 from uavplan.route import PlannedRoute
+from uavplan.scenario import Scenario, Site, Surroundings
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -80,7 +81,7 @@ class Scene:
     """What a picture shows besides the route: plain values in one ENU frame (metres).
 
     ``obstacles``: :mod:`uavplan.obstacles` values or footprints (kept as footprints);
-    ``start_enu`` / ``goal_enu``: ``(x, y, z)``. ``uavplan.planning.scene_for`` makes one
+    ``start_enu`` / ``goal_enu``: ``(x, y, z)``. ``scene_for`` makes one
     from a scene.
     """
 
@@ -865,3 +866,50 @@ def route_subtitle(route: PlannedRoute, *, algorithm: str, seed: int, energy: fl
         f"energy {energy:.1f}, min clearance {route.min_clearance_m:.2f} m "
         f"(margin {route.safety_margin_m:g} m)"
     )
+
+
+def scene_for(scenario: Scenario) -> Scene:
+    """The plain values a picture of ``scenario`` draws (obstacles, bounds, margin, ends)."""
+    scene = _scene(scenario.name, scenario.site, scenario.safety_margin_m, scenario.obstacles)
+    if scenario.airspace is None:
+        return scene
+    return replace(scene, zone_labels=scenario.airspace.picture_labels())
+
+
+def _scene(name: str, site: Site, margin_m: float, written: Sequence[Obstacle]) -> Scene:
+    """``written``: the obstacles as the file gives them (over terrain, their heights above
+    the ground, which the picture's colour bar shows)."""
+    sx, sy, sz = (float(v) for v in site.start_m)
+    gx, gy, gz = (float(v) for v in site.goal_m)
+    terrain = None
+    if site.ground is not None:
+        (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
+        xs, ys = np.linspace(x0, x1, 80), np.linspace(y0, y1, 80)
+        grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+        terrain = (xs, ys, site.ground.z_at(grid).reshape(len(ys), len(xs)))
+    return Scene(
+        name=name,
+        bounds=site.bounds,
+        obstacles=site.obstacles,
+        safety_margin_m=margin_m,
+        start_enu=(sx, sy, sz),
+        goal_enu=(gx, gy, gz),
+        terrain=terrain,
+        via_enu=tuple((float(x), float(y), float(z)) for x, y, z in site.via_m),
+        datum_amsl_m=site.datum_amsl_m,
+        heights_agl_m=None if site.ground is None else tuple(float(o.height_m) for o in written),
+    )
+
+
+def scene_around(around: Surroundings) -> Scene:
+    """The picture's scene of a scenario file whose route points are not valid (``render
+    --no-plan``): its obstacles, bounds and terrain, and the points where the file puts them."""
+    from uavplan.scenario.site import flat_site, terrain_site
+
+    assert around.start_m is not None and around.goal_m is not None
+    args = (around.origin, around.bounds, around.start_m, around.goal_m, around.via_m)
+    if around.terrain is None:
+        site = flat_site(*args, around.obstacles, around.safety_margin_m)
+    else:
+        site = terrain_site(*args, around.obstacles, around.safety_margin_m, around.terrain)
+    return _scene(around.name, site, around.safety_margin_m, around.obstacles)

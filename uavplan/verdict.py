@@ -37,14 +37,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
+from uavplan.autopilot.power import VehicleSpec
+from uavplan.autopilot.simulate import FlownTrack
 from uavplan.config import Autopilot
 from uavplan.flight import TrackCheck, flight_of_track
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearsal_of, rehearse, tracking_allowance_m
-from uavplan.sim.params import FlightLimits, Parameters, flight_limits, param_table
-from uavplan.sim.power import VehicleSpec
-from uavplan.sim.simulate import FlownTrack
 from uavplan.wayhome.proof import (
     RETURN_BOUNDS_PAD_M,
     RTL_PARAMETERS,
@@ -413,10 +413,10 @@ def held_parameters(
     autopilot: Autopilot,
     given: Mapping[str, float] | None = None,
 ) -> tuple[Parameters, tuple[str, ...], tuple[str, ...]]:
-    """What the vehicle will hold: the firmware's defaults (:mod:`uavplan.sim.params`),
+    """What the vehicle will hold: the firmware's defaults (:mod:`uavplan.autopilot.params`),
     overlaid by ``plan``'s parameters (those the flight model knows, in ``autopilot``'s own
     table), overlaid by ``given`` (unknown names raise
-    :class:`~uavplan.sim.params.UnknownParameter`). Returns (parameters, the names taken
+    :class:`~uavplan.autopilot.params.UnknownParameter`). Returns (parameters, the names taken
     from the plan, the names given)."""
     known = {row.name for row in param_table(autopilot)}
     values: dict[str, float] = {}
@@ -447,7 +447,7 @@ def judge_flight(
 
     ``autopilot``: the flavour that flies it (default the plan's); ``params``: values the
     vehicle holds beyond the plan's (``simulate --param``; ``fly --accept-vehicle-params``
-    passes every value it read; a :class:`~uavplan.sim.params.Parameters` is taken as the
+    passes every value it read; a :class:`~uavplan.autopilot.params.Parameters` is taken as the
     whole set); ``wind_en_m_s`` and ``vehicle``: how the flight model flies it (the
     scenario's: :func:`uavplan.rehearsal.conditions_of`); ``track``: judge this flown track
     instead of flying the model (``fly``'s final check); ``failsafe``: also check a failsafe
@@ -455,7 +455,7 @@ def judge_flight(
     these conditions, already flown (``plan``'s rehearsal): used instead of flying it again
     when it was flown with exactly the parameters the vehicle will hold.
 
-    Raises :class:`~uavplan.sim.simulate.MissionRefused` (exit 2) when the autopilot would
+    Raises :class:`~uavplan.autopilot.simulate.MissionRefused` (exit 2) when the autopilot would
     refuse to start the mission, ``ValueError`` for a plan without a home."""
     flavour = autopilot or plan.autopilot
     if flavour not in RTL_PARAMETERS:

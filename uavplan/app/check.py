@@ -198,9 +198,9 @@ def judged(
     ``scenario`` as its vehicle flies it through its wind), or None when the flight model
     does not fly it (an autopilot it does not know, no home, a mission the autopilot would
     refuse to start: those are checked by their straight legs only)."""
+    from uavplan.autopilot.simulate import MissionRefused
     from uavplan.mission.items import Autopilot
     from uavplan.rehearsal import conditions_of
-    from uavplan.sim.simulate import MissionRefused
     from uavplan.verdict import judge_flight
 
     if plan.autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT) or plan.home is None:

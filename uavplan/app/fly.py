@@ -42,6 +42,7 @@ import numpy as np
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import check_output
+from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, LinkError, NoPathError
 from uavplan.fileio import InputFile
@@ -73,7 +74,6 @@ from uavplan.mission.track import Track, check_track_path, observed_stretches
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearse, return_seq
 from uavplan.route import keeps_margin
 from uavplan.scenario import Scenario, load_site
-from uavplan.sim.simulate import MissionRefused, distance_to_polyline
 from uavplan.world import CEILING, GROUND
 
 #: how far the vehicle's home may be from the plan's planned home before ``fly`` refuses
@@ -1366,7 +1366,7 @@ def _planned_legs(plan: MissionPlan, autopilot: Autopilot) -> tuple[np.ndarray, 
     """The planned route in the ENU frame at home, as the flight model draws it (home, the
     take-off's climb, each positional item: :meth:`FlownTrack.planned_polyline_enu`), and the
     wire seq of the item each point is (-1: home)."""
-    from uavplan.sim.model import nav_items
+    from uavplan.autopilot.model import nav_items
 
     assert plan.home is not None
     nav = nav_items(plan_wire_items(plan, MissionType.MISSION, autopilot), plan.home)

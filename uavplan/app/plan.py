@@ -30,10 +30,10 @@ from uavplan.scenario.values import is_survey_file
 
 if TYPE_CHECKING:
     from uavplan.app.survey import SurveyOutcome
+    from uavplan.autopilot.simulate import FlownTrack
     from uavplan.flight import FlightPrediction
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
-    from uavplan.sim.simulate import FlownTrack
     from uavplan.verdict import FlightVerdict
     from uavplan.wayhome.home import WayHome
 
@@ -248,8 +248,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             report_out.write_text(json.dumps(report, indent=2) + "\n")
         if plot_out is not None:
             # matplotlib (and the fence's outlines) load only for a picture
-            from uavplan.planning import scene_for
-            from uavplan.render import RouteLayers, render_png, route_subtitle
+            from uavplan.render import RouteLayers, render_png, route_subtitle, scene_for
 
             subtitle = route_subtitle(
                 route, algorithm=result.algorithm, seed=result.seed, energy=result.energy

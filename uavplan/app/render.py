@@ -18,8 +18,8 @@ from uavplan.app.outputs import OutputSet
 from uavplan.app.reroute import fence_scene
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.geo import EnuFrame
-from uavplan.planning import enu_frame, plan_route, scene_around, scene_for
-from uavplan.render import RouteLayers, Scene, render_png, route_subtitle
+from uavplan.planning import enu_frame, plan_route
+from uavplan.render import RouteLayers, Scene, render_png, route_subtitle, scene_around, scene_for
 from uavplan.route import keeps_margin
 from uavplan.scenario import Scenario, load_surroundings
 from uavplan.scenario.values import is_survey_file
@@ -304,8 +304,8 @@ def survey_layers(
     footprints (with a camera), in ``scn``'s frame."""
     import numpy as np
 
+    from uavplan.autopilot.camera import photo_positions
     from uavplan.scenario.values import load_survey_scenario
-    from uavplan.sim.camera import photo_positions
     from uavplan.survey import coverage
 
     _, spec = load_survey_scenario(source)

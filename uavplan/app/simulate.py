@@ -19,6 +19,7 @@ from pathlib import Path
 from uavplan.app.feedback import Feedback
 from uavplan.app.inputs import mission_kind
 from uavplan.app.outputs import check_output
+from uavplan.autopilot.params import ParameterValueError, parameters_from
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.fileio import InputFile
@@ -28,7 +29,6 @@ from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
 from uavplan.scenario import Scenario, load_site, load_surroundings
-from uavplan.sim.params import ParameterValueError, parameters_from
 from uavplan.verdict import FlightVerdict, held_parameters, judge_flight
 
 
@@ -151,7 +151,7 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         rehearsal = verdict.rehearsal
     else:
         rehearsal = rehearse(plan, None, autopilot=autopilot, params=held, **conditions)  # type: ignore[arg-type]
-    from uavplan.sim.camera import has_camera_items, photo_positions
+    from uavplan.autopilot.camera import has_camera_items, photo_positions
 
     if has_camera_items(rehearsal.flown):  # a survey: its camera items executed as flown
         feedback.say(f"photos: {len(photo_positions(rehearsal.flown))} taken as flown")

@@ -34,10 +34,10 @@ from uavplan.errors import InputError, LinkError
 from uavplan.mission.items import MissionPlan
 
 if TYPE_CHECKING:
+    from uavplan.autopilot.params import Parameters
     from uavplan.mavlink.link import VehicleLink
     from uavplan.mavlink.parameters import ParamClient, ParamRequest, ParamResult, ParamTimeouts
     from uavplan.scenario import Scenario
-    from uavplan.sim.params import Parameters
 
 # the MAVLink package loads inside the functions, so ``uavplan --help`` stays fast
 
@@ -195,8 +195,8 @@ def vehicle_values(
     """Every parameter of the flight model's table for ``autopilot`` as the vehicle holds it
     (read; one it does not answer keeps the table's default), the relied-upon ones as
     ``relied`` read them: the values the flight is proven again with."""
+    from uavplan.autopilot.params import Parameters, param_table
     from uavplan.mavlink.parameters import ParamRequest
-    from uavplan.sim.params import Parameters, param_table
 
     known = {r.name: r.old for r in relied if r.old is not None}
     rest = [

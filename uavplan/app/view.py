@@ -161,8 +161,8 @@ def mission_document_for(
     """The page's document of ``plan`` in ``scenario``: the mission check, the flight as
     flown (``flown``; else the track file ``track``; else the flight model's) and the way
     home."""
+    from uavplan.autopilot.simulate import MissionRefused
     from uavplan.rehearsal import CheckSite
-    from uavplan.sim.simulate import MissionRefused
     from uavplan.view.build import flown_of_track, fly_mission, mission_document
 
     flight = mission_flight(plan, scenario, file=source)
@@ -213,9 +213,9 @@ def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> lis
     return would): the one whole-flight verdict (:func:`uavplan.verdict.judge_flight`, the
     mission flown with the parameters it relies on, take-off to touchdown, and a failsafe
     return from every point), worded as every other command words it."""
+    from uavplan.autopilot.simulate import MissionRefused
     from uavplan.mission.items import MavCmd
     from uavplan.rehearsal import CheckSite, conditions_of
-    from uavplan.sim.simulate import MissionRefused
     from uavplan.verdict import judge_flight
 
     if plan.home is None or plan.autopilot not in FLOWN_AUTOPILOTS or len(flight.points_enu) < 2:

@@ -395,13 +395,13 @@ def mock_vehicle_cmd(
     the mission it holds once armed and started (docs/flight-model.md). --loss and
     --duplicate inject packet faults deterministically.
     """
+    from uavplan.autopilot.params import ParameterValueError, parameters_from
+    from uavplan.autopilot.power import spec_for
     from uavplan.mavlink.transfer import check_plan_fits_wire, plan_wire_items
     from uavplan.mission.io import load_mission
     from uavplan.mission.items import Autopilot, MissionType
     from uavplan.sim.faults import Faults
     from uavplan.sim.mock import MockVehicle
-    from uavplan.sim.params import ParameterValueError, parameters_from
-    from uavplan.sim.power import spec_for
     from uavplan.sim.vehicle import VehicleConfig
     from uavplan.vehicle import resolve
 

@@ -1,5 +1,5 @@
 """Where a mission's camera items ask for photos, on its straight legs: the photos it plans
-(the flight model's, taken along the track as flown, are :mod:`uavplan.sim.camera`'s).
+(the flight model's, taken along the track as flown, are :mod:`uavplan.autopilot.camera`'s).
 
 * MAV_CMD_DO_SET_CAM_TRIGG_DIST (206): a distance > 0 starts distance triggering (param3 = 1:
   one photo at once), a photo every ``distance`` metres of horizontal path after that; 0

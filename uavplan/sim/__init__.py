@@ -1,24 +1,16 @@
-"""The simulated vehicle: a kinematic multirotor flying missions as PX4 or ArduPilot Copter.
+"""The simulated vehicle: a multirotor that speaks MAVLink as PX4 or ArduPilot Copter does and
+flies the missions it holds with the flight model of :mod:`uavplan.autopilot`.
 
-Layers (each module imports only the ones above it, and the vocabulary, mission and
-mavlink layers of the package; nothing below :mod:`uavplan.sim` imports it):
+Only the I/O loop's command (``uavplan mock-vehicle``) and the tests use it; nothing in
+planning, the way home, the estimate or ``fly`` imports it. Its modules, each importing only
+the ones above it (and the vocabulary, mission, mavlink and autopilot layers):
 
-- :mod:`.params` - each flavour's parameter table (name, default, unit, source) and the SI
-  limits the flight model reads from it;
-- :mod:`.kinematics` - vectors, speed profiles, wind, the firmwares' trajectory maths;
-- :mod:`.model` - the flight model (:class:`~.model.FlightModel`): take-off, waypoints with
-  each flavour's corners, landing, RTL, DO_CHANGE_SPEED, hold times, in simulated time;
-- :mod:`.power` - the battery and the one function that says how much power is drawn;
-- :mod:`.simulate` - :func:`~.simulate.simulate`: a mission plan → the flown track, no link;
 - :mod:`.faults` - the one fault model (link, mission protocol, flight);
 - :mod:`.mission_server` - the vehicle side of the mission protocol, sans-I/O;
 - :mod:`.vehicle` - :class:`~.vehicle.SimVehicle`, the whole vehicle as a sans-I/O state
   machine (modes, arming, telemetry, parameters, the mission server, the flight model);
 - :mod:`.mock` - :class:`~.mock.MockVehicle`, the thin I/O loop that puts it on a real
-  MAVLink endpoint (``uavplan mock-vehicle``);
-
-What the flight model covers and what it leaves out, with every parameter's source:
-docs/flight-model.md.
+  MAVLink endpoint (``uavplan mock-vehicle``).
 """
 
 from __future__ import annotations
@@ -29,13 +21,9 @@ from typing import Any
 #: public name -> module that defines it; imported on first use
 _EXPORTS = {
     "Faults": "faults",
-    "FlightModel": "model",
-    "FlownTrack": "simulate",
     "MockVehicle": "mock",
-    "Parameters": "params",
     "SimVehicle": "vehicle",
     "VehicleConfig": "vehicle",
-    "simulate": "simulate",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -17,13 +17,13 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from uavplan.autopilot.model import FlightEvent
 from uavplan.mavlink.connection import MavlinkConnection
 from uavplan.mavlink.messages import Message, MissionItemInt
 from uavplan.mavlink.modes import FlightMode
 from uavplan.mavlink.transport import ConnectionSpec
 from uavplan.mission.items import Autopilot, MissionItem, MissionType
 from uavplan.sim.faults import Faults
-from uavplan.sim.model import FlightEvent
 from uavplan.sim.vehicle import SimVehicle, VehicleConfig
 
 __all__ = ["MockVehicle", "VehicleSnapshot", "VehicleStats"]

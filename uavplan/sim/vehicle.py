@@ -42,6 +42,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from struct import error as struct_error
 
+from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, nav_items
+from uavplan.autopilot.model import PX4_MIS_TAKEOFF_ALT_M as PX4_TAKEOFF_ALT_M  # one value
+from uavplan.autopilot.params import Parameters, ParamSpec, ParamType, UnknownParameter
+from uavplan.autopilot.power import X500, Battery, PowerState, VehicleSpec
+from uavplan.autopilot.simulate import MissionRefused, check_startable
 from uavplan.geo import GeoPoint
 from uavplan.mavlink.messages import (
     SYS_STATUS_PREARM_CHECK,
@@ -91,11 +96,6 @@ from uavplan.mavlink.modes import (
 from uavplan.mission.items import Autopilot, MissionItem, MissionType, deg_to_e7
 from uavplan.sim.faults import FaultInjector, Faults
 from uavplan.sim.mission_server import MISSION_MESSAGES, MissionServer
-from uavplan.sim.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, nav_items
-from uavplan.sim.model import PX4_MIS_TAKEOFF_ALT_M as PX4_TAKEOFF_ALT_M  # one value
-from uavplan.sim.params import Parameters, ParamSpec, ParamType, UnknownParameter
-from uavplan.sim.power import X500, Battery, PowerState, VehicleSpec
-from uavplan.sim.simulate import MissionRefused, check_startable
 
 __all__ = ["DEFAULT_HOME", "SimVehicle", "VehicleConfig"]
 

@@ -106,9 +106,9 @@ def fly_mission(
 ) -> Flown:
     """``plan`` flown through the flight model in ``scenario`` (its vehicle and wind) with
     the parameters the plan relies on (its RTL altitude: what ``upload --set-params`` sets)
-    and ``params`` over them. Raises :class:`~uavplan.sim.simulate.MissionRefused` when the
+    and ``params`` over them. Raises :class:`~uavplan.autopilot.simulate.MissionRefused` when the
     autopilot would not start it."""
-    from uavplan.sim.params import param_table
+    from uavplan.autopilot.params import param_table
 
     flavour = autopilot or plan.autopilot
     known = {spec.name for spec in param_table(flavour)}

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from uavplan.autopilot.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
 from uavplan.config import Autopilot
 from uavplan.flight import Flight, flight_of_track
 from uavplan.mission.items import VehicleParameter
@@ -33,7 +34,6 @@ from uavplan.planning import (
 )
 from uavplan.route import PlannedRoute
 from uavplan.scenario import Scenario
-from uavplan.sim.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
 from uavplan.wayhome.proof import (
     ARDUPILOT_FENCE_MARGIN_M,
     RETURN_BOUNDS_PAD_M,
@@ -48,7 +48,7 @@ from uavplan.wayhome.proof import (
 from uavplan.world import World
 
 if TYPE_CHECKING:
-    from uavplan.sim.simulate import FlownTrack
+    from uavplan.autopilot.simulate import FlownTrack
 
 __all__ = [
     "LANDING",

@@ -1,7 +1,7 @@
 """The way home, proven: does the autopilot's own return to launch keep the margin from every
 point of the flight, and from which RTL altitude up?
 
-Both firmwares return the same way (:mod:`uavplan.sim.rtl` holds the altitude rule, which the
+Both firmwares return the same way (:mod:`uavplan.autopilot.rtl` holds the altitude rule, which the
 flight model flies too): the vehicle **brakes** (it goes on along its velocity to its
 stopping point), climbs to the return altitude (if below it), flies straight home at it and
 descends at home. :func:`prove_rtl` checks that return from points every ``step_m`` along
@@ -36,7 +36,7 @@ trigger point cleared by 9.22 m):
 terrain's solids: from below the ground up to a height), so a point's distance to them never
 shrinks as the point rises. The brake does not depend on A; a return's climb is nearest to
 them at its bottom (the same for every A); its leg home lies higher when A is higher (the
-return altitude never decreases with A, :func:`~uavplan.sim.rtl.return_altitude_m`), and the
+return altitude never decreases with A, :func:`~uavplan.autopilot.rtl.return_altitude_m`), and the
 descent at home is nearest at the ground. So a return that keeps the margin at A keeps it at
 every higher A: the safe altitudes are an interval [lowest, ceiling], and the lowest is found
 by bisection (to 1 cm). The ceiling (the flight volume's top above home, less ArduPilot's
@@ -62,11 +62,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
+from uavplan.autopilot.rtl import ARDUPILOT_RTL_ALT_MIN_M, return_altitude_m
 from uavplan.config import Autopilot
 from uavplan.flight import Flight
 from uavplan.route import PlannedRoute, keeps_margin
-from uavplan.sim.params import FlightLimits, Parameters, flight_limits, param_table
-from uavplan.sim.rtl import ARDUPILOT_RTL_ALT_MIN_M, return_altitude_m
 from uavplan.world import GROUND, World
 
 __all__ = [

@@ -3,7 +3,7 @@
 :func:`simulate` is a pure function: a :class:`~uavplan.mission.items.MissionPlan` in, a
 :class:`FlownTrack` out. It arms the model at the plan's home, starts the mission as the
 autopilot does (ArduPilot from seq 1, after its home slot; PX4 from seq 0) and steps the
-same :class:`~uavplan.sim.model.FlightModel` the simulated vehicle flies, until the vehicle
+same :class:`~uavplan.autopilot.model.FlightModel` the simulated vehicle flies, until the vehicle
 has landed or the mission has ended in the air. A bundled mission takes a few tens of
 milliseconds (docs/flight-model.md).
 """
@@ -18,13 +18,20 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uavplan.autopilot.model import (
+    DEFAULT_DT_S,
+    EventKind,
+    FlightEvent,
+    FlightModel,
+    NavItem,
+    nav_items,
+)
+from uavplan.autopilot.params import Parameters
+from uavplan.autopilot.power import X500, VehicleSpec, power_w_array
 from uavplan.config import Autopilot
 from uavplan.errors import InputError
 from uavplan.geo import GeoPoint
 from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
-from uavplan.sim.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, NavItem, nav_items
-from uavplan.sim.params import Parameters
-from uavplan.sim.power import X500, VehicleSpec, power_w_array
 
 __all__ = [
     "FlownTrack",
@@ -130,18 +137,6 @@ class FlownTrack:
     @property
     def relative_alt_m(self) -> NDArray[np.float64]:
         return self.z_m
-
-    def modes(self) -> tuple[str, ...]:
-        """The flight mode the vehicle reports at each sample: PX4 Mission, then Return from
-        its RTL item; ArduPilot AUTO throughout (it flies the mission's RTL inside AUTO)."""
-        from uavplan.mavlink.modes import ModeKind, mode_named
-
-        mission = mode_named(self.autopilot, ModeKind.MISSION).name
-        rtl_at = [e.t_s for e in self.events if e.kind is EventKind.RTL]
-        if self.autopilot != Autopilot.PX4 or not rtl_at:
-            return (mission,) * len(self.t_s)
-        back = mode_named(self.autopilot, ModeKind.RETURN).name
-        return tuple(back if t >= rtl_at[0] - 1e-9 else mission for t in self.t_s)
 
     def reached(self) -> list[tuple[int, float]]:
         """(seq, time) of every mission item the vehicle completed, in order."""

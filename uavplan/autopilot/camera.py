@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from uavplan.mission.items import MavCmd
 
 if TYPE_CHECKING:
-    from uavplan.sim.simulate import FlownTrack
+    from uavplan.autopilot.simulate import FlownTrack
 
 _TRIGG_DIST = int(MavCmd.DO_SET_CAM_TRIGG_DIST)
 _CAPTURE = int(MavCmd.IMAGE_START_CAPTURE)

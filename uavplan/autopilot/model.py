@@ -4,7 +4,7 @@
 multirotor that tracks its guidance perfectly: position and velocity are the guidance's
 trajectory, limited by the flavour's speeds and accelerations (:mod:`.params`). It has no
 I/O and no clock of its own; :meth:`FlightModel.step` advances it by ``dt``. The same model
-flies the simulated vehicle (:mod:`.vehicle`) and :func:`uavplan.sim.simulate.simulate`, so a
+flies the simulated vehicle (:mod:`.vehicle`) and :func:`uavplan.autopilot.simulate.simulate`, so a
 flight against the vehicle and a simulation take the same time.
 
 Two guidance laws, one per flavour:
@@ -49,10 +49,7 @@ import math
 from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass, replace
 
-from uavplan.config import Autopilot
-from uavplan.geo import GeoPoint
-from uavplan.mission.items import MavCmd, MavFrame, MissionItem, canonical_frame
-from uavplan.sim.kinematics import (
+from uavplan.autopilot.kinematics import (
     Profile,
     SCurve,
     Vec,
@@ -68,8 +65,11 @@ from uavplan.sim.kinematics import (
     sub,
     unit,
 )
-from uavplan.sim.params import FlightLimits, Parameters, flight_limits
-from uavplan.sim.rtl import return_altitude_m
+from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits
+from uavplan.autopilot.rtl import return_altitude_m
+from uavplan.config import Autopilot
+from uavplan.geo import GeoPoint
+from uavplan.mission.items import MavCmd, MavFrame, MissionItem, canonical_frame
 
 __all__ = [
     "DEFAULT_DT_S",

@@ -3,7 +3,7 @@
 Pure functions and small value types, no I/O. Positions are ENU metres as plain
 ``(x, y, z)`` float tuples: the model steps one vehicle at a time, and for three numbers
 plain floats are several times faster than numpy arrays (the track is turned into arrays,
-vectorised, once it is flown: :mod:`uavplan.sim.simulate`).
+vectorised, once it is flown: :mod:`uavplan.autopilot.simulate`).
 """
 
 from __future__ import annotations

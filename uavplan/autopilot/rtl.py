@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.sim.params import FlightLimits
+from uavplan.autopilot.params import FlightLimits
 
 __all__ = ["ARDUPILOT_RTL_ALT_MIN_M", "ARDUPILOT_RTL_MIN_CONE_SLOPE", "return_altitude_m"]
 

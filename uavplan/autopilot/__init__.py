@@ -1,0 +1,47 @@
+"""The autopilot: what PX4 and ArduPilot Copter do with a mission, as pure functions of
+simulated time, with no link and no I/O.
+
+It imports only the vocabulary and the mission layer. Everything that needs to know how the
+firmware flies (the rehearsal of ``plan``, the way home, the estimate, the verdict, ``fly``,
+and the simulated vehicle of :mod:`uavplan.sim`) asks this layer. Its modules, each
+importing only the ones above it:
+
+- :mod:`.params` - each flavour's parameter table (name, default, unit, source) and the SI
+  limits the flight model reads from it;
+- :mod:`.kinematics` - vectors, speed profiles, wind, the firmwares' trajectory maths;
+- :mod:`.rtl` - the altitude each firmware returns at;
+- :mod:`.model` - the flight model (:class:`~.model.FlightModel`): take-off, waypoints with
+  each flavour's corners, landing, RTL, DO_CHANGE_SPEED, hold times, in simulated time;
+- :mod:`.power` - the battery and the one function that says how much power is drawn;
+- :mod:`.simulate` - :func:`~.simulate.simulate`: a mission plan → the flown track;
+- :mod:`.camera` - where a flown track takes its photos.
+
+What the flight model covers and what it leaves out, with every parameter's source:
+docs/flight-model.md.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: public name -> module that defines it; imported on first use
+_EXPORTS = {
+    "FlightModel": "model",
+    "FlownTrack": "simulate",
+    "Parameters": "params",
+    "simulate": "simulate",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
