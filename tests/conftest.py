@@ -13,6 +13,7 @@ import inspect
 from typing import Any
 
 import click.testing
+import pytest
 
 if "mix_stderr" in inspect.signature(click.testing.CliRunner.__init__).parameters:
 
@@ -33,3 +34,11 @@ if "mix_stderr" in inspect.signature(click.testing.CliRunner.__init__).parameter
             return result
 
     click.testing.CliRunner = _CliRunner  # type: ignore[misc]
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The tests that fly the real firmware (marker ``sitl``) are in the slow tier too: the
+    quick tier (``pytest -m "not slow"``) starts no SITL."""
+    for item in items:
+        if item.get_closest_marker("sitl") is not None:
+            item.add_marker(pytest.mark.slow)

@@ -3,7 +3,7 @@
 
 For each mission (planned first with ``uavplan plan``): the wall time of ``uavplan view
 M.plan --scenario S -o M.html`` (the whole command, as a user waits for it), the page's
-size and its obstacle mesh, and in headless Chromium (tests/browser.py; WebGL on the CPU
+size and its obstacle mesh, and in headless Chromium (tests/helpers/browser.py; WebGL on the CPU
 through SwiftShader, so slower than any browser with a GPU): the time from opening the file
 to the page drawn, one step of the replay (the vehicle moved in the 3-D view and the
 profile), and one step of turning the 3-D view with the mouse (a drag, the scene redrawn).
@@ -31,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from browser import Browser, unavailable  # noqa: E402
+from helpers.browser import Browser, unavailable  # noqa: E402
 
 MISSIONS = ("paper-env1", "helsinki-centre", "jacksboro-ridge")
 #: camera steps and replay steps timed in the browser

@@ -14,7 +14,7 @@ For each of missions/*.yaml and missions/qgc-inspection.plan, as PX4 and as Ardu
    --set-params`` (the parameters the mission relies on, then the mission) or nothing, and
    ``uavplan fly --scenario --track``;
 4. the whole track file, take-off to touchdown, checked by the end-to-end test's independent
-   distance computation (tests/track_check.py), and the flown time against the model's.
+   distance computation (tests/helpers/track_check.py), and the flown time against the model's.
 
 Each flight's outcome is one of: ``flown safely`` (fly exit 0, the track keeps the margin),
 ``refused before take-off`` (fly names what it refused, nothing flown), ``unsafe, reported``
@@ -45,7 +45,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from track_check import (  # noqa: E402  (the independent check lives with the tests)
+from helpers.track_check import (  # noqa: E402  (the independent check lives with the tests)
     fence_clearance,
     scenario_clearance,
     scenario_for,

@@ -3,8 +3,8 @@
 Each run flies the bundled narrow-gap mission (planned for the flavour) on a
 ``uavplan mock-vehicle`` process through a seeded UDP fault relay, with ``fly --scenario
 --track`` as a process, and judges it against what the vehicle really sent (the relay's
-record, before any fault): tests/fly_faults.py (the cases, the judgement) and
-tests/fault_relay.py (the relay). Prints one row per run (exit code, verdict, whether the
+record, before any fault): tests/helpers/fly_faults.py (the cases, the judgement) and
+tests/helpers/fault_relay.py (the relay). Prints one row per run (exit code, verdict, whether the
 track file is whole, the vehicle's final state, how long ``fly`` took to say the case's
 event in simulated seconds) and a summary of the times to notice, and exits 1 when any
 invariant broke: an exit 1, a hang, a traceback, an exit other than the case's, a track not
@@ -31,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from fly_faults import CASES, CaseResult, run_case  # noqa: E402  (the harness lives with the tests)
+from helpers.fly_faults import CASES, CaseResult, run_case  # noqa: E402  (the harness lives with the tests)
 
 from uavplan.mission.items import Autopilot  # noqa: E402
 

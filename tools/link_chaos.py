@@ -2,8 +2,8 @@
 """Link chaos table: uploads of a 200-item mission through a seeded fault proxy.
 
 Each run starts a fresh mock vehicle holding an old mission, puts a
-:class:`FaultProxy` (tests/faultproxy.py) in front of it and uploads a new mission
-with read-back verification, as ``uavplan upload`` does (see tests/chaos.py).
+:class:`FaultProxy` (tests/helpers/faultproxy.py) in front of it and uploads a new mission
+with read-back verification, as ``uavplan upload`` does (see tests/helpers/chaos.py).
 Cases:
 
 - ``lossy``: 20 % loss each way, 5 % duplicates, 5 % reordering, on every packet;
@@ -37,8 +37,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from chaos import RunResult, invariant_problem, run_upload, time_bound_s  # noqa: E402  (the harness lives with the tests)
-from faultproxy import MISSION_MESSAGE_IDS, ProxyFaults  # noqa: E402
+from helpers.chaos import RunResult, invariant_problem, run_upload, time_bound_s  # noqa: E402  (the harness lives with the tests)
+from helpers.faultproxy import MISSION_MESSAGE_IDS, ProxyFaults  # noqa: E402
 
 from uavplan.mavlink.protocol import ProtocolTimeouts  # noqa: E402
 from uavplan.mission.items import Autopilot  # noqa: E402

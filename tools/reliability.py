@@ -4,14 +4,14 @@ One command runs everything and writes the document (the command is written at i
 
     python tools/reliability.py --examples 500 --runs 50
 
-* the fuzz suites (``tests/test_fuzz_*.py``) with ``UAVPLAN_FUZZ_EXAMPLES`` examples per
+* the fuzz suites (``tests/**/test_fuzz_*.py``) with ``UAVPLAN_FUZZ_EXAMPLES`` examples per
   test: examples run and failed per hypothesis test (from hypothesis' statistics), and for
   the mission-file suite the outcome of every command run (exit codes, from
   ``UAVPLAN_FUZZ_REPORT``);
-* the user-mistake tests of issue 12 (``tests/test_user_errors.py``): each one, held or not;
+* the user-mistake tests of issue 12 (``tests/app/test_user_errors.py``): each one, held or not;
 * the link chaos table: ``python tools/link_chaos.py --markdown --runs N`` (its own
   command; a clear line when the tool is not there);
-* the mock-vehicle abuse and race tests (``tests/test_*abuse*.py``, ``*race*``, ``*chaos*``):
+* the mock-vehicle abuse and race tests (``tests/**/test_*abuse*.py``, ``*race*``, ``*chaos*``):
   trials run and held, per test;
 * ``uavplan fly`` under faults: ``python tools/fly_faults.py --markdown`` (its own command:
   every case of issue 31, both flavours, three seeds, judged against the vehicle's own
@@ -39,8 +39,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "reliability.md"
-MISSION_FUZZ = "tests/test_fuzz_mission_files.py"
-USER_ERRORS = "tests/test_user_errors.py"
+MISSION_FUZZ = "tests/mission/test_fuzz_mission_files.py"
+USER_ERRORS = "tests/app/test_user_errors.py"
 LINK_CHAOS = "tools/link_chaos.py"
 FLY_FAULTS = "tools/fly_faults.py"
 #: the fly fault table flies 72 missions of minutes: it gets this long at least
@@ -155,10 +155,10 @@ def _held(case: TestCase) -> str:
 
 
 def fuzz_section(examples: int, timeout_s: float) -> list[str]:
-    files = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "tests").glob("test_fuzz_*.py"))
+    files = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "tests").rglob("test_fuzz_*.py"))
     lines = ["## Fuzzing", ""]
     if not files:
-        return [*lines, "No fuzz suite (`tests/test_fuzz_*.py`) on this branch.", ""]
+        return [*lines, "No fuzz suite (`tests/**/test_fuzz_*.py`) on this branch.", ""]
     with tempfile.TemporaryDirectory() as tmp:
         report = Path(tmp) / "outcomes.json"
         run = run_pytest(
@@ -308,10 +308,10 @@ def fly_faults_section(timeout_s: float) -> list[str]:
 def abuse_section(timeout_s: float) -> list[str]:
     lines = ["## Mock vehicle under abuse, races", ""]
     files = sorted(
-        {str(p.relative_to(ROOT)) for g in ABUSE_GLOBS for p in (ROOT / "tests").glob(g)}
+        {str(p.relative_to(ROOT)) for g in ABUSE_GLOBS for p in (ROOT / "tests").rglob(g)}
     )
     if not files:
-        globs = ", ".join(f"`tests/{g}`" for g in ABUSE_GLOBS)
+        globs = ", ".join(f"`tests/**/{g}`" for g in ABUSE_GLOBS)
         return [*lines, f"No abuse or race tests ({globs}) on this branch.", ""]
     run = run_pytest(files, {}, timeout_s)
     groups: dict[tuple[str, str], list[TestCase]] = defaultdict(list)

@@ -3,7 +3,7 @@
 The way-home proof checks a straight return from each point of the route; the firmware
 first stops (ArduPilot: the S-curve from where it is to its stopping point, climbing;
 PX4: the navigator's RTL climb, the position setpoint smoothed to a stop) and turns only
-then. This flies, for each speed, a straight 800 m leg east at 30 m on SITL (tests/sitl.py),
+then. This flies, for each speed, a straight 800 m leg east at 30 m on SITL (tests/helpers/sitl.py),
 switches to RTL (``uavplan fly --on-interrupt rtl``, Ctrl-C) once the vehicle has held the
 speed for 200 m, and prints how far past that point the vehicle went along the leg before
 turning home, how long that took, and its altitude there; next to ``v²/(2a)`` with the
@@ -27,7 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-import sitl  # noqa: E402  (the SITL helpers live with the tests)
+from helpers import sitl  # noqa: E402  (the SITL helpers live with the tests)
 
 from uavplan.geo import EnuFrame, GeoPoint  # noqa: E402
 from uavplan.mission.io import save_mission  # noqa: E402

@@ -7,10 +7,10 @@ For each of missions/*.yaml and missions/qgc-inspection.plan, for each flavour:
    terrain frames, and a SITL without a ground station serving terrain data cannot fly
    ArduPilot's); the QGroundControl plan rerouted as it is;
 2. ``simulate`` with the flight model's defaults (what ``plan`` and ``simulate`` predict);
-3. the firmware started at the plan's home (tests/sitl.py; ``--speedup``), ``uavplan fly PLAN
-   --upload`` to the end, the track taken by an observer on its own link, stamped with the
-   vehicle's clock;
-4. both tracks measured alike (tests/sitl_flight.py): flight time and its phases (take-off,
+3. the firmware started at the plan's home (tests/helpers/sitl.py; ``--speedup``),
+   ``uavplan fly PLAN --upload`` to the end, the track taken by an observer on its own link, stamped
+   with the vehicle's clock;
+4. both tracks measured alike (tests/helpers/sitl_flight.py): flight time and its phases (take-off,
    route, end: return or landing), track deviation, the cut at each corner, the altitude
    error on the route, and each track's clearance from take-off to where the return begins.
 
@@ -44,9 +44,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-import sitl  # noqa: E402  (the SITL helpers live with the tests)
-import sitl_flight as sf  # noqa: E402
-from track_check import fence_clearance  # noqa: E402
+from helpers import sitl  # noqa: E402  (the SITL helpers live with the tests)
+from helpers import sitl_flight as sf  # noqa: E402
+from helpers.track_check import fence_clearance  # noqa: E402
 
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot  # noqa: E402

@@ -3,7 +3,7 @@
 prints a table.
 
 ``uavplan plan`` plans missions/surveys/survey-jacksboro-ridge.yaml for the flavour, then
-``uavplan fly --upload`` flies it on SITL (tests/sitl.py starts the firmware; the cache in
+``uavplan fly --upload`` flies it on SITL (tests/helpers/sitl.py starts the firmware; the cache in
 ``--flights`` keeps a flight for the same mission, flavour, speed-up and binary) and
 ``simulate``'s flight model flies the same plan. The lanes over the ridge climb and descend:
 per lane, the altitude of each track against the lane's planned line at the first photo
@@ -29,8 +29,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-import sitl  # noqa: E402  (the SITL helpers live with the tests)
-import sitl_flight as sf  # noqa: E402
+from helpers import sitl  # noqa: E402  (the SITL helpers live with the tests)
+from helpers import sitl_flight as sf  # noqa: E402
 
 from uavplan.mission.io import load_mission  # noqa: E402
 from uavplan.mission.items import Autopilot, MavCmd  # noqa: E402

@@ -2,7 +2,7 @@
 """Screenshots of the page of ``uavplan view`` for docs/view.md, taken by the test browser.
 
 Plans each bundled mission as the docs do (``uavplan plan M -o M.plan --view M.html``),
-opens the page in headless Chromium (tests/browser.py: Debian's ``chromium`` driven by
+opens the page in headless Chromium (tests/helpers/browser.py: Debian's ``chromium`` driven by
 Playwright), moves the replay to the middle of the flight and writes
 ``docs/images/view-NAME.png`` (the whole page, 1600 px wide):
 
@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from browser import Browser, unavailable  # noqa: E402
+from helpers.browser import Browser, unavailable  # noqa: E402
 
 MISSIONS = ("paper-env1", "helsinki-centre", "jacksboro-ridge")
 

@@ -110,7 +110,7 @@ def flight_of_mission(
 #: a landed vehicle's altitude estimate wanders by this much while it settles: samples this
 #: close to the track's final altitude are the landing, not a climb (PX4 SIH, landed in CI,
 #: reported 0.5 m, and on a later run 0.6 m, below home inside what the check took for the
-#: flight, "outside the flight volume", tests/test_sitl_fly.py)
+#: flight, "outside the flight volume", tests/sitl/test_sitl_fly.py)
 LANDED_NOISE_M = 1.0
 
 #: a flown landing drifts onto its landing point while it descends (PX4 starts the descent
@@ -431,7 +431,8 @@ def check_track(
         track, frame, datum_amsl_m=datum_amsl_m, takes_off=takes_off, lands=lands
     )
     first, last = flight.airborne
-    # sorted and unique without np.union1d (np.unique imports numpy.ma: tests/test_startup)
+    # sorted and unique without np.union1d (np.unique imports numpy.ma:
+    # tests/architecture/test_startup.py)
     ends = np.array([first, last], dtype=np.int64)
     kept: np.ndarray = np.sort(np.concatenate((thin_polyline(flight.points_enu), ends)))
     kept = kept[np.concatenate(([True], kept[1:] != kept[:-1]))].astype(np.int64)

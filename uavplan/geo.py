@@ -96,7 +96,8 @@ ECEF_CRS = "EPSG:4978"
 #: the operation PROJ chooses for GEODETIC_CRS → ECEF_CRS with ``always_xy`` (its
 #: ``Transformer.definition``), written out: built from this string the transformer needs no
 #: lookup in PROJ's database (13 ms on every plan, most of it reading the database; 0.5 ms
-#: without); the same numbers to the last bit (tests/test_geo.py compares it with ``from_crs``)
+#: without); the same numbers to the last bit (tests/world/test_geo.py compares it with
+#: ``from_crs``)
 GEODETIC_TO_ECEF = (
     "+proj=pipeline +step +proj=unitconvert +xy_in=deg +z_in=m +xy_out=rad +z_out=m "
     "+step +proj=cart +ellps=WGS84"
@@ -232,7 +233,7 @@ class EnuFrame:
     # The same steps as the array conversions above in scalar arithmetic (pyproj answers one
     # point in about 2 µs, against some 40 µs of numpy overhead per one-point array): for
     # callers that ask a point at a time, a simulated flight's ground under the vehicle.
-    # They agree with the array forms to about 1e-9 m (tests/test_geo.py).
+    # They agree with the array forms to about 1e-9 m (tests/world/test_geo.py).
     @cached_property
     def _rows(self) -> tuple[tuple[float, float, float], ...]:
         r = self._rotation

@@ -4,7 +4,7 @@ zones, and a base scenario's obstacles, as obstacles of a flight volume).
 
 ``plan`` and ``reroute`` plan in these worlds; ``fly``, ``simulate``, ``validate`` and the
 rehearsal only check in them, so they live below :mod:`uavplan.planning` and
-:mod:`uavplan.reroute` and import no planner (tests/test_layering.py holds the line).
+:mod:`uavplan.reroute` and import no planner (tests/architecture/test_layering.py holds the line).
 """
 
 from __future__ import annotations

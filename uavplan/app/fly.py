@@ -1366,7 +1366,7 @@ def _planned_legs(plan: MissionPlan, autopilot: Autopilot) -> tuple[np.ndarray, 
     """The planned route in the ENU frame at home, as the flight model draws it (home, the
     take-off's climb, each positional item: :meth:`FlownTrack.planned_polyline_enu`), and the
     wire seq of the item each point is (-1: home)."""
-    from uavplan.autopilot.model import nav_items
+    from uavplan.autopilot.nav import nav_items
 
     assert plan.home is not None
     nav = nav_items(plan_wire_items(plan, MissionType.MISSION, autopilot), plan.home)

@@ -10,8 +10,14 @@ importing only the ones above it:
   limits the flight model reads from it;
 - :mod:`.kinematics` - vectors, speed profiles, wind, the firmwares' trajectory maths;
 - :mod:`.rtl` - the altitude each firmware returns at;
-- :mod:`.model` - the flight model (:class:`~.model.FlightModel`): take-off, waypoints with
-  each flavour's corners, landing, RTL, DO_CHANGE_SPEED, hold times, in simulated time;
+- :mod:`.nav` - a mission read as the model flies it (:class:`~.nav.NavItem`: ENU positions
+  in the frame at home);
+- :mod:`.motion` - what moves the vehicle for one step, flavour aside: hold, brake, land;
+- :mod:`.ardupilot` and :mod:`.px4` - each flavour's waypoint guidance (AC_WPNav's S-curve
+  legs; FlightTaskAuto with PositionSmoothing);
+- :mod:`.model` - the flight model (:class:`~.model.FlightModel`): take-off, the mission's
+  items, landing, RTL, DO_CHANGE_SPEED, hold times, in simulated time, with the flavour's
+  guidance;
 - :mod:`.power` - the battery and the one function that says how much power is drawn;
 - :mod:`.simulate` - :func:`~.simulate.simulate`: a mission plan → the flown track;
 - :mod:`.camera` - where a flown track takes its photos.

@@ -4,10 +4,12 @@
 multirotor that tracks its guidance perfectly: position and velocity are the guidance's
 trajectory, limited by the flavour's speeds and accelerations (:mod:`.params`). It has no
 I/O and no clock of its own; :meth:`FlightModel.step` advances it by ``dt``. The same model
-flies the simulated vehicle (:mod:`.vehicle`) and :func:`uavplan.autopilot.simulate.simulate`, so a
-flight against the vehicle and a simulation take the same time.
+flies the simulated vehicle (:mod:`uavplan.sim.vehicle`) and
+:func:`uavplan.autopilot.simulate.simulate`, so a flight against the vehicle and a
+simulation take the same time.
 
-Two guidance laws, one per flavour:
+Two guidance laws, one per flavour (:mod:`.ardupilot`, :mod:`.px4`; this module runs the
+mission, take-off, landing and RTL around them):
 
 - **ArduPilot Copter** (AC_WPNav with S-curves, ``SCurve::advance_target_along_track``): each
   leg is a speed profile along the straight line from waypoint to waypoint, from rest to
@@ -29,7 +31,7 @@ Two guidance laws, one per flavour:
 On a leg to a terrain-frame item ArduPilot flies above the ground (AC_WPNav with
 ``terrain_alt``): the leg runs in heights above the ground, a vertical offset shaped within
 the climb and descent limits takes up the ground under the vehicle, and a lag of more than
-half of WPNAV_TER_MARGIN slows the vehicle along the track (``_ScurveTrack``,
+half of WPNAV_TER_MARGIN slows the vehicle along the track (``ardupilot.ScurveTrack``,
 docs/flight-model.md "Terrain-frame legs"). PX4 flies such an item at the ground under it
 plus its height, on a straight leg.
 
@@ -47,149 +49,35 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable, Generator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
+from uavplan.autopilot.ardupilot import ScurveTrack
 from uavplan.autopilot.kinematics import (
-    Profile,
-    SCurve,
     Vec,
-    add,
     dist_xy,
-    ground_speed_limit,
-    kinematic_limit,
-    max_speed_from_distance,
-    max_speed_in_waypoint,
-    norm,
-    scale,
-    sqrt_controller,
-    sub,
-    unit,
 )
-from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits
+from uavplan.autopilot.motion import TOUCHDOWN_M, Brake, Descend, Hold, Motion
+from uavplan.autopilot.nav import NavItem
+from uavplan.autopilot.params import Parameters, flight_limits
+from uavplan.autopilot.px4 import SmoothingTrack
 from uavplan.autopilot.rtl import return_altitude_m
 from uavplan.config import Autopilot
-from uavplan.geo import GeoPoint
-from uavplan.mission.items import MavCmd, MavFrame, MissionItem, canonical_frame
+from uavplan.mission.items import MavCmd
 
 __all__ = [
     "DEFAULT_DT_S",
     "EventKind",
     "FlightEvent",
     "FlightModel",
-    "NavItem",
-    "nav_items",
 ]
 
 #: the model's fixed step (simulated seconds)
 DEFAULT_DT_S = 0.1
-#: PX4 takes off to at least MIS_TAKEOFF_ALT when a mission starts on the ground with a
-#: waypoint (navigator/mission_params: 2.5 m)
-PX4_MIS_TAKEOFF_ALT_M = 2.5
-#: speeds below this count as standing still
-_STILL_M_S = 0.01
-_TOUCHDOWN_M = 0.01
-
-#: MAV_CMD values below this are NAV commands
-_FIRST_DO_COMMAND = 80
 _DO_JUMP = int(MavCmd.DO_JUMP)
 _DO_CHANGE_SPEED = int(MavCmd.DO_CHANGE_SPEED)
 _NAV_LOITER_TIME = 19
 _NAV_LOITER_UNLIM = int(MavCmd.NAV_LOITER_UNLIM)
 _DO_LAND_START = int(MavCmd.DO_LAND_START)
-
-
-# ---------------------------------------------------------------------------------------------
-# Mission items for the model
-
-
-@dataclass(frozen=True)
-class NavItem:
-    """A mission item as the model flies it: ``seq`` as on the wire, position in ENU metres
-    in the frame at home (``None`` for items without one, or at lat/lon 0: "here").
-
-    ``terrain_m``: for an item in a terrain frame, its height above the ground (its
-    ``position`` z is that height over the ground beneath it); ArduPilot follows the ground
-    on the leg to it. ``None`` for the other frames."""
-
-    seq: int
-    command: int
-    position: Vec | None = None
-    param1: float = 0.0
-    param2: float = 0.0
-    param3: float = 0.0
-    param4: float = 0.0
-    terrain_m: float | None = None
-
-    @property
-    def is_nav(self) -> bool:
-        return self.command < _FIRST_DO_COMMAND
-
-    @property
-    def is_position(self) -> bool:
-        return self.is_nav and self.position is not None
-
-
-def nav_items(
-    items: Sequence[MissionItem],
-    home: GeoPoint,
-    *,
-    ground_z: Callable[[float, float], float] | None = None,
-) -> tuple[NavItem, ...]:
-    """Wire-ordered mission items (ArduPilot's home at seq 0 included) → :class:`NavItem`.
-
-    Positions go into the ENU frame at ``home`` exactly as the mission builder made them
-    (:mod:`uavplan.mission.builder`): x/y where the ellipsoid normal through lat/lon meets
-    the ground plane, z the altitude above home (relative frames), AMSL minus home's
-    altitude (frame 0), or above the ground (terrain frames: ``ground_z(x, y)``, the
-    ground's height above home; flat ground without it). Vectorised: one conversion for all
-    items.
-    """
-    from uavplan.geo import EnuFrame
-
-    frame = EnuFrame.at(home)
-    located = [
-        i
-        for i, item in enumerate(items)
-        if item.is_global and item.command < _FIRST_DO_COMMAND and (item.x, item.y) != (0.0, 0.0)
-    ]
-    where: dict[int, tuple[float, float]] = {}
-    if located:
-        xy = frame.to_enu_xy([items[i].x for i in located], [items[i].y for i in located])
-        where = {index: (float(xy[k][0]), float(xy[k][1])) for k, index in enumerate(located)}
-    out: list[NavItem] = []
-    for seq, item in enumerate(items):
-        position: Vec | None = None
-        terrain_m: float | None = None
-        if seq in where:
-            x, y = where[seq]
-            frame_id = canonical_frame(item.frame)
-            if frame_id == MavFrame.GLOBAL:
-                z = item.z - home.alt_m
-            elif frame_id == MavFrame.GLOBAL_TERRAIN_ALT:
-                terrain_m = float(item.z)
-                z = item.z if ground_z is None else item.z + ground_z(x, y)
-            else:
-                z = item.z
-            position = (x, y, z)
-        elif item.is_global and item.command < _FIRST_DO_COMMAND:
-            # lat/lon 0: "where the vehicle is"; keep the altitude in the z slot of a marker
-            position = None
-        out.append(
-            NavItem(
-                seq=seq,
-                command=int(item.command),
-                position=position,
-                param1=item.param1 or 0.0,
-                param2=item.param2 or 0.0,
-                param3=item.param3 or 0.0,
-                param4=item.param4 or 0.0,
-                terrain_m=terrain_m,
-            )
-        )
-        if position is None and item.is_global and item.command == MavCmd.NAV_TAKEOFF:
-            # a take-off at lat/lon 0 still carries its altitude
-            out[-1] = replace(out[-1], position=(math.nan, math.nan, float(item.z)))
-    return tuple(out)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -214,578 +102,7 @@ class FlightEvent:
     seq: int | None = None
 
 
-# ---------------------------------------------------------------------------------------------
-# Motions: what moves the vehicle for one step
-
-
-class _Motion:
-    """Moves ``pos``/``vel`` by one step. ``done`` when it has finished."""
-
-    pos: Vec
-    vel: Vec
-    done: bool = False
-
-    def step(self, dt: float) -> None:
-        raise NotImplementedError
-
-
-class _Hold(_Motion):
-    def __init__(self, pos: Vec) -> None:
-        self.pos = pos
-        self.vel = (0.0, 0.0, 0.0)
-
-    def step(self, dt: float) -> None:
-        pass
-
-
-class _Brake(_Motion):
-    """Slow to a stop at the flavour's accelerations (the stopping point both firmwares
-    compute before a new task)."""
-
-    def __init__(self, pos: Vec, vel: Vec, limits: FlightLimits) -> None:
-        self.pos, self.vel = pos, vel
-        self.limits = limits
-        self.done = norm(vel) < _STILL_M_S
-
-    def step(self, dt: float) -> None:
-        vx, vy, vz = self.vel
-        h = math.hypot(vx, vy)
-        dv = self.limits.accel_xy_m_s2 * dt
-        k = max(0.0, h - dv) / h if h > 0.0 else 0.0
-        az = self.limits.accel_up_m_s2 if vz < 0 else self.limits.accel_down_m_s2
-        nz = math.copysign(max(0.0, abs(vz) - az * dt), vz)
-        self.vel = (vx * k, vy * k, nz)
-        self.pos = add(self.pos, scale(self.vel, dt))
-        self.done = norm(self.vel) < _STILL_M_S
-        if self.done:
-            self.vel = (0.0, 0.0, 0.0)
-
-
-class _Descend(_Motion):
-    """A landing: descend at the flavour's landing speeds to the ground, drifting onto
-    ``target_xy`` (the landing point) within the horizontal limits."""
-
-    def __init__(
-        self,
-        pos: Vec,
-        vel: Vec,
-        ground: float,
-        speed_at: Callable[[float], float],
-        limits: FlightLimits,
-        target_xy: tuple[float, float] | None = None,
-    ) -> None:
-        self.pos, self.vel = pos, vel
-        self.ground = ground
-        self.speed_at = speed_at
-        self.limits = limits
-        self.target_xy = target_xy if target_xy is not None else (pos[0], pos[1])
-
-    def step(self, dt: float) -> None:
-        lim = self.limits
-        x, y, z = self.pos
-        vx, vy, vz = self.vel
-        ex, ey = self.target_xy[0] - x, self.target_xy[1] - y
-        d = math.hypot(ex, ey)
-        cmd_speed = min(lim.speed_xy_m_s, math.sqrt(2.0 * lim.accel_xy_m_s2 * d))
-        cx, cy = (ex / d * cmd_speed, ey / d * cmd_speed) if d > 1e-6 else (0.0, 0.0)
-        ax, ay = cx - vx, cy - vy
-        a_h = math.hypot(ax, ay)
-        a_max = lim.accel_xy_m_s2 * dt
-        if a_h > a_max:
-            ax, ay = ax * a_max / a_h, ay * a_max / a_h
-        target_vz = -self.speed_at(z - self.ground)
-        if vz > target_vz:
-            vz = max(target_vz, vz - lim.accel_down_m_s2 * dt)
-        else:
-            vz = min(target_vz, vz + lim.accel_up_m_s2 * dt)
-        self.vel = (vx + ax, vy + ay, vz)
-        x, y, z = add(self.pos, scale(self.vel, dt))
-        if z <= self.ground + _TOUCHDOWN_M:
-            z = self.ground
-            self.vel = (0.0, 0.0, 0.0)
-            self.done = True
-        self.pos = (x, y, z)
-
-
-class _Leg:
-    """One straight leg of ArduPilot's waypoint navigation: a speed profile along the line
-    from ``origin`` to ``dest`` at the leg's kinematic limits (ground speed through the
-    wind), from rest to rest."""
-
-    def __init__(
-        self,
-        origin: Vec,
-        dest: Vec,
-        limits: FlightLimits,
-        speed_xy: float,
-        wind: tuple[float, float],
-    ) -> None:
-        self.origin, self.dest = origin, dest
-        delta = sub(dest, origin)
-        self.length = norm(delta)
-        self.u = unit(delta)
-        self.limits = limits
-        self.wind = wind
-        self.s_base = 0.0  # distance done before the current profile (a speed change re-plans)
-        self.t = 0.0  # time into the current profile
-        self.profile = self._plan(self.length, 0.0, speed_xy)
-
-    def _plan(self, distance: float, v0: float, speed_xy: float) -> Profile | SCurve:
-        u, lim = self.u, self.limits
-        h = math.hypot(u[0], u[1])
-        direction = (u[0] / h, u[1] / h) if h > 1e-9 else (0.0, 0.0)
-        ground_xy = ground_speed_limit(speed_xy, direction, self.wind)
-        vmax = kinematic_limit(u, ground_xy, lim.speed_up_m_s, lim.speed_down_m_s)
-        amax = kinematic_limit(u, lim.accel_xy_m_s2, lim.accel_up_m_s2, lim.accel_down_m_s2)
-        if lim.scurve_jerk_m_s3 > 0.0:
-            # SCurve::calculate_track (set_kinematic_limits: the speed and acceleration along
-            # the 3-D leg), jerk and snap from AC_WPNav::calc_scurve_jerk_and_snap
-            return SCurve(distance, v0, vmax, amax, lim.scurve_jerk_m_s3, lim.scurve_snap_m_s4)
-        return Profile(distance, v0, vmax, amax)
-
-    @property
-    def vmax(self) -> float:
-        return self.profile.vmax
-
-    @property
-    def stuck(self) -> bool:
-        """The wind leaves no ground speed along this leg."""
-        return self.length > 1e-6 and self.profile.vmax <= 1e-9
-
-    @property
-    def finished(self) -> bool:
-        return self.t >= self.profile.duration - 1e-12 and not self.stuck
-
-    @property
-    def remaining(self) -> float:
-        return max(0.0, self.profile.duration - self.t)
-
-    def advance(self, dt: float) -> None:
-        self.t = min(self.t + dt, self.profile.duration)
-
-    def state(self, t: float | None = None) -> tuple[float, float, float]:
-        s, v, a = self.profile.at(self.t if t is None else t)
-        return self.s_base + s, v, a
-
-    def from_origin(self, t: float | None = None) -> Vec:
-        return scale(self.u, self.state(t)[0])
-
-    def to_dest(self, t: float | None = None) -> Vec:
-        return scale(self.u, self.state(t)[0] - self.length)
-
-    def velocity(self, t: float | None = None) -> Vec:
-        return scale(self.u, self.state(t)[1])
-
-    def acceleration(self, t: float | None = None) -> Vec:
-        return scale(self.u, self.state(t)[2])
-
-    def set_speed(self, speed_xy: float) -> None:
-        """Re-plan the rest of the leg from where it is at the new horizontal speed."""
-        s, v, _ = self.state()
-        self.s_base = s
-        self.t = 0.0
-        self.profile = self._plan(self.length - s, v, speed_xy)
-
-
-class _TerrainOffset:
-    """AC_PosControl's vertical position offset (``update_pos_offset_z``): on a terrain-frame
-    leg it takes up the ground under the vehicle, as ``shape_pos_vel_accel`` does, through
-    a square-root controller (gain ½·PSC_JERK_Z / WPNAV_ACCEL_Z, half of WPNAV_ACCEL_Z),
-    within the climb and descent speeds and WPNAV_ACCEL_Z (the jerk's ramp left out, as
-    elsewhere in the model). Off terrain it brings itself back to zero. ``z`` is added to
-    the leg's altitude: the vehicle is where the leg puts it, ``z`` higher."""
-
-    def __init__(self, limits: FlightLimits) -> None:
-        self.limits = limits
-        self.z = 0.0
-        self.v = 0.0
-
-    @property
-    def active(self) -> bool:
-        return self.z != 0.0 or self.v != 0.0
-
-    def step(self, target: float, dt: float) -> None:
-        lim = self.limits
-        accel = lim.accel_up_m_s2
-        gain = 0.5 * lim.jerk_z_m_s3 / accel if accel > 0.0 else 0.0
-        want = sqrt_controller(target - self.z, gain, 0.5 * accel, dt)
-        want = max(-lim.speed_down_m_s, min(lim.speed_up_m_s, want))
-        dv = max(-accel * dt, min(accel * dt, want - self.v))
-        self.v += dv
-        self.z += self.v * dt
-        if target == 0.0 and abs(self.z) < 1e-6 and abs(self.v) < 1e-6:
-            self.z = self.v = 0.0  # settled: back to the plain leg
-
-
-def terrain_pace(lag_m: float, margin_m: float) -> float:
-    """The share of its speed the vehicle keeps along a terrain-frame leg when its altitude
-    is ``lag_m`` off the ground-following target: 1 up to half of WPNAV_TER_MARGIN, down to
-    0.01 at all of it (AC_PosControl::pos_offset_z_scaler); 1 without a margin."""
-    if margin_m <= 0.0:
-        return 1.0
-    half = 0.5 * margin_m
-    return max(0.01, min(1.0, 1.0 - (abs(lag_m) - half) / half))
-
-
-class _ScurveTrack(_Motion):
-    """ArduPilot Copter's waypoint navigation (AC_WPNav, S-curves), kinematically: the
-    previous, current and next legs whose motions add up (see the module docstring).
-
-    A leg to a terrain-frame item (``set_destination(..., terrain=True)``) is flown in the
-    frame above the ground, as AC_WPNav does with ``terrain_alt``: the legs' z are heights
-    above the ground (the origin turned into one on entering that frame), and the vehicle
-    flies at the leg's height plus :class:`_TerrainOffset`, which follows ``ground(x, y)``
-    under it. How far the offset lags the ground slows the legs' progress
-    (:func:`terrain_pace`, approached within WPNAV_ACCEL, ``advance_wp_target_along_track``'s
-    ``vel_scaler_dt``)."""
-
-    def __init__(
-        self,
-        start: Vec,
-        limits: FlightLimits,
-        speed_xy: float,
-        wind: tuple[float, float],
-        ground: Callable[[float, float], float] | None = None,
-    ) -> None:
-        self.limits = limits
-        self.wind = wind
-        self.speed_xy = speed_xy
-        self.origin = start
-        self.dest = start
-        self.prev: _Leg | None = None
-        self.this: _Leg | None = None
-        self.next: _Leg | None = None
-        self.next_started = False
-        self.fast = False
-        self.reached = True
-        self.pos = start
-        self.vel = (0.0, 0.0, 0.0)
-        self.ground = ground if ground is not None else (lambda x, y: 0.0)
-        self.terrain = False  # the legs are in the frame above the ground
-        self.offset = _TerrainOffset(limits)
-        self.pace = 1.0  # the share of the legs' speed flown (terrain_pace, shaped)
-
-    def lag_m(self) -> float:
-        """How far the vehicle is above (+) or below the ground-following target."""
-        if not self.terrain:
-            return self.offset.z
-        return self.offset.z - self.ground(self.pos[0], self.pos[1])
-
-    def _in_frame(self, pos: Vec) -> Vec:
-        """The vehicle's position in the legs' frame."""
-        if not self.terrain:
-            return pos
-        return (pos[0], pos[1], pos[2] - self.ground(pos[0], pos[1]))
-
-    def set_destination(self, dest: Vec, next_dest: Vec | None, *, terrain: bool = False) -> None:
-        """Fly to ``dest``; with ``next_dest`` it is a fast waypoint (the corner is blended).
-        ``terrain``: ``dest`` and ``next_dest`` are heights above the ground (the next one
-        is in the same frame: the caller drops a next waypoint of the other frame, as
-        AC_WPNav::set_wp_destination_next does)."""
-        if terrain != self.terrain:
-            # AC_WPNav::set_wp_destination: the origin (the last destination) and the
-            # offset change frame by the ground under the vehicle; no leg carries over
-            g = self.ground(self.pos[0], self.pos[1])
-            shift = -g if terrain else g
-            self.dest = (self.dest[0], self.dest[1], self.dest[2] + shift)
-            self.offset.z -= shift
-            self.terrain = terrain
-            self.this = self.next = self.prev = None
-            self.fast = False
-        if self.this is not None and self.fast and self.next is not None and self.next.dest == dest:
-            new_this = self.next
-        else:
-            new_this = _Leg(self.dest, dest, self.limits, self.speed_xy, self.wind)
-        self.prev = self.this if self.this is not None and not self.this.finished else None
-        self.origin = self.dest
-        self.this = new_this
-        self.dest = dest
-        self.next = (
-            _Leg(dest, next_dest, self.limits, self.speed_xy, self.wind)
-            if next_dest is not None
-            else None
-        )
-        self.next_started = False
-        self.fast = next_dest is not None
-        self.reached = False
-
-    def set_speed(self, speed_xy: float) -> None:
-        self.speed_xy = speed_xy
-        if self.this is not None and not self.this.finished:
-            self.this.set_speed(speed_xy)
-        if self.next is not None and not self.next_started:
-            self.next = _Leg(self.next.origin, self.next.dest, self.limits, speed_xy, self.wind)
-
-    @property
-    def stuck(self) -> bool:
-        return self.this is not None and self.this.stuck
-
-    def _blend_ok(self, this: _Leg, nxt: _Leg) -> bool:
-        """``SCurve::advance_target_along_track``'s test for starting the next leg now."""
-        remaining = this.remaining
-        mid_this = this.t + remaining / 2.0
-        mid_next = remaining / 2.0
-        turn_pos = add(this.to_dest(mid_this), nxt.from_origin(mid_next))
-        turn_vel = add(this.velocity(mid_this), nxt.velocity(mid_next))
-        turn_acc = add(this.acceleration(mid_this), nxt.acceleration(mid_next))
-        lim = self.limits
-        return (
-            norm(turn_pos) < lim.acceptance_radius_m
-            and norm(turn_vel) < min(this.vmax, nxt.vmax)
-            and math.hypot(turn_acc[0], turn_acc[1]) < lim.accel_corner_m_s2
-            and abs(turn_acc[2]) < min(lim.accel_up_m_s2, lim.accel_down_m_s2) + 1e-9
-        )
-
-    def step(self, dt: float) -> None:
-        this = self.this
-        if this is None:
-            return
-        follow = self.terrain or self.offset.active or self.pace != 1.0
-        pace = 1.0
-        if follow:
-            # advance_wp_target_along_track: the pace from the lag before this step, then
-            # the offset shaped toward the ground under the vehicle (off terrain: to zero)
-            target = self.ground(self.pos[0], self.pos[1]) if self.terrain else 0.0
-            wanted = terrain_pace(self.offset.z - target, self.limits.terrain_margin_m)
-            rate = self.limits.accel_xy_m_s2 / max(self.speed_xy, 1e-9) * dt
-            self.pace = max(self.pace - rate, min(self.pace + rate, wanted))
-            if not self.terrain and self.pace > 1.0 - 1e-12:
-                self.pace = 1.0
-            self.offset.step(target, dt)
-            pace = self.pace
-            dt = dt * pace
-        prev = self.prev
-        if prev is not None:
-            prev.advance(dt)
-        this.advance(dt)
-        finished = this.finished
-        nxt = self.next
-        if self.fast and nxt is not None:
-            if not self.next_started:
-                if (
-                    this.t >= this.profile.decel_start
-                    and this.remaining <= nxt.profile.accel_end
-                    and self._blend_ok(this, nxt)
-                ):
-                    # the next leg starts now and moves from the next step on, in step with
-                    # this one's remaining time: the blend is symmetric about its midpoint,
-                    # which _blend_ok kept within the radius
-                    self.next_started = True
-            else:
-                nxt.advance(dt)
-                if nxt.t >= this.remaining:
-                    finished = True  # past the middle of the turn
-        pos = add(self.origin, this.from_origin())
-        vel = this.velocity()
-        if prev is not None:
-            pos = add(pos, prev.to_dest())
-            vel = add(vel, prev.velocity())
-            if prev.finished:
-                self.prev = None
-        if self.next_started and nxt is not None:
-            pos = add(pos, nxt.from_origin())
-            vel = add(vel, nxt.velocity())
-        if follow:
-            vel = scale(vel, pace)
-            pos = (pos[0], pos[1], pos[2] + self.offset.z)
-            vel = (vel[0], vel[1], vel[2] + self.offset.v)
-        self.pos, self.vel = pos, vel
-        if not self.reached and finished:
-            if (
-                self.fast
-                or norm(sub(self._in_frame(pos), self.dest)) <= self.limits.acceptance_radius_m
-            ):
-                self.reached = True
-
-
-class _SmoothingTrack(_Motion):
-    """PX4's auto-mode guidance (FlightTaskAuto + PositionSmoothing), kinematically: a
-    velocity setpoint toward the waypoint, limited by the corner speed and the braking
-    distance, followed within the acceleration limits."""
-
-    def __init__(
-        self, pos: Vec, vel: Vec, limits: FlightLimits, speed_xy: float, wind: tuple[float, float]
-    ) -> None:
-        self.pos, self.vel = pos, vel
-        self.limits = limits
-        self.wind = wind
-        self.speed_xy = speed_xy
-        self.prev_wp = pos
-        self.target = pos
-        self.next: Vec | None = None
-        self.acceptance_m = limits.acceptance_radius_m
-        self.max_speed_previous = 0.0
-        self.climb_speed_at: Callable[[float], float] | None = None
-        self.ground = 0.0
-        self.stuck = False
-
-    def set_target(self, target: Vec, next_target: Vec | None, acceptance_m: float) -> None:
-        self.prev_wp = self.target if self.target != target else self.prev_wp
-        self.target = target
-        self.next = next_target
-        self.acceptance_m = acceptance_m
-
-    def set_speed(self, speed_xy: float) -> None:
-        self.speed_xy = speed_xy
-
-    def _speed_at_target(self, cruise: float) -> float:
-        """The speed the corner at the target allows (computeXYSpeedFromWaypoints)."""
-        lim, target, nxt = self.limits, self.target, self.next
-        if nxt is None:
-            return 0.0
-        d_next = dist_xy(target, nxt)
-        if d_next <= 0.001 or d_next < self.acceptance_m:
-            return 0.0
-        exit_speed = min(
-            cruise, max_speed_from_distance(lim.jerk_m_s3, lim.accel_xy_m_s2, d_next, 0.0)
-        )
-        a = (target[0] - self.pos[0], target[1] - self.pos[1])
-        b = (target[0] - nxt[0], target[1] - nxt[1])
-        na, nb = math.hypot(*a), math.hypot(*b)
-        cos_alpha = (a[0] * b[0] + a[1] * b[1]) / (na * nb) if na > 1e-9 and nb > 1e-9 else 0.0
-        alpha = min(math.acos(max(-1.0, min(1.0, cos_alpha))), math.pi - 1e-6)
-        turn = max_speed_in_waypoint(alpha, lim.accel_corner_m_s2, self.acceptance_m)
-        return min(turn, exit_speed, cruise)
-
-    def _arrival_z_speed(self, z_limit: float, z_acc: float) -> float:
-        """The vertical speed the trajectory may keep at the target when the next one
-        changes altitude too (PositionSmoothing::_getMaxZSpeed): the corner speed of the
-        turn between the legs drawn in (horizontal distance from home, altitude), with
-        NAV_MC_ALT_RAD as its radius; 0 when the next target is at the same altitude."""
-        nxt = self.next
-        if nxt is None or abs(self.target[2] - nxt[2]) <= 0.001:
-            return 0.0
-        start = (math.hypot(self.pos[0], self.pos[1]), self.pos[2])
-        target = (math.hypot(self.target[0], self.target[1]), self.target[2])
-        after = (math.hypot(nxt[0], nxt[1]), nxt[2])
-        a = (target[0] - start[0], target[1] - start[1])
-        b = (target[0] - after[0], target[1] - after[1])
-        na, nb = math.hypot(*a), math.hypot(*b)
-        cos_alpha = (a[0] * b[0] + a[1] * b[1]) / (na * nb) if na > 1e-9 and nb > 1e-9 else 1.0
-        alpha = min(math.acos(max(-1.0, min(1.0, cos_alpha))), math.pi - 1e-6)
-        turn = max_speed_in_waypoint(alpha, z_acc, self.limits.altitude_acceptance_m)
-        return min(turn, z_limit)
-
-    def _l1_point(self) -> Vec:
-        """Where PX4 aims while turning onto the leg prev → target (PositionSmoothing's
-        _getL1Point): the point L1 = max(acceptance, 5 m) ahead on the leg, in 3-D. On a leg
-        that climbs or descends it lies on the slope: aiming at the target's altitude instead
-        would drop the vehicle down a descending lane before it moved along it."""
-        u = sub(self.target, self.prev_wp)
-        n = norm(u)
-        if n < 1e-9:
-            return self.target
-        u = scale(u, 1.0 / n)
-        rel = sub(self.pos, self.prev_wp)
-        closest = add(self.prev_wp, scale(u, rel[0] * u[0] + rel[1] * u[1] + rel[2] * u[2]))
-        crosstrack = norm(sub(closest, self.pos))
-        l1 = max(self.acceptance_m, 5.0)
-        ahead = math.sqrt(l1 * l1 - crosstrack * crosstrack) if l1 > crosstrack else 0.0
-        return add(closest, scale(u, ahead))
-
-    def step(self, dt: float) -> None:
-        lim = self.limits
-        x, y, z = self.pos
-        vx, vy, vz = self.vel
-        tx, ty, tz = self.target
-        xy_dist = math.hypot(tx - x, ty - y)
-        speed_now = math.hypot(vx, vy)
-        cos_align = (
-            ((tx - x) * vx + (ty - y) * vy) / (xy_dist * speed_now)
-            if xy_dist > 1e-9 and speed_now > 1e-9
-            else 1.0
-        )
-        turning = speed_now > 0.2 and cos_align < 0.98 and xy_dist > self.acceptance_m
-        cx, cy, cz = self._l1_point() if turning else self.target
-        dz = cz - z
-        d = unit((cx - x, cy - y, dz))
-        h = math.hypot(d[0], d[1])
-        # the commanded speed is through the air: along this direction the wind makes it
-        cruise = (
-            ground_speed_limit(self.speed_xy, (d[0] / h, d[1] / h), self.wind)
-            if h > 1e-9
-            else self.speed_xy
-        )
-        xy_speed = min(
-            cruise,
-            max_speed_from_distance(
-                lim.jerk_m_s3, lim.accel_xy_m_s2, xy_dist, self._speed_at_target(cruise)
-            ),
-        )
-        if turning:
-            xy_speed = min(self.max_speed_previous, xy_speed)
-        else:
-            self.max_speed_previous = xy_speed
-        self.stuck = (
-            h > 1e-9
-            and xy_dist > self.acceptance_m
-            and cruise <= 1e-9
-            and abs(dz) < lim.altitude_acceptance_m
-        )
-        if dz > 0:
-            z_limit, z_acc = lim.speed_up_m_s, lim.accel_up_m_s2
-            if self.climb_speed_at is not None and z - self.ground < lim.takeoff_slow_below_m:
-                # FlightTaskAuto::_updateTrajConstraints: a take-off below MPC_LAND_ALT1
-                # climbs at MPC_TKO_SPEED, accelerating at most MPC_TKO_SPEED / MPC_TKO_RAMP_T
-                # ("to emulate the motor ramp")
-                z_limit = self.climb_speed_at(z - self.ground)
-                z_acc = min(z_acc, lim.takeoff_speed_m_s / max(lim.takeoff_ramp_s, 0.1))
-        else:
-            z_limit, z_acc = lim.speed_down_m_s, lim.accel_down_m_s2
-        z_speed = min(
-            z_limit,
-            max_speed_from_distance(
-                lim.jerk_m_s3, z_acc, abs(tz - z), self._arrival_z_speed(z_limit, z_acc)
-            ),
-        )
-        total = math.hypot(xy_speed, z_speed)
-        cmd = scale(d, total)
-        cmd = _clamp_xy(cmd, xy_speed)
-        cmd = _clamp_z(cmd, z_speed)
-        # follow the setpoint within the acceleration limits
-        ax, ay = cmd[0] - vx, cmd[1] - vy
-        a_h = math.hypot(ax, ay)
-        a_max = lim.accel_xy_m_s2 * dt
-        if a_h > a_max:
-            ax, ay = ax * a_max / a_h, ay * a_max / a_h
-        az = cmd[2] - vz
-        up_acc = z_acc if dz > 0 else lim.accel_up_m_s2
-        az = min(az, up_acc * dt) if az > 0 else max(az, -lim.accel_down_m_s2 * dt)
-        self.vel = (vx + ax, vy + ay, vz + az)
-        self.pos = add(self.pos, scale(self.vel, dt))
-
-    def reached(self, altitude_only: bool = False) -> bool:
-        """The navigator's acceptance test for the current target."""
-        tx, ty, tz = self.target
-        if abs(self.pos[2] - tz) > self.limits.altitude_acceptance_m:
-            return False
-        return altitude_only or math.hypot(tx - self.pos[0], ty - self.pos[1]) <= self.acceptance_m
-
-
-def _clamp_xy(v: Vec, limit: float) -> Vec:
-    """PX4's clampToXYNorm (accuracy 0.5)."""
-    n = math.hypot(v[0], v[1])
-    if n <= 1e-12 or n <= limit:
-        return v
-    k = limit / n
-    if limit < 0.5 and n < 0.5:
-        return (v[0] * k, v[1] * k, v[2])
-    return scale(v, k)
-
-
-def _clamp_z(v: Vec, limit: float) -> Vec:
-    """PX4's clampToZNorm (accuracy 0.5)."""
-    n = abs(v[2])
-    if n <= 1e-12 or n <= limit:
-        return v
-    k = limit / n
-    if limit < 0.5 and n < 0.5:
-        return (v[0], v[1], v[2] * k)
-    return scale(v, k)
-
-
-# ---------------------------------------------------------------------------------------------
-
+#: a task of the model: advanced one model step per ``next()``
 Task = Generator[None, None, None]
 
 
@@ -819,7 +136,7 @@ class FlightModel:
         self._ground = ground_z
         self.t_s = 0.0
         self.landed = True
-        self._motion: _Motion = _Hold(start)
+        self._motion: Motion = Hold(start)
         self._task: Task | None = None
         self.mission: tuple[NavItem, ...] = ()
         self.current_seq: int | None = None
@@ -852,7 +169,7 @@ class FlightModel:
         "air" (EXTENDED_SYS_STATE's landed state)."""
         if self.landed:
             return "ground"
-        if isinstance(self._motion, _Descend):
+        if isinstance(self._motion, Descend):
             return "landing"
         if self._taking_off:
             return "takeoff"
@@ -922,14 +239,14 @@ class FlightModel:
     def stop(self) -> None:
         """Drop any task (disarmed on the ground)."""
         self._set_task(None)
-        self._motion = _Hold(self._motion.pos)
+        self._motion = Hold(self._motion.pos)
 
     def set_speed(self, speed_xy_m_s: float) -> None:
         """DO_CHANGE_SPEED: the horizontal speed of the legs flown from now on."""
         speed = max(0.2, min(float(speed_xy_m_s), self.limits.speed_xy_max_m_s))
         self._speed_xy = speed
         motion = self._motion
-        if isinstance(motion, _ScurveTrack | _SmoothingTrack):
+        if isinstance(motion, ScurveTrack | SmoothingTrack):
             motion.set_speed(speed)
 
     def _set_task(self, task: Task | None) -> None:
@@ -958,7 +275,7 @@ class FlightModel:
         ceiling = self.limits.fence_ceiling_m
         above = (
             ceiling is not None
-            and self._motion.pos[2] - self.ground_at(0.0, 0.0) > ceiling + _TOUCHDOWN_M
+            and self._motion.pos[2] - self.ground_at(0.0, 0.0) > ceiling + TOUCHDOWN_M
         )
         if above and not self._above_fence:
             self._emit(EventKind.FENCE_BREACH, self.current_seq)
@@ -976,7 +293,7 @@ class FlightModel:
             self._stuck_since = self.t_s
             self._emit(EventKind.NO_HEADWAY, self.current_seq)
 
-    def _run(self, motion: _Motion, until: Callable[[], bool] | None = None) -> Task:
+    def _run(self, motion: Motion, until: Callable[[], bool] | None = None) -> Task:
         """Step ``motion`` once per model step until it is done (or ``until()`` holds)."""
         self._motion = motion
         while True:
@@ -1003,10 +320,10 @@ class FlightModel:
 
     def _brake(self) -> Task:
         motion = self._motion
-        if isinstance(motion, _Hold):
+        if isinstance(motion, Hold):
             return
-        yield from self._run(_Brake(motion.pos, motion.vel, self.limits))
-        self._motion = _Hold(self._motion.pos)
+        yield from self._run(Brake(motion.pos, motion.vel, self.limits))
+        self._motion = Hold(self._motion.pos)
 
     def _set_current(self, seq: int) -> None:
         if self.current_seq != seq:
@@ -1014,23 +331,23 @@ class FlightModel:
             self._emit(EventKind.CURRENT, seq)
 
     # -- guidance helpers -----------------------------------------------------------------
-    def _ap_track(self) -> Generator[None, None, _ScurveTrack]:
+    def _ap_track(self) -> Generator[None, None, ScurveTrack]:
         motion = self._motion
-        if isinstance(motion, _ScurveTrack):
+        if isinstance(motion, ScurveTrack):
             return motion
         yield from self._brake()
-        track = _ScurveTrack(
+        track = ScurveTrack(
             self._motion.pos, self.limits, self._speed_xy, self.wind, self.ground_at
         )
         self._motion = track
         return track
 
-    def _px4_track(self) -> _SmoothingTrack:
+    def _px4_track(self) -> SmoothingTrack:
         motion = self._motion
-        if isinstance(motion, _SmoothingTrack):
+        if isinstance(motion, SmoothingTrack):
             motion.climb_speed_at = None
             return motion
-        track = _SmoothingTrack(motion.pos, motion.vel, self.limits, self._speed_xy, self.wind)
+        track = SmoothingTrack(motion.pos, motion.vel, self.limits, self._speed_xy, self.wind)
         track.ground = self.ground_at(motion.pos[0], motion.pos[1])
         self._motion = track
         return track
@@ -1113,7 +430,7 @@ class FlightModel:
         x, y, _ = self._motion.pos
         if at is not None:
             x, y = at
-        motion = _Descend(
+        motion = Descend(
             self._motion.pos,
             self._motion.vel,
             self.ground_at(x, y),
@@ -1122,7 +439,7 @@ class FlightModel:
             (x, y),
         )
         yield from self._run(motion)
-        self._motion = _Hold(motion.pos)
+        self._motion = Hold(motion.pos)
         self.landed = True
         self._emit(EventKind.LANDED, self.current_seq)
 
@@ -1330,7 +647,8 @@ class FlightModel:
         if self.landed:
             if self.autopilot == Autopilot.PX4:
                 yield from self._climb_to(
-                    max(item.position[2], here[2] + PX4_MIS_TAKEOFF_ALT_M), takeoff=True
+                    max(item.position[2], here[2] + self.limits.takeoff_min_altitude_m),
+                    takeoff=True,
                 )
             else:
                 return  # ArduPilot refuses AUTO on the ground without a take-off first

@@ -11,7 +11,7 @@ rows, in this order (the index of a row is its ``param_index``). A real autopilo
 hundreds more; the ones here are those the flight model honours (docs/flight-model.md).
 
 ArduPilot values are Copter 4.5's, which ArduCopter V4.7.0-dev SITL (ArduPilot 90700977c553)
-still holds under the same names and values (read back from it: tests/test_sitl_fly.py).
+still holds under the same names and values (read back from it: tests/sitl/test_sitl_fly.py).
 PX4 values are those a PX4 v1.16 multicopter holds: the parameter files' defaults, with
 the three that every multicopter airframe overrides in ROMFS/px4fmu_common/init.d/
 rc.mc_defaults (NAV_ACC_RAD 2, RTL_RETURN_ALT 30, RTL_DESCEND_ALT 10; read back from PX4
@@ -452,6 +452,16 @@ PX4_PARAMS: tuple[ParamSpec, ...] = (
         "NAV_MC_ALT_RAD", 0.8, "m", "altitude acceptance of a waypoint", _PX4_NAV, 0.05, 200.0
     ),
     ParamSpec(
+        "MIS_TAKEOFF_ALT",
+        2.5,
+        "m",
+        "lowest altitude above home a take-off climbs to (a mission started on the ground, "
+        "Takeoff mode)",
+        _PX4 + "navigator/mission_params.yaml",
+        0.0,
+        80.0,
+    ),
+    ParamSpec(
         "RTL_RETURN_ALT",
         30.0,
         "m",
@@ -708,6 +718,9 @@ class FlightLimits:
     #: 0: constant-acceleration legs (PX4 has its own guidance)
     scurve_jerk_m_s3: float = 0.0
     scurve_snap_m_s4: float = 0.0
+    #: PX4's MIS_TAKEOFF_ALT (m above home): a mission started on the ground climbs at least
+    #: this high before its first waypoint, and Takeoff mode climbs to it; 0: ArduPilot
+    takeoff_min_altitude_m: float = 0.0
 
     @property
     def is_px4(self) -> bool:
@@ -798,6 +811,7 @@ def flight_limits(params: Parameters) -> FlightLimits:
                 p["GF_MAX_VER_DIST"] if p["GF_ACTION"] >= 1 and p["GF_MAX_VER_DIST"] > 0.0 else None
             ),
             rtl_type=int(p["RTL_TYPE"]),
+            takeoff_min_altitude_m=p["MIS_TAKEOFF_ALT"],
         )
     raise ValueError(f"no flight model for autopilot {params.autopilot.label}")
 

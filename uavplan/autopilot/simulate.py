@@ -18,14 +18,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.autopilot.model import (
-    DEFAULT_DT_S,
-    EventKind,
-    FlightEvent,
-    FlightModel,
-    NavItem,
-    nav_items,
-)
+from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel
+from uavplan.autopilot.nav import NavItem, nav_items
 from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.power import X500, VehicleSpec, power_w_array
 from uavplan.config import Autopilot

@@ -10,7 +10,7 @@ tweaks are the entry point's (:mod:`uavplan.__main__`).
 Start-up is part of the product (``uavplan --help`` in well under a tenth of a second): the
 command modules are imported only when their command runs. :data:`COMMANDS` names each
 command's module and the one-line help ``uavplan --help`` lists, so listing the commands
-imports none of them (tests/test_startup.py checks the table against the commands).
+imports none of them (tests/architecture/test_startup.py checks the table against the commands).
 """
 
 from __future__ import annotations

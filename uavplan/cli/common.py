@@ -2,7 +2,7 @@
 stderr and the :class:`~uavplan.app.feedback.Feedback` a use case talks through.
 
 Commands import this module and :mod:`uavplan.cli.options`; neither imports a command module,
-and no command module imports another (tests/test_layering.py)."""
+and no command module imports another (tests/architecture/test_layering.py)."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def exit_interrupted() -> NoReturn:
 
 
 #: the most threads UAVPLAN_THREADS may give the SPSA step (the kernels' limit,
-#: uavplan.planners._kernels.STEP_THREADS_MAX, not imported here: tests/test_user_errors.py
+#: uavplan.planners._kernels.STEP_THREADS_MAX, not imported here: tests/app/test_user_errors.py
 #: holds the two equal)
 MAX_STEP_THREADS = 8
 

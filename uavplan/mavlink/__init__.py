@@ -16,7 +16,7 @@ Layers (each module imports only the ones above it):
 - :mod:`.flightclient` - their driver over a link.
 
 (The seeded UDP fault proxy the link-chaos tests put between two endpoints is test harness:
-tests/faultproxy.py.)
+tests/helpers/faultproxy.py.)
 
 The vehicle side (the simulated PX4 / ArduPilot vehicle, its mission-protocol server and its
 faults) is :mod:`uavplan.sim`, a layer above this one.

@@ -12,7 +12,7 @@ MAV_FRAME_MISSION).
 :func:`upload_form` is the item as uavplan sends it to a vehicle of a flavour;
 :func:`stored_form` is what that vehicle then holds and sends back. Both follow the firmware
 source, and were measured against the real firmware (ArduCopter V4.7.0-dev SITL at ArduPilot
-90700977c553, PX4 v1.16.0 SIH; tests/test_sitl_storage.py uploads every bundled plan and
+90700977c553, PX4 v1.16.0 SIH; tests/sitl/test_sitl_storage.py uploads every bundled plan and
 items of every kind below and compares the download with :func:`stored_form`):
 
 **ArduPilot** (libraries/AP_Mission/AP_Mission.cpp: ``mavlink_int_to_mission_cmd`` stores,

@@ -273,7 +273,7 @@ def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def sign_draws(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
     """±1.0 of ``shape`` drawn from ``rng``: the same numbers, in the same order, as
-    ``2.0 * rng.integers(0, 2, size=shape) - 1.0`` (tests/test_spsa_step.py holds the two
+    ``2.0 * rng.integers(0, 2, size=shape) - 1.0`` (tests/planners/test_spsa_step.py holds the two
     together), without numpy's per-element overhead."""
     out = np.empty(shape)
     # numpy's stubs before 2.0 do not declare BitGenerator.capsule (it is there since 1.17)

@@ -7,7 +7,7 @@ with numpy over the whole population and handed to the shared rebuild kernel as 
 :class:`~uavplan.planners.proposal.Proposal`, the oscillation and the fitness through the
 same kernels every planner uses. It draws its random numbers from the Generator in the order
 the compiled step does, so the two give the same populations, fitness and convergence, bit
-for bit (tests/test_spsa_step.py; registered as ``spsa_numpy``, so the contract tests of
+for bit (tests/planners/test_spsa_step.py; registered as ``spsa_numpy``, so the contract tests of
 every planner run it too). Slower: the compiled step recalls a producer's fitness when its
 candidate did not move after it was evaluated and caches the fitness of paths seen before,
 so it counts as many or fewer fitness evaluations than this one.

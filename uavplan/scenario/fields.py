@@ -2,7 +2,8 @@
 returns the project's value or raises one :class:`~uavplan.errors.ScenarioError` naming the
 key path. :func:`obstacle_fast` builds a plain obstacle without the per-key checker (a large
 generated map validates in a fraction of a second); :func:`obstacle` decides whenever it
-declines, so both accept the same obstacles and build equal values (tests/test_fast_yaml.py).
+declines, so both accept the same obstacles and build equal values
+(tests/scenario/test_fast_yaml.py).
 """
 
 from __future__ import annotations
@@ -370,7 +371,7 @@ def obstacle_fast(raw: Any) -> Obstacle | None:
     (no key paths built, no per-number calls: 20,000 obstacles validate in a fraction of a
     second); None whenever anything is unusual, and :func:`_obstacle` then decides and says
     what is wrong. Both accept the same obstacles and build equal values
-    (tests/test_fast_yaml.py)."""
+    (tests/scenario/test_fast_yaml.py)."""
     if type(raw) is not dict:
         return None
     kind: Any = raw.get("type")

@@ -9,7 +9,7 @@ most :data:`~uavplan.scenario.limits.MAX_YAML_DEPTH` deep. Every problem is one
 :func:`read_yaml` tries the fast path first (:func:`load_fast`: long lists of one-line flow
 items read by the C JSON parser) and falls back to the full loader (:func:`load_full`,
 PyYAML's safe loader), whose results and messages the fast path must match
-(tests/test_fast_yaml.py).
+(tests/scenario/test_fast_yaml.py).
 """
 
 from __future__ import annotations
@@ -153,7 +153,7 @@ def load_full(text: str, file: str, what: str) -> Any:
 # loader, which must show the key at that line with an empty value, nothing else between it
 # and the next top-level key. Any doubt (another shape, a duplicate key, an error anywhere,
 # the size limits) means the whole file goes through the full loader, so the result and
-# every error message are the full loader's (tests/test_fast_yaml.py checks equivalence).
+# every error message are the full loader's (tests/scenario/test_fast_yaml.py checks equivalence).
 
 _NUM = r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?"
 _WORD = r"(?!(?:yes|no|true|false|on|off|null)(?![a-z0-9_]))[a-z_][a-z0-9_]*"

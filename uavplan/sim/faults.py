@@ -15,7 +15,7 @@ seed:
 
 :class:`FaultInjector` applies the packet faults to messages (the vehicle is sans-I/O: its
 messages pass through the injector before the I/O loop encodes them). (The fault proxy of
-``tests/faultproxy.py`` does the same between two endpoints, at the byte level.)
+``tests/helpers/faultproxy.py`` does the same between two endpoints, at the byte level.)
 """
 
 from __future__ import annotations

@@ -42,8 +42,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from struct import error as struct_error
 
-from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel, nav_items
-from uavplan.autopilot.model import PX4_MIS_TAKEOFF_ALT_M as PX4_TAKEOFF_ALT_M  # one value
+from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel
+from uavplan.autopilot.nav import nav_items
 from uavplan.autopilot.params import Parameters, ParamSpec, ParamType, UnknownParameter
 from uavplan.autopilot.power import X500, Battery, PowerState, VehicleSpec
 from uavplan.autopilot.simulate import MissionRefused, check_startable
@@ -649,7 +649,7 @@ class SimVehicle:
         if kind is ModeKind.MISSION:
             self._start_mission()
         elif kind is ModeKind.TAKEOFF:
-            self.flight.takeoff(PX4_TAKEOFF_ALT_M)
+            self.flight.takeoff(self.flight.limits.takeoff_min_altitude_m)
 
     def _disarm(self) -> None:
         self.armed = False
@@ -750,7 +750,7 @@ class SimVehicle:
         elif kind is ModeKind.LAND:
             self.flight.land()
         elif kind is ModeKind.TAKEOFF:
-            self.flight.takeoff(PX4_TAKEOFF_ALT_M)
+            self.flight.takeoff(self.flight.limits.takeoff_min_altitude_m)
         elif not self.flight.landed:
             self.flight.hold()  # Hold / LOITER / a manual mode without a pilot: hold
 

@@ -219,7 +219,7 @@ class Terrain:
     def height_at(self, x: float, y: float) -> float:
         """Ground height AMSL at one ENU point: :meth:`height_m` in scalar arithmetic, for
         callers that ask one point at a time (a simulated flight's ground); the same value to
-        about 1e-9 m (tests/test_sources_dem.py)."""
+        about 1e-9 m (tests/sources/test_sources_dem.py)."""
         lat, lon, _ = self.frame.to_geodetic_point(float(x), float(y), 0.0)
         cx, cy = self._to_crs.transform(lon, lat)
         t = self._to_pixel

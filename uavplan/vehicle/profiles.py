@@ -3,9 +3,9 @@
 Only spec-sheet figures differ between the profiles (mass, rotors, battery, top speed); the
 aerodynamic and electrical constants are the generic ones of :mod:`uavplan.vehicle.constants`
 for all three. :data:`CITED_HOVER_TIME_S` holds the hover time each manufacturer publishes, which
-the model's prediction is compared with (tests/test_power_model.py, docs/energy.md). The x500's
-hover power is also checked against the kit's motor bench table (a cross-check: the profile does
-not use it, it agrees with the generic model within 1 %).
+the model's prediction is compared with (tests/vehicle/test_power_model.py, docs/energy.md). The
+x500's hover power is also checked against the kit's motor bench table (a cross-check: the
+profile does not use it, it agrees with the generic model within 1 %).
 
 * ``small-quad`` — DJI Mavic 2 Pro (a folding camera quad of under 1 kg);
 * ``x500`` — Holybro X500 V2 (the PX4 development kit: 500 mm frame, 10-inch props, 4S 5000 mAh);
@@ -172,7 +172,7 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 "KV920 motor with the T1045II propeller at 16 V, per motor 373 g of thrust at "
                 "46 W and 447 g at 58 W (T-Motor's Air Gear 450 II table). Read in two public "
                 "transcriptions that agree row for row, not in the image itself "
-                "(tests/test_power_model.py, docs/energy.md)",
+                "(tests/vehicle/test_power_model.py, docs/energy.md)",
                 checked=False,
             ),
         ),

@@ -513,7 +513,7 @@ def prove_rtl(
     safe = math.ceil(hi / RESOLUTION_M - 1e-9) * RESOLUTION_M
     unsafe_low = np.flatnonzero(low.unsafe)
     final = checker.at(safe, unsafe_low)
-    if not final.safe:  # pragma: no cover - monotonicity holds (tests/test_way_home.py)
+    if not final.safe:  # pragma: no cover - monotonicity holds (tests/flying/test_way_home.py)
         raise AssertionError(f"the return at {safe} m is not safe after the bisection")
     # the whole metre to advise: at least RTL_SLACK_M above the lowest safe altitude (at the
     # lowest, the worst return passes exactly the margin: a flown track's telemetry, rounded
