@@ -11,8 +11,8 @@ rehearse without importing the planners.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
-from typing import TypeVar
+from dataclasses import dataclass, replace
+from typing import Generic, TypeVar
 
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError, ScenarioError
@@ -25,11 +25,13 @@ from uavplan.scenario import PlannerConfig, Scenario, Surroundings
 
 __all__ = [
     "MAX_REPLANS",
+    "Widened",
     "grown_pad",
     "padded_scenario",
     "plan_safe_as_flown",
     "refresh_flight",
     "reroute_safe_as_flown",
+    "widened_until_flown_safe",
 ]
 
 #: how often ``plan`` plans again with a wider margin before it gives up
@@ -127,7 +129,61 @@ def reroute_safe_as_flown(
     return _widened_until_flown_safe(result, fly, reroute_again, autopilot, "rerouted")
 
 
+_T = TypeVar("_T")
 _R = TypeVar("_R", RouteResult, RerouteResult)
+
+
+@dataclass(frozen=True)
+class Widened(Generic[_T]):
+    """How :func:`widened_until_flown_safe` ended.
+
+    ``value``: the last attempt (the first one when it kept the margin); ``pad_m``: how much
+    wider than the margin it was made; ``notes``: one line per widening, why and by how much;
+    ``gave_up``: why the margin could not be widened further while the flight still breaks
+    it ("" when it keeps the margin, or the attempt was stopped); ``stopped``: the last
+    attempt was interrupted (Ctrl-C), and ``value`` is that attempt as it came back."""
+
+    value: _T
+    pad_m: float
+    notes: tuple[str, ...] = ()
+    gave_up: str = ""
+    stopped: bool = False
+
+
+def widened_until_flown_safe(
+    first: _T,
+    check_of: Callable[[_T], TrackCheck | None],
+    again_with: Callable[[float], _T | str],
+    *,
+    stopped: Callable[[_T], bool],
+    noted: Callable[[str, float], str],
+    exhausted: Callable[[float], str],
+    pad_m: float = 0.0,
+) -> Widened[_T]:
+    """The one widen-until-safe loop (routes, reroutes, the planned return, surveys): while
+    the flight of ``first`` (``check_of``: its check as flown; ``None`` or ok: it keeps the
+    margin) breaks the margin, make it again with the planning margin grown by what it lacked
+    (:func:`grown_pad`): ``again_with(pad)``, a string when no wider margin can be had (why),
+    up to :data:`MAX_REPLANS` times. ``first`` was made ``pad_m`` wider than the margin.
+    ``noted(why, pad)``: the note of one widening; ``exhausted(pad)``: why the loop stops
+    after the last one."""
+    value, pad = first, pad_m
+    notes: list[str] = []
+    for attempt in range(MAX_REPLANS + 1):
+        check = check_of(value)
+        if check is None or check.ok:
+            return Widened(value, pad, tuple(notes))
+        if attempt == MAX_REPLANS:
+            return Widened(value, pad, tuple(notes), gave_up=exhausted(pad))
+        grown = grown_pad(pad, check)
+        again = again_with(grown)
+        if isinstance(again, str):
+            return Widened(value, pad, tuple(notes), gave_up=again)
+        if stopped(again):
+            return Widened(again, pad, tuple(notes), stopped=True)
+        notes.append(noted(check.problem() or "the margin is broken", grown))
+        value, pad = again, grown
+    raise AssertionError("unreachable: the loop returns on its last attempt")
 
 
 def _widened_until_flown_safe(
@@ -137,42 +193,43 @@ def _widened_until_flown_safe(
     autopilot: Autopilot,
     verb: str,
 ) -> _R:
-    """The one loop of :func:`plan_safe_as_flown` and :func:`reroute_safe_as_flown`: fly
-    ``result``; while its track breaks the margin, get it again from ``again_with(pad)`` (a
-    margin ``pad`` m wider, grown by :func:`grown_pad`; a string says why no wider margin
-    can be had), up to :data:`MAX_REPLANS` times. Returns the last result with its predicted
-    flight and the notes saying what was done; an interrupted result as it is."""
-    rehearsal = fly(result)
-    pad = 0.0
-    notes: list[str] = []
-    gave_up = ""
-    for attempt in range(MAX_REPLANS + 1):
-        check = rehearsal.check
-        assert check is not None
-        if check.ok:
-            break
-        grown = grown_pad(pad, check)
-        if attempt == MAX_REPLANS:
-            gave_up = f"{verb} {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
-            break
-        why = check.problem()
-        again = again_with(grown)
-        if isinstance(again, str):
-            gave_up = again
-            break
-        if again.interrupted:
-            return again
-        notes.append(
-            f"{autopilot.label} flight model: {why}; {verb} again with the margin "
-            f"{grown:.2f} m wider"
-        )
-        pad = grown
-        result = again
-        rehearsal = fly(result)
+    """:func:`widened_until_flown_safe` for :func:`plan_safe_as_flown` and
+    :func:`reroute_safe_as_flown`: ``result`` flown, planned (rerouted) again while its flight
+    breaks the margin. Returns the last result with its predicted flight and the notes saying
+    what was done; an interrupted result as it is."""
+
+    # each attempt is a result and its flight (None: it was interrupted)
+    def again(pad: float) -> tuple[_R, Rehearsal | None] | str:
+        made = again_with(pad)
+        if isinstance(made, str):
+            return made
+        return (made, None) if made.interrupted else (made, fly(made))
+
+    def check_of(flown: tuple[_R, Rehearsal | None]) -> TrackCheck | None:
+        assert flown[1] is not None
+        return flown[1].check
+
+    first: tuple[_R, Rehearsal | None] = (result, fly(result))
+    ended: Widened[tuple[_R, Rehearsal | None]] = widened_until_flown_safe(
+        first,
+        check_of,
+        again,
+        stopped=lambda flown: flown[1] is None,
+        noted=lambda why, pad: (
+            f"{autopilot.label} flight model: {why}; {verb} again with the margin {pad:.2f} m wider"
+        ),
+        exhausted=lambda pad: (
+            f"{verb} {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
+        ),
+    )
+    last: _R = ended.value[0]
+    rehearsal = ended.value[1]
+    if ended.stopped or rehearsal is None:
+        return last
     # the return to launch at the mission's end is judged with the whole flight, at the RTL
     # altitude the mission relies on (uavplan.verdict), not here
-    flight = rehearsal.prediction(margin_pad_m=pad, gave_up=gave_up)
-    return replace(result, notes=(*result.notes, *notes), flight=flight)
+    flight = rehearsal.prediction(margin_pad_m=ended.pad_m, gave_up=ended.gave_up)
+    return replace(last, notes=(*last.notes, *ended.notes), flight=flight)
 
 
 def padded_scenario(scenario: Scenario, pad_m: float) -> Scenario:

@@ -20,7 +20,12 @@ from uavplan.app.outputs import Output, OutputSet, check_report_name
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
-from uavplan.flown_safe import MAX_REPLANS, grown_pad, plan_safe_as_flown, refresh_flight
+from uavplan.flown_safe import (
+    MAX_REPLANS,
+    plan_safe_as_flown,
+    refresh_flight,
+    widened_until_flown_safe,
+)
 from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
@@ -31,7 +36,7 @@ from uavplan.scenario.values import is_survey_file
 if TYPE_CHECKING:
     from uavplan.app.survey import SurveyOutcome
     from uavplan.autopilot.simulate import FlownTrack
-    from uavplan.flight import FlightPrediction
+    from uavplan.flight import FlightPrediction, TrackCheck
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
     from uavplan.verdict import FlightVerdict
@@ -445,26 +450,45 @@ def _return_safe_as_flown(
 ) -> tuple[WayHome, RouteResult]:
     """The planned return (``way``) flown with the route by the flight model; where the
     autopilot's flight of it comes closer than the margin (it cuts the return's corners as
-    it cuts the route's), the return is planned again keeping what it lacked more, up to
-    :data:`~uavplan.flown_safe.MAX_REPLANS` times. The result's flight is that mission's."""
+    it cuts the route's), the return is planned again keeping what it lacked more: the widen
+    loop of :func:`~uavplan.flown_safe.widened_until_flown_safe`. The result's flight is
+    that mission's; a return that could not be made safe says why in its ``gave_up``."""
     route = result.route
     assert route is not None
-    allowance = 0.0
-    refreshed = refresh_flight(scn, replace(result, route=way.route))
-    for _ in range(MAX_REPLANS):
-        flight = refreshed.flight
-        if flight is None or flight.check.ok:
-            break
-        allowance = grown_pad(allowance, flight.check)
-        again = _way_home(scn, route, request, feedback, allowance)
-        if again.interrupted or again.route is route:
-            return again, result
-        note = f"the planned return as flown: {flight.check.problem()}; planned again keeping "
-        note += f"{allowance:.2f} m more"
-        way = again
-        refreshed = refresh_flight(scn, replace(result, route=way.route))
-        refreshed = replace(refreshed, notes=(*refreshed.notes, note))
-    return way, refreshed
+
+    def flown(home: WayHome) -> tuple[WayHome, RouteResult]:
+        return home, refresh_flight(scn, replace(result, route=home.route))
+
+    def again(allowance: float) -> tuple[WayHome, RouteResult]:
+        home = _way_home(scn, route, request, feedback, allowance)
+        if home.interrupted or home.route is route:  # stopped, or no planned return now
+            return home, result
+        return flown(home)
+
+    def check_of(value: tuple[WayHome, RouteResult]) -> TrackCheck | None:
+        flight = value[1].flight
+        return None if flight is None else flight.check
+
+    ended = widened_until_flown_safe(
+        flown(way),
+        check_of,
+        again,
+        stopped=lambda value: value[0].interrupted or value[0].route is route,
+        noted=lambda why, pad: (
+            f"the planned return as flown: {why}; planned again keeping {pad:.2f} m more"
+        ),
+        exhausted=lambda pad: (
+            f"the return planned {MAX_REPLANS} more times, keeping up to {pad:.2f} m more"
+        ),
+    )
+    way, refreshed = ended.value
+    if ended.stopped:
+        return way, refreshed
+    flight = refreshed.flight
+    if ended.gave_up and flight is not None:
+        gave_up = "; ".join(part for part in (flight.gave_up, ended.gave_up) if part)
+        refreshed = replace(refreshed, flight=replace(flight, gave_up=gave_up))
+    return way, replace(refreshed, notes=(*refreshed.notes, *ended.notes))
 
 
 def _search(scn: Scenario, feedback: Feedback) -> RouteResult:

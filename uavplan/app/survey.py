@@ -12,7 +12,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
-from uavplan.flown_safe import MAX_REPLANS, grown_pad, padded_scenario
+from uavplan.flown_safe import MAX_REPLANS, padded_scenario, widened_until_flown_safe
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.rehearsal import tracking_allowance_m
@@ -169,6 +169,17 @@ _NOT_FOR_SURVEYS = {
 }
 
 
+class _Planned(NamedTuple):
+    """One attempt of the survey's widen loop: the scenario it was planned in (the margin
+    widened), its world, the route, the mission and the verdict on its whole flight."""
+
+    planned_in: Scenario
+    world: World
+    route: SurveyRoute
+    mission: MissionPlan
+    verdict: FlightVerdict | None
+
+
 def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcome:
     """Plan the survey scenario ``request.source`` and write its mission (all or nothing)."""
     t0 = time.perf_counter()
@@ -189,29 +200,38 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
             scn, mission=replace(scn.mission, autopilot=Autopilot.from_name(request.autopilot))
         )
     scn = with_no_fly(scn, spec)
+
     # the lanes and transitions keep the firmware's tracking allowance beyond the margin, as
     # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M);
     # while the flight as flown breaks it, the holes and transitions keep a wider margin (the
     # widen loop of uavplan.flown_safe: what the track lacked, plus a step)
-    pad = tracking_allowance_m(scn.mission.autopilot)
-    for attempt in range(MAX_REPLANS + 1):
+    def planned_with(pad: float) -> _Planned:
         planned_in = padded_scenario(scn, pad) if pad else scn
         world = build_world(planned_in)
         route = plan_survey(planned_in, spec, world=world)
         mission = survey_mission(scn, spec, route)
-        verdict = _judge(scn, mission)
-        if verdict is None or verdict.flight_ok:
-            break
-        if attempt == MAX_REPLANS:
-            raise NoPathError(
-                f"{verdict.problem()} (planned {MAX_REPLANS} more times, the margin up to "
-                f"{pad:.2f} m wider)"
-            )
-        pad = grown_pad(pad, verdict.check)
-        feedback.say(
-            f"{verdict.autopilot.label} flight model: {verdict.check.problem()}; planned again "
-            f"with the margin {pad:.2f} m wider"
-        )
+        return _Planned(planned_in, world, route, mission, _judge(scn, mission))
+
+    label = scn.mission.autopilot.label
+    ended = widened_until_flown_safe(
+        planned_with(tracking_allowance_m(scn.mission.autopilot)),
+        lambda planned: None if planned.verdict is None else planned.verdict.check,
+        planned_with,
+        stopped=lambda planned: False,
+        noted=lambda why, pad: (
+            f"{label} flight model: {why}; planned again with the margin {pad:.2f} m wider"
+        ),
+        exhausted=lambda pad: (
+            f"planned {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
+        ),
+        pad_m=tracking_allowance_m(scn.mission.autopilot),
+    )
+    for note in ended.notes:
+        feedback.say(note)
+    planned_in, world, route, mission, verdict = ended.value
+    if ended.gave_up:
+        assert verdict is not None
+        raise NoPathError(f"{verdict.problem()} ({ended.gave_up})")
     reserve = DEFAULT_RESERVE_PCT if request.reserve_pct is None else request.reserve_pct
     estimate = None
     parts: tuple[SurveyPart, ...] = ()
