@@ -32,7 +32,8 @@ from uavplan.mavlink.parameters import ParamMachine, ParamRequest, ParamStatus
 from uavplan.mission.builder import build_mission
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType, VehicleParameter
-from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicles import new_vehicle
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -295,7 +296,7 @@ def test_the_simulated_vehicle_reads_and_sets_every_parameter_it_flies_by(
 ) -> None:
     """PARAM_REQUEST_READ of every row of the flight model's table answers its value, and
     a PARAM_SET of the RTL altitude changes the altitude the model's return flies at."""
-    vehicle = SimVehicle(VehicleConfig(autopilot=autopilot, telemetry=False))
+    vehicle = new_vehicle(VehicleConfig(autopilot=autopilot, telemetry=False))
 
     def replies(message: object, now: float) -> list[ParamValue]:
         out = vehicle.receive(Received(message, 255, 190), now)  # type: ignore[arg-type]

@@ -17,7 +17,8 @@ from uavplan.mavlink.messages import (
 )
 from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
-from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicles import new_vehicle
 
 PX4 = Autopilot.PX4
 #: the ground station's (system, component)
@@ -28,7 +29,7 @@ class Driver:
     """A ground station with a clock: feeds the vehicle messages and time, keeps what it says."""
 
     def __init__(self, config: VehicleConfig) -> None:
-        self.vehicle = SimVehicle(config, now=0.0)
+        self.vehicle = new_vehicle(config, now=0.0)
         self.now = 0.0
         self.heard: list[Message] = []
 

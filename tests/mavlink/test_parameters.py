@@ -29,6 +29,7 @@ from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import Autopilot, MissionType, VehicleParameter
 from uavplan.sim.faults import Faults
 from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicles import new_vehicle
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -146,7 +147,7 @@ def drive(vehicle: SimVehicle, machine: ParamMachine, *, limit_s: float = 30.0) 
 @pytest.mark.parametrize("seed", range(6))
 def test_replies_lost_by_the_vehicle_are_recovered(seed: int) -> None:
     faults = Faults(drop_rate=0.4, only=frozenset({"PARAM_VALUE"}), direction="out", seed=seed)
-    vehicle = SimVehicle(VehicleConfig(autopilot=AP, faults=faults))
+    vehicle = new_vehicle(VehicleConfig(autopilot=AP, faults=faults))
     requests = [ParamRequest("RTL_ALT", 4500, 4500), ParamRequest("FENCE_ENABLE", 1)]
     timeouts = ParamTimeouts(reply_s=0.2, retries=10)  # 11 tries of a 40 % loss each
     machine = ParamMachine((1, 1), requests, bytewise=False, timeouts=timeouts)

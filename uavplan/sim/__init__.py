@@ -9,6 +9,9 @@ the ones above it (and the vocabulary, mission, mavlink and autopilot layers):
 - :mod:`.mission_server` - the vehicle side of the mission protocol, sans-I/O;
 - :mod:`.vehicle` - :class:`~.vehicle.SimVehicle`, the whole vehicle as a sans-I/O state
   machine (modes, arming, telemetry, parameters, the mission server, the flight model);
+- :mod:`.px4` and :mod:`.ardupilot` - where each firmware's rules differ (modes, arming,
+  MISSION_START, parameter encoding);
+- :mod:`.vehicles` - :func:`~.vehicles.new_vehicle`, the flavour's vehicle for a config;
 - :mod:`.mock` - :class:`~.mock.MockVehicle`, the thin I/O loop that puts it on a real
   MAVLink endpoint (``uavplan mock-vehicle``).
 """
@@ -24,6 +27,7 @@ _EXPORTS = {
     "MockVehicle": "mock",
     "SimVehicle": "vehicle",
     "VehicleConfig": "vehicle",
+    "new_vehicle": "vehicles",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -24,7 +24,8 @@ from uavplan.mavlink.modes import FlightMode
 from uavplan.mavlink.transport import ConnectionSpec
 from uavplan.mission.items import Autopilot, MissionItem, MissionType
 from uavplan.sim.faults import Faults
-from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicles import new_vehicle
 
 __all__ = ["MockVehicle", "VehicleSnapshot", "VehicleStats"]
 
@@ -78,7 +79,7 @@ class MockVehicle:
         self._changed = threading.Condition(self._lock)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self.vehicle = SimVehicle(c, time.monotonic())
+        self.vehicle = new_vehicle(c, time.monotonic())
         self.error: BaseException | None = None
 
     # -- public ---------------------------------------------------------------------------

@@ -37,16 +37,14 @@ station's socket buffer would drop.
 from __future__ import annotations
 
 import math
-import struct
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from struct import error as struct_error
 
 from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel
 from uavplan.autopilot.nav import nav_items
-from uavplan.autopilot.params import Parameters, ParamSpec, ParamType, UnknownParameter
+from uavplan.autopilot.params import Parameters, ParamSpec, UnknownParameter
 from uavplan.autopilot.power import X500, Battery, PowerState, VehicleSpec
-from uavplan.autopilot.simulate import MissionRefused, check_startable
 from uavplan.geo import GeoPoint
 from uavplan.mavlink.messages import (
     SYS_STATUS_PREARM_CHECK,
@@ -89,9 +87,7 @@ from uavplan.mavlink.messages import (
 from uavplan.mavlink.modes import (
     FlightMode,
     ModeKind,
-    ardupilot_mode,
     mode_named,
-    px4_mode,
 )
 from uavplan.mission.items import Autopilot, MissionItem, MissionType, deg_to_e7
 from uavplan.sim.faults import FaultInjector, Faults
@@ -125,12 +121,6 @@ _STREAMS: dict[int, float] = {
     MessageId.BATTERY_STATUS: 1.0,
     MessageId.EXTENDED_SYS_STATE: 1.0,
     MessageId.HOME_POSITION: 2.0,
-}
-#: ArduPilot's REQUEST_DATA_STREAM groups → the streamed messages the simulation has
-_DATA_STREAMS: dict[int, tuple[int, ...]] = {
-    2: (MessageId.SYS_STATUS, MessageId.MISSION_CURRENT, MessageId.EXTENDED_SYS_STATE),
-    6: (MessageId.GLOBAL_POSITION_INT,),
-    12: (MessageId.BATTERY_STATUS,),
 }
 
 
@@ -186,7 +176,7 @@ class _Stream:
     next_due_s: float
 
 
-def _whole_number(value: float) -> int | None:
+def whole_number(value: float) -> int | None:
     """A command param that must hold a whole number, or ``None`` (NaN, inf, 2.5)."""
     if not math.isfinite(value) or value != math.floor(value) or abs(value) > 2**31:
         return None
@@ -201,7 +191,29 @@ class SimVehicle:
     """A simulated PX4 or ArduPilot Copter vehicle, sans-I/O (see the module docstring).
 
     ``now`` (seconds, any monotonic origin) is the link's clock; every call passes it.
+    This class holds what both flavours share; where the firmwares differ (modes, arming,
+    MISSION_START, parameter encoding, telemetry fields) the flavour's subclass says how:
+    :class:`uavplan.sim.px4.Px4Vehicle`, :class:`uavplan.sim.ardupilot.ArduPilotVehicle`.
+    Make one with :func:`new_vehicle` (``uavplan.sim.vehicles``), which picks the subclass
+    for ``config.autopilot``.
     """
+
+    #: the first mission seq a start flies (ArduPilot's seq 0 is home)
+    FIRST_SEQ = 0
+    #: COMMAND_ACK results: a disarm in the air without the force value, and an
+    #: arm / disarm command whose param1 is neither 0 nor 1
+    DISARM_IN_AIR_REFUSED = MavResult.FAILED
+    BAD_ARM_PARAM = MavResult.DENIED
+    #: the prefix of a failing pre-arm check's STATUSTEXT
+    PREARM_PREFIX = ""
+    #: whether a failing pre-arm check is repeated while disarmed
+    REPEATS_PREARM = False
+    #: component ids besides the configured one that the firmware answers as itself
+    ALSO_ANSWERS: frozenset[int] = frozenset()
+    #: HEARTBEAT.autopilot, AUTOPILOT_VERSION's parameter encoding and software version
+    MAV_AUTOPILOT = MavAutopilotId.GENERIC
+    PARAM_ENCODING = Capability.PARAM_ENCODE_C_CAST
+    FLIGHT_SW_VERSION = 0
 
     def __init__(self, config: VehicleConfig | None = None, now: float = 0.0) -> None:
         c = config or VehicleConfig()
@@ -222,9 +234,7 @@ class SimVehicle:
         self.flight = FlightModel(self.params, wind_en_m_s=c.wind_en_m_s, dt_s=c.dt_s)
         self.battery = Battery(c.vehicle)
         self.armed = False
-        self.mode: FlightMode = mode_named(
-            c.autopilot, ModeKind.HOLD if c.autopilot == Autopilot.PX4 else ModeKind.MANUAL
-        )
+        self.mode: FlightMode = self._initial_mode()
         self.mission_state = MissionState.NOT_STARTED
         self.link_lost = False
         self.sim_time_s = 0.0
@@ -362,16 +372,12 @@ class SimVehicle:
             elif event.kind is EventKind.MISSION_COMPLETE:
                 self.mission_state = MissionState.COMPLETE
                 self._mission_active = False
-                if self.autopilot == Autopilot.PX4 and not self.flight.landed:
-                    self.mode = mode_named(Autopilot.PX4, ModeKind.HOLD)  # mission done: Hold
+                self._on_mission_done()
                 out.append(self._mission_current())
             elif event.kind is EventKind.RTL:
                 self.mode = mode_named(self.autopilot, ModeKind.RETURN)
             elif event.kind is EventKind.LANDED:
-                if self.autopilot == Autopilot.PX4:
-                    self._disarm_at_s = self.flight.t_s + PX4_DISARM_AFTER_LANDING_S
-                else:
-                    self._disarm()  # ArduPilot disarms once the landing is complete
+                self._on_landed()
             elif event.kind is EventKind.NO_HEADWAY:
                 out.append(self._say(Severity.WARNING, "Wind: cannot hold the track"))
             elif event.kind is EventKind.FENCE_BREACH:
@@ -399,10 +405,7 @@ class SimVehicle:
         if target_system not in (0, self.config.system_id):
             return False
         target_component = getattr(message, "target_component", 0)
-        accepted = {0, self.config.component_id}
-        if self.autopilot == Autopilot.PX4:
-            accepted.add(190)  # MAV_COMP_ID_MISSIONPLANNER: PX4 answers it as itself
-        return target_component in accepted
+        return target_component in {0, self.config.component_id, *self.ALSO_ANSWERS}
 
     def _handle(self, received: Received) -> list[Message]:
         message = received.message
@@ -451,7 +454,7 @@ class SimVehicle:
 
         command = cmd.command
         if command == MavCommand.REQUEST_MESSAGE:
-            wanted = _whole_number(cmd.param1)
+            wanted = whole_number(cmd.param1)
             if wanted is None:
                 return ack(MavResult.DENIED)  # NaN / inf / fractional: names no message
             message = self._requested(wanted)
@@ -507,7 +510,7 @@ class SimVehicle:
         return None if maker is None else maker()
 
     def _set_interval(self, message_id: float, interval_us: float) -> MavResult:
-        wanted = _whole_number(message_id)
+        wanted = whole_number(message_id)
         if wanted is None or not math.isfinite(interval_us):
             return MavResult.DENIED
         if wanted not in self._streams:
@@ -523,7 +526,7 @@ class SimVehicle:
         return MavResult.ACCEPTED
 
     def _do_set_mission_current(self, param1: float, out: list[Message]) -> MavResult:
-        seq = _whole_number(param1)
+        seq = whole_number(param1)
         if seq is None:
             return MavResult.DENIED
         count = len(self.server.wire_items(MissionType.MISSION))
@@ -547,18 +550,6 @@ class SimVehicle:
         self.texts.append(message)
         return message
 
-    def _mission_valid(self) -> bool:
-        """PX4: a mission with a position item; ArduPilot: ``mission.present()``, an item
-        besides home."""
-        items = self.server.items(MissionType.MISSION)
-        if self.autopilot == Autopilot.ARDUPILOT:
-            return len(items) > 1
-        try:
-            check_startable(items, Autopilot.PX4)
-        except MissionRefused:
-            return False
-        return True
-
     def _arm_disarm(self, param1: float, param2: float, out: list[Message]) -> MavResult:
         forced = param2 == FORCE_MAGIC
         if param1 == 1.0:
@@ -570,14 +561,10 @@ class SimVehicle:
                 return MavResult.ACCEPTED
             if not self.flight.landed and not forced:
                 # both refuse to disarm in the air without the force value
-                return (
-                    MavResult.TEMPORARILY_REJECTED
-                    if self.autopilot == Autopilot.PX4
-                    else MavResult.FAILED
-                )
+                return self.DISARM_IN_AIR_REFUSED
             self._disarm()
             return MavResult.ACCEPTED
-        return MavResult.DENIED if self.autopilot == Autopilot.PX4 else MavResult.UNSUPPORTED
+        return self.BAD_ARM_PARAM
 
     def _prearm_display(self) -> list[Message]:
         """ArduPilot repeats a failing pre-arm check every PREARM_DISPLAY_PERIOD while
@@ -585,7 +572,7 @@ class SimVehicle:
         if (
             self.faults.prearm_failure is None
             or self.armed
-            or self.autopilot != Autopilot.ARDUPILOT
+            or not self.REPEATS_PREARM
             or self.sim_time_s < self._next_prearm_display_s
         ):
             return []
@@ -599,44 +586,12 @@ class SimVehicle:
         reason = self.faults.prearm_failure
         if reason is None:
             return []
-        prefix = "PreArm: " if self.autopilot == Autopilot.ARDUPILOT else "Preflight Fail: "
-        return [self._say(Severity.CRITICAL, prefix + reason)]
+        return [self._say(Severity.CRITICAL, self.PREARM_PREFIX + reason)]
 
     def _arm(self, out: list[Message], *, forced: bool = False) -> MavResult:
-        if self.faults.prearm_failure is not None and not forced:
-            # a failing pre-arm check refuses arming: ArduPilot reports it and answers
-            # FAILED (AP_Arming::arm, GCS_Common.cpp); PX4 reports the health failure, then
-            # "Arming denied: Resolve system health failures first", TEMPORARILY_REJECTED
-            out.extend(self._prearm_report())
-            if self.autopilot == Autopilot.ARDUPILOT:
-                return MavResult.FAILED
-            out.append(
-                self._say(Severity.CRITICAL, "Arming denied: Resolve system health failures first")
-            )
-            return MavResult.TEMPORARILY_REJECTED
-        if self.autopilot == Autopilot.ARDUPILOT:
-            # ArduCopter/AP_Arming_Copter.cpp arm_checks: "%s mode not armable" prefixed
-            # "Arm: " by AP_Arming::check_failed; GCS_Common.cpp answers MAV_RESULT_FAILED
-            not_armable = self.mode.kind in (ModeKind.MISSION, ModeKind.RETURN, ModeKind.LAND)
-            if not forced and (not_armable or self.mode.name == "BRAKE"):
-                out.append(self._say(Severity.CRITICAL, f"Arm: {self.mode.name} mode not armable"))
-                return MavResult.FAILED
-        else:
-            # PX4 HealthAndArmingChecks: COM_ARM_MIS_REQ makes a valid mission an arming
-            # requirement, and Return / Land prevent arming ("Mode not suitable for
-            # arming"); Commander::arm reports "Arming denied: Resolve system health
-            # failures first" and the command is TEMPORARILY_REJECTED
-            needs_mission = (
-                self.params["COM_ARM_MIS_REQ"] >= 1 or self.mode.kind is ModeKind.MISSION
-            )
-            unsuitable = self.mode.kind in (ModeKind.RETURN, ModeKind.LAND)
-            if not forced and ((needs_mission and not self._mission_valid()) or unsuitable):
-                out.append(
-                    self._say(
-                        Severity.CRITICAL, "Arming denied: Resolve system health failures first"
-                    )
-                )
-                return MavResult.TEMPORARILY_REJECTED
+        refused = self._arm_refused(out, forced=forced)
+        if refused is not None:
+            return refused
         self.armed = True
         self._armed_at_s = self.flight.t_s
         self.armed_periods.append((self.flight.t_s, None))
@@ -671,7 +626,7 @@ class SimVehicle:
     def _start_mission(self) -> None:
         """Fly the stored mission from the current item (resume), or from the start."""
         self._load_mission()
-        first = 1 if self.autopilot == Autopilot.ARDUPILOT else 0
+        first = self.FIRST_SEQ
         current = self.server.current_seq
         complete = self.mission_state is MissionState.COMPLETE
         start = first if (complete or current < first) else current
@@ -683,43 +638,7 @@ class SimVehicle:
         """Enter ``mode`` as the firmware does; the COMMAND_ACK result."""
         if mode is None:
             return MavResult.FAILED
-        if self.autopilot == Autopilot.PX4:
-            return self._set_mode_px4(mode, out)
-        return self._set_mode_ardupilot(mode, out)
-
-    def _set_mode_px4(self, mode: FlightMode, out: list[Message]) -> MavResult:
-        # Commander: a mode whose requirements fail is refused with
-        # "Switching to %s is currently not available" (printRejectMode) and
-        # TEMPORARILY_REJECTED; Mission mode requires a valid mission (ModeChecks)
-        unavailable = mode.kind is ModeKind.OFFBOARD or (
-            mode.kind is ModeKind.MISSION and not self._mission_valid()
-        )
-        if unavailable:
-            out.append(
-                self._say(Severity.CRITICAL, f"Switching to {mode.name} is currently not available")
-            )
-            return MavResult.TEMPORARILY_REJECTED
-        self._enter(mode)
-        return MavResult.ACCEPTED
-
-    def _set_mode_ardupilot(self, mode: FlightMode, out: list[Message]) -> MavResult:
-        if mode.kind is ModeKind.MISSION and self.armed:
-            # ArduCopter/mode_auto.cpp ModeAuto::init (checks only when armed: set_mode's
-            # ignore_checks = !armed): no mission, or on the ground without a take-off first
-            if not self._mission_valid():
-                out.append(self._say(Severity.WARNING, "Mode change to AUTO failed: init failed"))
-                return MavResult.FAILED
-            if self.flight.landed:
-                try:
-                    check_startable(self.server.items(MissionType.MISSION), Autopilot.ARDUPILOT)
-                except MissionRefused as refused:
-                    out.append(self._say(Severity.CRITICAL, refused.firmware_text))
-                    out.append(
-                        self._say(Severity.WARNING, "Mode change to AUTO failed: init failed")
-                    )
-                    return MavResult.FAILED
-        self._enter(mode)
-        return MavResult.ACCEPTED
+        return self._switch_to(mode, out)
 
     def _enter(self, mode: FlightMode) -> None:
         """Switch to ``mode`` (accepted) and make the flight follow."""
@@ -733,15 +652,7 @@ class SimVehicle:
         if not self.armed:
             return
         if kind is ModeKind.MISSION:
-            waiting = (
-                self.autopilot == Autopilot.ARDUPILOT
-                and self.flight.landed
-                and not self._auto_armed
-            )
-            if waiting:
-                # ArduCopter: AUTO on the ground runs the take-off only once ap.auto_armed
-                # (Copter::update_auto_armed sets it when the pilot raises the throttle, and
-                # MISSION_START sets it); with no pilot here, it waits for MISSION_START
+            if self._waits_for_mission_start():
                 return
             if previous.kind is not ModeKind.MISSION or not self._mission_active:
                 self._start_mission()
@@ -754,92 +665,10 @@ class SimVehicle:
         elif not self.flight.landed:
             self.flight.hold()  # Hold / LOITER / a manual mode without a pilot: hold
 
-    def _do_set_mode(
-        self, base_mode: float, custom: float, sub: float, out: list[Message]
-    ) -> MavResult:
-        base = _whole_number(base_mode)
-        main = _whole_number(custom)
-        if base is None or main is None or not (base & MavModeFlag.CUSTOM_MODE_ENABLED):
-            return MavResult.DENIED if self.autopilot == Autopilot.PX4 else MavResult.FAILED
-        if self.autopilot == Autopilot.PX4:
-            sub_mode = _whole_number(sub) or 0
-            mode = px4_mode(main, sub_mode)
-            if mode is None:
-                return MavResult.DENIED
-            return self._set_mode_px4(mode, out)
-        mode = ardupilot_mode(main)
-        if mode is None:
-            # AP_Vehicle::notify_no_such_mode (libraries/AP_Vehicle/AP_Vehicle.cpp)
-            out.append(self._say(Severity.WARNING, f"No such mode {main}"))
-            return MavResult.FAILED
-        return self._set_mode_ardupilot(mode, out)
-
-    def _on_set_mode_message(self, partner: tuple[int, int], msg: SetMode) -> list[Message]:
-        """SET_MODE (what pymavlink's ``set_mode`` sends). ArduPilot acknowledges it with a
-        COMMAND_ACK whose command is the message id 11 (GCS_Common.cpp handle_set_mode);
-        PX4 turns it into MAV_CMD_DO_SET_MODE and acknowledges that."""
-        out: list[Message] = []
-        if self.autopilot == Autopilot.PX4:
-            main = (msg.custom_mode >> 16) & 0xFF
-            sub = (msg.custom_mode >> 24) & 0xFF
-            result = self._do_set_mode(msg.base_mode, main, sub, out)
-            command = int(MavCommand.DO_SET_MODE)
-        else:
-            result = self._do_set_mode(msg.base_mode, msg.custom_mode, 0.0, out)
-            command = 11
-        return [*out, CommandAck(command, int(result), partner[0], partner[1])]
-
-    def _mission_start(self, first: float, last: float, out: list[Message]) -> MavResult:
-        if self.autopilot == Autopilot.ARDUPILOT:
-            # ArduCopter/GCS_MAVLink_Copter.cpp handle_MAV_CMD_MISSION_START: "first-item/
-            # last item not supported" → DENIED; then set_mode(AUTO) or FAILED
-            if first != 0.0 or last != 0.0:
-                return MavResult.DENIED
-            result = self._set_mode_ardupilot(
-                mode_named(Autopilot.ARDUPILOT, ModeKind.MISSION), out
-            )
-            if result == MavResult.ACCEPTED and self.armed:
-                self._auto_armed = True  # copter.set_auto_armed(true)
-                if not self._mission_active:
-                    self._start_mission()
-            return result
-        # commander/Commander.cpp VEHICLE_CMD_MISSION_START: no valid mission → DENIED and
-        # "Mission start denied! No valid mission"; a first item out of range → DENIED;
-        # else Mission mode and arm, or TEMPORARILY_REJECTED
-        if not self._mission_valid():
-            out.append(self._say(Severity.CRITICAL, "Mission start denied! No valid mission"))
-            return MavResult.DENIED
-        count = len(self.server.wire_items(MissionType.MISSION))
-        if not (math.isfinite(first) and -1 <= first < count):
-            return MavResult.DENIED
-        mission = mode_named(Autopilot.PX4, ModeKind.MISSION)
-        if self._set_mode_px4(mission, out) != MavResult.ACCEPTED:
-            return MavResult.TEMPORARILY_REJECTED
-        if not self.armed and self._arm(out) != MavResult.ACCEPTED:
-            return MavResult.TEMPORARILY_REJECTED
-        return MavResult.ACCEPTED
-
-    def _takeoff_command(self, cmd: CommandLong | CommandInt, out: list[Message]) -> MavResult:
-        """MAV_CMD_NAV_TAKEOFF as a command: PX4 enters its Takeoff mode (MIS_TAKEOFF_ALT);
-        ArduPilot takes off to param7 in GUIDED, armed, on the ground."""
-        if self.autopilot == Autopilot.PX4:
-            return self._set_mode_px4(mode_named(Autopilot.PX4, ModeKind.TAKEOFF), out)
-        altitude = cmd.param7 if isinstance(cmd, CommandLong) else cmd.z
-        if self.mode.kind is not ModeKind.GUIDED or not self.armed or not self.flight.landed:
-            return MavResult.FAILED
-        if not (math.isfinite(altitude) and altitude > 0):
-            return MavResult.DENIED
-        self._auto_armed = True  # Copter::start_takeoff sets it
-        self.flight.takeoff(altitude)
-        return MavResult.ACCEPTED
-
     # -- parameters -----------------------------------------------------------------------
     def _param_value(self, spec: ParamSpec) -> ParamValue:
         value = self.params[spec.name]
-        wire = float(value)
-        if spec.type != ParamType.REAL32 and self.autopilot == Autopilot.PX4:
-            # PX4 sends integers bytewise (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE)
-            wire = struct.unpack("<f", struct.pack("<i", int(value)))[0]
+        wire = self._param_to_wire(spec, value)
         return ParamValue(
             spec.name,
             wire,
@@ -856,12 +685,7 @@ class SimVehicle:
             if message.param_index >= 0:
                 if message.param_index < len(specs):
                     return [self._param_value(specs[message.param_index])]
-                if self.autopilot == Autopilot.PX4:
-                    # mavlink_parameters.cpp: "[pm] unknown param ID: %u"
-                    return [
-                        self._say(Severity.INFO, f"[pm] unknown param ID: {message.param_index}")
-                    ]
-                return []
+                return self._unknown_param_index(message.param_index)
             try:
                 return [self._param_value(self.params.spec(message.param_id))]
             except UnknownParameter:
@@ -869,23 +693,15 @@ class SimVehicle:
         try:
             spec = self.params.spec(message.param_id)
         except UnknownParameter:
-            if self.autopilot == Autopilot.PX4:
-                # mavlink_parameters.cpp PARAM_SET: "[pm] unknown param: %s"
-                return [self._say(Severity.INFO, f"[pm] unknown param: {message.param_id}")]
-            return []  # ArduPilot GCS_Param.cpp handle_param_set: silently ignored
-        value = message.param_value
-        if spec.type != ParamType.REAL32 and self.autopilot == Autopilot.PX4:
-            value = float(struct.unpack("<i", struct.pack("<f", value))[0])
+            return self._unknown_param_set(message.param_id)
+        value = self._param_from_wire(spec, message.param_value)
         if not math.isfinite(value):
             return []  # ArduPilot ignores NaN / inf; PX4's reply would repeat garbage
         if spec.name in self.faults.refuse_param_set:
             # a parameter the vehicle will not write (read-only): ArduPilot's GCS_Param.cpp
             # handle_param_set says so and sends the value it keeps; PX4 (our model) only
             # sends the value it keeps
-            out: list[Message] = []
-            if self.autopilot == Autopilot.ARDUPILOT:
-                out.append(self._say(Severity.WARNING, f"Param write denied ({spec.name})"))
-            return [*out, self._param_value(spec)]
+            return [*self._param_write_denied(spec), self._param_value(spec)]
         self.params = self.params.with_values({spec.name: value}, checked=False)
         self.flight.set_params(self.params)
         return [self._param_value(spec)]
@@ -905,22 +721,6 @@ class SimVehicle:
         for offset, message_id in enumerate(_STREAMS):
             first = 0.5 if message_id == MessageId.MISSION_CURRENT else 0.05 * (offset + 1)
             self._streams[message_id] = _Stream(self._default_interval(message_id), first)
-
-    def _on_data_stream(self, msg: RequestDataStream) -> list[Message]:
-        """ArduPilot's REQUEST_DATA_STREAM (GCS_Common.cpp handle_request_data_stream); PX4
-        ignores the message."""
-        if self.autopilot != Autopilot.ARDUPILOT:
-            return []
-        groups = list(_DATA_STREAMS) if msg.req_stream_id == 0 else [msg.req_stream_id]
-        for group in groups:
-            for message_id in _DATA_STREAMS.get(group, ()):
-                stream = self._streams[message_id]
-                if msg.start_stop == 0 or msg.req_message_rate <= 0:
-                    stream.interval_s = None
-                else:
-                    stream.interval_s = 1.0 / msg.req_message_rate
-                    stream.next_due_s = self.sim_time_s
-        return []
 
     def _due_streams(self, now: float) -> list[Message]:
         out: list[Message] = []
@@ -958,11 +758,7 @@ class SimVehicle:
             base |= MavModeFlag.MANUAL_INPUT_ENABLED | MavModeFlag.STABILIZE_ENABLED
         return Heartbeat(
             type=MavType.QUADROTOR,
-            autopilot=(
-                MavAutopilotId.PX4
-                if self.autopilot == Autopilot.PX4
-                else MavAutopilotId.ARDUPILOTMEGA
-            ),
+            autopilot=self.MAV_AUTOPILOT,
             base_mode=int(base),
             custom_mode=self.mode.custom_mode,
             system_status=int(MavState.ACTIVE if self.armed else MavState.STANDBY),
@@ -971,11 +767,7 @@ class SimVehicle:
     def _autopilot_version(self) -> AutopilotVersion:
         caps = self.config.capabilities
         if caps is None:
-            encoding = (
-                Capability.PARAM_ENCODE_BYTEWISE
-                if self.autopilot == Autopilot.PX4
-                else Capability.PARAM_ENCODE_C_CAST
-            )
+            encoding = self.PARAM_ENCODING
             caps = (
                 Capability.MISSION_FLOAT
                 | Capability.MISSION_INT
@@ -985,13 +777,9 @@ class SimVehicle:
                 | Capability.MISSION_RALLY
                 | encoding
             )
-        if self.autopilot == Autopilot.PX4:
-            version = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 official
-        else:
-            version = (4 << 24) | (5 << 16) | (0 << 8) | 255  # v4.5.0 official
         return AutopilotVersion(
             capabilities=int(caps),
-            flight_sw_version=version,
+            flight_sw_version=self.FLIGHT_SW_VERSION,
             vendor_id=0x1209,
             product_id=0x5740,
             uid=0x55A0_0000 + self.config.system_id,
@@ -999,10 +787,7 @@ class SimVehicle:
 
     def _mission_current(self) -> MissionCurrent:
         count = len(self.server.wire_items(MissionType.MISSION))
-        if self.autopilot == Autopilot.PX4:
-            total = count if count else 65535
-        else:
-            total = max(0, count - 1)
+        total = self._mission_total(count)
         state = self.mission_state if count else MissionState.NO_MISSION
         if self._mission_active:
             mission_mode = 1
@@ -1106,3 +891,78 @@ class SimVehicle:
             time_remaining=0 if remaining is None else int(remaining),
             charge_state=1,  # MAV_BATTERY_CHARGE_STATE_OK
         )
+
+    # -- what each flavour says (uavplan.sim.px4, uavplan.sim.ardupilot) -------------------
+    def _initial_mode(self) -> FlightMode:
+        """The mode the vehicle boots in."""
+        raise NotImplementedError
+
+    def _on_mission_done(self) -> None:
+        """The mission's last item is done."""
+        raise NotImplementedError
+
+    def _on_landed(self) -> None:
+        """The flight model touched down."""
+        raise NotImplementedError
+
+    def _mission_valid(self) -> bool:
+        """Whether the stored mission can be started."""
+        raise NotImplementedError
+
+    def _arm_refused(self, out: list[Message], *, forced: bool) -> MavResult | None:
+        """The firmware's refusal to arm now (its STATUSTEXT into ``out``), or None."""
+        raise NotImplementedError
+
+    def _switch_to(self, mode: FlightMode, out: list[Message]) -> MavResult:
+        """Enter ``mode`` if the firmware allows it now; the COMMAND_ACK result."""
+        raise NotImplementedError
+
+    def _waits_for_mission_start(self) -> bool:
+        """Whether the mission mode, armed, waits for MISSION_START before it flies."""
+        return False
+
+    def _do_set_mode(
+        self, base_mode: float, custom: float, sub: float, out: list[Message]
+    ) -> MavResult:
+        """MAV_CMD_DO_SET_MODE's params as the firmware reads them."""
+        raise NotImplementedError
+
+    def _on_set_mode_message(self, partner: tuple[int, int], msg: SetMode) -> list[Message]:
+        """The SET_MODE message and its acknowledgement."""
+        raise NotImplementedError
+
+    def _mission_start(self, first: float, last: float, out: list[Message]) -> MavResult:
+        """MAV_CMD_MISSION_START."""
+        raise NotImplementedError
+
+    def _takeoff_command(self, cmd: CommandLong | CommandInt, out: list[Message]) -> MavResult:
+        """MAV_CMD_NAV_TAKEOFF sent as a command."""
+        raise NotImplementedError
+
+    def _param_to_wire(self, spec: ParamSpec, value: float) -> float:
+        """A parameter's value as PARAM_VALUE carries it."""
+        return float(value)
+
+    def _param_from_wire(self, spec: ParamSpec, wire: float) -> float:
+        """PARAM_SET's value as the parameter's."""
+        return float(wire)
+
+    def _unknown_param_index(self, index: int) -> list[Message]:
+        """The answer to PARAM_REQUEST_READ of an index the table does not have."""
+        return []
+
+    def _unknown_param_set(self, name: str) -> list[Message]:
+        """The answer to PARAM_SET of a name the table does not have."""
+        return []
+
+    def _param_write_denied(self, spec: ParamSpec) -> list[Message]:
+        """What the firmware says of a parameter it will not write (before its value)."""
+        return []
+
+    def _on_data_stream(self, msg: RequestDataStream) -> list[Message]:
+        """REQUEST_DATA_STREAM (PX4 ignores it)."""
+        return []
+
+    def _mission_total(self, count: int) -> int:
+        """MISSION_CURRENT.total for ``count`` stored wire items."""
+        raise NotImplementedError
