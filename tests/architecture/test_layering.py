@@ -64,6 +64,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "fileio.py",
         "vehicle/*.py",
         "limits.py",
+        "lazy.py",
     ),
     "world": ("world.py", "_geom.py"),
     "path": ("path/*.py",),

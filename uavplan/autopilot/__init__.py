@@ -28,26 +28,16 @@ docs/flight-model.md.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from uavplan.lazy import lazy_exports
 
 #: public name -> module that defines it; imported on first use
 _EXPORTS = {
     "FlightModel": "model",
     "FlownTrack": "simulate",
     "Parameters": "params",
-    "simulate": "simulate",
 }
 
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -31,8 +31,7 @@ Nothing outside :mod:`uavplan.mavlink` and :mod:`uavplan.cli` imports this packa
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from uavplan.lazy import lazy_exports
 
 #: public name -> module that defines it; imported on first use, so that importing one
 #: submodule (the CLI's upload path) does not pull in the rest
@@ -59,12 +58,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f"{__name__}.{module}"), name)
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
