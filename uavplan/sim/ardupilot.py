@@ -14,7 +14,6 @@ from uavplan.mavlink.messages import (
     CommandInt,
     CommandLong,
     MavAutopilotId,
-    MavModeFlag,
     MavResult,
     Message,
     MessageId,
@@ -24,7 +23,7 @@ from uavplan.mavlink.messages import (
 )
 from uavplan.mavlink.modes import FlightMode, ModeKind, ardupilot_mode, mode_named
 from uavplan.mission.items import Autopilot, MissionType
-from uavplan.sim.vehicle import SimVehicle, whole_number
+from uavplan.sim.vehicle import SimVehicle
 
 __all__ = ["ArduPilotVehicle"]
 
@@ -106,9 +105,8 @@ class ArduPilotVehicle(SimVehicle):
     def _do_set_mode(
         self, base_mode: float, custom: float, sub: float, out: list[Message]
     ) -> MavResult:
-        base = whole_number(base_mode)
-        main = whole_number(custom)
-        if base is None or main is None or not (base & MavModeFlag.CUSTOM_MODE_ENABLED):
+        main = self._custom_mode(base_mode, custom)
+        if main is None:
             return MavResult.FAILED
         mode = ardupilot_mode(main)
         if mode is None:

@@ -16,7 +16,6 @@ from uavplan.mavlink.messages import (
     CommandLong,
     MavAutopilotId,
     MavCommand,
-    MavModeFlag,
     MavResult,
     Message,
     SetMode,
@@ -101,9 +100,8 @@ class Px4Vehicle(SimVehicle):
     def _do_set_mode(
         self, base_mode: float, custom: float, sub: float, out: list[Message]
     ) -> MavResult:
-        base = whole_number(base_mode)
-        main = whole_number(custom)
-        if base is None or main is None or not (base & MavModeFlag.CUSTOM_MODE_ENABLED):
+        main = self._custom_mode(base_mode, custom)
+        if main is None:
             return MavResult.DENIED
         mode = px4_mode(main, whole_number(sub) or 0)
         if mode is None:

@@ -927,6 +927,16 @@ class SimVehicle:
         """MAV_CMD_DO_SET_MODE's params as the firmware reads them."""
         raise NotImplementedError
 
+    @staticmethod
+    def _custom_mode(base_mode: float, custom: float) -> int | None:
+        """MAV_CMD_DO_SET_MODE's custom main mode, or None: param 1 does not enable custom
+        modes, or a param is not a whole number."""
+        base = whole_number(base_mode)
+        main = whole_number(custom)
+        if base is None or main is None or not (base & MavModeFlag.CUSTOM_MODE_ENABLED):
+            return None
+        return main
+
     def _on_set_mode_message(self, partner: tuple[int, int], msg: SetMode) -> list[Message]:
         """The SET_MODE message and its acknowledgement."""
         raise NotImplementedError
