@@ -17,8 +17,8 @@ import argparse
 
 import numpy as np
 
-from uavplan.vehicle import flight, power, profiles
-from uavplan.vehicle.flight import Legs, flight_energy
+from uavplan.vehicle import legs, power, profiles
+from uavplan.vehicle.legs import Legs, flight_energy
 from uavplan.vehicle.wind import Wind
 
 
@@ -151,7 +151,7 @@ def main() -> None:
     out += [f"## {args.profile}: climb and descent", "", *vertical_table(p), ""]
     title = f"## {args.profile}: a {args.length:g} m level leg at {args.speed:g} m/s, 30 m up"
     out += [title, "", *leg_table(p, args.length, args.speed)]
-    out += ["", f"(reserve default {flight.DEFAULT_RESERVE_PCT:g} %)"]
+    out += ["", f"(reserve default {legs.DEFAULT_RESERVE_PCT:g} %)"]
     print("\n".join(out))
 
 

@@ -38,7 +38,7 @@ from uavplan.mission.items import MavCmd, MissionPlan
 
 if TYPE_CHECKING:
     from uavplan.autopilot.simulate import FlownTrack
-    from uavplan.flight import Flight
+    from uavplan.flightcheck import Flight
 from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits
 from uavplan.scenario import Scenario
 from uavplan.vehicle import DEFAULT_RESERVE_PCT, FlightEnergy, Legs, VehicleProfile, Wind
@@ -260,13 +260,13 @@ def legs_of(
     return legs, middles, rtl_used
 
 
-#: consecutive points this close horizontally are a climb or a descent (as uavplan.flight's)
+#: consecutive points this close horizontally are a climb or a descent (as uavplan.flightcheck's)
 _VERTICAL_TOL_M = 0.05
 
 
 def _airborne(p: NDArray[np.float64], *, from_ground: bool, to_ground: bool) -> tuple[int, int]:
     """(first, last) point in the air: the leading points above the first are the take-off
-    climb, the trailing ones above the last the landing (:meth:`uavplan.flight.Flight.
+    climb, the trailing ones above the last the landing (:meth:`uavplan.flightcheck.Flight.
     from_polyline`'s rule; that module is not imported here, it loads the world's kernels)."""
     n = len(p)
     first, last = 0, n - 1
@@ -476,7 +476,7 @@ def flown_energy(track: FlownTrack) -> FlightEnergy:
     estimate's :class:`~uavplan.vehicle.FlightEnergy`: its ``summary()`` is the line ``plan``
     prints, its ``report_fields()`` the report's keys, so ``simulate`` and ``fly`` print what
     the vehicle drew next to the estimate (:func:`estimate_mission`) of the same mission."""
-    from uavplan.vehicle.flight import LegFigures
+    from uavplan.vehicle.legs import LegFigures
 
     dt = np.diff(track.t_s)
     power = np.asarray(track.power_w, dtype=np.float64)[1:]

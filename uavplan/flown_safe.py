@@ -16,7 +16,7 @@ from typing import Generic, TypeVar
 
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError, ScenarioError
-from uavplan.flight import TrackCheck
+from uavplan.flightcheck import TrackCheck
 from uavplan.mission.items import MissionPlan
 from uavplan.planning import RouteResult, mission_for, plan_route
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
-from uavplan.flight import Flight, FlightPrediction, flight_clearance
+from uavplan.flightcheck import Flight, FlightPrediction, flight_clearance
 from uavplan.ground import Ground
 from uavplan.obstacles import Obstacle
 from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
@@ -576,7 +576,7 @@ def grid_note(scenario: Scenario) -> str:
 
 
 def _min_clearance(world: World, flight: Flight) -> float:
-    """Clearance of the flown line (:func:`uavplan.flight.flight_clearance`: the take-off
+    """Clearance of the flown line (:func:`uavplan.flightcheck.flight_clearance`: the take-off
     climb and the landing descent from the obstacles only)."""
     dist, _, _ = flight_clearance(world, flight)
     return float(dist.min()) if dist.size else math.inf
@@ -818,7 +818,7 @@ def export_extras(
         )
     flown = None
     if ground is not None and plan is not None:  # the one reading of a mission over terrain
-        from uavplan.flight import flight_of_mission
+        from uavplan.flightcheck import flight_of_mission
 
         flown = flight_of_mission(plan, enu_frame(site), ground.z_at, ground.follow).points_enu
     return ExportExtras(

@@ -4,7 +4,7 @@ safe as flown).
 
 :func:`rehearse` flies a :class:`~uavplan.mission.items.MissionPlan` through
 :func:`uavplan.autopilot.simulate.simulate` (the same model the simulated vehicle flies) and, with
-a scenario, measures the track with :func:`uavplan.flight.check_flight`: the mission's part
+a scenario, measures the track with :func:`uavplan.flightcheck.check_flight`: the mission's part
 (take-off to where the autopilot's return to launch begins, or the landing) against the
 scenario's margin, and the return leg apart (the autopilot flies it at its RTL altitude, it
 is not planned). ``uavplan simulate`` reports it; ``uavplan plan`` uses
@@ -33,7 +33,7 @@ from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.power import VehicleSpec
 from uavplan.autopilot.simulate import FlownTrack, distance_to_polyline, simulate
 from uavplan.config import Autopilot
-from uavplan.flight import FlightPrediction, TrackCheck, check_track
+from uavplan.flightcheck import FlightPrediction, TrackCheck, check_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground
 from uavplan.mavlink.modes import ModeKind, mode_named
@@ -235,7 +235,7 @@ class CheckSite:
     def check(
         self, track: Track, *, takes_off: bool = True, lands: bool, allowance_m: float = 0.0
     ) -> TrackCheck:
-        """``track`` measured here by the one check (:func:`uavplan.flight.check_track`);
+        """``track`` measured here by the one check (:func:`uavplan.flightcheck.check_track`);
         ``allowance_m``: kept beyond the margin (a predicted track:
         :func:`tracking_allowance_m`)."""
         return check_track(

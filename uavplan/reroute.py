@@ -39,7 +39,7 @@ of the failed leg (the planner's :class:`~uavplan.outcome.LegFailure` says which
 Ctrl-C is a value: the result says it was interrupted. Every stretch of legs is planned as a
 checked :class:`~uavplan.scenario.Scenario` that begins in the air (no take-off climb of its
 own) and ends without a landing: the plan's own take-off, landing and straight segments are
-checked here. The flown line of the result is checked by :func:`uavplan.flight.check_flight`,
+checked here. The flown line of the result is checked by :func:`uavplan.flightcheck.check_flight`,
 as ``validate`` checks a mission. This module is wiring: it knows the mission model, the
 scenario values and the planning adapters, and nothing of the CLI.
 """
@@ -61,7 +61,7 @@ from uavplan.airspace import (
     stretch_obstacles,
 )
 from uavplan.errors import InputError, NoPathError
-from uavplan.flight import FlightPrediction
+from uavplan.flightcheck import FlightPrediction
 from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
 from uavplan.mission.items import (

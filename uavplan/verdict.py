@@ -10,7 +10,7 @@ mission by, and what ``fly`` can judge a flown track by:
 2. **The whole flight**: the mission flown through the flight model with those parameters
    (or a flown track), from take-off to touchdown, its real end included (the landing, the
    autopilot's return to launch at the RTL altitude the vehicle holds, or the planned
-   return), checked by the one check (:func:`uavplan.flight.check_track`).
+   return), checked by the one check (:func:`uavplan.flightcheck.check_track`).
 3. **A failsafe return from every point**: where a failsafe (a lost link, a low battery,
    the RTL switch) sends the vehicle home from anywhere on that flight, PX4 with RTL_TYPE 2
    and a mission landing flies the mission on to it (the flight itself, already checked);
@@ -41,7 +41,7 @@ from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, pa
 from uavplan.autopilot.power import VehicleSpec
 from uavplan.autopilot.simulate import FlownTrack
 from uavplan.config import Autopilot
-from uavplan.flight import TrackCheck, flight_of_track
+from uavplan.flightcheck import TrackCheck, flight_of_track
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearsal_of, rehearse, tracking_allowance_m

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from uavplan.airspace import Airspace, build_airspace, check_volume
 from uavplan.errors import InputError
-from uavplan.flight import Flight, FlightCheck, check_flight, flight_of_mission
+from uavplan.flightcheck import Flight, FlightCheck, check_flight, flight_of_mission
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground
 from uavplan.mission.items import MissionPlan
@@ -68,7 +68,7 @@ class PlanWorld:
 
     def check(self, flight: Flight) -> FlightCheck:
         """``flight`` (in :attr:`frame`) checked in this world, as the rerouting checks the
-        plan it writes (:func:`uavplan.flight.check_flight`)."""
+        plan it writes (:func:`uavplan.flightcheck.check_flight`)."""
         names = self.airspace.names
         return check_flight(self.world, flight, name_of=lambda i: names[i], margin_m=self.margin_m)
 
@@ -118,7 +118,7 @@ def fence_world(
 ) -> tuple[PlanWorld, Flight]:
     """The world the rerouting of ``plan`` plans in (its geofence's zones as obstacles, and
     ``base``'s), spanning the plan's whole flight, and that flight (as the autopilot flies the
-    items, :func:`uavplan.flight.flight_of_mission`): what ``validate`` and ``render`` check
+    items, :func:`uavplan.flightcheck.flight_of_mission`): what ``validate`` and ``render`` check
     and draw a rerouted plan against when no scenario is given. Raises InputError for a plan
     without a planned home or without a position to fly."""
     frame, ground = plan_frame(plan, base, file)

@@ -76,7 +76,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     "sources": ("sources/*.py", "sources/**/*.py"),
     "survey": ("survey/*.py",),
     "scenario": ("scenario/*.py",),
-    "site": ("worlds.py", "airspace.py", "flight.py"),
+    "site": ("worlds.py", "airspace.py", "flightcheck.py"),
     "flying": (
         "estimate.py",
         "rehearsal.py",
@@ -310,9 +310,9 @@ PLANTED = [
         "rehearsal.py (flying) imports uavplan.sim.faults (sim)",
     ),
     (
-        "flight.py",
+        "flightcheck.py",
         "from uavplan.rehearsal import simulate",
-        "flight.py (site) imports uavplan.rehearsal (flying)",
+        "flightcheck.py (site) imports uavplan.rehearsal (flying)",
     ),
     (
         "estimate.py",

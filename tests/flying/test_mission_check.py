@@ -21,7 +21,7 @@ from uavplan.app.feedback import Feedback
 from uavplan.app.render import RenderRequest, render
 from uavplan.cli import main
 from uavplan.errors import NoPathError
-from uavplan.flight import Flight, check_flight
+from uavplan.flightcheck import Flight, check_flight
 from uavplan.geo import EnuFrame
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.planning import build_world
@@ -165,7 +165,7 @@ def test_the_three_frames_fly_the_same_waypoints(ridge: dict[str, Path]) -> None
     waypoints but are flown over the ground between them (ArduPilot), so their flight is
     denser and follows the ground. (The terrain-frame plan may be another route: its
     rehearsal flies ArduPilot's lag behind the ground and can widen the margin.)"""
-    from uavplan.flight import flight_of_mission
+    from uavplan.flightcheck import flight_of_mission
     from uavplan.planning import enu_frame
 
     flights = {}

@@ -26,7 +26,7 @@ from helpers.track_check import scenario_clearance
 from uavplan.autopilot.params import Parameters, flight_limits
 from uavplan.cli import main
 from uavplan.config import Autopilot
-from uavplan.flight import Flight
+from uavplan.flightcheck import Flight
 from uavplan.mission.io import load_mission
 from uavplan.mission.track import Track
 from uavplan.obstacles import BoxObstacle

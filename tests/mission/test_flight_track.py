@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from uavplan.flight import LANDED_NOISE_M, flight_of_track
+from uavplan.flightcheck import LANDED_NOISE_M, flight_of_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.track import Track
 

@@ -131,7 +131,7 @@ def _shifted_track(plan_path: Path, tmp_path: Path) -> tuple[Path, int]:
     import shapely
     import shapely.ops
 
-    from uavplan.flight import flight_of_track
+    from uavplan.flightcheck import flight_of_track
     from uavplan.mission.fence import footprints_of
     from uavplan.mission.io import load_mission
     from uavplan.planning import enu_frame

@@ -518,7 +518,7 @@ def test_fly_and_simulate_check_name_the_zones(tmp_path: Path) -> None:
     """``fly --scenario`` and ``simulate`` check the track in the scenario's CheckSite, whose
     names are the scenario's: a zone's solid is named after its zone, so the live warning
     ("the vehicle is 4.2 m from zone 'CROSS' (R, restricted) of zones.txt") names it."""
-    from uavplan.flight import Flight, check_flight
+    from uavplan.flightcheck import Flight, check_flight
     from uavplan.rehearsal import CheckSite
 
     zones = _zone("CROSS", "R", "GND", "500ft AGL", (400, -300, 600, 300))

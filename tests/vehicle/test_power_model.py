@@ -15,8 +15,14 @@ import pytest
 
 from uavplan.errors import EXIT_INPUT, InputError
 from uavplan.vehicle import constants as C
-from uavplan.vehicle import flight, power
-from uavplan.vehicle.flight import EnergyBudgetError, Legs, WindTooStrongError, flight_energy
+from uavplan.vehicle import power
+from uavplan.vehicle.legs import (
+    EnergyBudgetError,
+    Legs,
+    WindTooStrongError,
+    flight_energy,
+    still_air_time_s,
+)
 from uavplan.vehicle.power import (
     air_density_kg_m3,
     electrical_power_w,
@@ -554,7 +560,7 @@ def test_legs_from_a_flown_path() -> None:
     np.testing.assert_allclose(legs.hold_s, [0, 30, 0, 0])
     # each leg takes max(horizontal / 10, climb / 2.5 or descent / 1.5) by hand
     expected = 30 / 2.5 + 400 / 10 + 30 + max(300 / 10, 20 / 2.5) + 50 / 1.5
-    assert flight.still_air_time_s(legs) == pytest.approx(expected)
+    assert still_air_time_s(legs) == pytest.approx(expected)
     result = flight_energy(X500, legs)
     assert result.time_s == pytest.approx(expected)
     np.testing.assert_allclose(result.legs.vertical_speed_m_s, [2.5, 0, 20 / 30, -1.5])

@@ -3,9 +3,9 @@
 :func:`check_flight_in` is the one check of a flight against a scenario: a mission file read
 the way the autopilot flies it (:func:`mission_flight`: over a DEM from home's ground AMSL and
 each item's altitude frame), or any flown polyline or track as a
-:class:`~uavplan.flight.Flight`. ``validate MISSION --scenario S`` and ``render --mission``
+:class:`~uavplan.flightcheck.Flight`. ``validate MISSION --scenario S`` and ``render --mission``
 both use it (and the rerouting checks its result with the same
-:func:`uavplan.flight.check_flight`), so they report the same clearance.
+:func:`uavplan.flightcheck.check_flight`), so they report the same clearance.
 
 Checking a scenario alone needs no numpy (a scenario of a few obstacles is checked in plain
 Python: ``uavplan validate`` starts in a tenth of a second); the mission check imports the
@@ -24,7 +24,7 @@ from uavplan.scenario import Scenario, Surroundings, load_site, load_surrounding
 
 if TYPE_CHECKING:
     from uavplan.estimate import FlightEstimate
-    from uavplan.flight import Flight, FlightCheck
+    from uavplan.flightcheck import Flight, FlightCheck
     from uavplan.mission.items import MissionPlan
     from uavplan.rehearsal import CheckSite
     from uavplan.verdict import FlightVerdict
@@ -246,7 +246,7 @@ def no_fence(file: str, command: str) -> InputError:
 def _check_against_fence(file: str, base: Surroundings | None = None) -> FenceCheck:
     """``validate PLAN``: the plan's flight against its own geofence (and ``base``'s
     obstacles) in the world of its rerouting (:func:`uavplan.worlds.fence_world`; the one
-    check, :func:`uavplan.flight.check_flight`)."""
+    check, :func:`uavplan.flightcheck.check_flight`)."""
     # the mission readers, numpy and the world: only for a mission
     from uavplan.mission.io import load_mission
     from uavplan.worlds import fence_world
@@ -278,7 +278,7 @@ def mission_flight(plan: MissionPlan, scenario: Scenario, *, file: str | None = 
     the ground: home on the ground there, each item's altitude in its frame, terrain-frame
     legs flown over the ground as ArduPilot flies them)."""
     # numpy, pyproj and the world's kernels: not for `validate` of a scenario (test_startup)
-    from uavplan.flight import flight_of_mission
+    from uavplan.flightcheck import flight_of_mission
     from uavplan.worlds import enu_frame
 
     site = scenario.site
@@ -294,7 +294,7 @@ def check_flight_in(scenario: Scenario, flight: Flight) -> FlightCheck:
     """``flight`` (in the scenario's site frame) checked against ``scenario``'s world: its
     clearance, what is nearest, and whether it stays in the flight volume."""
     # numpy and the world's kernels: not for `validate` of a scenario (test_startup)
-    from uavplan.flight import check_flight
+    from uavplan.flightcheck import check_flight
     from uavplan.worlds import build_world
 
     return check_flight(build_world(scenario), flight, name_of=scenario.obstacle_name)

@@ -46,7 +46,7 @@ from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, LinkError, NoPathError
 from uavplan.fileio import InputFile
-from uavplan.flight import Flight, TrackCheck, flight_clearance, flight_of_track
+from uavplan.flightcheck import Flight, TrackCheck, flight_clearance, flight_of_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mavlink.flightclient import FlightClient
 from uavplan.mavlink.flightmachines import (
@@ -147,7 +147,7 @@ class FlyRequest:
 @dataclass(frozen=True, eq=False)
 class ObservedCheck:
     """The whole observed flight measured by the one check, stretch by stretch: ``checks``
-    one :class:`~uavplan.flight.TrackCheck` per stretch of two samples or more (no line is
+    one :class:`~uavplan.flightcheck.TrackCheck` per stretch of two samples or more (no line is
     drawn across a gap: :data:`~uavplan.mavlink.flightmachines.GAP_S`), ``unobserved`` the
     gaps between the stretches, (from, to) in the track's seconds."""
 

@@ -36,7 +36,7 @@ from uavplan.scenario.values import is_survey_file
 if TYPE_CHECKING:
     from uavplan.app.survey import SurveyOutcome
     from uavplan.autopilot.simulate import FlownTrack
-    from uavplan.flight import FlightPrediction, TrackCheck
+    from uavplan.flightcheck import FlightPrediction, TrackCheck
     from uavplan.mission.fence import FenceBuild
     from uavplan.route import PlannedRoute
     from uavplan.verdict import FlightVerdict
@@ -334,7 +334,7 @@ def _judge(scn: Scenario, mission: MissionPlan, flown: FlownTrack | None) -> Fli
 
 def _predicted(verdict: FlightVerdict, result: RouteResult) -> FlightPrediction:
     """The predicted flight the report and the summary give: the whole flight judged."""
-    from uavplan.flight import FlightPrediction
+    from uavplan.flightcheck import FlightPrediction
 
     before = result.flight
     rehearsal = verdict.rehearsal

@@ -169,7 +169,7 @@ def written_infringements(plan: MissionPlan, base: Surroundings) -> list[str]:
     """``airspace: the plan as written enters zone '…' (…) of FILE`` for each airspace zone of
     ``base`` its flight (as the autopilot flies it, in the scenario's site) enters or comes
     within the margin of: what the rerouting goes around."""
-    from uavplan.flight import flight_of_mission
+    from uavplan.flightcheck import flight_of_mission
     from uavplan.scenario.zones import infringements, zone_title
     from uavplan.worlds import enu_frame
 

@@ -23,7 +23,7 @@ from uavplan.autopilot.params import ParameterValueError, parameters_from
 from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.fileio import InputFile
-from uavplan.flight import TrackCheck
+from uavplan.flightcheck import TrackCheck
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan
 from uavplan.mission.track import check_track_path

@@ -27,7 +27,7 @@ from uavplan.errors import InputError, NoPathError
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:
-    from uavplan.flight import Flight
+    from uavplan.flightcheck import Flight
     from uavplan.mission.items import MissionPlan
     from uavplan.view.build import Flown
 

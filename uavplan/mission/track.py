@@ -5,7 +5,7 @@ A :class:`Track` is what a flight left behind, simulated (``uavplan simulate``) 
 degrees), the altitude above mean sea level and above home, the ground speed, the current
 mission item (its sequence number as on the wire, -1 when unknown) and, when the vehicle
 said it, its flight mode. Geometry (where the track is in a scenario, how close it comes to
-what) is not here: :func:`uavplan.flight.flight_of_track` places it in a site.
+what) is not here: :func:`uavplan.flightcheck.flight_of_track` places it in a site.
 
 Files are written atomically (:mod:`uavplan.fileio`): a reader sees the old file or the
 whole new one.

@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from uavplan.vehicle.flight import Legs, flight_energy
+from uavplan.vehicle.legs import Legs, flight_energy
 from uavplan.vehicle.profile import VehicleProfile
 from uavplan.vehicle.wind import Wind
 

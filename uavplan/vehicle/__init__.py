@@ -8,13 +8,13 @@ planner, the report, the simulated vehicle and the CLI can all use it:
   profiles and the source of every figure;
 * :mod:`~uavplan.vehicle.power` — electrical power in hover, forward flight, climb and descent;
 * :mod:`~uavplan.vehicle.wind` — wind by meteorological direction, optionally by height;
-* :mod:`~uavplan.vehicle.flight` — time, energy and battery use of a flown path, leg by leg;
+* :mod:`~uavplan.vehicle.legs` — time, energy and battery use of a flown path, leg by leg;
 * :mod:`~uavplan.vehicle.constants` — every generic constant, with its source.
 
 docs/energy.md describes the model, its limits and its sources.
 """
 
-from uavplan.vehicle.flight import (
+from uavplan.vehicle.legs import (
     DEFAULT_RESERVE_PCT,
     EnergyBudgetError,
     FlightEnergy,

@@ -34,7 +34,7 @@ is scaled so that the hover power is the measured one, and the drag area is the 
 the power at the cruise speed the measured one (both at the ISA sea-level density).
 
 The airspeed here is the horizontal speed through the air (ground velocity minus wind, see
-:mod:`uavplan.vehicle.flight`); vertical wind and the fuselage's vertical drag are ignored.
+:mod:`uavplan.vehicle.legs`); vertical wind and the fuselage's vertical drag are ignored.
 Sources and constants: :mod:`uavplan.vehicle.constants`; docs/energy.md.
 """
 

@@ -3,9 +3,9 @@ flight as flown, the way home, the profile along the route and the verdict.
 
 Everything measured here comes from the project's own checks, never measured again another
 way: the planned legs' clearances are the one mission check's per-segment clearances
-(:func:`uavplan.flight.check_flight`, which the caller runs through
+(:func:`uavplan.flightcheck.check_flight`, which the caller runs through
 ``uavplan.app.check``), the flown legs' those of the flight model's track (or a track from
-``fly``) measured by :func:`uavplan.flight.check_track` (:class:`uavplan.rehearsal.CheckSite`),
+``fly``) measured by :func:`uavplan.flightcheck.check_track` (:class:`uavplan.rehearsal.CheckSite`),
 the way home the flight model's return and the proof of :func:`uavplan.wayhome.prove_rtl`.
 This module groups those values by leg, places them in the scene's frame and writes them out
 as a JSON-ready document (:func:`mission_document`, :func:`scenario_document`) that
@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from uavplan.config import Autopilot
-from uavplan.flight import (
+from uavplan.flightcheck import (
     VERTICAL_TOL_M,
     Flight,
     FlightCheck,

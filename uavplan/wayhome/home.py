@@ -21,7 +21,7 @@ import numpy as np
 
 from uavplan.autopilot.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
 from uavplan.config import Autopilot
-from uavplan.flight import Flight, flight_of_track
+from uavplan.flightcheck import Flight, flight_of_track
 from uavplan.mission.items import VehicleParameter
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import (

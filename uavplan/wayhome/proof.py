@@ -7,7 +7,7 @@ stopping point), climbs to the return altitude (if below it), flies straight hom
 descends at home. :func:`prove_rtl` checks that return from points every ``step_m`` along
 the flight (:class:`ReturnSamples`: a planned line, or the flight model's or a vehicle's
 track with its velocities), for an RTL altitude parameter A, with the world's exact segment
-clearances (the same machinery as :func:`uavplan.flight.check_flight`): the brake, the climb,
+clearances (the same machinery as :func:`uavplan.flightcheck.check_flight`): the brake, the climb,
 the straight return at the return altitude and the descent at home must each keep the safety
 margin from the obstacles and the terrain.
 
@@ -65,7 +65,7 @@ from numpy.typing import ArrayLike, NDArray
 from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
 from uavplan.autopilot.rtl import ARDUPILOT_RTL_ALT_MIN_M, return_altitude_m
 from uavplan.config import Autopilot
-from uavplan.flight import Flight
+from uavplan.flightcheck import Flight
 from uavplan.route import PlannedRoute, keeps_margin
 from uavplan.world import GROUND, World
 
@@ -210,7 +210,7 @@ class ReturnSamples:
         end: int | None = None,
         step_m: float | None = None,
     ) -> ReturnSamples:
-        """Along a flown track (its :class:`~uavplan.flight.Flight` in the site frame and the
+        """Along a flown track (its :class:`~uavplan.flightcheck.Flight` in the site frame and the
         time of each sample): from the top of the take-off climb to sample ``end`` (where the
         mission's own return begins; None: the end, the landing descent included), with the
         track's velocities (interpolated between samples)."""
