@@ -40,7 +40,7 @@ from uavplan.mission.track import Track
 from uavplan.rehearsal import rehearse
 from uavplan.scenario import load_scenario
 from uavplan.sim.faults import Faults
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -66,9 +66,9 @@ def saved(tmp_path: Path, plan: MissionPlan, name: str = "m.plan") -> str:
     return str(path)
 
 
-def config(plan: MissionPlan, autopilot: Autopilot, **kw: object) -> VehicleConfig:
+def config(plan: MissionPlan, autopilot: Autopilot, **kw: object) -> SimConfig:
     kw.setdefault("speedup", SPEEDUP)
-    return VehicleConfig(autopilot=autopilot, home=plan.home, **kw)  # type: ignore[arg-type]
+    return SimConfig(autopilot=autopilot, home=plan.home, **kw)  # type: ignore[arg-type]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.mission.track import Track
 from uavplan.rehearsal import CheckSite, conditions_of
 from uavplan.scenario import load_scenario
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 from uavplan.verdict import judge_flight
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(900)]
@@ -142,7 +142,7 @@ def test_the_newcomers_sequence_flies_the_whole_flight_inside_the_margin(
     scn = load_scenario(scenario)
     margin = scn.safety_margin_m
     # uavplan mock-vehicle --conn udpin:... --autopilot A --mission env1.plan &
-    config = VehicleConfig(autopilot=autopilot, home=plan.home, speedup=SPEEDUP)
+    config = SimConfig(autopilot=autopilot, home=plan.home, speedup=SPEEDUP)
     with running_mock(config) as vehicle:
         conn = client_conn(vehicle)
         # uavplan upload env1.plan --conn udpout:... --set-params
@@ -194,7 +194,7 @@ def test_the_bundled_qgroundcontrol_plan_flies_inside_its_own_fence(tmp_path: Pa
     code, out = run("simulate", str(planned))
     assert code == 0, out
     plan = load_mission(planned)
-    config = VehicleConfig(autopilot=plan.autopilot, home=plan.home, speedup=SPEEDUP)
+    config = SimConfig(autopilot=plan.autopilot, home=plan.home, speedup=SPEEDUP)
     with running_mock(config) as vehicle:
         conn = client_conn(vehicle)
         code, out = set_params(planned, plan, conn)

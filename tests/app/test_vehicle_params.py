@@ -32,7 +32,7 @@ from uavplan.mavlink.parameters import ParamMachine, ParamRequest, ParamStatus
 from uavplan.mission.builder import build_mission
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType, VehicleParameter
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 from uavplan.sim.vehicles import new_vehicle
 
 pytestmark = pytest.mark.timeout(180)
@@ -58,9 +58,9 @@ def saved(tmp_path: Path, plan: MissionPlan, name: str = "m.plan") -> Path:
     return path
 
 
-def config(plan: MissionPlan, autopilot: Autopilot, **kw: object) -> VehicleConfig:
+def config(plan: MissionPlan, autopilot: Autopilot, **kw: object) -> SimConfig:
     kw.setdefault("speedup", SPEEDUP)
-    return VehicleConfig(autopilot=autopilot, home=plan.home, **kw)  # type: ignore[arg-type]
+    return SimConfig(autopilot=autopilot, home=plan.home, **kw)  # type: ignore[arg-type]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -296,7 +296,7 @@ def test_the_simulated_vehicle_reads_and_sets_every_parameter_it_flies_by(
 ) -> None:
     """PARAM_REQUEST_READ of every row of the flight model's table answers its value, and
     a PARAM_SET of the RTL altitude changes the altitude the model's return flies at."""
-    vehicle = new_vehicle(VehicleConfig(autopilot=autopilot, telemetry=False))
+    vehicle = new_vehicle(SimConfig(autopilot=autopilot, telemetry=False))
 
     def replies(message: object, now: float) -> list[ParamValue]:
         out = vehicle.receive(Received(message, 255, 190), now)  # type: ignore[arg-type]

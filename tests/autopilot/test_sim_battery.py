@@ -29,7 +29,7 @@ from uavplan.mission.io import mission_text
 from uavplan.mission.items import MissionPlan, MissionType
 from uavplan.planning import mission_for, plan_route
 from uavplan.scenario import load_scenario
-from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicle import SimConfig, SimVehicle
 from uavplan.vehicle import hover_power_w, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -99,7 +99,7 @@ def fly(autopilot: Autopilot, *, profile: str = "x500") -> tuple[SimVehicle, Any
 
     plan = synthetic_mission(5, seed=4, autopilot=autopilot)
     driver = Driver(
-        VehicleConfig(
+        SimConfig(
             autopilot=autopilot,
             home=plan.home,
             speedup=20,

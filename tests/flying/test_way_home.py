@@ -380,7 +380,7 @@ def test_a_px4_return_during_the_mission_flies_it_on_to_the_planned_landing(
 
     from uavplan.mavlink.messages import MavCommand, MavResult
     from uavplan.mavlink.transfer import plan_wire_items
-    from uavplan.sim.vehicle import VehicleConfig
+    from uavplan.sim.vehicle import SimConfig
 
     path, _ = courtyard_plans["px4"]
     plan = load_mission(str(path))
@@ -395,7 +395,7 @@ def test_a_px4_return_during_the_mission_flies_it_on_to_the_planned_landing(
 
     outcomes = {}
     for rtl_type in (0, 2):
-        config = VehicleConfig(autopilot=PX4, home=plan.home, speedup=50)
+        config = SimConfig(autopilot=PX4, home=plan.home, speedup=50)
         driver = Driver(replace(config, params={"RTL_TYPE": rtl_type}))
         driver.vehicle.preload(MissionType.MISSION, wire)
         start(driver)

@@ -32,7 +32,7 @@ from uavplan.mission.track import Track
 from uavplan.obstacles import BoxObstacle
 from uavplan.rehearsal import CheckSite, conditions_of
 from uavplan.scenario import load_scenario
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 from uavplan.verdict import held_parameters, judge_flight
 from uavplan.wayhome import prove_rtl
 from uavplan.wayhome.proof import stopping_distance_m
@@ -145,7 +145,7 @@ def test_fly_does_not_call_a_return_through_buildings_a_success(
     independent check agrees the track broke the margin."""
     plan = load_mission(env1_rtl)
     track = tmp_path / "t.csv"
-    config = VehicleConfig(autopilot=AP, home=plan.home, speedup=100.0)
+    config = SimConfig(autopilot=AP, home=plan.home, speedup=100.0)
     with running_mock(config) as vehicle:
         code, out = run("fly", env1_rtl, "--conn", client_conn(vehicle), "--scenario", ENV1,
                         "--track", track, "-q")  # fmt: skip

@@ -35,7 +35,7 @@ from uavplan.mission.items import (
     MissionType,
 )
 from uavplan.sim.mock import MockVehicle
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 
 def chaos_mission(n_items: int, *, seed: int, autopilot: Autopilot = Autopilot.PX4) -> MissionPlan:
@@ -108,7 +108,7 @@ def run_upload(
     timeouts = timeouts or ProtocolTimeouts()
     old = chaos_mission(max(2, n_items // 2), seed=faults.seed + 1_000_000, autopilot=autopilot)
     new = chaos_mission(n_items, seed=faults.seed, autopilot=autopilot)
-    vehicle = MockVehicle("udpin:127.0.0.1:0", VehicleConfig(autopilot=autopilot))
+    vehicle = MockVehicle("udpin:127.0.0.1:0", SimConfig(autopilot=autopilot))
     vehicle.preload(MissionType.MISSION, plan_wire_items(old, MissionType.MISSION, autopilot))
     vehicle.start()
     started = time.monotonic()

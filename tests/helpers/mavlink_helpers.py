@@ -30,7 +30,7 @@ from uavplan.mission.items import (
     RallyPoint,
 )
 from uavplan.sim.mock import MockVehicle
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 #: timeouts for tests whose point is not the timing: short enough to fail fast
 FAST = ProtocolTimeouts.scaled(0.3, retries=3)
@@ -192,7 +192,7 @@ def for_autopilot(plan: MissionPlan, autopilot: Autopilot) -> MissionPlan:
 
 @contextlib.contextmanager
 def running_mock(
-    config: VehicleConfig | None = None, *, conn: str = "udpin:127.0.0.1:0"
+    config: SimConfig | None = None, *, conn: str = "udpin:127.0.0.1:0"
 ) -> Iterator[MockVehicle]:
     """A mock vehicle serving in a background thread; stopped and closed on exit."""
     vehicle = MockVehicle(conn, config)

@@ -17,7 +17,7 @@ from uavplan.mavlink.messages import (
 )
 from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 from uavplan.sim.vehicles import new_vehicle
 
 PX4 = Autopilot.PX4
@@ -28,7 +28,7 @@ GCS = (255, 190)
 class Driver:
     """A ground station with a clock: feeds the vehicle messages and time, keeps what it says."""
 
-    def __init__(self, config: VehicleConfig) -> None:
+    def __init__(self, config: SimConfig) -> None:
         self.vehicle = new_vehicle(config, now=0.0)
         self.now = 0.0
         self.heard: list[Message] = []
@@ -69,7 +69,7 @@ class Driver:
 
 def with_mission(autopilot: Autopilot, plan: MissionPlan | None = None, **config: object) -> Driver:
     plan = plan or synthetic_mission(5, seed=7, autopilot=autopilot)
-    driver = Driver(VehicleConfig(autopilot=autopilot, home=plan.home, **config))  # type: ignore[arg-type]
+    driver = Driver(SimConfig(autopilot=autopilot, home=plan.home, **config))  # type: ignore[arg-type]
     driver.vehicle.preload(
         MissionType.MISSION, plan_wire_items(plan, MissionType.MISSION, autopilot)
     )

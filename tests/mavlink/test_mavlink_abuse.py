@@ -58,7 +58,7 @@ from uavplan.mission.items import (
     RallyPoint,
 )
 from uavplan.sim.mock import MockVehicle
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(60)
 AUTOPILOTS = [Autopilot.PX4, Autopilot.ARDUPILOT]
@@ -142,7 +142,7 @@ def _gcs(
 def test_mock_keeps_serving_through_hostile_packets(autopilot: Autopilot) -> None:
     old = synthetic_mission(6, seed=401, autopilot=autopilot)
     new = synthetic_mission(9, seed=402, autopilot=autopilot)
-    with running_mock(VehicleConfig(autopilot=autopilot)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot)) as vehicle:
         vehicle.preload(MissionType.MISSION, plan_wire_items(old, MissionType.MISSION, autopilot))
         stored_before = vehicle.wire_items(MissionType.MISSION)
         host, port = vehicle.address

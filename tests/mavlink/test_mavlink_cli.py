@@ -20,7 +20,7 @@ from uavplan.mavlink.transfer import compare_items, plan_wire_items
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType, items_equal
 from uavplan.sim.faults import MISSION_PROTOCOL_MESSAGES, Faults
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -57,7 +57,7 @@ def test_upload_waypoints_to_ardupilot_with_mavsdk_url(tmp_path: Path) -> None:
     plan = synthetic_mission(30, seed=92, autopilot=Autopilot.ARDUPILOT)
     path = tmp_path / "mission.waypoints"
     save_mission(plan, path)
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         url = client_conn(vehicle).replace("udpout:", "udpout://")
         result = run("upload", str(path), "--conn", url, "--no-verify", "--target-system", "1")
         assert result.exit_code == 0, result.output
@@ -73,7 +73,7 @@ def test_upload_and_download_count_an_ardupilot_mission_the_same_way(tmp_path: P
     path = tmp_path / "mission.waypoints"
     save_mission(plan, path)
     n = len(load_mission(path).items)
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         up = run("upload", str(path), "--conn", client_conn(vehicle))
         back = tmp_path / "back.waypoints"
         down = run("download", "--conn", client_conn(vehicle), "-o", str(back))
@@ -88,7 +88,7 @@ def test_upload_and_download_count_an_ardupilot_mission_the_same_way(tmp_path: P
 
 def test_a_download_that_fails_leaves_no_file(tmp_path: Path) -> None:
     out = tmp_path / "onboard.plan"
-    with running_mock(VehicleConfig(send_heartbeats=False)) as vehicle:
+    with running_mock(SimConfig(send_heartbeats=False)) as vehicle:
         result = run(
             "download", "--conn", client_conn(vehicle), "-o", str(out), "--heartbeat-timeout",
             "0.3",
@@ -135,7 +135,7 @@ def test_download_into_a_file(suffix: str, tmp_path: Path) -> None:
         33, seed=93, autopilot=Autopilot.ARDUPILOT, with_fence=True, with_rally=True
     )
     out = tmp_path / f"back{suffix}"
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         for mission_type in (MissionType.MISSION, MissionType.FENCE, MissionType.RALLY):
             vehicle.preload(mission_type, plan_wire_items(plan, mission_type, Autopilot.ARDUPILOT))
         result = run("download", "--conn", client_conn(vehicle), "-o", str(out))
@@ -167,7 +167,7 @@ def test_clear_all(plan_file: tuple[Path, MissionPlan]) -> None:
 @pytest.mark.slow
 def test_no_heartbeat_exits_4_with_one_clear_line(plan_file: tuple[Path, MissionPlan]) -> None:
     path, _ = plan_file
-    with running_mock(VehicleConfig(send_heartbeats=False)) as vehicle:
+    with running_mock(SimConfig(send_heartbeats=False)) as vehicle:
         result = run(
             "upload", str(path), "--conn", client_conn(vehicle), "--heartbeat-timeout", "0.5"
         )
@@ -181,7 +181,7 @@ def test_total_loss_exits_4_in_bounded_time_naming_the_step(
     plan_file: tuple[Path, MissionPlan],
 ) -> None:
     path, _ = plan_file
-    config = VehicleConfig(faults=Faults(drop_rate=1.0, only=MISSION_PROTOCOL_MESSAGES))
+    config = SimConfig(faults=Faults(drop_rate=1.0, only=MISSION_PROTOCOL_MESSAGES))
     with running_mock(config) as vehicle:
         result = run(
             "upload",
@@ -202,7 +202,7 @@ def test_rejected_item_exits_4_naming_the_item_and_result(
 ) -> None:
     path, _ = plan_file
     faults = Faults(reject_at_seq=5, reject_result=MissionResult.INVALID_PARAM4)
-    with running_mock(VehicleConfig(faults=faults)) as vehicle:
+    with running_mock(SimConfig(faults=faults)) as vehicle:
         result = run("upload", str(path), "--conn", client_conn(vehicle))
     assert result.exit_code == 4
     line = result.stderr.strip()

@@ -49,18 +49,16 @@ from uavplan.mavlink.protocol import (
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
 from uavplan.mission.items import Autopilot, MissionItem, MissionPlan, MissionType
 from uavplan.sim.faults import MISSION_PROTOCOL_MESSAGES, Faults
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(60)
 
 AUTOPILOTS = [Autopilot.PX4, Autopilot.ARDUPILOT]
 
 
-def lossy(
-    rate: float, seed: int, autopilot: Autopilot = Autopilot.PX4, **kw: object
-) -> VehicleConfig:
+def lossy(rate: float, seed: int, autopilot: Autopilot = Autopilot.PX4, **kw: object) -> SimConfig:
     # heartbeats at 5 Hz so that discovery is quick even when 30 % of them are lost
-    return VehicleConfig(
+    return SimConfig(
         autopilot=autopilot,
         heartbeat_period_s=0.2,
         faults=Faults(drop_rate=rate, seed=seed, **kw),  # type: ignore[arg-type]
@@ -155,7 +153,7 @@ def test_total_loss_of_everything_means_no_heartbeat() -> None:
 @pytest.mark.slow
 def test_no_heartbeat_with_the_default_timeout() -> None:
     """A vehicle that never sends HEARTBEAT: the default 5 s wait, then a clear error."""
-    config = VehicleConfig(send_heartbeats=False)
+    config = SimConfig(send_heartbeats=False)
     with running_mock(config) as vehicle:
         with pytest.raises(LinkError) as info:
             VehicleLink.connect(client_conn(vehicle))
@@ -164,7 +162,7 @@ def test_no_heartbeat_with_the_default_timeout() -> None:
 
 @pytest.mark.slow
 def test_target_system_picks_that_vehicle_only() -> None:
-    with running_mock(VehicleConfig(system_id=7)) as vehicle:
+    with running_mock(SimConfig(system_id=7)) as vehicle:
         link = VehicleLink.connect(client_conn(vehicle), target_system=7)
         link.close()
         with pytest.raises(LinkError, match=r"from system 3 .*heard only from system\(s\) \[7\]"):
@@ -178,7 +176,7 @@ def test_target_system_picks_that_vehicle_only() -> None:
 @pytest.mark.parametrize("autopilot", AUTOPILOTS, ids=lambda a: a.label)
 def test_duplicated_packets_each_way_are_ignored(autopilot: Autopilot) -> None:
     plan = synthetic_mission(80, seed=21, autopilot=autopilot)
-    config = VehicleConfig(autopilot=autopilot, faults=Faults(duplicate_rate=0.3, seed=21))
+    config = SimConfig(autopilot=autopilot, faults=Faults(duplicate_rate=0.3, seed=21))
     with running_mock(config) as vehicle:
         with connected_client(vehicle, DEFAULT) as client:
             report = upload_plan(client, plan)
@@ -195,7 +193,7 @@ def test_duplicated_packets_each_way_are_ignored(autopilot: Autopilot) -> None:
 @pytest.mark.slow
 def test_reordered_packets() -> None:
     plan = synthetic_mission(80, seed=22)
-    config = VehicleConfig(faults=Faults(reorder_rate=0.3, duplicate_rate=0.1, seed=22))
+    config = SimConfig(faults=Faults(reorder_rate=0.3, duplicate_rate=0.1, seed=22))
     with running_mock(config) as vehicle:
         with connected_client(vehicle, DEFAULT) as client:
             upload_plan(client, plan)
@@ -270,7 +268,7 @@ def test_error_ack_mid_upload_aborts_and_keeps_the_old_plan(
     old = synthetic_mission(10, seed=31, autopilot=autopilot)
     new = synthetic_mission(30, seed=32, autopilot=autopilot)
     faults = Faults(reject_at_seq=17, reject_result=result)
-    with running_mock(VehicleConfig(autopilot=autopilot, faults=faults)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot, faults=faults)) as vehicle:
         with connected_client(vehicle, FAST) as client:
             upload_plan(client, old)  # 10 items: never reaches seq 17
             with pytest.raises(MissionTransferError) as info:
@@ -290,7 +288,7 @@ def test_error_ack_mid_upload_aborts_and_keeps_the_old_plan(
 def test_request_for_an_out_of_range_seq_is_a_protocol_error(autopilot: Autopilot) -> None:
     plan = synthetic_mission(8, seed=41, autopilot=autopilot)
     faults = Faults(out_of_range_after_seq=4)
-    config = VehicleConfig(autopilot=autopilot, faults=faults)
+    config = SimConfig(autopilot=autopilot, faults=faults)
     with running_mock(config) as vehicle, connected_client(vehicle, FAST) as client:
         wire = plan_wire_items(plan, MissionType.MISSION, autopilot)
         outcome = client.upload(MissionType.MISSION, wire)
@@ -306,7 +304,7 @@ def test_request_for_an_out_of_range_seq_is_a_protocol_error(autopilot: Autopilo
 
 def test_accepted_before_all_items_were_requested_is_a_protocol_error() -> None:
     plan = synthetic_mission(12, seed=42)
-    config = VehicleConfig(faults=Faults(accept_early_after_seq=3))
+    config = SimConfig(faults=Faults(accept_early_after_seq=3))
     with running_mock(config) as vehicle, connected_client(vehicle, FAST) as client:
         outcome = client.upload(MissionType.MISSION, list(plan.items))
     assert outcome.status is TransferStatus.PROTOCOL_ERROR
@@ -317,7 +315,7 @@ def test_accepted_before_all_items_were_requested_is_a_protocol_error() -> None:
 def test_vehicle_that_stops_requesting_times_out_after_the_silence_budget() -> None:
     plan = synthetic_mission(12, seed=43)
     timeouts = ProtocolTimeouts.scaled(0.3, retries=2)  # silence budget 0.6 s
-    config = VehicleConfig(faults=Faults(silent_after_seq=4))
+    config = SimConfig(faults=Faults(silent_after_seq=4))
     with running_mock(config) as vehicle, connected_client(vehicle, timeouts) as client:
         outcome = client.upload(MissionType.MISSION, list(plan.items))
     assert outcome.status is TransferStatus.TIMEOUT
@@ -337,7 +335,7 @@ def test_too_many_items_is_no_space_without_retrying() -> None:
 
 def test_ardupilot_no_space_quotes_the_vehicles_statustext() -> None:
     items = [MissionItem(5100, x=47.0, y=8.0, z=30.0)] * 101
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         with connected_client(vehicle, FAST) as client:
             outcome = client.upload(MissionType.RALLY, items)
     assert outcome.status is TransferStatus.NO_SPACE
@@ -372,7 +370,7 @@ def test_lost_final_ack_is_resolved_by_reading_back(autopilot: Autopilot, verify
     """The vehicle's final ACK never arrives: re-send the last item (PX4 re-acks; ArduPilot
     does not), and if still nothing, download and compare before declaring failure."""
     plan = synthetic_mission(15, seed=51, autopilot=autopilot)
-    config = VehicleConfig(
+    config = SimConfig(
         autopilot=autopilot, faults=Faults(drop_rate=1.0, only=frozenset({"MISSION_ACK"}))
     )
     with running_mock(config) as vehicle, connected_client(vehicle, FAST) as client:
@@ -390,7 +388,7 @@ def test_upload_right_after_a_download_whose_final_ack_was_lost() -> None:
     MISSION_COUNT with ERROR ("Busy"). We repeat that ACK and go on at once."""
     plan = synthetic_mission(10, seed=54)
     faults = Faults(drop_rate=1.0, only=frozenset({"MISSION_ACK"}), direction="in")
-    with running_mock(VehicleConfig(faults=faults)) as vehicle:
+    with running_mock(SimConfig(faults=faults)) as vehicle:
         vehicle.preload(MissionType.MISSION, list(plan.items))
         with connected_client(vehicle, DEFAULT) as client:
             assert client.download(MissionType.MISSION).ok
@@ -426,7 +424,7 @@ def test_a_read_back_that_differs_is_a_mismatch() -> None:
 
 def test_fence_upload_to_a_vehicle_without_fence_support_is_refused() -> None:
     plan = synthetic_mission(5, seed=53, with_fence=True)
-    config = VehicleConfig(capabilities=int(Capability.MISSION_INT | Capability.MAVLINK2))
+    config = SimConfig(capabilities=int(Capability.MISSION_INT | Capability.MAVLINK2))
     with running_mock(config) as vehicle, connected_client(vehicle, FAST) as client:
         with pytest.raises(LinkError) as info:
             upload_plan(client, plan)
@@ -439,7 +437,7 @@ def test_ardupilot_firmware_timing_with_loss() -> None:
     """With ArduPilot's real 1 s re-request interval the client must wait longer than one
     interval for the next request (upload silence budget 3 s), and it does."""
     plan = synthetic_mission(8, seed=61, autopilot=Autopilot.ARDUPILOT, speed_m_s=None)
-    config = VehicleConfig(
+    config = SimConfig(
         autopilot=Autopilot.ARDUPILOT,
         firmware_timing=True,
         heartbeat_period_s=0.2,

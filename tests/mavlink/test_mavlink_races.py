@@ -19,7 +19,7 @@ from uavplan.mavlink.link import VehicleLink
 from uavplan.mavlink.protocol import MissionClient, MissionTransferError
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 RUNS = int(os.environ.get("UAVPLAN_RACE_RUNS", "8"))
 
@@ -61,7 +61,7 @@ def test_two_ground_stations_uploading_at_once_never_leave_a_mixture(
         synthetic_mission(45, seed=302, autopilot=autopilot),
     )
     outcomes = {"verified": 0, "took over": 0}
-    with running_mock(VehicleConfig(autopilot=autopilot)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot)) as vehicle:
         wires = [plan_wire_items(p, MissionType.MISSION, autopilot) for p in plans]
         for _ in range(RUNS):
             results = _race(client_conn(vehicle), plans)

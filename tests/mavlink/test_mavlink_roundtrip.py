@@ -46,7 +46,7 @@ from uavplan.mission.items import (
     items_equal,
 )
 from uavplan.sim.mock import MockVehicle
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(30)
 
@@ -84,7 +84,7 @@ def test_upload_then_download_round_trips_every_mission(
 ) -> None:
     plan = for_autopilot(source(), autopilot)
     with (
-        running_mock(VehicleConfig(autopilot=autopilot)) as vehicle,
+        running_mock(SimConfig(autopilot=autopilot)) as vehicle,
         connected_client(vehicle) as client,
     ):
         assert client.link.vehicle.autopilot == autopilot
@@ -115,7 +115,7 @@ def test_fast_upload_of_200_items_on_loopback() -> None:
     scaled test timeouts turned a scheduler stall of a loaded machine into a "retry"."""
     plan = synthetic_mission(200, seed=9)
     with (
-        running_mock(VehicleConfig(firmware_timing=True)) as vehicle,
+        running_mock(SimConfig(firmware_timing=True)) as vehicle,
         connected_client(vehicle, DEFAULT) as client,
     ):
         outcome = client.upload(MissionType.MISSION, plan_wire_items(plan, 0, Autopilot.PX4))
@@ -126,7 +126,7 @@ def test_fast_upload_of_200_items_on_loopback() -> None:
 def test_fence_and_rally_round_trip(autopilot: Autopilot) -> None:
     plan = synthetic_mission(10, seed=11, autopilot=autopilot, with_fence=True, with_rally=True)
     with (
-        running_mock(VehicleConfig(autopilot=autopilot)) as vehicle,
+        running_mock(SimConfig(autopilot=autopilot)) as vehicle,
         connected_client(vehicle) as client,
     ):
         report = upload_plan(client, plan)
@@ -154,7 +154,7 @@ def test_a_plan_for_px4_is_laid_out_for_an_ardupilot_vehicle() -> None:
         MissionItem(MavCmd.DO_JUMP, MavFrame.MISSION, param1=jump_target, param2=1),
     )
     plan = replace(plan, items=items)
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         with connected_client(vehicle) as client:
             report = upload_plan(client, plan)
         stored = vehicle.items(MissionType.MISSION)
@@ -194,7 +194,7 @@ def test_terrain_frame_is_refused_for_px4_before_anything_is_sent() -> None:
 def test_clear_each_type_and_all(autopilot: Autopilot) -> None:
     plan = synthetic_mission(8, seed=13, autopilot=autopilot, with_fence=True, with_rally=True)
     with (
-        running_mock(VehicleConfig(autopilot=autopilot)) as vehicle,
+        running_mock(SimConfig(autopilot=autopilot)) as vehicle,
         connected_client(vehicle) as client,
     ):
         upload_plan(client, plan, verify=False)
@@ -226,7 +226,7 @@ def test_empty_upload_clears_the_type() -> None:
 def test_ardupilot_download_returns_the_vehicles_home_as_seq_0() -> None:
     vehicle_home = GeoPoint(47.4, 8.55, 500.25)
     plan = synthetic_mission(5, seed=14, autopilot=Autopilot.ARDUPILOT)
-    config = VehicleConfig(autopilot=Autopilot.ARDUPILOT, home=vehicle_home)
+    config = SimConfig(autopilot=Autopilot.ARDUPILOT, home=vehicle_home)
     with running_mock(config) as vehicle, connected_client(vehicle) as client:
         report = upload_plan(client, plan)  # verification skips seq 0, which the vehicle owns
         assert report.verified
@@ -247,7 +247,7 @@ def test_upload_is_atomic_when_the_vehicle_rejects_an_item() -> None:
     """A firmware-invalid item (NaN param for ArduPilot) fails the upload; the old plan stays."""
     old = synthetic_mission(5, seed=15, autopilot=Autopilot.ARDUPILOT)
     bad_item = MissionItem(MavCmd.NAV_WAYPOINT, x=47.0, y=8.0, z=20.0)  # params unset
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         with connected_client(vehicle) as client:
             upload_plan(client, old)
             before = vehicle.wire_items(MissionType.MISSION)
@@ -273,7 +273,7 @@ def test_item_round_trip_through_the_wire_keeps_precision() -> None:
 
 def test_download_into_plan_skips_unsupported_types() -> None:
     """A vehicle without fence/rally capability is not asked for them (as QGC does)."""
-    config = VehicleConfig(capabilities=Capability.MISSION_INT | Capability.MAVLINK2)
+    config = SimConfig(capabilities=Capability.MISSION_INT | Capability.MAVLINK2)
     with running_mock(config) as vehicle, connected_client(vehicle, FAST) as client:
         result = download_plan(client)
     assert result.plan.fence.is_empty and result.plan.rally == ()
@@ -301,7 +301,7 @@ def test_mock_sending_to_a_listening_ground_station_like_qgroundcontrol() -> Non
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    vehicle = MockVehicle(f"udpout:127.0.0.1:{port}", VehicleConfig(heartbeat_period_s=0.1))
+    vehicle = MockVehicle(f"udpout:127.0.0.1:{port}", SimConfig(heartbeat_period_s=0.1))
     vehicle.start()
     try:
         with VehicleLink.connect(f"udpin:127.0.0.1:{port}") as link:

@@ -21,7 +21,7 @@ from uavplan.mavlink.protocol import MissionTransferError, TransferStatus
 from uavplan.mavlink.stored_form import stored_form, upload_form
 from uavplan.mavlink.transfer import compare_items, plan_wire_items, upload_plan
 from uavplan.mission.items import Autopilot, MissionItem, MissionPlan, MissionType
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -56,7 +56,7 @@ def _plan(autopilot: Autopilot) -> MissionPlan:
 def test_an_upload_verifies_against_what_the_firmware_keeps(autopilot: Autopilot) -> None:
     plan = _plan(autopilot)
     with (
-        running_mock(VehicleConfig(autopilot=autopilot, home=HOME)) as vehicle,
+        running_mock(SimConfig(autopilot=autopilot, home=HOME)) as vehicle,
         connected_client(vehicle, FAST) as client,
     ):
         report = upload_plan(client, plan)
@@ -91,7 +91,7 @@ def test_px4_gets_commands_without_a_position_in_frame_mission() -> None:
         items=(_item(22, 3, (0, 0, 0, None), LAT, LON, 30.0), land_start, rtl), autopilot=PX4
     )
     with (
-        running_mock(VehicleConfig(autopilot=PX4)) as vehicle,
+        running_mock(SimConfig(autopilot=PX4)) as vehicle,
         connected_client(vehicle, FAST) as client,
     ):
         assert upload_plan(client, plan).verified
@@ -102,7 +102,7 @@ def test_px4_gets_commands_without_a_position_in_frame_mission() -> None:
 
 def test_a_field_the_vehicle_changed_is_named_without_blaming_another_ground_station() -> None:
     plan = _plan(AP)
-    with running_mock(VehicleConfig(autopilot=AP, home=HOME)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP, home=HOME)) as vehicle:
         with connected_client(vehicle, FAST) as client:
             download = client.download
 
@@ -124,7 +124,7 @@ def test_a_field_the_vehicle_changed_is_named_without_blaming_another_ground_sta
 
 def test_another_mission_on_the_vehicle_is_said_to_be_one() -> None:
     plan = _plan(AP)
-    with running_mock(VehicleConfig(autopilot=AP, home=HOME)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP, home=HOME)) as vehicle:
         with connected_client(vehicle, FAST) as client:
             download = client.download
 

@@ -28,7 +28,7 @@ from uavplan.mavlink.parameters import (
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.items import Autopilot, MissionType, VehicleParameter
 from uavplan.sim.faults import Faults
-from uavplan.sim.vehicle import SimVehicle, VehicleConfig
+from uavplan.sim.vehicle import SimConfig, SimVehicle
 from uavplan.sim.vehicles import new_vehicle
 
 pytestmark = pytest.mark.timeout(60)
@@ -147,7 +147,7 @@ def drive(vehicle: SimVehicle, machine: ParamMachine, *, limit_s: float = 30.0) 
 @pytest.mark.parametrize("seed", range(6))
 def test_replies_lost_by_the_vehicle_are_recovered(seed: int) -> None:
     faults = Faults(drop_rate=0.4, only=frozenset({"PARAM_VALUE"}), direction="out", seed=seed)
-    vehicle = new_vehicle(VehicleConfig(autopilot=AP, faults=faults))
+    vehicle = new_vehicle(SimConfig(autopilot=AP, faults=faults))
     requests = [ParamRequest("RTL_ALT", 4500, 4500), ParamRequest("FENCE_ENABLE", 1)]
     timeouts = ParamTimeouts(reply_s=0.2, retries=10)  # 11 tries of a 40 % loss each
     machine = ParamMachine((1, 1), requests, bytewise=False, timeouts=timeouts)
@@ -170,7 +170,7 @@ def apply(vehicle, requests: list[ParamRequest]):  # type: ignore[no-untyped-def
 
 
 def test_ardupilot_parameters_are_set_read_back_and_honoured() -> None:
-    with running_mock(VehicleConfig(autopilot=AP)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP)) as vehicle:
         results = apply(
             vehicle,
             [
@@ -193,7 +193,7 @@ def test_ardupilot_parameters_are_set_read_back_and_honoured() -> None:
 
 
 def test_px4_integer_parameters_go_bytewise() -> None:
-    with running_mock(VehicleConfig(autopilot=PX4)) as vehicle:
+    with running_mock(SimConfig(autopilot=PX4)) as vehicle:
         results = apply(
             vehicle,
             [
@@ -213,7 +213,7 @@ def test_px4_integer_parameters_go_bytewise() -> None:
 
 def test_a_refused_parameter_is_reported_with_the_vehicles_words() -> None:
     faults = Faults(refuse_param_set=frozenset({"RTL_ALT"}))
-    with running_mock(VehicleConfig(autopilot=AP, faults=faults)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP, faults=faults)) as vehicle:
         results = apply(
             vehicle, [ParamRequest("RTL_ALT", 4500, 4500), ParamRequest("FENCE_ENABLE", 1)]
         )
@@ -228,7 +228,7 @@ def test_a_refused_parameter_is_reported_with_the_vehicles_words() -> None:
 @pytest.mark.parametrize("autopilot", [AP, PX4], ids=lambda a: a.label)
 @pytest.mark.slow
 def test_an_unknown_name_is_unanswered(autopilot: Autopilot) -> None:
-    with running_mock(VehicleConfig(autopilot=autopilot)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot)) as vehicle:
         (result,) = apply(vehicle, [ParamRequest("NO_SUCH_PARAM", 1)])
     assert result.status is ParamStatus.UNANSWERED
     assert "NO_SUCH_PARAM" in result.describe()
@@ -236,7 +236,7 @@ def test_an_unknown_name_is_unanswered(autopilot: Autopilot) -> None:
 
 def test_replies_lost_on_the_link_are_retried_over_udp() -> None:
     faults = Faults(drop_rate=0.5, only=frozenset({"PARAM_VALUE"}), direction="out", seed=11)
-    with running_mock(VehicleConfig(autopilot=AP, faults=faults)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP, faults=faults)) as vehicle:
         results = apply(vehicle, [ParamRequest("RTL_ALT", 6000, 6000)])
         assert results[0].status is ParamStatus.CHANGED
         assert vehicle.vehicle.injector.dropped_out > 0
@@ -269,7 +269,7 @@ def plan_with_parameters(tmp_path: Path) -> Path:
 
 
 def test_upload_sets_the_parameters_and_prints_what_changed(plan_with_parameters: Path) -> None:
-    with running_mock(VehicleConfig(autopilot=AP)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP)) as vehicle:
         result = run("upload", str(plan_with_parameters), "--conn", client_conn(vehicle),
                      "--set-params")  # fmt: skip
         assert result.exit_code == 0, result.output
@@ -280,7 +280,7 @@ def test_upload_sets_the_parameters_and_prints_what_changed(plan_with_parameters
 
 def test_upload_exits_4_naming_a_refused_parameter(plan_with_parameters: Path) -> None:
     faults = Faults(refuse_param_set=frozenset({"FENCE_ALT_MAX"}))
-    with running_mock(VehicleConfig(autopilot=AP, faults=faults)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP, faults=faults)) as vehicle:
         result = run("upload", str(plan_with_parameters), "--conn", client_conn(vehicle),
                      "--set-params", "--timeout", "0.3")  # fmt: skip
         assert not vehicle.items(MissionType.MISSION)  # nothing relies on what failed
@@ -293,7 +293,7 @@ def test_upload_exits_4_naming_a_refused_parameter(plan_with_parameters: Path) -
 @pytest.mark.slow
 def test_upload_exits_4_when_every_reply_is_lost(plan_with_parameters: Path) -> None:
     faults = Faults(drop_rate=1.0, only=frozenset({"PARAM_VALUE"}), direction="out")
-    with running_mock(VehicleConfig(autopilot=AP, faults=faults)) as vehicle:
+    with running_mock(SimConfig(autopilot=AP, faults=faults)) as vehicle:
         result = run("upload", str(plan_with_parameters), "--conn", client_conn(vehicle),
                      "--set-params", "--timeout", "0.1", "--retries", "2")  # fmt: skip
     assert result.exit_code == 4
@@ -303,7 +303,7 @@ def test_upload_exits_4_when_every_reply_is_lost(plan_with_parameters: Path) -> 
 def test_upload_set_params_needs_the_right_firmware(
     tmp_path: Path, plan_with_parameters: Path
 ) -> None:
-    with running_mock(VehicleConfig(autopilot=PX4)) as vehicle:
+    with running_mock(SimConfig(autopilot=PX4)) as vehicle:
         result = run("upload", str(plan_with_parameters), "--conn", client_conn(vehicle),
                      "--set-params")  # fmt: skip
     assert result.exit_code == 2 and "the vehicle is px4" in result.stderr

@@ -628,7 +628,7 @@ def test_the_fence_round_trips_through_the_mock_vehicle(
     from helpers.mavlink_helpers import client_conn, running_mock
 
     from uavplan.mission.io import save_mission
-    from uavplan.sim.vehicle import VehicleConfig
+    from uavplan.sim.vehicle import SimConfig
 
     _, plan_path, _ = fenced_plan
     # the fence round trip alone: the parameters the plan relies on are its flavour's (upload
@@ -638,7 +638,7 @@ def test_the_fence_round_trips_through_the_mock_vehicle(
     save_mission(plan, plan_path)
     runner = CliRunner()
     back_path = tmp_path / "back.plan"
-    with running_mock(VehicleConfig(autopilot=autopilot, home=plan.home)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot, home=plan.home)) as vehicle:
         conn = client_conn(vehicle)
         result = runner.invoke(main, ["upload", str(plan_path), "--conn", conn])
         assert result.exit_code == 0, result.output

@@ -44,7 +44,7 @@ from uavplan.mission.items import (
     MissionType,
     items_equal,
 )
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 mavsdk = pytest.importorskip("mavsdk")
 
@@ -205,7 +205,7 @@ def mavsdk_ground_station(vehicle_conn: str) -> Iterator[MissionRaw]:
 def test_mavsdk_uploads_downloads_and_clears_on_our_mock_vehicle(autopilot: Autopilot) -> None:
     plan = synthetic_mission(100, seed=83, autopilot=autopilot)
     wire = plan_wire_items(plan, MissionType.MISSION, autopilot)
-    with running_mock(VehicleConfig(autopilot=autopilot)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot)) as vehicle:
         with mavsdk_ground_station(client_conn(vehicle)) as mission_raw:
             mission_raw.upload_mission(
                 [to_mavsdk(item, seq, MissionType.MISSION) for seq, item in enumerate(wire)]
@@ -228,7 +228,7 @@ def test_mavsdk_uploads_downloads_and_clears_on_our_mock_vehicle(autopilot: Auto
 
 
 def test_mavsdk_sees_our_mock_as_the_autopilot_it_claims() -> None:
-    with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+    with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
         url = client_conn(vehicle).replace("udpout:", "udpout://", 1)
         with mavsdk_instance(ComponentType.GROUND_STATION) as sdk:
             sdk.add_any_connection(url)
@@ -257,7 +257,7 @@ def test_mavsdk_refuses_nan_params_for_ardupilot_which_is_why_we_send_zeros(
     for candidate, accepted in ((plan, False), (_as_flown_by(plan, Autopilot.ARDUPILOT), True)):
         path = tmp_path / "m.plan"
         save_mission(candidate, path)
-        with running_mock(VehicleConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
+        with running_mock(SimConfig(autopilot=Autopilot.ARDUPILOT)) as vehicle:
             with mavsdk_ground_station(client_conn(vehicle)) as mission_raw:
                 imported = mission_raw.import_qgroundcontrol_mission(str(path))
                 if accepted:
@@ -279,7 +279,7 @@ def test_a_plan_file_imported_and_uploaded_by_mavsdk_comes_back_to_us(
     plan = _as_flown_by(plan, autopilot)
     path = tmp_path / "mission.plan"
     save_mission(plan, path)
-    with running_mock(VehicleConfig(autopilot=autopilot)) as vehicle:
+    with running_mock(SimConfig(autopilot=autopilot)) as vehicle:
         with mavsdk_ground_station(client_conn(vehicle)) as mission_raw:
             imported = mission_raw.import_qgroundcontrol_mission(str(path))
             mission_raw.upload_mission(imported.mission_items)

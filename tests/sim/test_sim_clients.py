@@ -35,7 +35,7 @@ from uavplan.mavlink.transfer import plan_wire_items
 from uavplan.mission.io import save_mission
 from uavplan.mission.items import Autopilot, MissionPlan, MissionType
 from uavplan.sim.mock import MockVehicle
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -63,8 +63,8 @@ def airborne_s(events: tuple[FlightEvent, ...] | list[FlightEvent]) -> float:
     return event_time(events, EventKind.LANDED) - event_time(events, EventKind.TAKEOFF)
 
 
-def loaded(plan: MissionPlan, autopilot: Autopilot, **config: Any) -> VehicleConfig:
-    return VehicleConfig(autopilot=autopilot, home=plan.home, **config)
+def loaded(plan: MissionPlan, autopilot: Autopilot, **config: Any) -> SimConfig:
+    return SimConfig(autopilot=autopilot, home=plan.home, **config)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -191,7 +191,7 @@ def test_mavsdk_param_plugin_reads_and_sets_the_flavours_table(
     autopilot: Autopilot, name: str, default: float, changed: float
 ) -> None:
     with (
-        running_mock(VehicleConfig(autopilot=autopilot)) as vehicle,
+        running_mock(SimConfig(autopilot=autopilot)) as vehicle,
         mavsdk_system(vehicle) as system,
     ):
         param = Param(system)
@@ -409,7 +409,7 @@ def test_ardupilot_missing_take_off_reaches_the_client(mavutil: Any) -> None:
 
 def test_pymavlink_param_set_is_echoed_and_unknown_names_refused_as_px4_does(mavutil: Any) -> None:
     with (
-        running_mock(VehicleConfig(autopilot=PX4)) as vehicle,
+        running_mock(SimConfig(autopilot=PX4)) as vehicle,
         pymavlink_gcs(mavutil, client_conn(vehicle)) as master,
     ):
         master.param_set_send("MPC_XY_CRUISE", 7.5)

@@ -44,7 +44,7 @@ from uavplan.mavlink.messages import (
 from uavplan.mavlink.modes import px4_custom_mode
 from uavplan.mission.items import Autopilot
 from uavplan.sim.faults import Faults
-from uavplan.sim.vehicle import MAX_CATCH_UP_S, VehicleConfig
+from uavplan.sim.vehicle import MAX_CATCH_UP_S, SimConfig
 
 AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4
 GCS = (255, 190)
@@ -77,7 +77,7 @@ def test_px4_heartbeat_packs_main_and_sub_mode_and_shows_the_armed_bit() -> None
 
 
 def test_px4_mission_start_without_a_mission_is_denied_in_px4s_words() -> None:
-    driver = Driver(VehicleConfig(autopilot=PX4))
+    driver = Driver(SimConfig(autopilot=PX4))
     ack, texts = driver.command(MavCommand.MISSION_START, 0, 0)
     assert ack.result == MavResult.DENIED
     assert texts == ["Mission start denied! No valid mission"]
@@ -85,20 +85,20 @@ def test_px4_mission_start_without_a_mission_is_denied_in_px4s_words() -> None:
 
 
 def test_px4_refuses_mission_mode_without_a_mission() -> None:
-    driver = Driver(VehicleConfig(autopilot=PX4))
+    driver = Driver(SimConfig(autopilot=PX4))
     ack, texts = driver.command(MavCommand.DO_SET_MODE, *PX4_MISSION)
     assert ack.result == MavResult.TEMPORARILY_REJECTED
     assert texts == ["Switching to Mission is currently not available"]
 
 
 def test_px4_refuses_to_arm_without_a_mission_when_com_arm_mis_req_says_so() -> None:
-    driver = Driver(VehicleConfig(autopilot=PX4, params={"COM_ARM_MIS_REQ": 1}))
+    driver = Driver(SimConfig(autopilot=PX4, params={"COM_ARM_MIS_REQ": 1}))
     ack, texts = driver.command(MavCommand.COMPONENT_ARM_DISARM, 1)
     assert ack.result == MavResult.TEMPORARILY_REJECTED
     assert texts == ["Arming denied: Resolve system health failures first"]
     assert not driver.vehicle.armed
     # the default arms without a mission
-    driver = Driver(VehicleConfig(autopilot=PX4))
+    driver = Driver(SimConfig(autopilot=PX4))
     ack, _ = driver.command(MavCommand.COMPONENT_ARM_DISARM, 1)
     assert ack.result == MavResult.ACCEPTED and driver.vehicle.armed
 
@@ -150,7 +150,7 @@ def test_ardupilot_mission_start_needs_param1_and_param2_zero() -> None:
 
 
 def test_ardupilot_names_a_mode_it_does_not_have() -> None:
-    driver = Driver(VehicleConfig(autopilot=AP))
+    driver = Driver(SimConfig(autopilot=AP))
     ack, texts = driver.command(MavCommand.DO_SET_MODE, 1, 42)
     assert ack.result == MavResult.FAILED
     assert texts == ["No such mode 42"]
@@ -247,7 +247,7 @@ def test_rtl_and_hold_commands_take_over_the_flight() -> None:
 
 
 def test_set_message_interval_and_request_message_are_honoured() -> None:
-    driver = Driver(VehicleConfig(autopilot=PX4))
+    driver = Driver(SimConfig(autopilot=PX4))
     ack, _ = driver.command(MavCommand.SET_MESSAGE_INTERVAL, MessageId.GLOBAL_POSITION_INT, 50_000)
     assert ack.result == MavResult.ACCEPTED
     out = driver.run(2.0)
@@ -263,7 +263,7 @@ def test_set_message_interval_and_request_message_are_honoured() -> None:
 
 
 def test_ardupilot_honours_request_data_stream() -> None:
-    driver = Driver(VehicleConfig(autopilot=AP))
+    driver = Driver(SimConfig(autopilot=AP))
     driver.send(RequestDataStream(1, 1, 6, 10, 1))  # MAV_DATA_STREAM_POSITION at 10 Hz
     assert len(of_type(driver.run(2.0), GlobalPositionInt)) == pytest.approx(20, abs=2)
     driver.send(RequestDataStream(1, 1, 0, 0, 0))  # all streams off
@@ -317,7 +317,7 @@ def test_the_battery_drains_in_flight_and_reports_it() -> None:
 
 def test_param_request_list_lists_the_flavours_table() -> None:
     for autopilot in (PX4, AP):
-        driver = Driver(VehicleConfig(autopilot=autopilot))
+        driver = Driver(SimConfig(autopilot=autopilot))
         values = of_type(driver.send(ParamRequestList(1, 1)), ParamValue)
         count = len(driver.vehicle.params.specs)
         assert [v.param_index for v in values] == list(range(count))
@@ -338,20 +338,20 @@ def test_param_set_changes_the_speed_flown() -> None:
 
 
 def test_px4_sends_integer_parameters_bytewise() -> None:
-    driver = Driver(VehicleConfig(autopilot=PX4))
+    driver = Driver(SimConfig(autopilot=PX4))
     (value,) = of_type(driver.send(ParamRequestRead(1, 1, "RTL_CONE_ANG", -1)), ParamValue)
     assert struct.unpack("<i", struct.pack("<f", value.param_value))[0] == 45
     wire = struct.unpack("<f", struct.pack("<i", 25))[0]
     (value,) = of_type(driver.send(ParamSet(1, 1, "RTL_CONE_ANG", wire, 6)), ParamValue)
     assert driver.vehicle.params["RTL_CONE_ANG"] == 25.0
     # ArduPilot casts them
-    driver = Driver(VehicleConfig(autopilot=AP))
+    driver = Driver(SimConfig(autopilot=AP))
     (value,) = of_type(driver.send(ParamRequestRead(1, 1, "RTL_ALT", -1)), ParamValue)
     assert value.param_value == 1500.0
 
 
 def test_unknown_parameters_are_refused_as_each_firmware_does() -> None:
-    px4 = Driver(VehicleConfig(autopilot=PX4))
+    px4 = Driver(SimConfig(autopilot=PX4))
     out = px4.send(ParamSet(1, 1, "NO_SUCH_PARAM", 1.0, 9))
     assert [(m.severity, m.text) for m in out] == [
         (Severity.INFO, "[pm] unknown param: NO_SUCH_PARAM")
@@ -359,7 +359,7 @@ def test_unknown_parameters_are_refused_as_each_firmware_does() -> None:
     assert px4.send(ParamRequestRead(1, 1, "NO_SUCH_PARAM", -1)) == []
     out = px4.send(ParamRequestRead(1, 1, "", 999))
     assert [m.text for m in out] == ["[pm] unknown param ID: 999"]
-    ardupilot = Driver(VehicleConfig(autopilot=AP))
+    ardupilot = Driver(SimConfig(autopilot=AP))
     assert ardupilot.send(ParamSet(1, 1, "NO_SUCH_PARAM", 1.0, 9)) == []
     assert ardupilot.send(ParamRequestRead(1, 1, "NO_SUCH_PARAM", -1)) == []
 

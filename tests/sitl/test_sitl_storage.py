@@ -29,7 +29,7 @@ from uavplan.mavlink.stored_form import stored_form
 from uavplan.mavlink.transfer import plan_wire_items, upload_plan
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import Autopilot, MissionItem, MissionPlan, MissionType
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -58,7 +58,7 @@ def _mock_download(
     plan: MissionPlan, autopilot: Autopilot, types: tuple[MissionType, ...]
 ) -> dict[MissionType, list[MissionItem]]:
     with (
-        running_mock(VehicleConfig(autopilot=autopilot, home=HOME)) as mock,
+        running_mock(SimConfig(autopilot=autopilot, home=HOME)) as mock,
         connected_client(mock) as client,
     ):
         upload_plan(client, plan)

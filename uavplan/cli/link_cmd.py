@@ -402,7 +402,7 @@ def mock_vehicle_cmd(
     from uavplan.mission.items import Autopilot, MissionType
     from uavplan.sim.faults import Faults
     from uavplan.sim.mock import MockVehicle
-    from uavplan.sim.vehicle import VehicleConfig
+    from uavplan.sim.vehicle import SimConfig
     from uavplan.vehicle import resolve
 
     flavour = Autopilot.from_name(autopilot)
@@ -416,7 +416,7 @@ def mock_vehicle_cmd(
         params = parameters_from(flavour, param_pairs)
     except ParameterValueError as err:
         raise InputError(str(err), key="--param") from None
-    config = VehicleConfig(
+    config = SimConfig(
         autopilot=flavour,
         system_id=system_id,
         home=stand_at,

@@ -25,7 +25,7 @@ _EXPORTS = {
     "Faults": "faults",
     "MockVehicle": "mock",
     "SimVehicle": "vehicle",
-    "VehicleConfig": "vehicle",
+    "SimConfig": "vehicle",
     "new_vehicle": "vehicles",
 }
 

@@ -24,7 +24,7 @@ from uavplan.mavlink.modes import FlightMode
 from uavplan.mavlink.transport import ConnectionSpec
 from uavplan.mission.items import Autopilot, MissionItem, MissionType
 from uavplan.sim.faults import Faults
-from uavplan.sim.vehicle import VehicleConfig
+from uavplan.sim.vehicle import SimConfig
 from uavplan.sim.vehicles import new_vehicle
 
 __all__ = ["MockVehicle", "VehicleSnapshot", "VehicleStats"]
@@ -68,8 +68,8 @@ class VehicleSnapshot:
 class MockVehicle:
     """A simulated PX4 or ArduPilot vehicle on a real MAVLink endpoint."""
 
-    def __init__(self, conn: str | ConnectionSpec, config: VehicleConfig | None = None) -> None:
-        self.config = config or VehicleConfig()
+    def __init__(self, conn: str | ConnectionSpec, config: SimConfig | None = None) -> None:
+        self.config = config or SimConfig()
         c = self.config
         self.connection = MavlinkConnection.open(
             conn, system_id=c.system_id, component_id=c.component_id

@@ -93,7 +93,7 @@ from uavplan.mission.items import Autopilot, MissionItem, MissionType, deg_to_e7
 from uavplan.sim.faults import FaultInjector, Faults
 from uavplan.sim.mission_server import MISSION_MESSAGES, MissionServer
 
-__all__ = ["DEFAULT_HOME", "SimVehicle", "VehicleConfig"]
+__all__ = ["DEFAULT_HOME", "SimConfig", "SimVehicle"]
 
 #: where the vehicle stands when nothing says otherwise: PX4 SITL's default home
 DEFAULT_HOME = GeoPoint(47.397742, 8.545594, 488.0)
@@ -125,7 +125,7 @@ _STREAMS: dict[int, float] = {
 
 
 @dataclass(frozen=True)
-class VehicleConfig:
+class SimConfig:
     """How the simulated vehicle is set up.
 
     ``home``: where it stands, and for ArduPilot what a download returns as mission seq 0
@@ -215,8 +215,8 @@ class SimVehicle:
     PARAM_ENCODING = Capability.PARAM_ENCODE_C_CAST
     FLIGHT_SW_VERSION = 0
 
-    def __init__(self, config: VehicleConfig | None = None, now: float = 0.0) -> None:
-        c = config or VehicleConfig()
+    def __init__(self, config: SimConfig | None = None, now: float = 0.0) -> None:
+        c = config or SimConfig()
         self.config = c
         self.autopilot = c.autopilot
         self.params = Parameters(c.autopilot, dict(c.params))
