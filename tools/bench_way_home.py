@@ -15,7 +15,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.planning import plan_route
 from uavplan.scenario import load_scenario
 from uavplan.wayhome.home import way_home

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flown_safe import MAX_REPLANS, plan_safe_as_flown
 from uavplan.mission.items import MavCmd, MissionPlan
 from uavplan.planning import mission_for, plan_route

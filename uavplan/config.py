@@ -25,7 +25,6 @@ numpy (``python -X importtime -c "import uavplan.config"`` stays in milliseconds
 from __future__ import annotations
 
 import dataclasses
-import enum
 import math
 import reprlib
 from collections.abc import Iterator, Mapping
@@ -785,32 +784,3 @@ END_ACTIONS: tuple[str, ...] = ("rtl", "land", "none", "return")
 #: mission.altitude: waypoint altitudes relative to home (MAV_FRAME_GLOBAL_RELATIVE_ALT), AMSL
 #: (MAV_FRAME_GLOBAL) or above the ground beneath (MAV_FRAME_GLOBAL_TERRAIN_ALT)
 ALTITUDE_MODES: tuple[str, ...] = ("relative", "amsl", "terrain")
-
-
-class Autopilot(enum.Enum):
-    """Autopilot flavour; ``value`` is the MAV_AUTOPILOT number (QGC's ``firmwareType``)."""
-
-    GENERIC = 0
-    ARDUPILOT = 3
-    PX4 = 12
-
-    @classmethod
-    def from_name(cls, name: str) -> Autopilot:
-        key = name.strip().lower()
-        table = {
-            "px4": cls.PX4,
-            "ardupilot": cls.ARDUPILOT,
-            "apm": cls.ARDUPILOT,
-            "generic": cls.GENERIC,
-        }
-        if key not in table:
-            raise ValueError(f"unknown autopilot {name!r} (expected px4 or ardupilot)")
-        return table[key]
-
-    @property
-    def label(self) -> str:
-        return {
-            Autopilot.GENERIC: "generic",
-            Autopilot.ARDUPILOT: "ardupilot",
-            Autopilot.PX4: "px4",
-        }[self]

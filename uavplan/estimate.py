@@ -32,8 +32,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from uavplan.config import Autopilot
 from uavplan.errors import InputError
+from uavplan.flavour import Autopilot
 from uavplan.mission.items import MavCmd, MissionPlan
 
 if TYPE_CHECKING:

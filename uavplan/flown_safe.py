@@ -14,8 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Generic, TypeVar
 
-from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError, ScenarioError
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import TrackCheck
 from uavplan.mission.items import MissionPlan
 from uavplan.planning import RouteResult, mission_for, plan_route

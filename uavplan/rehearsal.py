@@ -32,7 +32,7 @@ from uavplan.autopilot.model import EventKind
 from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.power import VehicleSpec
 from uavplan.autopilot.simulate import FlownTrack, distance_to_polyline, simulate
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import FlightPrediction, TrackCheck, check_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.ground import Ground

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
 from uavplan.autopilot.power import VehicleSpec
 from uavplan.autopilot.simulate import FlownTrack
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import TrackCheck, flight_of_track
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track

@@ -60,6 +60,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "route.py",
         "outcome.py",
         "config.py",
+        "flavour.py",
         "geometry2d.py",
         "fileio.py",
         "vehicle/*.py",

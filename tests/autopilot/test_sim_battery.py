@@ -19,8 +19,8 @@ from helpers.mavlink_helpers import synthetic_mission
 from uavplan.app.check import read_mission_flight
 from uavplan.autopilot.power import X500, Battery, PowerState, spec_for
 from uavplan.autopilot.simulate import simulate
-from uavplan.config import Autopilot
 from uavplan.estimate import estimate_flight, estimate_mission, mission_limits
+from uavplan.flavour import Autopilot
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mavlink.messages import BatteryStatus, SysStatus
 from uavplan.mavlink.transfer import plan_wire_items

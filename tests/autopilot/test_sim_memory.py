@@ -10,7 +10,7 @@ import tracemalloc
 import numpy as np
 
 from uavplan.autopilot.simulate import TRACK_COLUMNS, simulate
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mission.builder import build_mission
 

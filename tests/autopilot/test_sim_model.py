@@ -20,7 +20,7 @@ from uavplan.autopilot.nav import NavItem
 from uavplan.autopilot.params import ARDUPILOT_PARAMS, PX4_PARAMS, Parameters, UnknownParameter
 from uavplan.autopilot.power import X500
 from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline, simulate
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.mission.items import MavCmd, MissionItem
 from uavplan.vehicle import air_density_kg_m3, electrical_power_w, hover_power_w
 

@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from helpers.mavlink_helpers import synthetic_mission
 
 from uavplan.cli import main
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.track import Track, TrackFileError
 from uavplan.planning import mission_for, plan_route

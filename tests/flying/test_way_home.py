@@ -20,7 +20,7 @@ from uavplan.autopilot.nav import nav_items
 from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.simulate import simulate
 from uavplan.cli import main
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight, check_flight, flight_of_mission
 from uavplan.geo import EnuFrame
 from uavplan.mission.io import load_mission

@@ -25,7 +25,7 @@ from helpers.track_check import scenario_clearance
 
 from uavplan.autopilot.params import Parameters, flight_limits
 from uavplan.cli import main
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight
 from uavplan.mission.io import load_mission
 from uavplan.mission.track import Track

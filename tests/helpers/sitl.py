@@ -58,7 +58,7 @@ from pathlib import Path
 
 import pytest
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.geo import GeoPoint
 
 ROOT = Path(__file__).resolve().parents[2]

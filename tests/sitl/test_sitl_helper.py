@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from helpers import sitl
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 
 
 def _run_need(tmp_path: Path, **env: str) -> subprocess.CompletedProcess[str]:
@@ -22,7 +22,7 @@ def _run_need(tmp_path: Path, **env: str) -> subprocess.CompletedProcess[str]:
         textwrap.dedent(
             """
             from helpers import sitl
-            from uavplan.config import Autopilot
+            from uavplan.flavour import Autopilot
 
             def test_it():
                 sitl.need(Autopilot.ARDUPILOT)

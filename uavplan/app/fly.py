@@ -43,9 +43,9 @@ import numpy as np
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import check_output
 from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline
-from uavplan.config import Autopilot
 from uavplan.errors import InputError, LinkError, NoPathError
 from uavplan.fileio import InputFile
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight, TrackCheck, flight_clearance, flight_of_track
 from uavplan.geo import EnuFrame, GeoPoint
 from uavplan.mavlink.flightclient import FlightClient

@@ -20,9 +20,9 @@ from uavplan.app.feedback import Feedback
 from uavplan.app.inputs import mission_kind
 from uavplan.app.outputs import check_output
 from uavplan.autopilot.params import ParameterValueError, parameters_from
-from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.fileio import InputFile
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import TrackCheck
 from uavplan.mission.io import load_mission
 from uavplan.mission.items import MissionPlan

@@ -29,8 +29,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from uavplan.config import Autopilot
 from uavplan.errors import InputError, LinkError
+from uavplan.flavour import Autopilot
 from uavplan.mission.items import MissionPlan
 
 if TYPE_CHECKING:

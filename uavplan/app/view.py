@@ -22,8 +22,8 @@ from uavplan.app.check import check_flight_in, mission_flight
 from uavplan.app.feedback import Feedback
 from uavplan.app.inputs import load_scenario_file, mission_kind, sniff_mission_kind
 from uavplan.app.outputs import OutputSet
-from uavplan.config import Autopilot
 from uavplan.errors import InputError, NoPathError
+from uavplan.flavour import Autopilot
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:

@@ -61,7 +61,7 @@ from uavplan.autopilot.nav import NavItem
 from uavplan.autopilot.params import Parameters, flight_limits
 from uavplan.autopilot.px4 import SmoothingTrack
 from uavplan.autopilot.rtl import return_altitude_m
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.mission.items import MavCmd
 
 __all__ = [

@@ -25,7 +25,7 @@ import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 
 __all__ = [
     "ARDUPILOT_PARAMS",

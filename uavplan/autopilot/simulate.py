@@ -22,8 +22,8 @@ from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, Flight
 from uavplan.autopilot.nav import NavItem, nav_items
 from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.power import X500, VehicleSpec, power_w_array
-from uavplan.config import Autopilot
 from uavplan.errors import InputError
+from uavplan.flavour import Autopilot
 from uavplan.geo import GeoPoint
 from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
 

@@ -20,7 +20,7 @@ import operator
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.geo import GeoPoint
 
 # ---------------------------------------------------------------------------------------------

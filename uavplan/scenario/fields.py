@@ -18,7 +18,6 @@ from uavplan.config import (
     FITNESS_MODES,
     PLANNER_KEYS,
     PLANNERS,
-    Autopilot,
     ConfigError,
     EnergyWeights,
     GridSpec,
@@ -32,6 +31,7 @@ from uavplan.config import (
     short_repr,
     type_name,
 )
+from uavplan.flavour import Autopilot
 from uavplan.geo import GeoPoint
 from uavplan.obstacles import Bounds, BoxObstacle, CylinderObstacle, Obstacle, PrismObstacle
 from uavplan.scenario.checker import Checker, join

@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
-from uavplan.config import ALTITUDE_MODES, END_ACTIONS, Autopilot
+from uavplan.config import ALTITUDE_MODES, END_ACTIONS
+from uavplan.flavour import Autopilot
 from uavplan.scenario.limits import MAX_ALTITUDE_M, MAX_CRUISE_SPEED_M_S, SPACING_RANGE_M
 
 if TYPE_CHECKING:

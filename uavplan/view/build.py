@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import (
     VERTICAL_TOL_M,
     Flight,

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from uavplan.autopilot.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight, flight_of_track
 from uavplan.mission.items import VehicleParameter
 from uavplan.planners.base import ProgressFn

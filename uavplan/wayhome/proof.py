@@ -64,7 +64,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
 from uavplan.autopilot.rtl import ARDUPILOT_RTL_ALT_MIN_M, return_altitude_m
-from uavplan.config import Autopilot
+from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight
 from uavplan.route import PlannedRoute, keeps_margin
 from uavplan.world import GROUND, World
