@@ -17,9 +17,9 @@ import argparse
 
 import numpy as np
 
-from uavplan.vehicle import legs, power, profiles
-from uavplan.vehicle.legs import Legs, flight_energy
-from uavplan.vehicle.wind import Wind
+from uavplan.airframe import legs, power, profiles
+from uavplan.airframe.legs import Legs, flight_energy
+from uavplan.airframe.wind import Wind
 
 
 def hover_table() -> list[str]:

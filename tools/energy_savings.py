@@ -23,10 +23,10 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from uavplan.airframe import Wind
 from uavplan.estimate import estimate_route
 from uavplan.planning import plan_route
 from uavplan.scenario import load_scenario
-from uavplan.vehicle import Wind
 
 ROOT = Path(__file__).resolve().parent.parent
 WIND_M_S = 6.0

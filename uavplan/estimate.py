@@ -1,6 +1,6 @@
 """Before it flies: the flight time, the energy and the battery of a route or a mission.
 
-The one place that turns a flown line into the power model's legs (:mod:`uavplan.vehicle`)
+The one place that turns a flown line into the power model's legs (:mod:`uavplan.airframe`)
 the way the autopilot flies it, for ``plan`` (the planned route), ``validate`` (a mission
 file against a scenario, or a scenario's straight route) and the physical fitness's speeds
 (:func:`mission_limits`):
@@ -39,10 +39,10 @@ from uavplan.mission.items import MavCmd, MissionPlan
 if TYPE_CHECKING:
     from uavplan.autopilot.simulate import FlownTrack
     from uavplan.flightcheck import Flight
+from uavplan.airframe import DEFAULT_RESERVE_PCT, FlightEnergy, Legs, VehicleProfile, Wind
+from uavplan.airframe import flight_energy as _flight_energy
 from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits
 from uavplan.scenario import Scenario
-from uavplan.vehicle import DEFAULT_RESERVE_PCT, FlightEnergy, Legs, VehicleProfile, Wind
-from uavplan.vehicle import flight_energy as _flight_energy
 
 __all__ = [
     "DEFAULT_RESERVE_PCT",
@@ -127,7 +127,7 @@ class FlightEstimate:
         }
 
     def check(self, *, allow_over_battery: bool = False) -> str | None:
-        """Raise :class:`~uavplan.vehicle.EnergyBudgetError` (exit 2, with the numbers) when
+        """Raise :class:`~uavplan.airframe.EnergyBudgetError` (exit 2, with the numbers) when
         the flight does not leave the reserve (issue 37: a flight over the battery is never
         a success, whether or not the scenario names its vehicle); with
         ``allow_over_battery`` (``--allow-over-battery``) return the same words as a
@@ -473,10 +473,10 @@ def estimate_flown(
 
 def flown_energy(track: FlownTrack) -> FlightEnergy:
     """A simulated (or flown) track's time, energy and battery, step by step, as the
-    estimate's :class:`~uavplan.vehicle.FlightEnergy`: its ``summary()`` is the line ``plan``
+    estimate's :class:`~uavplan.airframe.FlightEnergy`: its ``summary()`` is the line ``plan``
     prints, its ``report_fields()`` the report's keys, so ``simulate`` and ``fly`` print what
     the vehicle drew next to the estimate (:func:`estimate_mission`) of the same mission."""
-    from uavplan.vehicle.legs import LegFigures
+    from uavplan.airframe.legs import LegFigures
 
     dt = np.diff(track.t_s)
     power = np.asarray(track.power_w, dtype=np.float64)[1:]

@@ -63,7 +63,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "flavour.py",
         "geometry2d.py",
         "fileio.py",
-        "vehicle/*.py",
+        "airframe/*.py",
         "limits.py",
         "lazy.py",
     ),

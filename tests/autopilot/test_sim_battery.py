@@ -1,6 +1,6 @@
 """The simulated vehicle drains its battery by the power model (issue 27 item 5).
 
-``simulate`` and the MAVLink vehicle draw the power of :mod:`uavplan.vehicle` for their
+``simulate`` and the MAVLink vehicle draw the power of :mod:`uavplan.airframe` for their
 profile at each step of the flight, so a simulated flight's energy is the estimate's for the
 same legs, up to what only the simulation flies: accelerations, braking and corners (the
 estimate flies every leg at constant speed), and a few tenths of a second of idle on the
@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from helpers.mavlink_helpers import synthetic_mission
 
+from uavplan.airframe import hover_power_w, resolve
 from uavplan.app.check import read_mission_flight
 from uavplan.autopilot.power import X500, Battery, PowerState, spec_for
 from uavplan.autopilot.simulate import simulate
@@ -30,7 +31,6 @@ from uavplan.mission.items import MissionPlan, MissionType
 from uavplan.planning import mission_for, plan_route
 from uavplan.scenario import load_scenario
 from uavplan.sim.vehicle import SimConfig, SimVehicle
-from uavplan.vehicle import hover_power_w, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4

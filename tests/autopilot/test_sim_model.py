@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from helpers.mavlink_helpers import HOME, planned_scenario, synthetic_mission
 
+from uavplan.airframe import air_density_kg_m3, electrical_power_w, hover_power_w
 from uavplan.autopilot.kinematics import Profile, SCurve
 from uavplan.autopilot.model import EventKind, FlightModel
 from uavplan.autopilot.nav import NavItem
@@ -22,7 +23,6 @@ from uavplan.autopilot.power import X500
 from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline, simulate
 from uavplan.flavour import Autopilot
 from uavplan.mission.items import MavCmd, MissionItem
-from uavplan.vehicle import air_density_kg_m3, electrical_power_w, hover_power_w
 
 AP, PX4 = Autopilot.ARDUPILOT, Autopilot.PX4
 DT = 0.1

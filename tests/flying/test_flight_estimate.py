@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from uavplan.airframe import air_density_kg_m3, electrical_power_w, resolve
 from uavplan.cli import main
 from uavplan.estimate import estimate_straight_route, mission_limits
 from uavplan.mission.items import Autopilot
 from uavplan.scenario import load_scenario
-from uavplan.vehicle import air_density_kg_m3, electrical_power_w, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 

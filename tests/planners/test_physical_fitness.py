@@ -2,7 +2,7 @@
 path, wind included, in the shared compiled fitness, so every planner minimises it.
 
 The kernel is held to its numpy reference (:meth:`PhysicalFitness.polyline_wh`, which flies
-the same spline samples through :func:`uavplan.vehicle.flight_energy`); every registered
+the same spline samples through :func:`uavplan.airframe.flight_energy`); every registered
 planner runs on it, reproducibly; and the paper's fitness is what it was when the physical
 one is not asked for."""
 
@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uavplan.airframe import Wind, resolve
 from uavplan.config import PLANNERS
 from uavplan.path.energy import N_SUB, EnergyArgs, PhysicalFitness, column_spline, energy_of
 from uavplan.planning import build_problem, physical_fitness, plan_route
 from uavplan.scenario import load_scenario
-from uavplan.vehicle import Wind, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 X500 = resolve({"profile": "x500"})

@@ -11,11 +11,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, Polygon, box
 
+from uavplan.airframe import profiles
 from uavplan.obstacles import BoxObstacle, CylinderObstacle, PrismObstacle
 from uavplan.survey import coverage
 from uavplan.survey.camera import Camera, camera_spacing
 from uavplan.survey.sweep import energy_of, plan_sweep
-from uavplan.vehicle import profiles
 
 FIELD = box(0, 0, 800, 500)
 

@@ -226,7 +226,7 @@ void energy_knots(const double *nodes, const Energy *e) {
 
 /* ------------------------------------------------------------------------------------------
  * The physical fitness (planner.energy: physical): the watt-hours of the power model
- * (uavplan/vehicle/power.py, flight.py) along the spline's samples, each step a leg flown at
+ * (uavplan/airframe/power.py, legs.py) along the spline's samples, each step a leg flown at
  * the commanded ground speed, its climb no faster than the climb or descent rate, through a
  * wind tabulated by height. The same expressions as the Python model; tests hold the two to
  * each other (tests/test_physical_fitness.py). ``phys`` (PhysicalFitness.table in

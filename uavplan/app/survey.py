@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
 
+from uavplan.airframe import EnergyBudgetError
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.errors import InputError, NoPathError
@@ -28,7 +29,6 @@ from uavplan.scenario.survey import with_no_fly
 from uavplan.scenario.values import load_survey_scenario
 from uavplan.survey import coverage
 from uavplan.surveying import SurveyRoute, lane_energy, part_of, plan_survey, survey_mission
-from uavplan.vehicle import EnergyBudgetError
 from uavplan.worlds import build_world
 
 if TYPE_CHECKING:

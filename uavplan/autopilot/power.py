@@ -1,4 +1,4 @@
-"""The simulated vehicle's battery, drained by the power model of :mod:`uavplan.vehicle`.
+"""The simulated vehicle's battery, drained by the power model of :mod:`uavplan.airframe`.
 
 :func:`power_w` is the only place that says how much power the simulated vehicle draws: in
 the air, the electrical power of the vehicle's profile (hover, forward flight, climb and
@@ -30,8 +30,8 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.vehicle import VehicleProfile, air_density_kg_m3, electrical_power_w, resolve
-from uavplan.vehicle import hover_power_w as _hover_power_w
+from uavplan.airframe import VehicleProfile, air_density_kg_m3, electrical_power_w, resolve
+from uavplan.airframe import hover_power_w as _hover_power_w
 
 __all__ = [
     "CELLS",

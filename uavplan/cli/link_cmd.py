@@ -395,6 +395,7 @@ def mock_vehicle_cmd(
     the mission it holds once armed and started (docs/flight-model.md). --loss and
     --duplicate inject packet faults deterministically.
     """
+    from uavplan.airframe import resolve
     from uavplan.autopilot.params import ParameterValueError, parameters_from
     from uavplan.autopilot.power import spec_for
     from uavplan.mavlink.transfer import check_plan_fits_wire, plan_wire_items
@@ -403,7 +404,6 @@ def mock_vehicle_cmd(
     from uavplan.sim.faults import Faults
     from uavplan.sim.mock import MockVehicle
     from uavplan.sim.vehicle import SimConfig
-    from uavplan.vehicle import resolve
 
     flavour = Autopilot.from_name(autopilot)
     plan = load_mission(preload) if preload else None

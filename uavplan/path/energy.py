@@ -9,11 +9,11 @@ the spline is a linear map of the node values, solved here by one tridiagonal sw
 individual and axis, so a whole population costs O(G·D).
 
 The physical fitness (``planner: {energy: physical}``, :class:`PhysicalFitness`) evaluates the
-same spline samples with the power model of :mod:`uavplan.vehicle`: each step a leg flown at
+same spline samples with the power model of :mod:`uavplan.airframe`: each step a leg flown at
 the commanded ground speed through the wind, its energy in watt-hours. The kernel reads the
 vehicle's figures and a table of the wind (in the path frame) and the air density by height
 (:meth:`PhysicalFitness.table`); :meth:`PhysicalFitness.polyline_wh` is the same sum in
-numpy through :func:`uavplan.vehicle.flight_energy` (the reference the tests compare with).
+numpy through :func:`uavplan.airframe.flight_energy` (the reference the tests compare with).
 """
 
 from __future__ import annotations
@@ -24,11 +24,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-import uavplan.vehicle.constants as VC
+import uavplan.airframe.constants as VC
 from uavplan._geom import _c, kernel_fields
+from uavplan.airframe import Legs, VehicleProfile, Wind, air_density_kg_m3, flight_energy
+from uavplan.airframe.power import disc_area_m2, scale_and_drag
 from uavplan.config import EnergyWeights
-from uavplan.vehicle import Legs, VehicleProfile, Wind, air_density_kg_m3, flight_energy
-from uavplan.vehicle.power import disc_area_m2, scale_and_drag
 
 #: spline samples per column interval used by the search fitness
 N_SUB = 3
@@ -123,7 +123,7 @@ class PhysicalFitness:
     def polyline_wh(self, points: np.ndarray, heading_rad: float = 0.0) -> float:
         """Watt-hours of the polyline ``points`` (n, 3) flown leg by leg (path frame of
         ``heading_rad``: z above the datum, the wind's height), through
-        :func:`uavplan.vehicle.flight_energy`: the physical fitness in numpy."""
+        :func:`uavplan.airframe.flight_energy`: the physical fitness in numpy."""
         p = np.asarray(points, dtype=float)
         keep = np.ones(len(p), dtype=bool)
         keep[1:] = np.linalg.norm(np.diff(p, axis=0), axis=1) > 1e-12

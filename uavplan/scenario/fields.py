@@ -52,7 +52,7 @@ from uavplan.scenario.limits import (
 from uavplan.scenario.settings import MissionConfig, VehicleConfig
 
 if TYPE_CHECKING:
-    from uavplan.vehicle.wind import Wind
+    from uavplan.airframe.wind import Wind
 
 
 def polygon_area_and_crossing(poly: list[tuple[float, float]]) -> tuple[float, bool]:
@@ -251,9 +251,9 @@ def vehicle(chk: Checker, raw: Any) -> VehicleConfig:
 def _vehicle_profile(chk: Checker, spec: Mapping[Any, Any]) -> dict[str, Any]:
     """The power model's part of ``vehicle:``, resolved once to check it (ScenarioError naming
     ``vehicle.<field>``)."""
+    from uavplan.airframe.profile import VehicleProfile
+    from uavplan.airframe.profiles import resolve
     from uavplan.errors import InputError
-    from uavplan.vehicle.profile import VehicleProfile
-    from uavplan.vehicle.profiles import resolve
 
     for k in spec:
         if not isinstance(k, str):
@@ -278,10 +278,10 @@ def _vehicle_profile(chk: Checker, spec: Mapping[Any, Any]) -> dict[str, Any]:
 
 def wind(chk: Checker, raw: Any) -> Wind:
     """``wind: {speed: m/s, from: deg}`` with an optional ``profile`` by height
-    (:meth:`uavplan.vehicle.wind.Wind.from_mapping`; numpy loads here, for a scenario with
+    (:meth:`uavplan.airframe.wind.Wind.from_mapping`; numpy loads here, for a scenario with
     wind)."""
+    from uavplan.airframe.wind import Wind
     from uavplan.errors import InputError
-    from uavplan.vehicle.wind import Wind
 
     try:
         return Wind.from_mapping(raw)

@@ -13,7 +13,7 @@ from uavplan.flavour import Autopilot
 from uavplan.scenario.limits import MAX_ALTITUDE_M, MAX_CRUISE_SPEED_M_S, SPACING_RANGE_M
 
 if TYPE_CHECKING:
-    from uavplan.vehicle import VehicleProfile
+    from uavplan.airframe import VehicleProfile
 
 #: the power model's vehicle when a scenario names none (the simulated vehicle's too)
 DEFAULT_PROFILE = "x500"
@@ -23,7 +23,7 @@ DEFAULT_PROFILE = "x500"
 class VehicleConfig:
     """``vehicle:``. The two short keys are what the mission tells the autopilot
     (``cruise_speed``: the DO_CHANGE_SPEED of the mission, ``takeoff_altitude``); every other
-    key is a field of the power model's vehicle (:class:`~uavplan.vehicle.VehicleProfile`,
+    key is a field of the power model's vehicle (:class:`~uavplan.airframe.VehicleProfile`,
     units in their names), ``profile`` the bundled profile they override.
     ``profile_spec`` holds those as the file gave them (empty: the scenario names no
     vehicle and the estimates use :data:`DEFAULT_PROFILE`); :attr:`profile` resolves them.
@@ -53,7 +53,7 @@ class VehicleConfig:
         """The power model's vehicle: the bundled profile named (default
         :data:`DEFAULT_PROFILE`) with the scenario's fields. numpy loads here: a scenario
         that names no vehicle is read without it."""
-        from uavplan.vehicle.profiles import resolve
+        from uavplan.airframe.profiles import resolve
 
         spec = dict(self.profile_spec)
         if not spec:

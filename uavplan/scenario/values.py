@@ -57,10 +57,10 @@ from uavplan.scenario.site import Site, flat_site, terrain_site
 from uavplan.scenario.size import DEFAULT_GRID, fitted_grid, path_grid
 
 if TYPE_CHECKING:
+    from uavplan.airframe.wind import Wind
     from uavplan.ground import Surface
     from uavplan.scenario.survey import SurveySpec
     from uavplan.scenario.zones import ZoneSet
-    from uavplan.vehicle.wind import Wind
 
 Point3 = tuple[float, float, float]
 

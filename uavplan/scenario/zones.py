@@ -360,7 +360,7 @@ def endurance_s(vehicle: VehicleConfig) -> float:
     altitude it needs more). A flight is never longer."""
     import numpy as np
 
-    from uavplan.vehicle.power import electrical_power_w
+    from uavplan.airframe.power import electrical_power_w
 
     profile = vehicle.profile
     speeds = np.linspace(0.0, profile.max_airspeed_m_s, 201)

@@ -16,9 +16,9 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from uavplan.vehicle.legs import Legs, flight_energy
-from uavplan.vehicle.profile import VehicleProfile
-from uavplan.vehicle.wind import Wind
+from uavplan.airframe.legs import Legs, flight_energy
+from uavplan.airframe.profile import VehicleProfile
+from uavplan.airframe.wind import Wind
 
 from . import coverage
 

@@ -1,4 +1,4 @@
-"""The multirotor power model, the bundled profiles, wind and the battery (uavplan.vehicle).
+"""The multirotor power model, the bundled profiles, wind and the battery (uavplan.airframe).
 
 Expected values are computed here by hand from the textbook formulas (momentum theory,
 Leishman's climb and vortex-ring results, the kinematics of a straight leg in wind), not by
@@ -13,17 +13,16 @@ import math
 import numpy as np
 import pytest
 
-from uavplan.errors import EXIT_INPUT, InputError
-from uavplan.vehicle import constants as C
-from uavplan.vehicle import power
-from uavplan.vehicle.legs import (
+from uavplan.airframe import constants as C
+from uavplan.airframe import power
+from uavplan.airframe.legs import (
     EnergyBudgetError,
     Legs,
     WindTooStrongError,
     flight_energy,
     still_air_time_s,
 )
-from uavplan.vehicle.power import (
+from uavplan.airframe.power import (
     air_density_kg_m3,
     electrical_power_w,
     hover_power_w,
@@ -32,9 +31,10 @@ from uavplan.vehicle.power import (
     power_terms,
     rotor_state,
 )
-from uavplan.vehicle.profile import VehicleProfile
-from uavplan.vehicle.profiles import CITED_HOVER_TIME_S, PROFILES, SOURCES, resolve
-from uavplan.vehicle.wind import Wind
+from uavplan.airframe.profile import VehicleProfile
+from uavplan.airframe.profiles import CITED_HOVER_TIME_S, PROFILES, SOURCES, resolve
+from uavplan.airframe.wind import Wind
+from uavplan.errors import EXIT_INPUT, InputError
 
 RHO0 = 1.225
 G = 9.80665

@@ -34,8 +34,8 @@ is scaled so that the hover power is the measured one, and the drag area is the 
 the power at the cruise speed the measured one (both at the ISA sea-level density).
 
 The airspeed here is the horizontal speed through the air (ground velocity minus wind, see
-:mod:`uavplan.vehicle.legs`); vertical wind and the fuselage's vertical drag are ignored.
-Sources and constants: :mod:`uavplan.vehicle.constants`; docs/energy.md.
+:mod:`uavplan.airframe.legs`); vertical wind and the fuselage's vertical drag are ignored.
+Sources and constants: :mod:`uavplan.airframe.constants`; docs/energy.md.
 """
 
 from __future__ import annotations
@@ -48,13 +48,13 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-import uavplan.vehicle.constants as C
+import uavplan.airframe.constants as C
 from uavplan.errors import InputError
 
 
 class Airframe(Protocol):
     """What the power model reads of a vehicle (a
-    :class:`~uavplan.vehicle.profile.VehicleProfile`; a protocol here, so the profile, which
+    :class:`~uavplan.airframe.profile.VehicleProfile`; a protocol here, so the profile, which
     checks itself with :func:`calibration`, and this module do not import each other)."""
 
     @property

@@ -37,10 +37,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from uavplan.airframe.power import air_density_kg_m3, electrical_power_w
+from uavplan.airframe.profile import VehicleProfile
+from uavplan.airframe.wind import Wind
 from uavplan.errors import InputError
-from uavplan.vehicle.power import air_density_kg_m3, electrical_power_w
-from uavplan.vehicle.profile import VehicleProfile
-from uavplan.vehicle.wind import Wind
 
 #: default vertical speeds of a mission leg: ArduPilot's WPNAV_SPEED_UP (250 cm/s) and
 #: WPNAV_SPEED_DN (150 cm/s) defaults

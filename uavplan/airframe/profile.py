@@ -1,10 +1,10 @@
 """A vehicle profile: the figures the power model needs, validated on construction.
 
 Units are in the field names. The aerodynamic and electrical constants default to the generic
-values of :mod:`uavplan.vehicle.constants` (the same for every bundled profile); the measured
+values of :mod:`uavplan.airframe.constants` (the same for every bundled profile); the measured
 figures (``hover_power_w``, ``cruise_power_w``) are unset (``None``) unless the user has them.
 :meth:`VehicleProfile.with_overrides` changes any field and validates the result, so a scenario's
-``vehicle: {profile: x500, mass_kg: 2.1}`` is one call (:func:`uavplan.vehicle.profiles.resolve`).
+``vehicle: {profile: x500, mass_kg: 2.1}`` is one call (:func:`uavplan.airframe.profiles.resolve`).
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
-import uavplan.vehicle.constants as C
+import uavplan.airframe.constants as C
+from uavplan.airframe.power import calibration
 from uavplan.errors import InputError
-from uavplan.vehicle.power import calibration
 
 
 def _number(name: str, value: Any) -> float:

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-import uavplan.vehicle.constants as C
+import uavplan.airframe.constants as C
 from uavplan.errors import InputError
 
 

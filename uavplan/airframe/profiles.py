@@ -1,9 +1,9 @@
 """The bundled vehicle profiles, every figure with its source.
 
 Only spec-sheet figures differ between the profiles (mass, rotors, battery, top speed); the
-aerodynamic and electrical constants are the generic ones of :mod:`uavplan.vehicle.constants`
+aerodynamic and electrical constants are the generic ones of :mod:`uavplan.airframe.constants`
 for all three. :data:`CITED_HOVER_TIME_S` holds the hover time each manufacturer publishes, which
-the model's prediction is compared with (tests/vehicle/test_power_model.py, docs/energy.md). The
+the model's prediction is compared with (tests/airframe/test_power_model.py, docs/energy.md). The
 x500's hover power is also checked against the kit's motor bench table (a cross-check: the
 profile does not use it, it agrees with the generic model within 1 %).
 
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
+from uavplan.airframe.profile import VehicleProfile
 from uavplan.errors import InputError
-from uavplan.vehicle.profile import VehicleProfile
 
 INCH_M = 0.0254
 
@@ -172,7 +172,7 @@ SOURCES: Mapping[str, tuple[Citation, ...]] = MappingProxyType(
                 "KV920 motor with the T1045II propeller at 16 V, per motor 373 g of thrust at "
                 "46 W and 447 g at 58 W (T-Motor's Air Gear 450 II table). Read in two public "
                 "transcriptions that agree row for row, not in the image itself "
-                "(tests/vehicle/test_power_model.py, docs/energy.md)",
+                "(tests/airframe/test_power_model.py, docs/energy.md)",
                 checked=False,
             ),
         ),
