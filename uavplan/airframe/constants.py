@@ -80,7 +80,7 @@ AVIONICS_POWER_W = 10.0
 #: share of the rated energy (capacity × nominal voltage) a pack delivers between full and the
 #: vehicle's own "empty" (its critical-battery landing). At the ~1 C of a multirotor a LiPo
 #: gives close to its rated energy down to 3.3-3.5 V per cell; 5 % allows for that cut-off
-#: and for ageing. The operator's reserve comes on top (``flight.DEFAULT_RESERVE_PCT``).
+#: and for ageing. The operator's reserve comes on top (``legs.DEFAULT_RESERVE_PCT``).
 BATTERY_USABLE_FRACTION = 0.95
 
 # --- wind -----------------------------------------------------------------------------------
