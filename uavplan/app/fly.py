@@ -1363,23 +1363,13 @@ def _track_of(
 
 
 def _planned_legs(plan: MissionPlan, autopilot: Autopilot) -> tuple[np.ndarray, np.ndarray]:
-    """The planned route in the ENU frame at home, as the flight model draws it (home, the
-    take-off's climb, each positional item: :meth:`FlownTrack.planned_polyline_enu`), and the
-    wire seq of the item each point is (-1: home)."""
-    from uavplan.autopilot.nav import nav_items
+    """The planned route in the ENU frame at home, as the flight model draws it
+    (:func:`uavplan.autopilot.nav.planned_legs`), and the wire seq of the item each point is
+    (-1: home)."""
+    from uavplan.autopilot.nav import nav_items, planned_legs
 
     assert plan.home is not None
-    nav = nav_items(plan_wire_items(plan, MissionType.MISSION, autopilot), plan.home)
-    points = [(0.0, 0.0, 0.0)]
-    seqs = [-1]
-    for item in nav:
-        if item.is_position and item.position is not None and not math.isnan(item.position[0]):
-            points.append(item.position)
-            seqs.append(item.seq)
-        elif item.command == MavCmd.NAV_TAKEOFF and item.position is not None:
-            points.append((points[-1][0], points[-1][1], item.position[2]))
-            seqs.append(item.seq)
-    return np.array(points, dtype=np.float64), np.array(seqs, dtype=np.int64)
+    return planned_legs(nav_items(plan_wire_items(plan, MissionType.MISSION, autopilot), plan.home))
 
 
 def _distance_to_go(point: np.ndarray, legs: np.ndarray, first: int = 0) -> float:

@@ -615,8 +615,8 @@ class FlightModel:
         cmd = item.command
         here = self._motion.pos
         if cmd == MavCmd.NAV_TAKEOFF:
-            assert item.position is not None
-            altitude = self.ground_at(here[0], here[1]) + item.position[2]
+            assert item.altitude_m is not None
+            altitude = self.ground_at(here[0], here[1]) + item.altitude_m
             if not self.landed:
                 altitude = max(altitude, here[2])
             yield from self._climb_to(altitude, takeoff=True)

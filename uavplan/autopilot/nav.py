@@ -3,9 +3,11 @@ positions in ENU metres in the frame at home."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
 
 from uavplan.autopilot.kinematics import Vec
 from uavplan.geo import GeoPoint
@@ -22,7 +24,8 @@ class NavItem:
 
     ``terrain_m``: for an item in a terrain frame, its height above the ground (its
     ``position`` z is that height over the ground beneath it); ArduPilot follows the ground
-    on the leg to it. ``None`` for the other frames."""
+    on the leg to it. ``None`` for the other frames. ``here_alt_m``: the altitude of a NAV
+    item at lat/lon 0 (a take-off "where the vehicle is"), which has no ``position``."""
 
     seq: int
     command: int
@@ -32,6 +35,12 @@ class NavItem:
     param3: float = 0.0
     param4: float = 0.0
     terrain_m: float | None = None
+    here_alt_m: float | None = None
+
+    @property
+    def altitude_m(self) -> float | None:
+        """The item's altitude above home (its position's z, or ``here_alt_m``)."""
+        return self.position[2] if self.position is not None else self.here_alt_m
 
     @property
     def is_nav(self) -> bool:
@@ -73,6 +82,7 @@ def nav_items(
     for seq, item in enumerate(items):
         position: Vec | None = None
         terrain_m: float | None = None
+        here_alt_m: float | None = None
         if seq in where:
             x, y = where[seq]
             frame_id = canonical_frame(item.frame)
@@ -85,8 +95,7 @@ def nav_items(
                 z = item.z
             position = (x, y, z)
         elif item.is_global and item.command < FIRST_DO_COMMAND:
-            # lat/lon 0: "where the vehicle is"; keep the altitude in the z slot of a marker
-            position = None
+            here_alt_m = float(item.z)  # lat/lon 0: "where the vehicle is", at this altitude
         out.append(
             NavItem(
                 seq=seq,
@@ -97,9 +106,24 @@ def nav_items(
                 param3=item.param3 or 0.0,
                 param4=item.param4 or 0.0,
                 terrain_m=terrain_m,
+                here_alt_m=here_alt_m,
             )
         )
-        if position is None and item.is_global and item.command == MavCmd.NAV_TAKEOFF:
-            # a take-off at lat/lon 0 still carries its altitude
-            out[-1] = replace(out[-1], position=(math.nan, math.nan, float(item.z)))
     return tuple(out)
+
+
+def planned_legs(nav: Sequence[NavItem]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The mission's straight legs as the flight model draws them: home, the take-off's
+    climb, each positional item, as ENU points ``(m, 3)`` in the frame at home; and the wire
+    seq of the item each point is (-1: home)."""
+    points = [(0.0, 0.0, 0.0)]
+    seqs = [-1]
+    for item in nav:
+        if item.is_position:
+            assert item.position is not None
+            points.append(item.position)
+            seqs.append(item.seq)
+        elif item.command == MavCmd.NAV_TAKEOFF and item.altitude_m is not None:
+            points.append((points[-1][0], points[-1][1], item.altitude_m))
+            seqs.append(item.seq)
+    return np.array(points, dtype=np.float64), np.array(seqs, dtype=np.int64)

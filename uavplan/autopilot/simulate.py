@@ -11,7 +11,6 @@ milliseconds (docs/flight-model.md).
 from __future__ import annotations
 
 import array
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -19,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel
-from uavplan.autopilot.nav import NavItem, nav_items
+from uavplan.autopilot.nav import NavItem, nav_items, planned_legs
 from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.power import X500, VehicleSpec, power_w_array
 from uavplan.errors import InputError
@@ -139,15 +138,9 @@ class FlownTrack:
         ]
 
     def planned_polyline_enu(self) -> NDArray[np.float64]:
-        """The straight legs of the mission (home, the positional items in order) ``(m, 3)``,
-        in the same frame as the track."""
-        points = [(0.0, 0.0, 0.0)]
-        for item in self.nav:
-            if item.is_position and item.position is not None and not math.isnan(item.position[0]):
-                points.append(item.position)
-            elif item.command == MavCmd.NAV_TAKEOFF and item.position is not None:
-                points.append((points[-1][0], points[-1][1], item.position[2]))
-        return np.array(points, dtype=np.float64)
+        """The straight legs of the mission (home, the take-off's climb, the positional items
+        in order) ``(m, 3)``, in the same frame as the track (:func:`~.nav.planned_legs`)."""
+        return planned_legs(self.nav)[0]
 
     def deviation_from(self, polyline_enu: ArrayLike) -> NDArray[np.float64]:
         """Each track point's distance to the polyline ``(m, 3)`` (same frame), ``(n,)``."""
