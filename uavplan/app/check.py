@@ -198,18 +198,17 @@ def judged(
     ``scenario`` as its vehicle flies it through its wind), or None when the flight model
     does not fly it (an autopilot it does not know, no home, a mission the autopilot would
     refuse to start: those are checked by their straight legs only)."""
-    from uavplan.autopilot.simulate import MissionRefused
+    from uavplan.autopilot.simulate import refusal_of
     from uavplan.mission.items import Autopilot
     from uavplan.rehearsal import conditions_of
     from uavplan.verdict import judge_flight
 
     if plan.autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT) or plan.home is None:
         return None
-    conditions = {} if scenario is None else conditions_of(scenario)
-    try:
-        return judge_flight(plan, site, **conditions)
-    except MissionRefused:
+    if refusal_of(plan) is not None:
         return None
+    conditions = {} if scenario is None else conditions_of(scenario)
+    return judge_flight(plan, site, **conditions)
 
 
 def _mission_estimate(

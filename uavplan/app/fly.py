@@ -42,7 +42,7 @@ import numpy as np
 
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import check_output
-from uavplan.autopilot.simulate import MissionRefused, distance_to_polyline
+from uavplan.autopilot.simulate import distance_to_polyline, refusal_of
 from uavplan.errors import InputError, LinkError, NoPathError
 from uavplan.fileio import InputFile
 from uavplan.flavour import Autopilot
@@ -389,10 +389,8 @@ def _fly_on(
 
     # the reference: the flight model flying this mission as this vehicle's flavour
     reference: Rehearsal | None = None
-    try:
+    if refusal_of(plan, autopilot) is None:  # else the vehicle refuses it, in its words
         reference = rehearse(plan, site, autopilot=autopilot)
-    except MissionRefused:
-        reference = None  # the vehicle will refuse it, in its own words, at the start
     if reference is not None and reference.check is not None and not reference.check.ok:
         feedback.warn(
             f"warning: the flight model predicts: {reference.check.problem()} (plan the "

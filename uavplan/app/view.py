@@ -161,7 +161,7 @@ def mission_document_for(
     """The page's document of ``plan`` in ``scenario``: the mission check, the flight as
     flown (``flown``; else the track file ``track``; else the flight model's) and the way
     home."""
-    from uavplan.autopilot.simulate import MissionRefused
+    from uavplan.autopilot.simulate import refusal_of
     from uavplan.rehearsal import CheckSite
     from uavplan.view.build import flown_of_track, fly_mission, mission_document
 
@@ -176,12 +176,14 @@ def mission_document_for(
 
         flown = flown_of_track(Track.load(track), plan, site, f"track {Path(track).name}")
     elif flown is None and plan.home is not None and plan.autopilot in FLOWN_AUTOPILOTS:
-        try:
-            flown = fly_mission(scenario, plan, site)
-        except MissionRefused as err:
-            notes.append(f"not flown through the flight model: {err}")
-        except ValueError as err:  # a parameter the plan carries that the model refuses
-            notes.append(f"not flown through the flight model: {err}")
+        refusal = refusal_of(plan)
+        if refusal is not None:
+            notes.append(f"not flown through the flight model: {refusal.text()}")
+        else:
+            try:
+                flown = fly_mission(scenario, plan, site)
+            except ValueError as err:  # a parameter the plan carries that the model refuses
+                notes.append(f"not flown through the flight model: {err}")
     if flown is not None and feedback is not None:
         feedback.say(f"the flight as flown: {flown.label}")
     return mission_document(
@@ -213,7 +215,7 @@ def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> lis
     return would): the one whole-flight verdict (:func:`uavplan.verdict.judge_flight`, the
     mission flown with the parameters it relies on, take-off to touchdown, and a failsafe
     return from every point), worded as every other command words it."""
-    from uavplan.autopilot.simulate import MissionRefused
+    from uavplan.autopilot.simulate import refusal_of
     from uavplan.mission.items import MavCmd
     from uavplan.rehearsal import CheckSite, conditions_of
     from uavplan.verdict import judge_flight
@@ -224,9 +226,13 @@ def way_home_lines(scenario: Scenario, plan: MissionPlan, flight: Flight) -> lis
     if any(item.command == MavCmd.DO_LAND_START for item in plan.items):
         lines.append(("ok", "way home: the mission ends with a planned return (after "
                       "DO_LAND_START), drawn as its last legs"))  # fmt: skip
+    refusal = refusal_of(plan)
+    if refusal is not None:  # the vehicle would refuse it: no flight
+        why = refusal.text()
+        return [*lines, ("problem", f"whole flight: not flown through the flight model: {why}")]
     try:
         verdict = judge_flight(plan, CheckSite.of_scenario(scenario), **conditions_of(scenario))
-    except (MissionRefused, ValueError) as err:  # the vehicle would refuse it: no flight
+    except ValueError as err:  # a parameter the plan carries that the model refuses
         return [*lines, ("problem", f"whole flight: not flown through the flight model: {err}")]
     lines.append(("ok" if verdict.flight_ok else "problem", verdict.summary()))
     lines.extend(("warning", line) for line in verdict.warnings())

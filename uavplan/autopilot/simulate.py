@@ -29,8 +29,11 @@ from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
 __all__ = [
     "FlownTrack",
     "MissionRefused",
+    "StartRefusal",
     "check_startable",
+    "refusal_of",
     "simulate",
+    "start_refusal",
 ]
 
 #: a simulation stops after this much simulated time (a mission that never ends)
@@ -42,11 +45,25 @@ NO_HEADWAY_LIMIT_S = 60.0
 TRACK_COLUMNS = 9
 
 
+@dataclass(frozen=True)
+class StartRefusal:
+    """Why the autopilot would refuse to start a mission from the ground: our words
+    (``reason``) and the firmware's (``firmware_text``, its STATUSTEXT)."""
+
+    reason: str
+    firmware_text: str
+
+    def text(self) -> str:
+        return f"{self.reason} ({self.firmware_text!r})"
+
+
 class MissionRefused(InputError):
-    """The autopilot would refuse to start this mission; ``firmware_text`` is its words."""
+    """An error: the mission was to be flown, and the autopilot would refuse to start it
+    (``simulate``: exit 2); ``firmware_text`` is its words. Code that only asks whether a
+    mission can start calls :func:`start_refusal` instead."""
 
     def __init__(self, reason: str, firmware_text: str) -> None:
-        super().__init__(f"{reason} ({firmware_text!r})")
+        super().__init__(StartRefusal(reason, firmware_text).text())
         self.firmware_text = firmware_text
 
 
@@ -57,24 +74,39 @@ def _first_nav(items: list[MissionItem], start: int) -> MissionItem | None:
     return None
 
 
-def check_startable(wire_items: list[MissionItem], autopilot: Autopilot) -> None:
-    """Raise :class:`MissionRefused` when ``autopilot`` refuses to start this mission from
-    the ground: PX4 without a mission ("Mission start denied! No valid mission",
-    commander/Commander.cpp), ArduPilot without a take-off as its first NAV command ("Auto:
-    Missing Takeoff Cmd", ArduCopter/mode_auto.cpp ``ModeAuto::init``)."""
+def start_refusal(wire_items: list[MissionItem], autopilot: Autopilot) -> StartRefusal | None:
+    """Why ``autopilot`` would refuse to start this mission from the ground, or None: PX4
+    without a mission ("Mission start denied! No valid mission", commander/Commander.cpp),
+    ArduPilot without a take-off as its first NAV command ("Auto: Missing Takeoff Cmd",
+    ArduCopter/mode_auto.cpp ``ModeAuto::init``)."""
     if autopilot == Autopilot.ARDUPILOT:
         first = _first_nav(wire_items, 1)
         if first is None or first.command != MavCmd.NAV_TAKEOFF:
-            raise MissionRefused(
+            return StartRefusal(
                 "ArduPilot refuses a mission that does not begin with NAV_TAKEOFF",
                 "Auto: Missing Takeoff Cmd",
             )
-        return
+        return None
     if not any(item.command < 80 and item.is_global for item in wire_items):
-        raise MissionRefused(
+        return StartRefusal(
             "PX4 refuses a mission without a position item",
             "Mission start denied! No valid mission",
         )
+    return None
+
+
+def refusal_of(plan: MissionPlan, autopilot: Autopilot | None = None) -> StartRefusal | None:
+    """:func:`start_refusal` of ``plan`` as ``autopilot`` (default: the plan's) holds it."""
+    flavour = autopilot or plan.autopilot
+    return start_refusal(replace(plan, autopilot=flavour).wire_items(MissionType.MISSION), flavour)
+
+
+def check_startable(wire_items: list[MissionItem], autopilot: Autopilot) -> None:
+    """Raise :class:`MissionRefused` when ``autopilot`` would refuse to start this mission
+    (:func:`start_refusal`)."""
+    refusal = start_refusal(wire_items, autopilot)
+    if refusal is not None:
+        raise MissionRefused(refusal.reason, refusal.firmware_text)
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from uavplan.autopilot.params import ParamSpec
-from uavplan.autopilot.simulate import MissionRefused, check_startable
+from uavplan.autopilot.simulate import start_refusal
 from uavplan.mavlink.messages import (
     Capability,
     CommandAck,
@@ -87,10 +87,10 @@ class ArduPilotVehicle(SimVehicle):
                 out.append(self._say(Severity.WARNING, _AUTO_FAILED))
                 return MavResult.FAILED
             if self.flight.landed:
-                try:
-                    check_startable(self.server.items(MissionType.MISSION), Autopilot.ARDUPILOT)
-                except MissionRefused as refused:
-                    out.append(self._say(Severity.CRITICAL, refused.firmware_text))
+                items = self.server.items(MissionType.MISSION)
+                refusal = start_refusal(items, Autopilot.ARDUPILOT)
+                if refusal is not None:
+                    out.append(self._say(Severity.CRITICAL, refusal.firmware_text))
                     out.append(self._say(Severity.WARNING, _AUTO_FAILED))
                     return MavResult.FAILED
         self._enter(mode)

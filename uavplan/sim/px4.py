@@ -8,7 +8,7 @@ import math
 import struct
 
 from uavplan.autopilot.params import ParamSpec, ParamType
-from uavplan.autopilot.simulate import MissionRefused, check_startable
+from uavplan.autopilot.simulate import start_refusal
 from uavplan.mavlink.messages import (
     Capability,
     CommandAck,
@@ -58,11 +58,7 @@ class Px4Vehicle(SimVehicle):
 
     def _mission_valid(self) -> bool:
         """A mission with a position item."""
-        try:
-            check_startable(self.server.items(MissionType.MISSION), Autopilot.PX4)
-        except MissionRefused:
-            return False
-        return True
+        return start_refusal(self.server.items(MissionType.MISSION), Autopilot.PX4) is None
 
     def _arm_refused(self, out: list[Message], *, forced: bool) -> MavResult | None:
         if self.faults.prearm_failure is not None and not forced:
