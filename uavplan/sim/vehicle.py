@@ -7,21 +7,22 @@ it over a real MAVLink endpoint. Inside:
 
 - the mission, geofence and rally points and their protocol (:class:`.mission_server.
   MissionServer`);
-- the flight model (:class:`.model.FlightModel`) flying the stored mission in simulated time,
-  ``speedup`` times faster than the link's clock;
-- modes and arming as the firmware has them (:mod:`uavplan.mavlink.modes`): PX4's
-  MISSION_START arms and starts, PX4 refuses Mission mode and MISSION_START without a valid
-  mission, ArduPilot refuses to arm in AUTO and refuses AUTO from the ground without a
-  take-off, ArduPilot's MISSION_START wants param1 = param2 = 0 (the firmware's
-  STATUSTEXT and COMMAND_ACK results, cited where each is made);
+- the flight model (:class:`uavplan.autopilot.model.FlightModel`) flying the stored mission
+  in simulated time, ``speedup`` times faster than the link's clock;
+- modes and arming as the firmware has them (:mod:`uavplan.mavlink.modes`; each flavour's
+  rules in :mod:`.px4` and :mod:`.ardupilot`): PX4's MISSION_START arms and starts, PX4
+  refuses Mission mode and MISSION_START without a valid mission, ArduPilot refuses to arm
+  in AUTO and refuses AUTO from the ground without a take-off, ArduPilot's MISSION_START
+  wants param1 = param2 = 0 (the firmware's STATUSTEXT and COMMAND_ACK results, cited where
+  each is made);
 - telemetry as the firmware streams it (HEARTBEAT, SYS_STATUS, GLOBAL_POSITION_INT,
   MISSION_CURRENT, MISSION_ITEM_REACHED, HOME_POSITION, EXTENDED_SYS_STATE, BATTERY_STATUS,
   STATUSTEXT), with SET_MESSAGE_INTERVAL, REQUEST_MESSAGE and ArduPilot's
   REQUEST_DATA_STREAM honoured;
-- the parameters the flight model flies by (:mod:`.params`): PARAM_REQUEST_LIST /
-  PARAM_REQUEST_READ / PARAM_SET / PARAM_VALUE, unknown names refused as each firmware
-  does;
-- a battery drained by :func:`.power.power_w`;
+- the parameters the flight model flies by (:mod:`uavplan.autopilot.params`):
+  PARAM_REQUEST_LIST / PARAM_REQUEST_READ / PARAM_SET / PARAM_VALUE, unknown names refused
+  as each firmware does;
+- a battery drained by :func:`uavplan.autopilot.power.power_w`;
 - one fault model (:class:`.faults.Faults`): packet faults, protocol misbehaviour, a link
   lost in flight.
 
