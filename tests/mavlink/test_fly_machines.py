@@ -451,3 +451,24 @@ def test_silence_is_said_before_the_link_counts_as_lost() -> None:
     assert [n.kind for n in state.notices] == [NoticeKind.LINK_QUIET]
     assert "nothing heard from the vehicle for 2.0 s" in state.notices[0].text
     assert machine.finished is None
+
+
+def test_a_gap_in_the_start_sequence_is_said_once_the_watch_begins() -> None:
+    """Stop 43's CI: on a lossy link a gap fell while fly armed and started the mission
+    (recording had begun), before the watch; the track held it and nothing said it."""
+    state = VehicleState(AP, armed=True)
+    state.recording = True
+    state.update(_position(10.0, 0.0), 0.0)
+    state.update(_position(13.5, 0.0), 0.1)  # 3.5 s without a position, on the ground
+    assert state.gaps == [(10.0, 13.5)]
+    machine = MonitorMachine(state, TARGET, T, last_seq=9, lands=True, return_seq=9)
+    machine.start(0.2)
+    out = machine.on_message(heartbeat(AP, ModeKind.MISSION, armed=True), 0.21)
+    (notice,) = state.notices
+    assert (
+        notice.kind is NoticeKind.GAP
+        and "no telemetry from 0 min 00 s to 0 min 04 s" in notice.text
+    )
+    assert not [m for m in out if getattr(m, "command", None) == MavCommand.REQUEST_MESSAGE]
+    machine.on_message(_position(14.0, 0.0), 0.3)
+    assert len(state.notices) == 1  # said once

@@ -973,7 +973,11 @@ class MonitorMachine(FlightMachine):
         self._new_total: int | None = None
         self._home = state.home
         self._new_home: tuple[float, float, float] | None = None
-        self._gaps_seen = len(state.gaps)
+        #: every gap since the recording began is said, those of the start sequence (arming,
+        #: the mode change) too: the track holds them. Only the ones after this watch began
+        #: need the state asked for again.
+        self._gaps_seen = 0
+        self._gaps_before = len(state.gaps)
         self._restarts_seen = len(state.restarts)
         self._others: list[tuple[float, int, int, int]] = []
         #: a mode change said without its author (when, the mode, what fly does about it):
@@ -1123,7 +1127,8 @@ class MonitorMachine(FlightMachine):
                 f"{flight_clock(s.since_origin(end))} into the flight ({end - start:.1f} s)",
                 now,
             )
-            out += self._ask_fresh(now)
+            if self._gaps_seen > self._gaps_before:
+                out += self._ask_fresh(now)
         if isinstance(message, Heartbeat):
             out += self._on_heartbeat(now)
         elif isinstance(message, MissionCurrent):
