@@ -22,6 +22,7 @@ from uavplan.planning import RouteResult, mission_for, plan_route
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
 from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import PlannerConfig, Scenario, Surroundings
+from uavplan.worlds import padded_world
 
 __all__ = [
     "MAX_REPLANS",
@@ -46,6 +47,7 @@ def plan_safe_as_flown(
     scenario: Scenario,
     result: RouteResult,
     *,
+    site: CheckSite | None = None,
     should_stop: Callable[[], bool] | None = None,
 ) -> RouteResult:
     """``result`` (a planned route of ``scenario``) with its predicted flight
@@ -54,11 +56,12 @@ def plan_safe_as_flown(
     what it lacked (plus :data:`PAD_STEP_M`), up to :data:`MAX_REPLANS` times; the result's
     notes say so. A result whose track still breaks the margin has ``flight.keeps_margin``
     false (``plan`` then exits 3). An interrupted replanning returns the interrupted result.
+    ``site``: the scenario's check site when the caller built it (``plan`` builds it once).
     """
     autopilot = scenario.mission.autopilot
     if result.route is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
         return result
-    site = CheckSite.of_scenario(scenario)
+    site = site or CheckSite.of_scenario(scenario)
     margin = scenario.safety_margin_m
     flying = conditions_of(scenario)
     runtime_s = result.runtime_s
@@ -73,7 +76,7 @@ def plan_safe_as_flown(
             padded = padded_scenario(scenario, pad)
         except ScenarioError as err:
             return f"a margin {pad:.2f} m wider cannot be planned: {err.reason}"
-        again = plan_route(padded, should_stop=should_stop)
+        again = plan_route(padded, world=padded_world(site.world, padded), should_stop=should_stop)
         if again.interrupted:
             return again
         if again.route is None or not again.collision_free:
@@ -85,14 +88,16 @@ def plan_safe_as_flown(
     return _widened_until_flown_safe(result, fly, plan_again, autopilot, "planned")
 
 
-def refresh_flight(scenario: Scenario, result: RouteResult) -> RouteResult:
+def refresh_flight(
+    scenario: Scenario, result: RouteResult, site: CheckSite | None = None
+) -> RouteResult:
     """``result`` with its predicted flight flown again (its route changed after
     :func:`plan_safe_as_flown`: a planned return added by the way home), keeping how much
     wider the margin was planned. A result without a prediction is returned as it is."""
     before = result.flight
     if before is None or result.route is None:
         return result
-    site = CheckSite.of_scenario(scenario)
+    site = site or CheckSite.of_scenario(scenario)
     rehearsal = rehearse(mission_for(scenario, result.route), site, **conditions_of(scenario))
     flight = rehearsal.prediction(margin_pad_m=before.margin_pad_m, gave_up=before.gave_up)
     return replace(result, flight=flight)

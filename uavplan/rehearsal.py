@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -43,7 +44,7 @@ from uavplan.obstacles import Obstacle
 from uavplan.scenario import Scenario, Surroundings
 from uavplan.scenario.settings import DEFAULT_LEGAL_CEILING_M
 from uavplan.world import World
-from uavplan.worlds import build_world, enu_frame, fence_world
+from uavplan.worlds import build_world, enu_frame, fence_world, return_world
 
 __all__ = [
     "TRACKING_ALLOWANCE_M",
@@ -148,6 +149,14 @@ class CheckSite:
     @property
     def margin_m(self) -> float:
         return self.world.margin_m
+
+    @cached_property
+    def floor(self) -> World:
+        """What a failsafe return must clear here (:func:`~uavplan.worlds.return_world`):
+        built once, for the way home and the verdict."""
+        if self.bounds_xy_m is None:
+            raise ValueError(f"{self.label}: no flight volume to check a failsafe return in")
+        return return_world(self.world, self.bounds_xy_m)
 
     @classmethod
     def of_scenario(cls, scenario: Scenario, world: World | None = None) -> CheckSite:

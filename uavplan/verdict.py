@@ -46,7 +46,6 @@ from uavplan.mission.items import MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
 from uavplan.rehearsal import CheckSite, Rehearsal, rehearsal_of, rehearse, tracking_allowance_m
 from uavplan.wayhome.proof import (
-    RETURN_BOUNDS_PAD_M,
     RTL_PARAMETERS,
     ReturnSamples,
     ReturnsVerdict,
@@ -67,11 +66,6 @@ __all__ = [
     "judge_flight",
 ]
 
-#: the judged world is open this far above and below for the failsafe returns (m)
-_OPEN_Z_M = 1e7
-#: ... and this much wider than the flight volume (m): the brake's overshoot of a route
-#: that ends on the volume's edge (proof.RETURN_BOUNDS_PAD_M)
-_BOUNDS_PAD_M = RETURN_BOUNDS_PAD_M
 #: a flown track that ends this close to the ground landed (m)
 _LANDED_M = 1.0
 
@@ -657,7 +651,7 @@ def _failsafe(
     samples = ReturnSamples.of_track(flight, track.time_s, track.current_seq, end=end)
     home = tuple(float(v) for v in flight.points_enu[0])
     home_xyz = (home[0], home[1], home[2])
-    floor = _floor_world(site)
+    floor = site.floor
     ceiling = None if site.top_z_m is None else float(site.top_z_m) - home_xyz[2]
     returns = check_returns(
         floor, samples, home_enu=home_xyz, limits=limits, name_of=site.name_of, ceiling_m=ceiling
@@ -689,25 +683,6 @@ def _failsafe(
         samples,
         home_xyz,
         limits,
-    )
-
-
-def _floor_world(site: CheckSite) -> World:
-    """What a return must clear in ``site``: its ground-standing obstacles and terrain (not
-    the ceiling over the terrain: the proof bounds the climb itself), open above and below
-    and a little wider than the flight volume."""
-    ground = site.ground
-    if ground is not None:
-        ground = replace(ground, ceiling_agl_m=_OPEN_Z_M)
-    if site.bounds_xy_m is None:
-        raise ValueError(f"{site.label}: no flight volume to check a failsafe return in")
-    (x0, x1), (y0, y1) = site.bounds_xy_m
-    pad = _BOUNDS_PAD_M
-    return World.build(
-        site.obstacles,
-        bounds_xyz=((x0 - pad, x1 + pad), (y0 - pad, y1 + pad), (-_OPEN_Z_M, _OPEN_Z_M)),
-        margin_m=site.margin_m,
-        ground=ground,
     )
 
 

@@ -19,6 +19,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -84,22 +85,11 @@ def _box_footprints(boxes: Sequence[BoxObstacle]) -> tuple[np.ndarray, np.ndarra
     return x, y, whole
 
 
-#: the obstacle tuples whose pieces were computed last, with their pieces: one plan builds
-#: the world of the same obstacles several times (the search, the rehearsal, the way home),
-#: and splitting 5,000 footprints into convex pieces takes about 0.1 s
-_PIECES_MEMO: list[tuple[tuple[Obstacle, ...], tuple[np.ndarray, ...]]] = []
-_PIECES_MEMO_SIZE = 4
-
-
 def _pieces_of(
     obstacles: Sequence[Obstacle],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The kernels' piece arrays of ``obstacles``: (poly_xy, poly_n, poly_h, circ, owner),
-    read-only (worlds share them). A tuple (immutable) is remembered by identity."""
-    if isinstance(obstacles, tuple):
-        for seen, arrays in _PIECES_MEMO:
-            if seen is obstacles:
-                return arrays  # type: ignore[return-value]
+    read-only (worlds share them: :meth:`World.with_limits`)."""
     boxes = [o for o in obstacles if isinstance(o, BoxObstacle)]
     box_x, box_y, box_whole = _box_footprints(boxes)
     # each piece: a row of the box footprints (an int), or a list of vertices
@@ -142,10 +132,13 @@ def _pieces_of(
     arrays = (poly_xy, poly_n, poly_h, circ, np.array(owner, dtype=np.int64))
     for a in arrays:
         a.setflags(write=False)
-    if isinstance(obstacles, tuple):
-        _PIECES_MEMO.insert(0, (obstacles, arrays))
-        del _PIECES_MEMO[_PIECES_MEMO_SIZE:]
-    return arrays
+    return arrays  # type: ignore[return-value]
+
+
+def _box_planes(x: tuple[float, float], y: tuple[float, float]) -> np.ndarray:
+    """The half-planes a·x + b·y <= c of the box ``x`` × ``y``."""
+    (x0, x1), (y0, y1) = x, y
+    return np.array([[1.0, 0.0, x1], [-1.0, 0.0, -x0], [0.0, 1.0, y1], [0.0, -1.0, -y0]])
 
 
 @dataclass(frozen=True, eq=False)
@@ -190,20 +183,40 @@ class World:
         the bounds, keeping ``margin_m``; with ``ground``, the margin holds from the terrain
         (its height field) as from any obstacle, and from the ceiling over it."""
         poly_xy, poly_n, poly_h, circ, owner = _pieces_of(obstacles)
-        (x0, x1), (y0, y1), (z0, z1) = bounds_xyz
-        hp = np.array([[1.0, 0.0, x1], [-1.0, 0.0, -x0], [0.0, 1.0, y1], [0.0, -1.0, -y0]])
+        x, y, z = bounds_xyz
         return cls._assemble(
             poly_xy,
             poly_n,
             poly_h,
             circ,
             owner,
-            hp,
-            np.array([z0, z1], dtype=float),
+            _box_planes(x, y),
+            np.array(z, dtype=float),
             float(margin_m),
             len(obstacles),
             ground,
         )
+
+    def with_limits(
+        self,
+        *,
+        margin_m: float | None = None,
+        bounds_xyz: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
+        | None = None,
+        ground: Ground | None = None,
+    ) -> World:
+        """This world's obstacles (their pieces and cells shared, not split again) with
+        another margin, other box bounds or another ground (each None: this world's). Only
+        for a world made by :meth:`build` (its bounds a box in this frame)."""
+        changes: dict[str, Any] = {}
+        if bounds_xyz is not None:
+            x, y, z = bounds_xyz
+            changes.update(hp=_box_planes(x, y), zlim=np.array(z, dtype=float))
+        if margin_m is not None:
+            changes["margin_m"] = float(margin_m)
+        if ground is not None:
+            changes["ground"] = ground
+        return replace(self, **changes)
 
     @classmethod
     def _assemble(

@@ -9,7 +9,7 @@ rehearsal only check in them, so they live below :mod:`uavplan.planning` and
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -39,6 +39,44 @@ def build_world(scenario: Scenario | Site) -> World:
         bounds_xyz=(b.x_m, b.y_m, b.z_m),
         margin_m=site.safety_margin_m,
         ground=site.ground,
+    )
+
+
+#: a return may leave the flight volume's sides by this much (m): where a route ends on the
+#: volume's edge, the brake before the turn home overshoots it (ArduPilot's stopping point
+#: lies a/(2P²) = 1.25 m beyond where its S-curve stops); the return's world
+#: (:func:`return_world`) is this much wider than the volume
+RETURN_BOUNDS_PAD_M = 2.0
+#: ... and open this far above and below (m): the proof bounds the climb itself
+RETURN_OPEN_Z_M = 1e7
+
+
+def return_world(
+    world: World, bounds_xy_m: tuple[tuple[float, float], tuple[float, float]]
+) -> World:
+    """What a return to launch must clear (the way-home proof, the verdict's failsafe
+    check) in ``world`` (a site's, built in the box ``bounds_xy_m``): its obstacles and the
+    terrain's solids that stand on the ground, keeping its margin, in bounds open above and
+    below and :data:`RETURN_BOUNDS_PAD_M` wider than the volume (the ceiling is the proof's
+    own bound, and a route point that files or rounding put a hair outside is not a
+    return's fault)."""
+    ground = world.ground
+    if ground is not None:
+        ground = replace(ground, ceiling_agl_m=RETURN_OPEN_Z_M)
+    (x0, x1), (y0, y1) = bounds_xy_m
+    pad, top = RETURN_BOUNDS_PAD_M, RETURN_OPEN_Z_M
+    bounds = ((x0 - pad, x1 + pad), (y0 - pad, y1 + pad), (-top, top))
+    return world.with_limits(bounds_xyz=bounds, ground=ground)
+
+
+def padded_world(world: World, scenario: Scenario | Site) -> World:
+    """``world`` (built for a scenario of the same obstacles) with ``scenario``'s margin,
+    bounds and ground: a scenario planned with a wider margin (``plan``'s widening) gets its
+    world without splitting the obstacles again."""
+    site = scenario.site if isinstance(scenario, Scenario) else scenario
+    b = site.bounds
+    return world.with_limits(
+        margin_m=site.safety_margin_m, bounds_xyz=(b.x_m, b.y_m, b.z_m), ground=site.ground
     )
 
 

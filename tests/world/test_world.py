@@ -500,23 +500,33 @@ def test_largest_free_fraction_is_the_bisection_over_segments_free() -> None:
     assert kinds == {0.0, 0.5, 1.0}
 
 
-def test_worlds_of_one_obstacle_tuple_share_its_pieces_and_a_list_is_split_afresh() -> None:
-    """One plan builds the world of its obstacles several times (search, rehearsal, way
-    home): the same tuple's pieces are split once and shared, read-only; an equal tuple or a
-    list gets pieces equal to them."""
+def test_a_world_with_other_limits_shares_its_pieces_and_answers_as_one_built_so() -> None:
+    """``plan`` builds its world once and widens it (the margin, the ceiling) or opens it
+    (a return's world) with :meth:`World.with_limits`: the pieces are shared, read-only, and
+    every answer is the one a world built with those limits gives."""
     obstacles = (BOX, CYL, L_SHAPE, U_SHAPE)
     a = World.build(obstacles, bounds_xyz=BOUNDS, margin_m=10.0)
-    b = World.build(obstacles, bounds_xyz=BOUNDS, margin_m=5.0)
-    assert a.poly_xy is b.poly_xy and a.owner is b.owner
     assert not a.poly_xy.flags.writeable and not a.circ.flags.writeable
     with pytest.raises(ValueError):
         a.poly_h[0] = 1.0
-    for other in (tuple(list(obstacles)), list(obstacles)):
-        c = World.build(other, bounds_xyz=BOUNDS, margin_m=10.0)
-        assert c.poly_xy is not a.poly_xy
-        for name in ("poly_xy", "poly_n", "poly_h", "circ", "owner", "box"):
-            assert np.array_equal(getattr(c, name), getattr(a, name))
-    # the world's answers do not depend on which build split the pieces
-    p0 = np.array([[-50.0, -20.0, 10.0], [150.0, 40.0, 20.0]])
-    p1 = np.array([[50.0, 20.0, 10.0], [260.0, -40.0, 20.0]])
-    assert np.array_equal(a.segments_free(p0, p1), c.segments_free(p0, p1))
+    rng = np.random.default_rng(5)
+    p0 = rng.uniform((-300.0, -150.0, 0.0), (400.0, 150.0, 80.0), size=(4000, 3))
+    p1 = p0 + rng.normal(0.0, 60.0, size=p0.shape)
+    cases: list[tuple[float | None, tuple | None]] = [
+        (14.5, None),
+        (None, ((-250.0, 300.0), (-120.0, 160.0), (5.0, 45.0))),
+        (3.0, ((-1e3, 1e3), (-1e3, 1e3), (-1e7, 1e7))),
+    ]
+    for margin, bounds in cases:
+        b = a.with_limits(margin_m=margin, bounds_xyz=bounds)
+        built = World.build(
+            obstacles, bounds_xyz=bounds or BOUNDS, margin_m=10.0 if margin is None else margin
+        )
+        assert b.poly_xy is a.poly_xy and b.cells is a.cells
+        assert b.margin_m == built.margin_m
+        assert np.array_equal(b.hp, built.hp) and np.array_equal(b.zlim, built.zlim)
+        free = built.segments_free(p0, p1)
+        assert 0 < free.mean() < 1 and np.array_equal(b.segments_free(p0, p1), free)
+        assert np.array_equal(b.points_clearance(p0)[0], built.points_clearance(p0)[0])
+        assert np.array_equal(b.points_inside_bounds(p1), built.points_inside_bounds(p1))
+    assert a.margin_m == 10.0  # the first world is unchanged

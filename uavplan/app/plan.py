@@ -30,6 +30,7 @@ from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
 from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
+from uavplan.rehearsal import CheckSite
 from uavplan.scenario import Scenario
 from uavplan.scenario.values import is_survey_file
 
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
     from uavplan.route import PlannedRoute
     from uavplan.verdict import FlightVerdict
     from uavplan.wayhome.home import WayHome
+    from uavplan.world import World
 
 
 class InputKind(enum.Enum):
@@ -193,23 +195,28 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     if scn.airspace is not None:  # the zones considered and why each is a constraint or not
         for line in scn.airspace.summary_lines():
             feedback.say(line)
+    # the site, once: the world the search, the rehearsals, the way home and the verdict
+    # measure in, with its frame
+    site = CheckSite.of_scenario(scn)
     with outputs:
         with feedback.polled():
-            result = _search(scn, feedback)
+            result = _search(scn, feedback, site.world)
             if result.collision_free:  # and the track the flight model predicts keeps it too
-                result = plan_safe_as_flown(scn, result, should_stop=feedback.should_stop)
+                result = plan_safe_as_flown(
+                    scn, result, site=site, should_stop=feedback.should_stop
+                )
             flown = None if result.flight is None else result.flight.flown
             way = (
                 None
                 if result.route is None
-                else _way_home(scn, result.route, request, feedback, flown=flown)
+                else _way_home(scn, site, result.route, request, feedback, flown=flown)
             )
         if result.interrupted or (way is not None and way.interrupted):
             return PlanOutcome(scn, result, request.output, way=way)
         route = require_route(scn, result)
         if way is not None and way.route is not route:
             # the route as flown with its planned return: the flight model flies that mission
-            way, result = _return_safe_as_flown(scn, result, way, request, feedback)
+            way, result = _return_safe_as_flown(scn, site, result, way, request, feedback)
             if result.interrupted or way.interrupted:
                 return PlanOutcome(scn, result, request.output, way=way)
             route = require_route(scn, result)
@@ -217,11 +224,11 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
                 # end: return: the failsafe from every point of that mission, its planned
                 # return included (a switched return replaces an RTL the outbound flight
                 # already proved unusable: more points cannot make it usable)
-                way = way.proven_on(scn, result.flight.flown)
+                way = way.proven_on(scn, result.flight.flown, site)
         mission = mission_for(scn, route)
         if way is not None:
             mission = replace(mission, parameters=way.parameters)
-        verdict = _judge(scn, mission, None if result.flight is None else result.flight.flown)
+        verdict = _judge(scn, site, mission, None if result.flight is None else result.flight.flown)
         if verdict is not None:
             problem = verdict.problem()
             if problem is not None:
@@ -318,17 +325,18 @@ def legal_ceiling_option(text: str) -> float | None:
     return value
 
 
-def _judge(scn: Scenario, mission: MissionPlan, flown: FlownTrack | None) -> FlightVerdict | None:
+def _judge(
+    scn: Scenario, site: CheckSite, mission: MissionPlan, flown: FlownTrack | None
+) -> FlightVerdict | None:
     """The whole flight of ``mission`` (uavplan.verdict) with the parameters it relies on,
     as the scenario's vehicle flies it through its wind (``flown``: the same mission's
     flight, reused when it was flown with those parameters); None for an autopilot the
     flight model does not fly."""
     if mission.autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT) or mission.home is None:
         return None
-    from uavplan.rehearsal import CheckSite, conditions_of
+    from uavplan.rehearsal import conditions_of
     from uavplan.verdict import judge_flight
 
-    site = CheckSite.of_scenario(scn)
     return judge_flight(mission, site, flown=flown, **conditions_of(scn))
 
 
@@ -409,6 +417,7 @@ def _holds_parameters(output: str) -> bool:
 
 def _way_home(
     scn: Scenario,
+    site: CheckSite,
     route: PlannedRoute,
     request: PlanRequest,
     feedback: Feedback,
@@ -439,6 +448,7 @@ def _way_home(
             should_stop=feedback.should_stop,
             allowance_m=allowance_m,
             flown=flown,
+            site=site,
         )
     finally:
         if bar is not None and started:
@@ -446,7 +456,12 @@ def _way_home(
 
 
 def _return_safe_as_flown(
-    scn: Scenario, result: RouteResult, way: WayHome, request: PlanRequest, feedback: Feedback
+    scn: Scenario,
+    site: CheckSite,
+    result: RouteResult,
+    way: WayHome,
+    request: PlanRequest,
+    feedback: Feedback,
 ) -> tuple[WayHome, RouteResult]:
     """The planned return (``way``) flown with the route by the flight model; where the
     autopilot's flight of it comes closer than the margin (it cuts the return's corners as
@@ -457,10 +472,10 @@ def _return_safe_as_flown(
     assert route is not None
 
     def flown(home: WayHome) -> tuple[WayHome, RouteResult]:
-        return home, refresh_flight(scn, replace(result, route=home.route))
+        return home, refresh_flight(scn, replace(result, route=home.route), site)
 
     def again(allowance: float) -> tuple[WayHome, RouteResult]:
-        home = _way_home(scn, route, request, feedback, allowance)
+        home = _way_home(scn, site, route, request, feedback, allowance)
         if home.interrupted or home.route is route:  # stopped, or no planned return now
             return home, result
         return flown(home)
@@ -491,13 +506,13 @@ def _return_safe_as_flown(
     return way, replace(refreshed, notes=(*refreshed.notes, *ended.notes))
 
 
-def _search(scn: Scenario, feedback: Feedback) -> RouteResult:
-    """Plan ``scn`` with the feedback's progress bar and Ctrl-C flag."""
+def _search(scn: Scenario, feedback: Feedback, world: World) -> RouteResult:
+    """Plan ``scn`` in its ``world`` with the feedback's progress bar and Ctrl-C flag."""
     bar = feedback.progress
     if bar is not None:
         bar.start(f"{scn.planner.algorithm} {scn.name}")
     try:
-        return plan_route(scn, progress=bar, should_stop=feedback.should_stop)
+        return plan_route(scn, progress=bar, world=world, should_stop=feedback.should_stop)
     finally:
         if bar is not None:
             bar.close()

@@ -24,12 +24,12 @@ from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
 from uavplan.flown_safe import MAX_REPLANS, padded_scenario, widened_until_flown_safe
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
-from uavplan.rehearsal import tracking_allowance_m
+from uavplan.rehearsal import CheckSite, tracking_allowance_m
 from uavplan.scenario.survey import with_no_fly
 from uavplan.scenario.values import load_survey_scenario
 from uavplan.survey import coverage
 from uavplan.surveying import SurveyRoute, lane_energy, part_of, plan_survey, survey_mission
-from uavplan.worlds import build_world
+from uavplan.worlds import padded_world
 
 if TYPE_CHECKING:
     from uavplan.scenario import Scenario
@@ -205,12 +205,14 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
     # the verdict below asks of a predicted flight (uavplan.rehearsal.TRACKING_ALLOWANCE_M);
     # while the flight as flown breaks it, the holes and transitions keep a wider margin (the
     # widen loop of uavplan.flown_safe: what the track lacked, plus a step)
+    site = CheckSite.of_scenario(scn)  # the world, once: each pass widens its margin
+
     def planned_with(pad: float) -> _Planned:
         planned_in = padded_scenario(scn, pad) if pad else scn
-        world = build_world(planned_in)
+        world = padded_world(site.world, planned_in)
         route = plan_survey(planned_in, spec, world=world)
         mission = survey_mission(scn, spec, route)
-        return _Planned(planned_in, world, route, mission, _judge(scn, mission))
+        return _Planned(planned_in, world, route, mission, _judge(scn, site, mission))
 
     label = scn.mission.autopilot.label
     ended = widened_until_flown_safe(
@@ -243,7 +245,7 @@ def plan_survey_file(request: SurveyRequest, feedback: Feedback) -> SurveyOutcom
                 f"leaves above the {reserve:g} % reserve: splitting it into missions that "
                 "each start and end at the start"
             )
-            parts = _split(scn, planned_in, spec, route, world, estimate, request.output)
+            parts = _split(scn, site, planned_in, spec, route, world, estimate, request.output)
         else:
             warning = estimate.check(allow_over_battery=request.allow_over_battery)
             if warning is not None:
@@ -330,6 +332,7 @@ SPLIT_SHRINK = 0.93
 
 def _split(
     scn: Scenario,
+    site: CheckSite,
     planned_in: Scenario,
     spec: SurveySpec,
     route: SurveyRoute,
@@ -383,7 +386,7 @@ def _split(
         for k, (a, b) in enumerate(itertools.pairwise(bounds), start=1):
             part = part_of(planned_in, spec, route, slice(first[a], first[b]), world=world)
             mission = survey_mission(scn, spec, part)
-            verdict = _judge(scn, mission)
+            verdict = _judge(scn, site, mission)
             if verdict is not None and verdict.problem() is not None:
                 raise NoPathError(f"mission {k} of the split survey: {verdict.problem()}")
             if verdict is None or verdict.rehearsal is None:
@@ -405,15 +408,16 @@ def _split(
     )
 
 
-def _judge(scn: Scenario, mission: MissionPlan) -> FlightVerdict | None:
-    """The whole flight of ``mission`` as the scenario's vehicle flies it (None for an
-    autopilot the flight model does not fly), as :mod:`uavplan.app.plan` judges a route."""
+def _judge(scn: Scenario, site: CheckSite, mission: MissionPlan) -> FlightVerdict | None:
+    """The whole flight of ``mission`` as the scenario's vehicle flies it in its ``site``
+    (None for an autopilot the flight model does not fly), as :mod:`uavplan.app.plan`
+    judges a route."""
     if mission.autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT) or mission.home is None:
         return None
-    from uavplan.rehearsal import CheckSite, conditions_of
+    from uavplan.rehearsal import conditions_of
     from uavplan.verdict import judge_flight
 
-    return judge_flight(mission, CheckSite.of_scenario(scn), **conditions_of(scn))
+    return judge_flight(mission, site, **conditions_of(scn))
 
 
 __all__ = ["SurveyOutcome", "SurveyPart", "plan_survey_file", "with_no_fly"]

@@ -27,16 +27,15 @@ from uavplan.planners.base import ProgressFn
 from uavplan.planning import (
     Leg,
     PlannedReturn,
-    build_world,
     enu_frame,
     plan_return,
     with_return,
 )
+from uavplan.rehearsal import CheckSite
 from uavplan.route import PlannedRoute
 from uavplan.scenario import Scenario
 from uavplan.wayhome.proof import (
     ARDUPILOT_FENCE_MARGIN_M,
-    RETURN_BOUNDS_PAD_M,
     RTL_PARAMETERS,
     ReturnSamples,
     RtlProof,
@@ -55,38 +54,11 @@ __all__ = [
     "WayHome",
     "corner_stops",
     "fence_parameters",
-    "floor_world",
     "legal_ceiling_above_home",
     "return_samples_of",
     "rtl_parameter",
     "way_home",
 ]
-
-
-def floor_world(scenario: Scenario) -> World:
-    """What a return from ``scenario``'s route must clear: its obstacles and the terrain's
-    solids that stand on the ground, keeping its margin, in bounds open above and below and
-    :data:`BOUNDS_PAD_M` wider than the volume (the ceiling is the proof's own bound, and a
-    route point that files or rounding put a hair outside is not a return's fault)."""
-    site = scenario.site
-    ground = site.ground
-    if ground is not None:
-        # the proof bounds the climb itself: no ceiling over the ground
-        ground = replace(ground, ceiling_agl_m=OPEN_Z_M)
-    (x0, x1), (y0, y1) = site.bounds.x_m, site.bounds.y_m
-    pad = BOUNDS_PAD_M
-    return World.build(
-        site.obstacles,
-        bounds_xyz=((x0 - pad, x1 + pad), (y0 - pad, y1 + pad), (-OPEN_Z_M, OPEN_Z_M)),
-        margin_m=site.safety_margin_m,
-        ground=ground,
-    )
-
-
-#: the proof's world is this much wider than the flight volume (m: the brake's overshoot)
-BOUNDS_PAD_M = RETURN_BOUNDS_PAD_M
-#: ... and open this far above and below (m)
-OPEN_Z_M = 1e7
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,16 +164,20 @@ class WayHome:
             )
         return out
 
-    def proven_on(self, scenario: Scenario, flown: FlownTrack) -> WayHome:
+    def proven_on(
+        self, scenario: Scenario, flown: FlownTrack, site: CheckSite | None = None
+    ) -> WayHome:
         """This way home with the failsafe return proven on ``flown`` (the flight model's
         flight of the mission as written, its planned return included) and the parameters
-        the mission relies on recomputed from that proof."""
+        the mission relies on recomputed from that proof (``site``: the scenario's check
+        site, when the caller built it)."""
         if self.proof is None and self.end != "return":
             return self
         autopilot = scenario.mission.autopilot
         if autopilot not in RTL_PARAMETERS:
             return self
-        setting = _Setting.of(scenario, self.route, fence=self.fence)
+        site = site or CheckSite.of_scenario(scenario)
+        setting = _Setting.of(scenario, site, self.route, fence=self.fence)
         proof = setting.prove(return_samples_of(scenario, flown))
         params = _parameters(autopilot, proof, self.route, self.end, setting)
         return replace(self, proof=proof, parameters=params)
@@ -367,7 +343,9 @@ class _Setting:
     fence: bool
 
     @classmethod
-    def of(cls, scenario: Scenario, route: PlannedRoute, *, fence: bool) -> _Setting:
+    def of(
+        cls, scenario: Scenario, site: CheckSite, route: PlannedRoute, *, fence: bool
+    ) -> _Setting:
         autopilot = scenario.mission.autopilot
         home_z = 0.0 if route.waypoint_ground_z_m is None else float(route.waypoint_ground_z_m[0])
         start = route.waypoints_enu[0]
@@ -376,7 +354,7 @@ class _Setting:
         legal = scenario.mission.legal_ceiling_m
         return cls(
             scenario,
-            floor_world(scenario),
+            site.floor,
             (float(start[0]), float(start[1]), home_z),
             top,
             top - margin,
@@ -429,6 +407,7 @@ def way_home(
     should_stop: Callable[[], bool] | None = None,
     allowance_m: float = 0.0,
     flown: FlownTrack | None = None,
+    site: CheckSite | None = None,
 ) -> WayHome:
     """The way home of ``route`` planned for ``scenario``: the proof of the autopilot's return
     from every point of the flight (:func:`prove_rtl`: of ``flown``, the flight model's
@@ -441,13 +420,15 @@ def way_home(
     :data:`RETURN_ALLOWANCE_M` beyond the margin (where the flight model found the
     autopilot's flight of the return closer than the margin, the caller plans it again with
     more). A planned return's failsafe is proven on the flown mission afterwards
-    (:meth:`WayHome.proven_on`)."""
+    (:meth:`WayHome.proven_on`). ``site``: the scenario's check site when the caller built
+    it (``plan`` builds it once)."""
     autopilot = scenario.mission.autopilot
     end = scenario.mission.end
     if autopilot not in RTL_PARAMETERS:
         return WayHome(end, route, None)
-    world = build_world(scenario)
-    setting = _Setting.of(scenario, route, fence=fence)
+    site = site or CheckSite.of_scenario(scenario)
+    world = site.world
+    setting = _Setting.of(scenario, site, route, fence=fence)
 
     def samples_of(line: PlannedRoute) -> ReturnSamples:
         if flown is not None and line is route:
@@ -508,14 +489,7 @@ def _plan_return(
     """The return planned keeping ``allowance_m`` more than the margin, or (when the goal or
     the start is too close to something for that) the margin itself; the route's clearance
     is measured in ``world`` either way."""
-    site = scenario.site
-    b = site.bounds
-    wide = World.build(
-        site.obstacles,
-        bounds_xyz=(b.x_m, b.y_m, b.z_m),
-        margin_m=site.safety_margin_m + allowance_m,
-        ground=site.ground,
-    )
+    wide = world.with_limits(margin_m=world.margin_m + allowance_m)
     ends = np.vstack([route.waypoints_enu[-1], route.waypoints_enu[0]])
     if wide.segments_free(ends, ends).all():
         planned = plan_return(

@@ -43,7 +43,7 @@ by bisection (to 1 cm). The ceiling (the flight volume's top above home, less Ar
 FENCE_MARGIN under an altitude fence, which caps its return altitude) bounds it from above: a
 return above the ceiling leaves the volume. The terrain's ceiling over each cell (the route's
 highest height above the ground) is not a wall a return must clear, so the proof uses the
-world without it (:func:`uavplan.wayhome.home.floor_world`).
+world without it (:func:`uavplan.worlds.return_world`, a check site's ``floor``).
 
 PX4 ends its climb within ``NAV_MC_ALT_RAD`` (0.8 m) of the return altitude and flies home
 from there, so its leg home is checked that much lower.
@@ -68,6 +68,7 @@ from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight
 from uavplan.route import PlannedRoute, keeps_margin
 from uavplan.world import GROUND, World
+from uavplan.worlds import RETURN_BOUNDS_PAD_M
 
 __all__ = [
     "ARDUPILOT_FENCE_MARGIN_M",
@@ -103,11 +104,6 @@ MAX_SAMPLES = 4000
 #: ArduPilot's FENCE_MARGIN default (m): under an altitude fence its return flies at most
 #: FENCE_ALT_MAX less this (ModeRTL::compute_return_target, AC_Fence::get_safe_alt_max)
 ARDUPILOT_FENCE_MARGIN_M = 2.0
-#: a return may leave the flight volume's sides by this much (m): where a route ends on the
-#: volume's edge, the brake before the turn home overshoots it (ArduPilot's stopping point
-#: lies a/(2P²) = 1.25 m beyond where its S-curve stops); the proof's world is this much
-#: wider than the volume (:func:`uavplan.wayhome.home.floor_world`)
-RETURN_BOUNDS_PAD_M = 2.0
 #: the worst return is measured exactly among at most this many candidates; beyond that
 #: (over terrain, where the margin's bisection does not narrow them) every k-th is measured
 #: and then the unsafe returns within k of the closest :data:`WORST_NEIGHBOURS`
@@ -434,7 +430,7 @@ def prove_rtl(
     describe: bool = True,
 ) -> RtlProof:
     """Check the autopilot's return from every point of a flight in ``world`` (ground
-    standing solids only: :func:`~uavplan.wayhome.home.floor_world`) and find the lowest
+    standing solids only: :func:`~uavplan.worlds.return_world`) and find the lowest
     safe RTL altitude up to ``ceiling_m`` above home (see the module docstring).
 
     The points are ``samples`` (a track's, with its velocities) or, without them, points
