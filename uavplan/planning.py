@@ -38,7 +38,7 @@ from uavplan.path.post import (
 from uavplan.planners.base import PathProblem, PlannerResult, ProgressFn, Termination
 from uavplan.planners.registry import make_planner
 from uavplan.route import PlannedRoute, densify, flown_polyline
-from uavplan.scenario import Scenario, resolved_config
+from uavplan.scenario import Scenario
 from uavplan.warmup import warm_up
 from uavplan.world import World
 from uavplan.worlds import build_world, enu_frame
@@ -122,54 +122,6 @@ class RouteResult:
     @property
     def raw_path_enu(self) -> np.ndarray | None:
         return None if self.route is None else self.route.raw_path_enu
-
-    def report(self, scenario: Scenario) -> dict[str, Any]:
-        """The ``--report`` JSON (SPEC §3 keys, the run's budget and the resolved
-        configuration)."""
-        path, turning, climb = self.energy_terms
-        pr = self.planner
-        return {
-            "scenario": scenario.name,
-            "algorithm": self.algorithm,
-            "seed": self.seed,
-            "status": self.status,
-            "energy": self.energy,
-            "energy_terms": {"path": path, "turning": turning, "climb": climb},
-            "search_fitness": pr.best_fitness,
-            "length_m": self.length_m,
-            "runtime_s": self.runtime_s,
-            "iterations": pr.iterations,
-            "termination": pr.termination,
-            "evaluations": pr.evaluations,
-            "reach_checks": pr.reach_checks,
-            "exact_reach_checks": pr.exact_checks,
-            "convergence": [float(v) for v in pr.convergence],
-            "waypoints": 0 if self.route is None else int(self.route.waypoints_enu.shape[0]),
-            "min_clearance_m": self.min_clearance_m,
-            "safety_margin_m": scenario.safety_margin_m,
-            "collision_free": self.collision_free,
-            "deadlocks": pr.deadlocks,
-            "planner_stats": pr.stats,
-            "message": self.message,
-            "notes": list(self.notes),
-            "guide_s": self.guide_s,
-            "legs": [leg.summary() for leg in self.legs],
-            **self._flight_entries(),
-            **({} if scenario.airspace is None else {"airspace": scenario.airspace.report()}),
-            "config": {
-                **resolved_config(scenario, self.algorithm),
-                "post_applied": vars(self.post),
-            },
-        }
-
-    def _flight_entries(self) -> dict[str, Any]:
-        """``flight_time_s`` and ``flight`` (the predicted flight) when it was rehearsed."""
-        if self.flight is None:
-            return {}
-        return {
-            "flight_time_s": round(self.flight.flight_time_s, 1),
-            "flight": self.flight.summary(),
-        }
 
 
 # ---------------------------------------------------------------------------------------------

@@ -73,7 +73,7 @@ from uavplan.mission.items import (
 )
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, over_ground, plan_route
-from uavplan.route import EndAction, Follow, keeps_margin
+from uavplan.route import EndAction, Follow
 from uavplan.scenario import MissionConfig, PlannerConfig, Scenario, Surroundings, VehicleConfig
 from uavplan.world import CEILING, World
 from uavplan.worlds import plan_frame, world_of_plan
@@ -171,33 +171,6 @@ class RerouteResult:
     @property
     def runtime_s(self) -> float:
         return float(sum(r.runtime_s for r in self.routes))
-
-    def report(self) -> dict[str, Any]:
-        """A JSON-able summary: totals, the legs of every planning run, the notes."""
-        return {
-            "input": "qgc-plan",
-            "scenario": self.name,
-            "items_in": len(self.plan.items) - self.inserted,
-            "items_out": len(self.plan.items),
-            "inserted_waypoints": self.inserted,
-            "energy_rerouted_legs": self.energy,
-            "length_m": self.length_m,
-            "runtime_s": self.runtime_s,
-            "min_clearance_m": self.min_clearance_m,
-            "safety_margin_m": self.safety_margin_m,
-            "collision_free": keeps_margin(self.min_clearance_m, self.safety_margin_m),
-            "end": self.end,
-            "notes": list(self.notes),
-            "runs": [r.report(scn) for scn, r in self.runs],
-            **(
-                {}
-                if self.flight is None
-                else {
-                    "flight_time_s": round(self.flight.flight_time_s, 1),
-                    "flight": self.flight.summary(),
-                }
-            ),
-        }
 
 
 # ---------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
 from uavplan.app.inputs import load_scenario_file
 from uavplan.app.outputs import Output, OutputSet, check_report_name
+from uavplan.app.reports import route_report
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
@@ -252,7 +253,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
         )
         if report_out is not None:
-            report = {**result.report(scn), **estimate.report_fields()}
+            report = {**route_report(result, scn), **estimate.report_fields()}
             if way is not None:
                 report.update(way.report())
             if verdict is not None:

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from uavplan.airspace import OUTSIDE_INCLUSION, Airspace
 from uavplan.app.feedback import Feedback, PlannerOptions, plural
 from uavplan.app.outputs import OutputSet, check_report_name
+from uavplan.app.reports import reroute_report
 from uavplan.config import PlannerConfig
 from uavplan.errors import InputError, NoPathError
 from uavplan.flown_safe import reroute_safe_as_flown
@@ -152,7 +153,7 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
             raise NoPathError(f"{request.source}: {verdict.problem()}")
         plan_out.write_text(mission_text(result.plan, request.output))
         if report_out is not None:
-            report_out.write_text(json.dumps(result.report(), indent=2) + "\n")
+            report_out.write_text(json.dumps(reroute_report(result), indent=2) + "\n")
         if plot_out is not None:
             plot_out.write_bytes(_picture(result, name))
         outputs.commit()

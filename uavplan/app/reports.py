@@ -1,0 +1,87 @@
+"""The ``--report`` JSON of ``plan`` (SPEC §3) and of a rerouted QGroundControl plan: the
+application presents what the planning layers return (they build no JSON)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from uavplan.route import keeps_margin
+from uavplan.scenario import resolved_config
+
+if TYPE_CHECKING:
+    from uavplan.flightcheck import FlightPrediction
+    from uavplan.planning import RouteResult
+    from uavplan.reroute import RerouteResult
+    from uavplan.scenario import Scenario
+
+
+def route_report(result: RouteResult, scenario: Scenario) -> dict[str, Any]:
+    """The report of one planned route (SPEC §3 keys, the run's budget and the resolved
+    configuration)."""
+    path, turning, climb = result.energy_terms
+    pr = result.planner
+    route = result.route
+    return {
+        "scenario": scenario.name,
+        "algorithm": result.algorithm,
+        "seed": result.seed,
+        "status": result.status,
+        "energy": result.energy,
+        "energy_terms": {"path": path, "turning": turning, "climb": climb},
+        "search_fitness": pr.best_fitness,
+        "length_m": result.length_m,
+        "runtime_s": result.runtime_s,
+        "iterations": pr.iterations,
+        "termination": pr.termination,
+        "evaluations": pr.evaluations,
+        "reach_checks": pr.reach_checks,
+        "exact_reach_checks": pr.exact_checks,
+        "convergence": [float(v) for v in pr.convergence],
+        "waypoints": 0 if route is None else int(route.waypoints_enu.shape[0]),
+        "min_clearance_m": result.min_clearance_m,
+        "safety_margin_m": scenario.safety_margin_m,
+        "collision_free": result.collision_free,
+        "deadlocks": pr.deadlocks,
+        "planner_stats": pr.stats,
+        "message": result.message,
+        "notes": list(result.notes),
+        "guide_s": result.guide_s,
+        "legs": [leg.summary() for leg in result.legs],
+        **_flight_entries(result.flight),
+        **({} if scenario.airspace is None else {"airspace": scenario.airspace.report()}),
+        "config": {
+            **resolved_config(scenario, result.algorithm),
+            "post_applied": vars(result.post),
+        },
+    }
+
+
+def reroute_report(result: RerouteResult) -> dict[str, Any]:
+    """The report of a rerouted plan: totals, the legs of every planning run, the notes."""
+    return {
+        "input": "qgc-plan",
+        "scenario": result.name,
+        "items_in": len(result.plan.items) - result.inserted,
+        "items_out": len(result.plan.items),
+        "inserted_waypoints": result.inserted,
+        "energy_rerouted_legs": result.energy,
+        "length_m": result.length_m,
+        "runtime_s": result.runtime_s,
+        "min_clearance_m": result.min_clearance_m,
+        "safety_margin_m": result.safety_margin_m,
+        "collision_free": keeps_margin(result.min_clearance_m, result.safety_margin_m),
+        "end": result.end,
+        "notes": list(result.notes),
+        "runs": [route_report(r, scn) for scn, r in result.runs],
+        **_flight_entries(result.flight),
+    }
+
+
+def _flight_entries(flight: FlightPrediction | None) -> dict[str, Any]:
+    """``flight_time_s`` and ``flight`` (the predicted flight) when it was rehearsed."""
+    if flight is None:
+        return {}
+    return {"flight_time_s": round(flight.flight_time_s, 1), "flight": flight.summary()}
+
+
+__all__ = ["reroute_report", "route_report"]
