@@ -474,6 +474,8 @@ class FlightPrediction:
     gave_up: str = ""
     #: the flight model's record of that flight (its energy: the vehicle's power model)
     flown: FlownTrack | None = None
+    #: the mission that flight flew (built once: ``plan`` writes it)
+    mission: MissionPlan | None = None
 
     def problem(self) -> str | None:
         """What is wrong with the predicted flight (None: nothing), with what was tried."""

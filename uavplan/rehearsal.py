@@ -84,7 +84,7 @@ class Rehearsal:
     ``return_start``: the first sample of the autopilot's return to launch (None: the
     mission has none, or it was never reached); ``check`` / ``return_check``: the mission's
     part and the return leg measured in the scenario (None without a scenario, or without a
-    return leg)."""
+    return leg); ``mission``: the mission flown (None: a flight given as it was flown)."""
 
     flown: FlownTrack
     track: Track
@@ -92,6 +92,7 @@ class Rehearsal:
     return_start: int | None = None
     check: TrackCheck | None = None
     return_check: TrackCheck | None = None
+    mission: MissionPlan | None = None
 
     @property
     def autopilot(self) -> Autopilot:
@@ -123,6 +124,7 @@ class Rehearsal:
             margin_pad_m=margin_pad_m,
             gave_up=gave_up,
             flown=self.flown,
+            mission=self.mission,
         )
 
 
@@ -375,7 +377,7 @@ def rehearse(
     planned = flown.planned_polyline_enu()
     deviation = max_deviation_m(flown.enu_m[:end], planned)
     if site is None or not check:
-        return Rehearsal(flown, track, deviation, start)
+        return Rehearsal(flown, track, deviation, start, mission=plan)
     allowance = tracking_allowance_m(flown.autopilot)
     part = site.check(track.until(end), lands=start is None, allowance_m=allowance)
     return_check = None
@@ -384,7 +386,7 @@ def rehearse(
         return_check = site.check(
             back, takes_off=False, lands=flown.ended == "landed", allowance_m=allowance
         )
-    return Rehearsal(flown, track, deviation, start, part, return_check)
+    return Rehearsal(flown, track, deviation, start, part, return_check, plan)
 
 
 def rehearsal_of(flown: FlownTrack) -> Rehearsal:

@@ -453,15 +453,7 @@ def reroute_plan(
     _check_points(route, airspace, world, margin_m, file)
     _check_segments(_straight_segments(route, home_xy, ground), airspace, world, margin_m, file)
     plan_margin_m = margin_m + max(0.0, margin_pad_m)
-    plan_world = world
-    if plan_margin_m != margin_m:
-        b = airspace.bounds
-        plan_world = World.build(
-            airspace.obstacles,
-            bounds_xyz=(b.x_m, b.y_m, b.z_m),
-            margin_m=plan_margin_m,
-            ground=ground,
-        )
+    plan_world = world if plan_margin_m == margin_m else world.with_limits(margin_m=plan_margin_m)
 
     # a leg into a terrain-frame item is flown over the ground (ArduPilot): as drawn and as
     # planned, it is measured so, and waypoints are added where it would come too close

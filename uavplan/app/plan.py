@@ -226,7 +226,10 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
                 # return included (a switched return replaces an RTL the outbound flight
                 # already proved unusable: more points cannot make it usable)
                 way = way.proven_on(scn, result.flight.flown, site)
-        mission = mission_for(scn, route)
+        flight = result.flight  # the mission its prediction flew is the route's: built once
+        mission = None if flight is None else flight.mission
+        if mission is None:
+            mission = mission_for(scn, route)
         if way is not None:
             mission = replace(mission, parameters=way.parameters)
         verdict = _judge(scn, site, mission, None if result.flight is None else result.flight.flown)
@@ -234,7 +237,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             problem = verdict.problem()
             if problem is not None:
                 raise NoPathError(problem)
-            result = replace(result, flight=_predicted(verdict, result))
+            result = replace(result, flight=_predicted(verdict, result, mission))
         mission, built = _fenced(scn, route, mission, request, verdict)
         from uavplan.mavlink.storage import check_storage  # the vehicle's storage
 
@@ -341,8 +344,11 @@ def _judge(
     return judge_flight(mission, site, flown=flown, **conditions_of(scn))
 
 
-def _predicted(verdict: FlightVerdict, result: RouteResult) -> FlightPrediction:
-    """The predicted flight the report and the summary give: the whole flight judged."""
+def _predicted(
+    verdict: FlightVerdict, result: RouteResult, mission: MissionPlan
+) -> FlightPrediction:
+    """The predicted flight the report and the summary give: the whole flight judged (of
+    ``mission``, with the parameters it relies on)."""
     from uavplan.flightcheck import FlightPrediction
 
     before = result.flight
@@ -356,6 +362,7 @@ def _predicted(verdict: FlightVerdict, result: RouteResult) -> FlightPrediction:
         margin_pad_m=0.0 if before is None else before.margin_pad_m,
         gave_up="" if before is None else before.gave_up,
         flown=rehearsal.flown,
+        mission=mission,
     )
 
 
