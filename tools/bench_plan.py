@@ -59,6 +59,7 @@ import json, sys
 from pathlib import Path
 import uavplan.cli
 from uavplan import planning
+from uavplan.app.reports import export_extras
 from uavplan.scenario import load_scenario
 from uavplan.warmup import warm_up
 from uavplan.mission.io import save_mission
@@ -96,7 +97,7 @@ if res.ok:
         mission, built = planning.fence_for(scn, res.route, mission)
         row["fence"] = time.perf_counter() - t6
         row["fence_summary"] = built.summary()
-    save_mission(mission, out, extras=planning.export_extras(scn, res.route, {}))
+    save_mission(mission, out, extras=export_extras(scn, res.route, {}))
 row["write"] = time.perf_counter() - t5 - row.get("fence", 0.0)
 if reference and res.ok:
     t6 = time.perf_counter()

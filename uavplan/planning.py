@@ -13,7 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
 
@@ -44,7 +44,6 @@ from uavplan.world import World
 from uavplan.worlds import build_world, enu_frame
 
 if TYPE_CHECKING:
-    from uavplan.mission.export import ExportExtras
     from uavplan.mission.fence import FenceBuild, Footprint
     from uavplan.mission.items import MissionPlan
     from uavplan.planners.astar import GridRoute
@@ -730,60 +729,6 @@ def fence_for(
         also=also,
     )
     return replace(mission, fence=built.fence), built
-
-
-def export_extras(
-    scenario: Scenario,
-    route: PlannedRoute | None = None,
-    properties: Mapping[str, Any] | None = None,
-    plan: MissionPlan | None = None,
-) -> ExportExtras:
-    """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
-    and margin, and with a just-planned ``route`` its smoothed path and flown line. Over
-    terrain: altitudes AMSL, the obstacles' heights above the ground, and (with the mission
-    ``plan`` of a file) its flight as the autopilot flies it over the ground."""
-    from uavplan.mission.export import ExportExtras
-
-    site = scenario.site
-    ground = site.ground
-    terrain: dict[str, Any] = {}
-    if ground is not None:
-        frame = enu_frame(site)
-        datum = ground.datum_amsl_m
-
-        def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-            return np.asarray(ground.z_at(frame.to_enu_xy(lat, lon))) + datum
-
-        terrain = {
-            "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
-            "ground_amsl_m": ground_amsl,
-        }
-    labels = {} if scenario.airspace is None else scenario.airspace.labels()
-    if route is not None:
-        return ExportExtras.for_route(
-            route,
-            site.obstacles,
-            name=scenario.name,
-            properties=properties,
-            obstacle_labels=labels,
-            **terrain,
-        )
-    flown = None
-    if ground is not None and plan is not None:  # the one reading of a mission over terrain
-        from uavplan.flightcheck import flight_of_mission
-
-        flown = flight_of_mission(plan, enu_frame(site), ground.z_at, ground.follow).points_enu
-    return ExportExtras(
-        frame=enu_frame(site),
-        obstacles=site.obstacles,
-        flown_enu=flown,
-        name=scenario.name,
-        safety_margin_m=scenario.safety_margin_m,
-        properties=dict(properties or {}),
-        datum_amsl_m=site.datum_amsl_m,
-        obstacle_labels=labels,
-        **terrain,
-    )
 
 
 def mission_for(scenario: Scenario, route: PlannedRoute) -> MissionPlan:

@@ -74,7 +74,7 @@ def convert(request: ConvertRequest, feedback: Feedback | None = None) -> Conver
         if out_format.dumps_extras is None:
             raise InputError("--scenario only adds obstacles to a .geojson or .kml")
         # the scenario's obstacles, in its site's frame: numpy and pyproj load for them
-        from uavplan.planning import export_extras
+        from uavplan.app.reports import export_extras
         from uavplan.scenario import load_site
 
         scenario = load_site(request.scenario)

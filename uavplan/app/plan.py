@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
 from uavplan.app.inputs import load_scenario_file
 from uavplan.app.outputs import Output, OutputSet, check_report_name
-from uavplan.app.reports import route_report
+from uavplan.app.reports import export_extras, route_report
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
@@ -30,7 +30,7 @@ from uavplan.flown_safe import (
 from uavplan.geo import import_in_background
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
-from uavplan.planning import RouteResult, export_extras, fence_for, mission_for, plan_route
+from uavplan.planning import RouteResult, fence_for, mission_for, plan_route
 from uavplan.rehearsal import CheckSite
 from uavplan.scenario import Scenario
 from uavplan.scenario.values import is_survey_file

@@ -1,17 +1,25 @@
-"""The ``--report`` JSON of ``plan`` (SPEC §3) and of a rerouted QGroundControl plan: the
-application presents what the planning layers return (they build no JSON)."""
+"""The ``--report`` JSON of ``plan`` (SPEC §3) and of a rerouted QGroundControl plan, and
+what a .geojson / .kml export draws beyond the mission: the application presents what the
+planning layers return (they build no JSON and draw nothing)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from uavplan.route import keeps_margin
 from uavplan.scenario import resolved_config
+from uavplan.worlds import enu_frame
 
 if TYPE_CHECKING:
     from uavplan.flightcheck import FlightPrediction
+    from uavplan.mission.export import ExportExtras
+    from uavplan.mission.items import MissionPlan
     from uavplan.planning import RouteResult
     from uavplan.reroute import RerouteResult
+    from uavplan.route import PlannedRoute
     from uavplan.scenario import Scenario
 
 
@@ -84,4 +92,58 @@ def _flight_entries(flight: FlightPrediction | None) -> dict[str, Any]:
     return {"flight_time_s": round(flight.flight_time_s, 1), "flight": flight.summary()}
 
 
-__all__ = ["reroute_report", "route_report"]
+def export_extras(
+    scenario: Scenario,
+    route: PlannedRoute | None = None,
+    properties: Mapping[str, Any] | None = None,
+    plan: MissionPlan | None = None,
+) -> ExportExtras:
+    """What a .geojson / .kml export draws beyond the mission: ``scenario``'s obstacles, name
+    and margin, and with a just-planned ``route`` its smoothed path and flown line. Over
+    terrain: altitudes AMSL, the obstacles' heights above the ground, and (with the mission
+    ``plan`` of a file) its flight as the autopilot flies it over the ground."""
+    from uavplan.mission.export import ExportExtras
+
+    site = scenario.site
+    ground = site.ground
+    terrain: dict[str, Any] = {}
+    if ground is not None:
+        frame = enu_frame(site)
+        datum = ground.datum_amsl_m
+
+        def ground_amsl(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+            return np.asarray(ground.z_at(frame.to_enu_xy(lat, lon))) + datum
+
+        terrain = {
+            "heights_agl_m": tuple(float(o.height_m) for o in scenario.obstacles),
+            "ground_amsl_m": ground_amsl,
+        }
+    labels = {} if scenario.airspace is None else scenario.airspace.labels()
+    if route is not None:
+        return ExportExtras.for_route(
+            route,
+            site.obstacles,
+            name=scenario.name,
+            properties=properties,
+            obstacle_labels=labels,
+            **terrain,
+        )
+    flown = None
+    if ground is not None and plan is not None:  # the one reading of a mission over terrain
+        from uavplan.flightcheck import flight_of_mission
+
+        flown = flight_of_mission(plan, enu_frame(site), ground.z_at, ground.follow).points_enu
+    return ExportExtras(
+        frame=enu_frame(site),
+        obstacles=site.obstacles,
+        flown_enu=flown,
+        name=scenario.name,
+        safety_margin_m=scenario.safety_margin_m,
+        properties=dict(properties or {}),
+        datum_amsl_m=site.datum_amsl_m,
+        obstacle_labels=labels,
+        **terrain,
+    )
+
+
+__all__ = ["export_extras", "reroute_report", "route_report"]
