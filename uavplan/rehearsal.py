@@ -32,7 +32,7 @@ import numpy as np
 from uavplan.autopilot.model import EventKind
 from uavplan.autopilot.params import Parameters
 from uavplan.autopilot.power import VehicleSpec
-from uavplan.autopilot.simulate import FlownTrack, distance_to_polyline, simulate
+from uavplan.autopilot.simulate import FlightEnd, FlownTrack, distance_to_polyline, simulate
 from uavplan.flavour import Autopilot
 from uavplan.flightcheck import FlightPrediction, TrackCheck, check_track
 from uavplan.geo import EnuFrame, GeoPoint
@@ -384,7 +384,7 @@ def rehearse(
     if start is not None and len(track) - start >= 2:
         back = track.since(start)
         return_check = site.check(
-            back, takes_off=False, lands=flown.ended == "landed", allowance_m=allowance
+            back, takes_off=False, lands=flown.ended is FlightEnd.LANDED, allowance_m=allowance
         )
     return Rehearsal(flown, track, deviation, start, part, return_check, plan)
 

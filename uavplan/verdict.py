@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 
 from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
 from uavplan.autopilot.power import VehicleSpec
-from uavplan.autopilot.simulate import FlownTrack
+from uavplan.autopilot.simulate import FlightEnd, FlownTrack
 from uavplan.flavour import Autopilot
 from uavplan.flightcheck import TrackCheck, flight_of_track
 from uavplan.mission.items import MavCmd, MissionPlan, MissionType
@@ -273,7 +273,7 @@ class FlightVerdict:
     flight_worst: Finding
     failsafe: FailsafeCheck | None
     rehearsal: Rehearsal | None
-    ended: str
+    ended: FlightEnd
     site_label: str
     end: str
 
@@ -324,11 +324,12 @@ class FlightVerdict:
     def _head(self) -> str:
         source = "flight model" if self.rehearsal is not None else "flown track"
         ended = {
-            "landed": "take-off to touchdown",
-            "mission_complete": "take-off to the mission's end in the air",
-            "no_headway": "take-off until the wind stopped it",
-            "timeout": "take-off until the simulation gave up",
-        }.get(self.ended, "take-off to the end of the track")
+            FlightEnd.LANDED: "take-off to touchdown",
+            FlightEnd.MISSION_COMPLETE: "take-off to the mission's end in the air",
+            FlightEnd.NO_HEADWAY: "take-off until the wind stopped it",
+            FlightEnd.TIMEOUT: "take-off until the simulation gave up",
+            FlightEnd.TRACK_END: "take-off to the end of the track",
+        }[self.ended]
         minutes, seconds = divmod(round(self.flight_time_s), 60)
         return (
             f"whole flight as {self.autopilot.label} flies it ({source}, {self.held_text()}; "
@@ -378,7 +379,7 @@ class FlightVerdict:
             line = self.failsafe.warning()
             if line is not None:
                 out.append(line)
-        if self.ended in ("no_headway", "timeout"):
+        if self.ended in (FlightEnd.NO_HEADWAY, FlightEnd.TIMEOUT):
             out.append(f"warning: the flight did not finish ({self.ended})")
         return out
 
@@ -474,10 +475,10 @@ def judge_flight(
             rehearsal = rehearse(plan, site, autopilot=flavour, params=held, check=False, **kwargs)
         track = rehearsal.track
         ended = rehearsal.flown.ended
-        lands = ended == "landed"
+        lands = ended is FlightEnd.LANDED
     else:
         lands = bool(len(track)) and float(track.relative_alt_m[-1]) <= _LANDED_M
-        ended = "landed" if lands else "track_end"
+        ended = FlightEnd.LANDED if lands else FlightEnd.TRACK_END
     check = site.check(track, lands=lands, allowance_m=allowance)
     wire = replace(plan, autopilot=flavour).wire_items(MissionType.MISSION)
     marks = _Marks.of(wire)

@@ -20,6 +20,7 @@ from uavplan.app.feedback import Feedback
 from uavplan.app.inputs import mission_kind
 from uavplan.app.outputs import check_output
 from uavplan.autopilot.params import ParameterValueError, parameters_from
+from uavplan.autopilot.simulate import FlightEnd
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.fileio import InputFile
 from uavplan.flavour import Autopilot
@@ -69,10 +70,10 @@ class SimulateOutcome:
         r = self.rehearsal
         minutes, seconds = divmod(round(r.flight_time_s), 60)
         ended = {
-            "landed": "to touchdown",
-            "mission_complete": "to the end of the mission (in the air)",
-            "no_headway": "until the wind stopped it",
-            "timeout": "until the simulation gave up",
+            FlightEnd.LANDED: "to touchdown",
+            FlightEnd.MISSION_COMPLETE: "to the end of the mission (in the air)",
+            FlightEnd.NO_HEADWAY: "until the wind stopped it",
+            FlightEnd.TIMEOUT: "until the simulation gave up",
         }[r.flown.ended]
         text = (
             f"{Path(self.file).name}: flown as {r.autopilot.label} in {minutes} min "
@@ -170,7 +171,7 @@ def simulate_file(request: SimulateRequest, feedback: Feedback) -> SimulateOutco
         _write_view(request.view, scenario, plan, rehearsal, request.mission)
         feedback.say(f"view: {request.view}")
     if verdict is None:
-        if rehearsal.flown.ended in ("no_headway", "timeout"):
+        if not rehearsal.flown.ended.finished:
             feedback.warn(f"warning: the flight did not finish ({rehearsal.flown.ended})")
         return outcome
     feedback.say(verdict.summary())

@@ -66,6 +66,7 @@ from uavplan.mission.items import MavCmd
 
 __all__ = [
     "DEFAULT_DT_S",
+    "AirState",
     "EventKind",
     "FlightEvent",
     "FlightModel",
@@ -93,6 +94,18 @@ class EventKind(enum.Enum):
     RTL = "rtl"  # a return to launch began (PX4 switches to its RTL mode)
     NO_HEADWAY = "no_headway"  # the wind stops the vehicle: it cannot hold the track
     FENCE_BREACH = "fence_breach"  # above the enabled altitude fence's ceiling
+
+
+class AirState(enum.StrEnum):
+    """Where the modelled vehicle is (EXTENDED_SYS_STATE's landed state, which the simulated
+    vehicle reports from it)."""
+
+    GROUND = "ground"
+    #: climbing off the ground
+    TAKEOFF = "takeoff"
+    #: descending to land
+    LANDING = "landing"
+    AIR = "air"
 
 
 @dataclass(frozen=True)
@@ -164,16 +177,15 @@ class FlightModel:
         return 0.0 if self._stuck_since is None else self.t_s - self._stuck_since
 
     @property
-    def phase(self) -> str:
-        """ "ground", "takeoff" (climbing off the ground), "landing" (descending to land) or
-        "air" (EXTENDED_SYS_STATE's landed state)."""
+    def phase(self) -> AirState:
+        """Where the vehicle is: on the ground, taking off, landing or in the air."""
         if self.landed:
-            return "ground"
+            return AirState.GROUND
         if isinstance(self._motion, Descend):
-            return "landing"
+            return AirState.LANDING
         if self._taking_off:
-            return "takeoff"
-        return "air"
+            return AirState.TAKEOFF
+        return AirState.AIR
 
     @property
     def busy(self) -> bool:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import array
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,6 +28,7 @@ from uavplan.geo import GeoPoint
 from uavplan.mission.items import MavCmd, MissionItem, MissionPlan, MissionType
 
 __all__ = [
+    "FlightEnd",
     "FlownTrack",
     "MissionRefused",
     "StartRefusal",
@@ -109,6 +111,26 @@ def check_startable(wire_items: list[MissionItem], autopilot: Autopilot) -> None
         raise MissionRefused(refusal.reason, refusal.firmware_text)
 
 
+class FlightEnd(StrEnum):
+    """How a flight record ends: the flight model's (:func:`simulate`), or a track given as
+    flown that does not land (``TRACK_END``). A ``str`` enum: the reports' ``ended``."""
+
+    LANDED = "landed"
+    #: the mission's last item done, in the air (a mission that does not land)
+    MISSION_COMPLETE = "mission_complete"
+    #: the wind left the vehicle no ground speed along its track
+    NO_HEADWAY = "no_headway"
+    #: the simulation gave up (``max_duration_s``)
+    TIMEOUT = "timeout"
+    #: a flown track that ends without a landing
+    TRACK_END = "track_end"
+
+    @property
+    def finished(self) -> bool:
+        """The flight did what it was asked (landed, or its mission done in the air)."""
+        return self in (FlightEnd.LANDED, FlightEnd.MISSION_COMPLETE)
+
+
 @dataclass(frozen=True)
 class FlownTrack:
     """What the flight model flew: one row per step of ``dt`` simulated seconds.
@@ -117,8 +139,7 @@ class FlownTrack:
     above home); ``lat_deg``/``lon_deg`` the position below the vehicle and ``alt_amsl_m``
     its altitude above mean sea level (home's plus ``z_m``), the convention of the mission
     builder. ``current_seq`` is the current mission item (-1 before the first). ``ended``:
-    "landed", "mission_complete" (ended in the air), "no_headway" (the wind stopped it) or
-    "timeout".
+    how the flight ended (:class:`FlightEnd`).
     """
 
     autopilot: Autopilot
@@ -134,7 +155,7 @@ class FlownTrack:
     climb_m_s: NDArray[np.float64]
     current_seq: NDArray[np.int64]
     events: tuple[FlightEvent, ...]
-    ended: str
+    ended: FlightEnd
     energy_wh: float
     battery_used_pct: float
     params: Parameters
@@ -147,7 +168,7 @@ class FlownTrack:
 
     @property
     def completed(self) -> bool:
-        return self.ended in ("landed", "mission_complete")
+        return self.ended.finished
 
     @property
     def flight_time_s(self) -> float:
@@ -247,17 +268,17 @@ def simulate(
         rows.extend((model.t_s, x, y, z, vx, vy, vz, seq, 0.0 if model.landed else 1.0))
 
     record()
-    ended = "timeout"
+    ended = FlightEnd.TIMEOUT
     while model.t_s < max_duration_s:
         step_events = model.step()
         record()
         events.extend(step_events)
         kinds = {e.kind for e in step_events}
         if EventKind.MISSION_COMPLETE in kinds:
-            ended = "landed" if model.landed else "mission_complete"
+            ended = FlightEnd.LANDED if model.landed else FlightEnd.MISSION_COMPLETE
             break
         if model.stuck_for_s >= NO_HEADWAY_LIMIT_S:
-            ended = "no_headway"
+            ended = FlightEnd.NO_HEADWAY
             break
 
     table = np.frombuffer(rows, dtype=np.float64).reshape(-1, TRACK_COLUMNS)

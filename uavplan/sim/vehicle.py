@@ -42,7 +42,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from struct import error as struct_error
 
-from uavplan.autopilot.model import DEFAULT_DT_S, EventKind, FlightEvent, FlightModel
+from uavplan.autopilot.model import DEFAULT_DT_S, AirState, EventKind, FlightEvent, FlightModel
 from uavplan.autopilot.nav import nav_items
 from uavplan.autopilot.params import Parameters, ParamSpec, UnknownParameter
 from uavplan.autopilot.power import X500, Battery, PowerState, VehicleSpec
@@ -289,10 +289,10 @@ class SimVehicle:
     @property
     def landed_state(self) -> LandedState:
         return {
-            "ground": LandedState.ON_GROUND,
-            "takeoff": LandedState.TAKEOFF,
-            "landing": LandedState.LANDING,
-            "air": LandedState.IN_AIR,
+            AirState.GROUND: LandedState.ON_GROUND,
+            AirState.TAKEOFF: LandedState.TAKEOFF,
+            AirState.LANDING: LandedState.LANDING,
+            AirState.AIR: LandedState.IN_AIR,
         }[self.flight.phase]
 
     def position(self) -> tuple[float, float, float, float]:

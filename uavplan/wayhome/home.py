@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from uavplan.autopilot.params import FENCE_TYPE_ALT_MAX, FENCE_TYPE_POLYGON
+from uavplan.autopilot.simulate import FlightEnd
 from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight, flight_of_track
 from uavplan.mission.items import VehicleParameter
@@ -324,7 +325,10 @@ def return_samples_of(scenario: Scenario, flown: FlownTrack) -> ReturnSamples:
     site = scenario.site
     track = track_of(flown, "flight model")
     flight = flight_of_track(
-        track, enu_frame(site), datum_amsl_m=site.datum_amsl_m, lands=flown.ended == "landed"
+        track,
+        enu_frame(site),
+        datum_amsl_m=site.datum_amsl_m,
+        lands=flown.ended is FlightEnd.LANDED,
     )
     return ReturnSamples.of_track(flight, flown.t_s, flown.current_seq, end=rtl_start(flown))
 
