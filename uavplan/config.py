@@ -29,6 +29,7 @@ import math
 import reprlib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
+from enum import StrEnum
 from typing import Any, Literal, TypeVar
 
 from uavplan.errors import InputError
@@ -138,8 +139,37 @@ def _flag(default: bool, *, doc: str = "") -> Any:
     return field(default=default, metadata={"kind": "bool", "doc": doc})
 
 
-def _choice(default: str, choices: tuple[str, ...], *, doc: str = "") -> Any:
+def _choice(default: str, choices: tuple[str, ...] | type[StrEnum], *, doc: str = "") -> Any:
+    """A field whose value is one of ``choices``: strings, or a ``str`` enum whose member the
+    validated value becomes (its values are what a user writes)."""
+    if isinstance(choices, type):
+        meta = {"kind": "str", "choices": tuple(c.value for c in choices), "enum": choices}
+        return field(default=choices(default), metadata={**meta, "doc": doc})
     return field(default=default, metadata={"kind": "str", "choices": choices, "doc": doc})
+
+
+class ProducerRule(StrEnum):
+    """SPSA's producer update (eq. 3): ``deviation`` (ours, the reading the paper's figures
+    support) or ``literal`` (the equation as printed)."""
+
+    DEVIATION = "deviation"
+    LITERAL = "literal"
+
+
+class ScroungerIndex(StrEnum):
+    """The index ``i`` of eq. 4: over the scroungers (the paper's text) or the population."""
+
+    SCROUNGER = "scrounger"
+    POPULATION = "population"
+
+
+class Selection(StrEnum):
+    """Which final individual the post-processing keeps (:class:`PostParams`)."""
+
+    #: the paper's: the best individual
+    BEST = "best"
+    #: ours: the lowest simplified (refined) energy among the distinct final individuals
+    POPULATION = "population"
 
 
 #: public names of the field helpers, for planners defined outside this module
@@ -206,7 +236,8 @@ def check_value(f: dataclasses.Field[Any], value: Any) -> Any:
         choices = m["choices"]
         if not isinstance(value, str) or value not in choices:
             raise ConfigError(f"must be one of {', '.join(choices)}, got {short_repr(value)}")
-        return value
+        enum = m.get("enum")
+        return value if enum is None else enum(value)
     if kind == "int":
         if isinstance(value, bool) or not isinstance(value, int):
             if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
@@ -389,9 +420,9 @@ class SpsaParams:
     oscillation_window: int = _num(
         5, kind="int", lo=3, hi=1000, doc="N_p (max); min is 3 (section 4.4)"
     )
-    producer_rule: str = _choice("deviation", ("deviation", "literal"))
-    scrounger_index: str = _choice(
-        "scrounger", ("scrounger", "population"), doc="i in eq. 4 (paper text: scrounger)"
+    producer_rule: ProducerRule = _choice("deviation", ProducerRule)
+    scrounger_index: ScroungerIndex = _choice(
+        "scrounger", ScroungerIndex, doc="i in eq. 4 (paper text: scrounger)"
     )
     start_end_producer: bool = _flag(True, doc="contribution 2 (off: SSA's eq. 3 producer)")
     escape: bool = _flag(True, doc="contribution 3 (adaptive variable-speed escape)")
@@ -443,7 +474,7 @@ class PostParams:
     tighten: bool = _flag(True)
     smooth: bool = _flag(True)
     sample_step_m: float = _num(5.0, lo=0.1, hi=1000, doc="resolution of the smoothed curve")
-    select: str = _choice("population", ("best", "population"))
+    select: Selection = _choice("population", Selection)
 
 
 # Baselines (paper section 6). Each uses the shared SearchParams (G, M, T_max, initialisation)

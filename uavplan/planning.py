@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, planner_entry
+from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, Selection, planner_entry
 from uavplan.flightcheck import Flight, FlightPrediction, flight_clearance
 from uavplan.ground import Ground
 from uavplan.obstacles import Obstacle
@@ -311,7 +311,7 @@ def plan_route(
         # spline, waypoints); our own additions (refinement, string pulling, choosing among
         # the final population) are SPSA's variant. The paper's protocol compares the raw
         # search result: PlannerResult.best_fitness, reported apart as "search_fitness".
-        post = replace(post, refine=False, tighten=False, select="best")
+        post = replace(post, refine=False, tighten=False, select=Selection.BEST)
     points = route_points(scenario)
     n_legs = len(points) - 1
     physical = physical_fitness(scenario)
@@ -459,7 +459,7 @@ def plan_return(
     planner = make_planner(cfg.algorithm, cfg)
     post = cfg.post
     if not planner_entry(cfg.algorithm).postprocess:
-        post = replace(post, refine=False, tighten=False, select="best")
+        post = replace(post, refine=False, tighten=False, select=Selection.BEST)
     goal = tuple(float(v) for v in route.waypoints_enu[-1])
     start = tuple(float(v) for v in route.waypoints_enu[0])
     a: _Point = (goal[0], goal[1], goal[2])
@@ -658,7 +658,7 @@ def _plan_leg(
         vertices = nodes_pf
         if post.simplify:
             vertices = nodes_pf[simplify(nodes_pf, wpf)]
-            if post.select == "population" and res.population is not None:
+            if post.select == Selection.POPULATION and res.population is not None:
                 candidates = _simplified_candidates(problem, res.population, nodes_pf, vertices)
                 nodes_pf, vertices = candidates[0]
     else:

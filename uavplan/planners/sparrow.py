@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from uavplan.config import SearchParams, SpsaParams
+from uavplan.config import ProducerRule, ScroungerIndex, SearchParams, SpsaParams
 from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, Population, SwarmPlanner
 
@@ -145,15 +145,15 @@ class SparrowPlanner(SwarmPlanner):
         prm = self.params
         n_prod = min(n_pop - 1, max(1, round(prm.producer_ratio * n_pop)))
         n_scr = n_pop - n_prod
-        if prm.scrounger_index == "scrounger":
+        if prm.scrounger_index == ScroungerIndex.SCROUNGER:
             n_near = sum(1 for i in range(1, n_scr + 1) if i <= n_scr / 2.0)
         else:
             n_near = sum(1 for i in range(n_prod + 1, n_pop + 1) if i <= n_pop / 2.0)
         n_danger = min(n_pop, round(prm.danger_ratio * n_pop))
         flags = (
             (K.SPSA_START_END if prm.start_end_producer else 0)
-            | (K.SPSA_LITERAL if prm.producer_rule == "literal" else 0)
-            | (K.SPSA_POP_INDEX if prm.scrounger_index == "population" else 0)
+            | (K.SPSA_LITERAL if prm.producer_rule == ProducerRule.LITERAL else 0)
+            | (K.SPSA_POP_INDEX if prm.scrounger_index == ScroungerIndex.POPULATION else 0)
             | (K.SPSA_ESCAPE if prm.escape else 0)
             | (K.SPSA_OSCILLATE if prm.oscillation else 0)
         )

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from uavplan.config import ProducerRule, ScroungerIndex
 from uavplan.planners import _kernels as K
 from uavplan.planners.base import PathProblem, Population
 from uavplan.planners.proposal import Draw, Proposal
@@ -52,7 +53,7 @@ class NumpySparrowPlanner(SparrowPlanner):
             e = np.exp(-ranks / (alpha * pop.iterations))[:, None, None]
             p = x[producers]
             if prm.start_end_producer:
-                if prm.producer_rule == "literal":
+                if prm.producer_rule == ProducerRule.LITERAL:
                     prop.anchor[producers] = p + e
                     prop.spread[producers] = line - p
                 else:
@@ -89,7 +90,7 @@ class NumpySparrowPlanner(SparrowPlanner):
         best_i, worst_i = order[0], order[-1]
         line = problem.line_u[1:-1]
         prop = Proposal.for_population(x)
-        if prm.scrounger_index == "scrounger":
+        if prm.scrounger_index == ScroungerIndex.SCROUNGER:
             index, half = np.arange(1, scroungers.size + 1), scroungers.size / 2.0
         else:
             index, half = np.arange(n_prod + 1, n_pop + 1), n_pop / 2.0
