@@ -449,7 +449,7 @@ class SpsaParams:
             scrounger_ratio=0.8,
             danger_ratio=0.2,
             warning_value=0.8,
-            scrounger_index="population",
+            scrounger_index=ScroungerIndex.POPULATION,
             start_end_producer=False,
             escape=False,
             oscillation=False,
