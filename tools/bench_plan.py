@@ -18,6 +18,10 @@ Each scenario is planned in a fresh interpreter that times its phases:
 
 * ``fence`` (with ``--fence``): building the geofence (:func:`uavplan.planning.fence_for`);
 
+then the whole ``plan`` command in one process after its imports (``plan``: the search, each
+widening, the way home, the rehearsals, the verdict and the writing; ``planCPU`` its CPU
+seconds), with how many routes it searched (``srch``: the first and each widening), how many
+legs (``legs``: a planned return's too) and how many flights the flight model flew (``fly``);
 then, apart, the whole ``uavplan plan SCENARIO -o x.plan -q`` process (``--fence`` too with
 ``--fence``): wall time and peak resident memory (``os.wait4`` of that child). ``core CPU``
 is the CPU time of the process while it planned (search and post-processing, every thread:
@@ -76,11 +80,27 @@ if iterations:
 t2 = time.perf_counter()
 warm_up()
 t3 = time.perf_counter()
+# as `plan` searches (uavplan.app.plan._search): the margin wider by the corner the
+# autopilot cuts first, the bare margin where no route keeps that
+from dataclasses import replace
+from uavplan.flown_safe import padded_scenario
+from uavplan.worlds import padded_world
+try:
+    from uavplan.flown_safe import corner_pad_m
+    pad = corner_pad_m(scn.mission.autopilot)
+except ImportError:  # a commit before the padded search (to measure before and after)
+    pad = 0.0
 world = planning.build_world(scn)
-problem = planning.build_problem(scn, world) if not scn.via_m else None
+searched = padded_scenario(scn, pad) if pad else scn
+searched_world = padded_world(world, searched) if pad else world
+problem = planning.build_problem(searched, searched_world) if not scn.via_m else None
 t4 = time.perf_counter()
 c4 = time.process_time()
-res = planning.plan_route(scn, world=world, problem=problem)
+res = planning.plan_route(searched, world=searched_world, problem=problem)
+if pad and (res.route is None or not res.collision_free):
+    res = planning.plan_route(scn, world=world)
+elif pad:
+    res = replace(res, route=replace(res.route, safety_margin_m=scn.safety_margin_m))
 c5 = time.process_time()
 t5 = time.perf_counter()
 search = sum(leg.planner.runtime_s + leg.guide_s for leg in res.legs) or res.planner.runtime_s
@@ -108,6 +128,51 @@ print(json.dumps(row))
 """
 
 
+#: the child: runs the whole ``uavplan plan`` in one process after its imports, counting the
+#: searches (whole routes planned: the route, each widening), the legs searched (the planned
+#: return's included) and the flights the flight model flew; prints one JSON line
+PLAN_CHILD = r"""
+import time
+t0 = time.perf_counter()
+import json, sys
+import uavplan.cli
+import uavplan.cli.plan_cmd
+from uavplan import planning
+from uavplan.autopilot import simulate as simulate_module
+from uavplan.planners.base import SwarmPlanner
+t1 = time.perf_counter()
+counts = {"searches": 0, "legs": 0, "flights": 0}
+
+def counted(fn, key):
+    def wrapper(*args, **kwargs):
+        counts[key] += 1
+        return fn(*args, **kwargs)
+    return wrapper
+
+for name, key, original in (
+    ("plan_route", "searches", planning.plan_route),
+    ("simulate", "flights", simulate_module.simulate),
+):
+    wrapped = counted(original, key)
+    for module in list(sys.modules.values()):
+        if getattr(module, "__name__", "").startswith("uavplan") and (
+            getattr(module, name, None) is original
+        ):
+            setattr(module, name, wrapped)
+SwarmPlanner.solve = counted(SwarmPlanner.solve, "legs")
+path, out, iterations = sys.argv[1], sys.argv[2], int(sys.argv[3])
+args = ["plan", path, "-o", out, "-q"] + (["--iterations", str(iterations)] if iterations else [])
+t2, c2 = time.perf_counter(), time.process_time()
+try:
+    uavplan.cli.main(args, standalone_mode=False)
+except SystemExit:
+    pass
+row = {"plan_import": t1 - t0, "plan_s": time.perf_counter() - t2,
+       "plan_cpu": time.process_time() - c2, **counts}
+print(json.dumps(row))
+"""
+
+
 def run_child(args: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
     """(wall seconds, peak RSS MiB, stdout) of one child process."""
     t0 = time.perf_counter()
@@ -131,6 +196,16 @@ def phases(path: Path, iterations: int, reference: bool, fence: bool = False) ->
         args = [sys.executable, "-c", CHILD, str(path), str(Path(tmp) / "m.plan")]
         flags = ["1" if reference else "0", "1" if fence else "0"]
         _, _, out = run_child([*args, str(iterations), *flags], env)
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def whole_plan(path: Path, iterations: int) -> dict[str, Any]:
+    """The whole ``plan`` in one process (:data:`PLAN_CHILD`): its time after the imports,
+    and how many searches, legs and flights it made."""
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
+    with tempfile.TemporaryDirectory() as tmp:
+        args = [sys.executable, "-c", PLAN_CHILD, str(path), str(Path(tmp) / "m.plan")]
+        _, _, out = run_child([*args, str(iterations)], env)
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -162,6 +237,10 @@ def measure(
     first = rows[0]
     out.update({k: first[k] for k in first if k not in PHASES})
     out["loadavg"] = load
+    plans = [whole_plan(path, iterations) for _ in range(repeat)]
+    for key in ("plan_s", "plan_cpu"):
+        out[key] = statistics.median(p[key] for p in plans)
+    out.update({k: plans[0][k] for k in ("searches", "legs", "flights")})
     procs = [whole_process(path, iterations, fence) for _ in range(repeat)]
     out["process_s"] = statistics.median(p[0] for p in procs)
     out["rss_mib"] = max(p[1] for p in procs)
@@ -173,7 +252,8 @@ def measure(
 
 HEADER = (
     f"{'scenario':<22} {'obst':>6} {'import':>6} {'load':>6} {'kernels':>7} {'build':>6} "
-    f"{'search':>6} {'post':>6} {'coreCPU':>7} {'write':>6} {'fence':>6} {'process':>7} "
+    f"{'search':>6} {'post':>6} {'coreCPU':>7} {'write':>6} {'fence':>6} {'plan':>6} "
+    f"{'planCPU':>7} {'srch':>4} {'legs':>4} {'fly':>3} {'process':>7} "
     f"{'RSS MiB':>7} {'iter':>5} {'E':>9} {'ref':>6} {'loadavg':>7}"
 )
 
@@ -182,7 +262,9 @@ def format_row(name: str, r: dict[str, Any]) -> str:
     return (
         f"{name:<22} {r['obstacles']:>6} {r['import']:6.2f} {r['load']:6.2f} {r['kernels']:7.2f} "
         f"{r['build']:6.2f} {r['search']:6.2f} {r['post']:6.2f} {r['core_cpu']:7.2f} "
-        f"{r['write']:6.2f} {r['fence']:6.2f} {r['process_s']:7.2f} {r['rss_mib']:7.0f} "
+        f"{r['write']:6.2f} {r['fence']:6.2f} {r['plan_s']:6.2f} {r['plan_cpu']:7.2f} "
+        f"{r['searches']:>4} {r['legs']:>4} {r['flights']:>3} {r['process_s']:7.2f} "
+        f"{r['rss_mib']:7.0f} "
         f"{r['iterations']:>5} {r['energy']:9.1f} {r['ratio']:6.3f} {r['loadavg']:7.2f}"
     )
 
@@ -209,7 +291,11 @@ def main() -> int:
             summaries.append(f"{path.stem}: {r['fence_summary']}")
     print(
         "seconds; medians of the phases in one process (search includes the guide search), "
-        "coreCPU = CPU seconds of search + post (all threads), 'process' = the whole "
+        "coreCPU = CPU seconds of search + post (all threads); 'plan' = the whole plan "
+        "command in one process after its imports (search, widening, way home, rehearsals, "
+        "verdict, writing), planCPU its CPU seconds, srch the routes searched (the first and "
+        "each widening), legs the legs searched (a planned return's included), fly the "
+        "flights the flight model flew; 'process' = the whole "
         "`uavplan plan -q` wall time, RSS its peak; E seed 1, ref = E / (A* + line of sight); "
         "loadavg = 1-minute load average"
     )

@@ -18,17 +18,21 @@ from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.flavour import Autopilot
 from uavplan.flightcheck import TrackCheck
 from uavplan.mission.items import MissionPlan
+from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, mission_for, plan_route
 from uavplan.rehearsal import CheckSite, Rehearsal, conditions_of, rehearse
 from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import PlannerConfig, Scenario, Surroundings
+from uavplan.world import World
 from uavplan.worlds import padded_world
 
 __all__ = [
     "MAX_REPLANS",
     "Widened",
+    "corner_pad_m",
     "grown_pad",
     "padded_scenario",
+    "plan_padded",
     "plan_safe_as_flown",
     "refresh_flight",
     "reroute_safe_as_flown",
@@ -43,11 +47,56 @@ PAD_STEP_M = 0.1
 VOLUME_PAD_M = 1.0
 
 
+def corner_pad_m(autopilot: Autopilot) -> float:
+    """How much wider than the margin ``plan`` searches first for ``autopilot``'s missions: the
+    firmware's default waypoint radius (ArduPilot's WPNAV_RADIUS, PX4's NAV_ACC_RAD, 2 m
+    each), which bounds how far the flight model cuts a corner inside it. 0 for an autopilot
+    the flight model does not fly.
+
+    Known before the search, it spares the second search that a route planned at the bare
+    margin needs whenever a corner's cut brings the track inside it (issue 36: on the bundled
+    scenarios, 10 of 11 plans then need one search instead of two, for 0 to 3.5 % more
+    energy). :func:`plan_safe_as_flown` widens on from it where a corner still cuts deeper."""
+    if autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
+        return 0.0
+    from uavplan.autopilot.params import Parameters, flight_limits
+
+    return flight_limits(Parameters.defaults(autopilot)).acceptance_radius_m
+
+
+def plan_padded(
+    scenario: Scenario,
+    pad_m: float,
+    world: World,
+    *,
+    progress: ProgressFn | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> RouteResult | str:
+    """``scenario``'s route planned ``pad_m`` wider than its margin (:func:`padded_scenario`)
+    in its ``world`` (the scenario's, at the bare margin: padded here), given back at the
+    scenario's own margin; an interrupted result as it came; a string saying why when no
+    route keeps the wider margin (a narrow gap, a low ceiling: the bare margin may still)."""
+    try:
+        padded = padded_scenario(scenario, pad_m)
+    except ScenarioError as err:
+        return f"a margin {pad_m:.2f} m wider cannot be planned: {err.reason}"
+    again = plan_route(
+        padded, world=padded_world(world, padded), progress=progress, should_stop=should_stop
+    )
+    if again.interrupted:
+        return again
+    if again.route is None or not again.collision_free:
+        return f"no route keeps a margin {pad_m:.2f} m wider"
+    route = replace(again.route, safety_margin_m=scenario.safety_margin_m)
+    return replace(again, route=route)
+
+
 def plan_safe_as_flown(
     scenario: Scenario,
     result: RouteResult,
     *,
     site: CheckSite | None = None,
+    pad_m: float = 0.0,
     should_stop: Callable[[], bool] | None = None,
 ) -> RouteResult:
     """``result`` (a planned route of ``scenario``) with its predicted flight
@@ -56,13 +105,13 @@ def plan_safe_as_flown(
     what it lacked (plus :data:`PAD_STEP_M`), up to :data:`MAX_REPLANS` times; the result's
     notes say so. A result whose track still breaks the margin has ``flight.keeps_margin``
     false (``plan`` then exits 3). An interrupted replanning returns the interrupted result.
-    ``site``: the scenario's check site when the caller built it (``plan`` builds it once).
+    ``site``: the scenario's check site when the caller built it (``plan`` builds it once);
+    ``pad_m``: how much wider than the margin ``result`` was planned (:func:`plan_padded`).
     """
     autopilot = scenario.mission.autopilot
     if result.route is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
         return result
     site = site or CheckSite.of_scenario(scenario)
-    margin = scenario.safety_margin_m
     flying = conditions_of(scenario)
     runtime_s = result.runtime_s
 
@@ -72,20 +121,13 @@ def plan_safe_as_flown(
 
     def plan_again(pad: float) -> RouteResult | str:
         nonlocal runtime_s
-        try:
-            padded = padded_scenario(scenario, pad)
-        except ScenarioError as err:
-            return f"a margin {pad:.2f} m wider cannot be planned: {err.reason}"
-        again = plan_route(padded, world=padded_world(site.world, padded), should_stop=should_stop)
-        if again.interrupted:
+        again = plan_padded(scenario, pad, site.world, should_stop=should_stop)
+        if isinstance(again, str) or again.interrupted:
             return again
-        if again.route is None or not again.collision_free:
-            return f"no route keeps a margin {pad:.2f} m wider"
         runtime_s += again.runtime_s
-        route = replace(again.route, safety_margin_m=margin)
-        return replace(again, route=route, runtime_s=runtime_s)
+        return replace(again, runtime_s=runtime_s)
 
-    return _widened_until_flown_safe(result, fly, plan_again, autopilot, "planned")
+    return _widened_until_flown_safe(result, fly, plan_again, autopilot, "planned", pad_m)
 
 
 def refresh_flight(
@@ -197,6 +239,7 @@ def _widened_until_flown_safe(
     again_with: Callable[[float], _R | str],
     autopilot: Autopilot,
     verb: str,
+    pad_m: float = 0.0,
 ) -> _R:
     """:func:`widened_until_flown_safe` for :func:`plan_safe_as_flown` and
     :func:`reroute_safe_as_flown`: ``result`` flown, planned (rerouted) again while its flight
@@ -226,6 +269,7 @@ def _widened_until_flown_safe(
         exhausted=lambda pad: (
             f"{verb} {MAX_REPLANS} more times, the margin up to {pad:.2f} m wider"
         ),
+        pad_m=pad_m,
     )
     last: _R = ended.value[0]
     rehearsal = ended.value[1]

@@ -23,6 +23,8 @@ from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
 from uavplan.flown_safe import (
     MAX_REPLANS,
+    corner_pad_m,
+    plan_padded,
     plan_safe_as_flown,
     refresh_flight,
     widened_until_flown_safe,
@@ -201,10 +203,10 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     site = CheckSite.of_scenario(scn)
     with outputs:
         with feedback.polled():
-            result = _search(scn, feedback, site.world)
+            result, pad = _search(scn, feedback, site.world)
             if result.collision_free:  # and the track the flight model predicts keeps it too
                 result = plan_safe_as_flown(
-                    scn, result, site=site, should_stop=feedback.should_stop
+                    scn, result, site=site, pad_m=pad, should_stop=feedback.should_stop
                 )
             flown = None if result.flight is None else result.flight.flown
             way = (
@@ -514,13 +516,25 @@ def _return_safe_as_flown(
     return way, replace(refreshed, notes=(*refreshed.notes, *ended.notes))
 
 
-def _search(scn: Scenario, feedback: Feedback, world: World) -> RouteResult:
-    """Plan ``scn`` in its ``world`` with the feedback's progress bar and Ctrl-C flag."""
+def _search(scn: Scenario, feedback: Feedback, world: World) -> tuple[RouteResult, float]:
+    """Plan ``scn`` in its ``world`` with the feedback's progress bar and Ctrl-C flag: first
+    with the margin wider by the corner its autopilot cuts (:func:`corner_pad_m`), then, where
+    no route keeps that, at the bare margin. Returns the result and how much wider than the
+    margin it was planned."""
     bar = feedback.progress
     if bar is not None:
         bar.start(f"{scn.planner.algorithm} {scn.name}")
     try:
-        return plan_route(scn, progress=bar, world=world, should_stop=feedback.should_stop)
+        pad = corner_pad_m(scn.mission.autopilot)
+        if pad > 0.0:
+            padded = plan_padded(scn, pad, world, progress=bar, should_stop=feedback.should_stop)
+            if not isinstance(padded, str):
+                return padded, pad
+        found = plan_route(scn, progress=bar, world=world, should_stop=feedback.should_stop)
+        if pad > 0.0 and found.route is not None:
+            why = f"{padded}: planned at the margin itself, then as the autopilot flies it"
+            found = replace(found, notes=(*found.notes, why))
+        return found, 0.0
     finally:
         if bar is not None:
             bar.close()
