@@ -39,14 +39,14 @@ from uavplan.mission.items import MavCmd, MissionPlan
 if TYPE_CHECKING:
     from uavplan.autopilot.simulate import FlownTrack
     from uavplan.flightcheck import Flight
-from uavplan.airframe import DEFAULT_RESERVE_PCT, FlightEnergy, Legs, VehicleProfile, Wind
+from uavplan.airframe import DEFAULT_RESERVE_PCT, EnergyUse, Legs, VehicleProfile, Wind
 from uavplan.airframe import flight_energy as _flight_energy
-from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits
+from uavplan.autopilot.params import GuidanceLimits, Parameters, guidance_limits
 from uavplan.scenario import Scenario
 
 __all__ = [
     "DEFAULT_RESERVE_PCT",
-    "FlightEstimate",
+    "BatteryEstimate",
     "estimate_flight",
     "estimate_mission",
     "estimate_route",
@@ -58,12 +58,12 @@ __all__ = [
 GroundZ = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
-def mission_limits(autopilot: Autopilot, cruise_speed_m_s: float | None = None) -> FlightLimits:
+def mission_limits(autopilot: Autopilot, cruise_speed_m_s: float | None = None) -> GuidanceLimits:
     """The autopilot's default speeds (its parameter table), flying the mission at
     ``cruise_speed_m_s`` when given (a DO_CHANGE_SPEED: capped at the autopilot's top speed,
     as the firmwares cap it)."""
     flavour = autopilot if autopilot in (Autopilot.PX4, Autopilot.ARDUPILOT) else Autopilot.PX4
-    limits = flight_limits(Parameters(flavour))
+    limits = guidance_limits(Parameters(flavour))
     if cruise_speed_m_s is None:
         return limits
     speed = min(float(cruise_speed_m_s), limits.speed_xy_max_m_s)
@@ -71,7 +71,7 @@ def mission_limits(autopilot: Autopilot, cruise_speed_m_s: float | None = None) 
 
 
 @dataclass(frozen=True, eq=False)
-class FlightEstimate:
+class BatteryEstimate:
     """What a flight needs of the battery, and what that leaves.
 
     ``named``: the scenario names its vehicle (else the default profile was used and a flight
@@ -79,7 +79,7 @@ class FlightEstimate:
     planned route``, ``the mission``, ``the straight route``).
     """
 
-    energy: FlightEnergy
+    energy: EnergyUse
     profile: VehicleProfile
     named: bool
     wind: Wind | None
@@ -153,14 +153,14 @@ def estimate_flight(
     points_enu: NDArray[np.float64],
     *,
     profile: VehicleProfile,
-    limits: FlightLimits,
+    limits: GuidanceLimits,
     from_ground: bool,
     end: str,
     wind: Wind | None = None,
     datum_amsl_m: float = 0.0,
     ground_z: GroundZ | None = None,
     rtl_altitude_m: float | None = None,
-) -> tuple[FlightEnergy, float | None]:
+) -> tuple[EnergyUse, float | None]:
     """(energy, RTL altitude used) of the flown line ``points_enu`` ``(n, 3)`` (site frame:
     z above the datum at ``datum_amsl_m``; ``ground_z`` the ground's z, None: flat at 0),
     flown as :func:`legs_of` says."""
@@ -179,7 +179,7 @@ def estimate_flight(
 def legs_of(
     points_enu: NDArray[np.float64],
     *,
-    limits: FlightLimits,
+    limits: GuidanceLimits,
     from_ground: bool,
     end: str,
     ground_z: GroundZ | None = None,
@@ -290,7 +290,7 @@ def _ground(ground_z: GroundZ | None, xy: NDArray[np.float64]) -> NDArray[np.flo
 
 
 def _takeoff(
-    a: NDArray[np.float64], b: NDArray[np.float64], home_z: float, limits: FlightLimits
+    a: NDArray[np.float64], b: NDArray[np.float64], home_z: float, limits: GuidanceLimits
 ) -> list[tuple[NDArray[np.float64], float]]:
     """The climb a → b split where the take-off speed changes (PX4 climbs at MPC_TKO_SPEED
     below MPC_LAND_ALT1, then at MPC_Z_V_AUTO_UP; ArduPilot at WPNAV_SPEED_UP throughout)."""
@@ -304,7 +304,7 @@ def _takeoff(
 
 
 def _landing(
-    a: NDArray[np.float64], b: NDArray[np.float64], ground_z: float, limits: FlightLimits
+    a: NDArray[np.float64], b: NDArray[np.float64], ground_z: float, limits: GuidanceLimits
 ) -> list[tuple[NDArray[np.float64], float]]:
     """The descent a → b split where the landing slows down (ArduPilot LAND_SPEED_HIGH above
     LAND_ALT_LOW, then LAND_SPEED; PX4 MPC_Z_V_AUTO_DN, then MPC_LAND_SPEED)."""
@@ -334,7 +334,7 @@ def _estimate(
     cruise_speed_m_s: float | None,
     reserve_pct: float,
     rtl_altitude_m: float | None,
-) -> FlightEstimate:
+) -> BatteryEstimate:
     site = scenario.site
     ground = site.ground
     profile = scenario.vehicle.profile
@@ -349,7 +349,7 @@ def _estimate(
         ground_z=None if ground is None else ground.z_at,
         rtl_altitude_m=rtl_altitude_m,
     )
-    return FlightEstimate(
+    return BatteryEstimate(
         energy, profile, scenario.vehicle.named, scenario.wind, reserve_pct, end, what, rtl
     )
 
@@ -360,7 +360,7 @@ def estimate_route(
     *,
     reserve_pct: float = DEFAULT_RESERVE_PCT,
     rtl_altitude_m: float | None = None,
-) -> FlightEstimate:
+) -> BatteryEstimate:
     """The planned route's flight (its flown line, :attr:`PlannedRoute.flown_enu`) with the
     scenario's vehicle, wind, autopilot, speed and end. ``rtl_altitude_m``: the RTL altitude
     the mission uses (default: the autopilot's ``RTL_ALT`` / ``RTL_RETURN_ALT``)."""
@@ -379,7 +379,7 @@ def estimate_route(
 
 def estimate_straight_route(
     scenario: Scenario, *, reserve_pct: float = DEFAULT_RESERVE_PCT
-) -> FlightEstimate:
+) -> BatteryEstimate:
     """The scenario's route points flown straight (start, via points, goal; the take-off and
     the end as the mission flies them): what the flight needs at the least, before any
     planning (the planned route goes round the obstacles and is longer)."""
@@ -418,7 +418,7 @@ def estimate_mission(
     *,
     reserve_pct: float = DEFAULT_RESERVE_PCT,
     rtl_altitude_m: float | None = None,
-) -> FlightEstimate:
+) -> BatteryEstimate:
     """A mission file's flight (``flight``: its reading in the scenario's site frame) with
     the scenario's vehicle and wind, the mission's autopilot, speed (its first
     DO_CHANGE_SPEED, else the scenario's cruise speed) and end (RTL, a landing or none)."""
@@ -455,12 +455,12 @@ def estimate_mission(
 
 def estimate_flown(
     scenario: Scenario, track: FlownTrack, *, reserve_pct: float = DEFAULT_RESERVE_PCT
-) -> FlightEstimate:
+) -> BatteryEstimate:
     """A mission as the flight model flew it for ``scenario`` (``uavplan.rehearsal``: the
     scenario's vehicle and its wind, the autopilot's own speeds, corners and end): the time,
     energy and battery of every step of ``track`` (:func:`flown_energy`). ``plan`` reports
     this one, so its flight time is the flight model's."""
-    return FlightEstimate(
+    return BatteryEstimate(
         flown_energy(track),
         scenario.vehicle.profile,
         scenario.vehicle.named,
@@ -471,9 +471,9 @@ def estimate_flown(
     )
 
 
-def flown_energy(track: FlownTrack) -> FlightEnergy:
+def flown_energy(track: FlownTrack) -> EnergyUse:
     """A simulated (or flown) track's time, energy and battery, step by step, as the
-    estimate's :class:`~uavplan.airframe.FlightEnergy`: its ``summary()`` is the line ``plan``
+    estimate's :class:`~uavplan.airframe.EnergyUse`: its ``summary()`` is the line ``plan``
     prints, its ``report_fields()`` the report's keys, so ``simulate`` and ``fly`` print what
     the vehicle drew next to the estimate (:func:`estimate_mission`) of the same mission."""
     from uavplan.airframe.legs import LegFigures
@@ -492,7 +492,7 @@ def flown_energy(track: FlownTrack) -> FlightEnergy:
         vertical_speed_m_s=track.climb_m_s[1:],
     )
     profile = track.vehicle.profile
-    return FlightEnergy(
+    return EnergyUse(
         profile_name=profile.name,
         time_s=track.flight_time_s,
         energy_wh=float(np.sum(legs.energy_wh)),

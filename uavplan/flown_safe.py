@@ -59,9 +59,9 @@ def corner_pad_m(autopilot: Autopilot) -> float:
     energy). :func:`plan_safe_as_flown` widens on from it where a corner still cuts deeper."""
     if autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
         return 0.0
-    from uavplan.autopilot.params import Parameters, flight_limits
+    from uavplan.autopilot.params import Parameters, guidance_limits
 
-    return flight_limits(Parameters.defaults(autopilot)).acceptance_radius_m
+    return guidance_limits(Parameters.defaults(autopilot)).acceptance_radius_m
 
 
 def plan_padded(

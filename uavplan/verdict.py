@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
+from uavplan.autopilot.params import GuidanceLimits, Parameters, guidance_limits, param_table
 from uavplan.autopilot.power import VehicleSpec
 from uavplan.autopilot.simulate import FlightEnd, FlownTrack
 from uavplan.flavour import Autopilot
@@ -161,7 +161,7 @@ class FailsafeCheck:
     #: where the returns begin, home (site ENU) and the limits they fly by: for the paths
     samples: ReturnSamples | None = field(default=None, repr=False)
     home_enu: tuple[float, float, float] | None = None
-    limits: FlightLimits | None = field(default=None, repr=False)
+    limits: GuidanceLimits | None = field(default=None, repr=False)
 
     def paths(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Every leg of every return checked (brake, climb, way back, leg home) as segments
@@ -502,8 +502,8 @@ def _same_flight(flown: FlownTrack, held: Parameters, plan: MissionPlan) -> bool
         return True
     if any(item.command == MavCmd.NAV_RETURN_TO_LAUNCH for item in plan.items):
         return False
-    before = replace(flight_limits(flown.params), fence_ceiling_m=None, fence_margin_m=0.0)
-    return before == replace(flight_limits(held), fence_ceiling_m=None, fence_margin_m=0.0)
+    before = replace(guidance_limits(flown.params), fence_ceiling_m=None, fence_margin_m=0.0)
+    return before == replace(guidance_limits(held), fence_ceiling_m=None, fence_margin_m=0.0)
 
 
 @dataclass(frozen=True)
@@ -632,7 +632,7 @@ def _failsafe(
     marks: _Marks,
     lands: bool,
 ) -> FailsafeCheck:
-    limits = flight_limits(held)
+    limits = guidance_limits(held)
     param_text = _held_text(autopilot, held, relied, given, rtl_only=True)
     if (
         autopilot is Autopilot.PX4

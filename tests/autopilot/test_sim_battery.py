@@ -152,7 +152,7 @@ def test_the_profile_sets_the_hover_draw(profile: str) -> None:
 
 
 def test_a_simulated_track_prints_and_reports_like_the_estimate() -> None:
-    """The seam for ``simulate`` and ``fly``: the flown track as a FlightEnergy."""
+    """The seam for ``simulate`` and ``fly``: the flown track as a EnergyUse."""
     from uavplan.estimate import flown_energy
 
     track = simulate(synthetic_mission(4, seed=5, autopilot=AP))

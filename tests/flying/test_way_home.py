@@ -426,17 +426,17 @@ def test_a_px4_return_during_the_mission_flies_it_on_to_the_planned_landing(
 
 
 def test_ardupilots_return_stays_under_an_enabled_altitude_fence() -> None:
-    from uavplan.autopilot.params import flight_limits
+    from uavplan.autopilot.params import guidance_limits
     from uavplan.autopilot.rtl import return_altitude_m
 
     high = {"RTL_ALT": 8000.0}
     fenced = {**high, "FENCE_ENABLE": 1.0, "FENCE_ALT_MAX": 50.0}
-    assert float(return_altitude_m(flight_limits(Parameters(AP, high)), 500.0, 30.0)) == 80.0
+    assert float(return_altitude_m(guidance_limits(Parameters(AP, high)), 500.0, 30.0)) == 80.0
     # mode_rtl.cpp: at most the fence's ceiling less FENCE_MARGIN (2 m)
-    capped = flight_limits(Parameters(AP, fenced))
+    capped = guidance_limits(Parameters(AP, fenced))
     assert float(return_altitude_m(capped, 500.0, 30.0)) == 48.0
     assert float(return_altitude_m(capped, 500.0, 60.0)) == 60.0  # never descends
-    without_alt = flight_limits(Parameters(AP, {**fenced, "FENCE_TYPE": 4.0}))
+    without_alt = guidance_limits(Parameters(AP, {**fenced, "FENCE_TYPE": 4.0}))
     assert float(return_altitude_m(without_alt, 500.0, 30.0)) == 80.0
 
 

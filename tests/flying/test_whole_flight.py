@@ -23,7 +23,7 @@ from click.testing import CliRunner
 from helpers.mavlink_helpers import client_conn, running_mock
 from helpers.track_check import scenario_clearance
 
-from uavplan.autopilot.params import Parameters, flight_limits
+from uavplan.autopilot.params import Parameters, guidance_limits
 from uavplan.cli import main
 from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight
@@ -56,8 +56,8 @@ def test_the_stopping_distance_is_the_firmwares() -> None:
     """ArduPilot: inv_sqrt_controller(v, PSC_POSXY_P = 1, WPNAV_ACCEL = 2.5 m/s²): SITL braked
     17 m on at about 9 m/s (issue 32) where this gives 17.45 m; PX4: v²/(2 MPC_ACC_HOR) + 0.6 v
     (Navigator::calculate_breaking_stop)."""
-    ap = flight_limits(Parameters(AP))
-    px4 = flight_limits(Parameters(PX4))
+    ap = guidance_limits(Parameters(AP))
+    px4 = guidance_limits(Parameters(PX4))
     assert stopping_distance_m(ap, 9.0) == pytest.approx(1.25 + 81.0 / 5.0)
     assert stopping_distance_m(ap, 12.0) == pytest.approx(30.05)
     assert stopping_distance_m(ap, 2.0) == pytest.approx(2.0)  # below a/P: linear, v / P

@@ -17,7 +17,7 @@ docs/energy.md describes the model, its limits and its sources.
 from uavplan.airframe.legs import (
     DEFAULT_RESERVE_PCT,
     EnergyBudgetError,
-    FlightEnergy,
+    EnergyUse,
     Legs,
     WindTooStrongError,
     flight_energy,
@@ -37,7 +37,7 @@ __all__ = [
     "DEFAULT_RESERVE_PCT",
     "PROFILES",
     "EnergyBudgetError",
-    "FlightEnergy",
+    "EnergyUse",
     "Legs",
     "VehicleProfile",
     "Wind",

@@ -203,7 +203,7 @@ class LegFigures:
 
 
 @dataclass(frozen=True)
-class FlightEnergy:
+class EnergyUse:
     """Time and energy of a flight, and what they mean for the battery."""
 
     profile_name: str
@@ -303,7 +303,7 @@ def flight_energy(
     *,
     home_altitude_amsl_m: float = 0.0,
     altitude_amsl_m: ArrayLike | None = None,
-) -> FlightEnergy:
+) -> EnergyUse:
     """Fly ``legs`` with ``profile`` in ``wind`` (default calm) from a home at
     ``home_altitude_amsl_m`` (the air density of each leg is the ISA's at home altitude plus
     the leg's height; ``altitude_amsl_m``, one per leg, gives each leg's altitude instead,
@@ -360,7 +360,7 @@ def flight_energy(
         airspeed_m_s=np.where(travel > 0, airspeed, wind_speed),
         vertical_speed_m_s=v_speed,
     )
-    return FlightEnergy(
+    return EnergyUse(
         profile_name=profile.name,
         time_s=float(duration.sum()),
         energy_wh=float(energy_j.sum() / 3600.0),
@@ -407,7 +407,7 @@ __all__ = [
     "DEFAULT_DESCENT_RATE_M_S",
     "DEFAULT_RESERVE_PCT",
     "EnergyBudgetError",
-    "FlightEnergy",
+    "EnergyUse",
     "LegFigures",
     "Legs",
     "WindTooStrongError",

@@ -23,7 +23,7 @@ from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.scenario import Scenario, Surroundings, load_site, load_surroundings
 
 if TYPE_CHECKING:
-    from uavplan.estimate import FlightEstimate
+    from uavplan.estimate import BatteryEstimate
     from uavplan.flightcheck import Flight, FlightCheck
     from uavplan.mission.items import MissionPlan
     from uavplan.rehearsal import CheckSite
@@ -37,7 +37,7 @@ class ScenarioCheck:
     file: str
     scenario: Scenario
     #: the straight route's flight time, energy and battery (the least the flight needs)
-    estimate: FlightEstimate | None = None
+    estimate: BatteryEstimate | None = None
     #: a flight over the battery budget with no vehicle named (not refused), or None
     warning: str | None = None
 
@@ -60,7 +60,7 @@ class MissionCheck:
     plan: MissionPlan
     check: FlightCheck
     #: the mission's flight time, energy and battery with the scenario's vehicle and wind
-    estimate: FlightEstimate | None = None
+    estimate: BatteryEstimate | None = None
     #: a flight over the battery budget let through by --allow-over-battery, or None
     warning: str | None = None
     #: the whole flight judged (None: the flight model does not fly this mission)
@@ -217,7 +217,7 @@ def _mission_estimate(
     flight: Flight,
     reserve_pct: float,
     verdict: FlightVerdict | None = None,
-) -> FlightEstimate:
+) -> BatteryEstimate:
     """The mission's flight time, energy and battery as ``plan`` estimates what it writes:
     the whole flight the verdict judged (the flight model, the parameters the mission relies
     on, the scenario's vehicle and wind: :func:`uavplan.estimate.estimate_flown`); a mission

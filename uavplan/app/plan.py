@@ -20,7 +20,7 @@ from uavplan.app.outputs import Output, OutputSet, check_report_name
 from uavplan.app.reports import export_extras, route_report
 from uavplan.app.reroute import RerouteOutcome, RerouteRequest, reroute_file
 from uavplan.errors import InputError, NoPathError
-from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown, estimate_route
+from uavplan.estimate import DEFAULT_RESERVE_PCT, BatteryEstimate, estimate_flown, estimate_route
 from uavplan.flown_safe import (
     MAX_REPLANS,
     corner_pad_m,
@@ -97,7 +97,7 @@ class PlanOutcome:
     mission: MissionPlan | None = None
     elapsed_s: float = math.nan
     #: the flight's time, energy and battery (docs/energy.md)
-    estimate: FlightEstimate | None = None
+    estimate: BatteryEstimate | None = None
     #: how the route gets home (the RTL proof, a planned return, the parameters)
     way: WayHome | None = None
     #: the whole flight judged with the parameters the mission relies on
@@ -403,7 +403,7 @@ def flight_estimate(
     flown: FlownTrack | None = None,
     *,
     allow_over_battery: bool = False,
-) -> FlightEstimate:
+) -> BatteryEstimate:
     """The planned route's flight time, energy and battery (issue 27): of ``flown``, the
     mission as the flight model flew it with the parameters it relies on (the vehicle's
     power model at every step, the return included), else of the route's flown line. A

@@ -20,7 +20,7 @@ from uavplan.airframe import EnergyBudgetError
 from uavplan.app.feedback import Feedback
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.errors import InputError, NoPathError
-from uavplan.estimate import DEFAULT_RESERVE_PCT, FlightEstimate, estimate_flown
+from uavplan.estimate import DEFAULT_RESERVE_PCT, BatteryEstimate, estimate_flown
 from uavplan.flown_safe import MAX_REPLANS, padded_scenario, widened_until_flown_safe
 from uavplan.mission.io import format_for, mission_text
 from uavplan.mission.items import Autopilot, MissionPlan
@@ -77,7 +77,7 @@ class SurveyOutcome:
     #: the share of the free area the photos' footprints cover (None without a camera)
     covered: float | None
     elapsed_s: float = math.nan
-    estimate: FlightEstimate | None = None
+    estimate: BatteryEstimate | None = None
     verdict: FlightVerdict | None = None
     #: the missions a survey larger than one battery was split into (written instead of
     #: ``output``), each from the start and back to it; empty: one mission
@@ -138,7 +138,7 @@ class SurveyPart:
     route: SurveyRoute
     mission: MissionPlan
     verdict: FlightVerdict | None
-    estimate: FlightEstimate
+    estimate: BatteryEstimate
     area_m2: float
 
     def summary(self) -> str:
@@ -337,7 +337,7 @@ def _split(
     spec: SurveySpec,
     route: SurveyRoute,
     world: World,
-    whole: FlightEstimate,
+    whole: BatteryEstimate,
     output: str,
 ) -> tuple[SurveyPart, ...]:
     """``route``'s lanes split, in their order, into consecutive groups whose missions (each

@@ -22,7 +22,7 @@ from uavplan.autopilot.kinematics import (
     unit,
 )
 from uavplan.autopilot.motion import Motion
-from uavplan.autopilot.params import FlightLimits
+from uavplan.autopilot.params import GuidanceLimits
 
 
 class ScurveLeg:
@@ -34,7 +34,7 @@ class ScurveLeg:
         self,
         origin: Vec,
         dest: Vec,
-        limits: FlightLimits,
+        limits: GuidanceLimits,
         speed_xy: float,
         wind: tuple[float, float],
     ) -> None:
@@ -113,7 +113,7 @@ class TerrainOffset:
     elsewhere in the model). Off terrain it brings itself back to zero. ``z`` is added to
     the leg's altitude: the vehicle is where the leg puts it, ``z`` higher."""
 
-    def __init__(self, limits: FlightLimits) -> None:
+    def __init__(self, limits: GuidanceLimits) -> None:
         self.limits = limits
         self.z = 0.0
         self.v = 0.0
@@ -160,7 +160,7 @@ class ScurveTrack(Motion):
     def __init__(
         self,
         start: Vec,
-        limits: FlightLimits,
+        limits: GuidanceLimits,
         speed_xy: float,
         wind: tuple[float, float],
         ground: Callable[[float, float], float] | None = None,

@@ -58,7 +58,7 @@ from uavplan.autopilot.kinematics import (
 )
 from uavplan.autopilot.motion import TOUCHDOWN_M, Brake, Descend, Hold, Motion
 from uavplan.autopilot.nav import NavItem
-from uavplan.autopilot.params import Parameters, flight_limits
+from uavplan.autopilot.params import Parameters, guidance_limits
 from uavplan.autopilot.px4 import SmoothingTrack
 from uavplan.autopilot.rtl import return_altitude_m
 from uavplan.flavour import Autopilot
@@ -143,7 +143,7 @@ class FlightModel:
             raise ValueError("wind must be finite")
         self.autopilot = params.autopilot
         self.params = params
-        self.limits = flight_limits(params)
+        self.limits = guidance_limits(params)
         self.wind: tuple[float, float] = (we, wn)
         self.dt_s = float(dt_s)
         self._ground = ground_z
@@ -201,7 +201,7 @@ class FlightModel:
             raise ValueError("parameters of another autopilot")
         old = self.limits
         self.params = params
-        self.limits = flight_limits(params)
+        self.limits = guidance_limits(params)
         if self._speed_xy == old.speed_xy_m_s:
             self.set_speed(self.limits.speed_xy_m_s)
 

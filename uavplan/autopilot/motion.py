@@ -13,7 +13,7 @@ from uavplan.autopilot.kinematics import (
     norm,
     scale,
 )
-from uavplan.autopilot.params import FlightLimits
+from uavplan.autopilot.params import GuidanceLimits
 
 #: speeds below this count as standing still
 STILL_M_S = 0.01
@@ -45,7 +45,7 @@ class Brake(Motion):
     """Slow to a stop at the flavour's accelerations (the stopping point both firmwares
     compute before a new task)."""
 
-    def __init__(self, pos: Vec, vel: Vec, limits: FlightLimits) -> None:
+    def __init__(self, pos: Vec, vel: Vec, limits: GuidanceLimits) -> None:
         self.pos, self.vel = pos, vel
         self.limits = limits
         self.done = norm(vel) < STILL_M_S
@@ -74,7 +74,7 @@ class Descend(Motion):
         vel: Vec,
         ground: float,
         speed_at: Callable[[float], float],
-        limits: FlightLimits,
+        limits: GuidanceLimits,
         target_xy: tuple[float, float] | None = None,
     ) -> None:
         self.pos, self.vel = pos, vel

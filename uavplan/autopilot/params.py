@@ -4,7 +4,7 @@ Every row names a firmware parameter exactly as the firmware spells it, its defa
 firmware's own unit (ArduPilot Copter keeps centimetres and cm/s, PX4 metres and m/s), and
 the file in the firmware's source tree that defines that default. :class:`Parameters` holds a
 table's current values: the defaults, changed by name (``--param`` style overrides, or the
-vehicle's PARAM_SET); the flight model reads them through :func:`flight_limits` in SI units.
+vehicle's PARAM_SET); the flight model reads them through :func:`guidance_limits` in SI units.
 
 The tables are also the vehicle's parameter set: PARAM_REQUEST_LIST lists exactly these
 rows, in this order (the index of a row is its ``param_index``). A real autopilot holds
@@ -32,13 +32,13 @@ __all__ = [
     "FENCE_TYPE_ALT_MAX",
     "FENCE_TYPE_POLYGON",
     "PX4_PARAMS",
-    "FlightLimits",
+    "GuidanceLimits",
     "ParamSpec",
     "ParamType",
     "ParameterValueError",
     "Parameters",
     "UnknownParameter",
-    "flight_limits",
+    "guidance_limits",
     "param_table",
     "parameters_from",
 ]
@@ -665,7 +665,7 @@ def parameters_from(
 
 
 @dataclass(frozen=True)
-class FlightLimits:
+class GuidanceLimits:
     """What the flight model needs from the parameters, in SI units (m, s).
 
     ``acceptance_radius_m``: PX4's default acceptance radius (NAV_ACC_RAD), or ArduPilot's
@@ -727,7 +727,7 @@ class FlightLimits:
         return self.autopilot == Autopilot.PX4
 
 
-def flight_limits(params: Parameters) -> FlightLimits:
+def guidance_limits(params: Parameters) -> GuidanceLimits:
     """The SI limits the flight model uses, from the firmware parameters (values outside a
     parameter's range are clamped to it, as the firmware's own sanity checks do for the
     speeds, accelerations and radii)."""
@@ -738,7 +738,7 @@ def flight_limits(params: Parameters) -> FlightLimits:
         accel_xy = p["WPNAV_ACCEL"] * cm
         speed_down = p["WPNAV_SPEED_DN"] * cm
         accel_c = p["WPNAV_ACCEL_C"] * cm or 2.0 * accel_xy
-        return FlightLimits(
+        return GuidanceLimits(
             autopilot=Autopilot.ARDUPILOT,
             speed_xy_m_s=speed_xy,
             speed_xy_max_m_s=20.0,  # WPNAV_SPEED's range; DO_CHANGE_SPEED beyond it is clipped
@@ -778,7 +778,7 @@ def flight_limits(params: Parameters) -> FlightLimits:
             scurve_snap_m_s4=_scurve_snap(p["WPNAV_JERK"], p["ATC_INPUT_TC"]),
         )
     if params.autopilot == Autopilot.PX4:
-        return FlightLimits(
+        return GuidanceLimits(
             autopilot=params.autopilot,
             speed_xy_m_s=min(p["MPC_XY_CRUISE"], p["MPC_XY_VEL_MAX"]),
             speed_xy_max_m_s=p["MPC_XY_VEL_MAX"],

@@ -21,7 +21,7 @@ from uavplan.autopilot.kinematics import (
     unit,
 )
 from uavplan.autopilot.motion import Motion
-from uavplan.autopilot.params import FlightLimits
+from uavplan.autopilot.params import GuidanceLimits
 
 
 class SmoothingTrack(Motion):
@@ -30,7 +30,7 @@ class SmoothingTrack(Motion):
     distance, followed within the acceleration limits."""
 
     def __init__(
-        self, pos: Vec, vel: Vec, limits: FlightLimits, speed_xy: float, wind: tuple[float, float]
+        self, pos: Vec, vel: Vec, limits: GuidanceLimits, speed_xy: float, wind: tuple[float, float]
     ) -> None:
         self.pos, self.vel = pos, vel
         self.limits = limits

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.autopilot.params import FlightLimits
+from uavplan.autopilot.params import GuidanceLimits
 
 __all__ = ["ARDUPILOT_RTL_ALT_MIN_M", "ARDUPILOT_RTL_MIN_CONE_SLOPE", "return_altitude_m"]
 
@@ -37,7 +37,7 @@ ARDUPILOT_RTL_MIN_CONE_SLOPE = 0.5
 
 
 def return_altitude_m(
-    limits: FlightLimits, distance_m: ArrayLike, altitude_m: ArrayLike
+    limits: GuidanceLimits, distance_m: ArrayLike, altitude_m: ArrayLike
 ) -> NDArray[np.float64]:
     """The altitude above home (m) a return flies home at, from points ``distance_m``
     (horizontally) from home at ``altitude_m`` above home (arrays broadcast together; see

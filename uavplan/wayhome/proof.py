@@ -62,7 +62,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from uavplan.autopilot.params import FlightLimits, Parameters, flight_limits, param_table
+from uavplan.autopilot.params import GuidanceLimits, Parameters, guidance_limits, param_table
 from uavplan.autopilot.rtl import ARDUPILOT_RTL_ALT_MIN_M, return_altitude_m
 from uavplan.flavour import Autopilot
 from uavplan.flightcheck import Flight
@@ -134,9 +134,9 @@ RTL_PARAMETERS = {
 }
 
 
-def firmware_rtl(autopilot: Autopilot) -> FlightLimits:
+def firmware_rtl(autopilot: Autopilot) -> GuidanceLimits:
     """The firmware's return behaviour at its parameter defaults (cone, climb, descent)."""
-    return flight_limits(Parameters.defaults(autopilot))
+    return guidance_limits(Parameters.defaults(autopilot))
 
 
 def default_rtl_altitude_m(autopilot: Autopilot) -> float:
@@ -148,7 +148,7 @@ def default_rtl_altitude_m(autopilot: Autopilot) -> float:
     raise KeyError(spec.name)  # pragma: no cover - the tables hold both
 
 
-def stopping_distance_m(limits: FlightLimits, speed_m_s: ArrayLike) -> NDArray[np.float64]:
+def stopping_distance_m(limits: GuidanceLimits, speed_m_s: ArrayLike) -> NDArray[np.float64]:
     """How far (m) a multicopter moving at ``speed_m_s`` horizontally goes on before its
     return turns home (see the module docstring): ArduPilot's stopping point
     (``inv_sqrt_controller(v, PSC_POSXY_P, WPNAV_ACCEL)``), PX4's braking distance
@@ -422,7 +422,7 @@ def prove_rtl(
     autopilot: Autopilot,
     ceiling_m: float,
     name_of: Callable[[int], str],
-    limits: FlightLimits | None = None,
+    limits: GuidanceLimits | None = None,
     step_m: float | None = None,
     samples: ReturnSamples | None = None,
     speed_m_s: float | None = None,
@@ -551,7 +551,7 @@ def check_returns(
     samples: ReturnSamples,
     *,
     home_enu: tuple[float, float, float],
-    limits: FlightLimits,
+    limits: GuidanceLimits,
     name_of: Callable[[int], str],
     ceiling_m: float | None = None,
 ) -> ReturnsVerdict:
@@ -609,7 +609,7 @@ class _Returns:
         world: World,
         samples: ReturnSamples,
         home: tuple[float, float, float],
-        limits: FlightLimits,
+        limits: GuidanceLimits,
     ) -> None:
         self.world = world
         self.obstacles = world.without_ground()
@@ -856,7 +856,7 @@ class _Describer:
 
 
 def return_paths(
-    samples: ReturnSamples, home_enu: tuple[float, float, float], limits: FlightLimits
+    samples: ReturnSamples, home_enu: tuple[float, float, float], limits: GuidanceLimits
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Every leg of the returns from ``samples`` at the RTL altitude of ``limits`` (the brake,
     the climb, PX4's way back and the legs home) as segments ``(a, b)`` ``(n, 3)``: the lines
