@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import reprlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from typing import Any, Literal, TypeVar
@@ -797,12 +797,6 @@ def resolved_planner(cfg: PlannerConfig, algorithm: str | None = None) -> dict[s
         "postprocess": entry.postprocess,
         "margin_pad_m": MARGIN_PAD_M,
     }
-
-
-def iter_fields(cls: type) -> Iterator[tuple[str, str, Any, str]]:
-    """(user key, documented range, default, doc) of every field of ``cls`` (for the docs)."""
-    for f in fields(cls):
-        yield user_key(f), describe(f), f.default, f.metadata.get("doc", "")
 
 
 # ---------------------------------------------------------------------------------------------
