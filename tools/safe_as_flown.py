@@ -131,8 +131,8 @@ def main() -> int:
                 started = time.perf_counter()
                 safe = plan_safe_as_flown(scenario, result)
                 extra_s = time.perf_counter() - started
-                assert safe.route is not None and safe.flight is not None
-                after = rehearse(mission_for(scenario, safe.route), site)
+                assert safe.result.route is not None and safe.flight is not None
+                after = rehearse(mission_for(scenario, safe.result.route), site)
                 rows += 1
                 for name, r in (("radius", radius), ("stop", stop), ("margin", after)):
                     kept[name] += bool(r.check is not None and r.check.ok)

@@ -16,7 +16,7 @@ from typing import Generic, TypeVar
 
 from uavplan.errors import InputError, NoPathError, ScenarioError
 from uavplan.flavour import Autopilot
-from uavplan.flightcheck import TrackCheck
+from uavplan.flightcheck import FlightPrediction, TrackCheck
 from uavplan.mission.items import MissionPlan
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, mission_for, plan_route
@@ -28,6 +28,7 @@ from uavplan.worlds import padded_world
 
 __all__ = [
     "MAX_REPLANS",
+    "Flown",
     "Widened",
     "corner_pad_m",
     "grown_pad",
@@ -45,6 +46,24 @@ MAX_REPLANS = 4
 PAD_STEP_M = 0.1
 #: what the margin grows by when the track leaves the flight volume (m)
 VOLUME_PAD_M = 1.0
+
+
+_R = TypeVar("_R", RouteResult, RerouteResult)
+
+
+@dataclass(frozen=True)
+class Flown(Generic[_R]):
+    """A route (planned, or a rerouted plan) and what the flight model predicts for its
+    mission: ``flight``, the mission flown as its autopilot flies it (None for an autopilot
+    the model does not fly, a route that was not had, or an interrupted one). The planning
+    layer's result knows nothing of the flight; this record is what the use cases carry."""
+
+    result: _R
+    flight: FlightPrediction | None = None
+
+    @property
+    def interrupted(self) -> bool:
+        return self.result.interrupted
 
 
 def corner_pad_m(autopilot: Autopilot) -> float:
@@ -98,9 +117,9 @@ def plan_safe_as_flown(
     site: CheckSite | None = None,
     pad_m: float = 0.0,
     should_stop: Callable[[], bool] | None = None,
-) -> RouteResult:
+) -> Flown[RouteResult]:
     """``result`` (a planned route of ``scenario``) with its predicted flight
-    (``result.flight``): the mission flown as the scenario's autopilot flies it. When that
+    (:attr:`Flown.flight`): the mission flown as the scenario's autopilot flies it. When that
     track comes closer than the margin, the route is planned again with the margin grown by
     what it lacked (plus :data:`PAD_STEP_M`), up to :data:`MAX_REPLANS` times; the result's
     notes say so. A result whose track still breaks the margin has ``flight.keeps_margin``
@@ -110,7 +129,7 @@ def plan_safe_as_flown(
     """
     autopilot = scenario.mission.autopilot
     if result.route is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
-        return result
+        return Flown(result)
     site = site or CheckSite.of_scenario(scenario)
     flying = conditions_of(scenario)
     runtime_s = result.runtime_s
@@ -131,18 +150,18 @@ def plan_safe_as_flown(
 
 
 def refresh_flight(
-    scenario: Scenario, result: RouteResult, site: CheckSite | None = None
-) -> RouteResult:
-    """``result`` with its predicted flight flown again (its route changed after
+    scenario: Scenario, flown: Flown[RouteResult], site: CheckSite | None = None
+) -> Flown[RouteResult]:
+    """``flown`` with its predicted flight flown again (its route changed after
     :func:`plan_safe_as_flown`: a planned return added by the way home), keeping how much
-    wider the margin was planned. A result without a prediction is returned as it is."""
-    before = result.flight
-    if before is None or result.route is None:
-        return result
+    wider the margin was planned. A route without a prediction is returned as it is."""
+    before, route = flown.flight, flown.result.route
+    if before is None or route is None:
+        return flown
     site = site or CheckSite.of_scenario(scenario)
-    rehearsal = rehearse(mission_for(scenario, result.route), site, **conditions_of(scenario))
+    rehearsal = rehearse(mission_for(scenario, route), site, **conditions_of(scenario))
     flight = rehearsal.prediction(margin_pad_m=before.margin_pad_m, gave_up=before.gave_up)
-    return replace(result, flight=flight)
+    return Flown(flown.result, flight)
 
 
 def reroute_safe_as_flown(
@@ -154,14 +173,14 @@ def reroute_safe_as_flown(
     name: str,
     file: str | None,
     should_stop: Callable[[], bool] | None = None,
-) -> RerouteResult:
+) -> Flown[RerouteResult]:
     """:func:`plan_safe_as_flown` for a rerouted QGroundControl plan: ``result`` (the
     reroute of ``source``) with its predicted flight, rerouted again with a wider margin
     (up to :data:`MAX_REPLANS` times) while the track breaks the margin of its airspace."""
     autopilot = result.plan.autopilot
     site = CheckSite.of_plan(result.plan, base=base, file=file)
     if site is None or autopilot not in (Autopilot.PX4, Autopilot.ARDUPILOT):
-        return result
+        return Flown(result)
 
     def fly(rerouted: RerouteResult) -> Rehearsal:
         return rehearse(rerouted.plan, site)
@@ -177,7 +196,6 @@ def reroute_safe_as_flown(
 
 
 _T = TypeVar("_T")
-_R = TypeVar("_R", RouteResult, RerouteResult)
 
 
 @dataclass(frozen=True)
@@ -240,11 +258,11 @@ def _widened_until_flown_safe(
     autopilot: Autopilot,
     verb: str,
     pad_m: float = 0.0,
-) -> _R:
+) -> Flown[_R]:
     """:func:`widened_until_flown_safe` for :func:`plan_safe_as_flown` and
     :func:`reroute_safe_as_flown`: ``result`` flown, planned (rerouted) again while its flight
     breaks the margin. Returns the last result with its predicted flight and the notes saying
-    what was done; an interrupted result as it is."""
+    what was done; an interrupted result as it is (without a flight)."""
 
     # each attempt is a result and its flight (None: it was interrupted)
     def again(pad: float) -> tuple[_R, Rehearsal | None] | str:
@@ -274,11 +292,11 @@ def _widened_until_flown_safe(
     last: _R = ended.value[0]
     rehearsal = ended.value[1]
     if ended.stopped or rehearsal is None:
-        return last
+        return Flown(last)
     # the return to launch at the mission's end is judged with the whole flight, at the RTL
     # altitude the mission relies on (uavplan.verdict), not here
     flight = rehearsal.prediction(margin_pad_m=ended.pad_m, gave_up=ended.gave_up)
-    return replace(last, notes=(*last.notes, *ended.notes), flight=flight)
+    return Flown(replace(last, notes=(*last.notes, *ended.notes)), flight)
 
 
 def padded_scenario(scenario: Scenario, pad_m: float) -> Scenario:

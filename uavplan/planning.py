@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from uavplan.config import MARGIN_PAD_M, EndAction, PostParams, Selection, planner_entry
-from uavplan.flightcheck import Flight, FlightPrediction, flight_clearance
+from uavplan.flightcheck import Flight, flight_clearance
 from uavplan.ground import Ground
 from uavplan.obstacles import Obstacle
 from uavplan.outcome import LegFailure, RouteFailure, SearchEnd
@@ -76,8 +76,6 @@ class RouteResult:
     guide_s: float = 0.0
     #: the legs between consecutive route points (one without via points)
     legs: tuple[Leg, ...] = ()
-    #: the flight the model predicts for the route's mission (uavplan.rehearsal), if rehearsed
-    flight: FlightPrediction | None = None
 
     @property
     def ok(self) -> bool:

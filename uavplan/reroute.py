@@ -61,7 +61,6 @@ from uavplan.airspace import (
     stretch_obstacles,
 )
 from uavplan.errors import InputError, NoPathError
-from uavplan.flightcheck import FlightPrediction
 from uavplan.geo import EnuFrame
 from uavplan.ground import Ground
 from uavplan.mission.items import (
@@ -150,8 +149,6 @@ class RerouteResult:
     frame: EnuFrame | None = None
     #: the user's positions in flight order (ENU metres)
     positions_enu: tuple[tuple[float, float, float], ...] = ()
-    #: the flight the model predicts for the plan (uavplan.rehearsal), if rehearsed
-    flight: FlightPrediction | None = None
 
     @property
     def routes(self) -> tuple[RouteResult, ...]:

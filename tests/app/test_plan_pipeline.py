@@ -37,7 +37,7 @@ def test_one_plan_splits_its_obstacles_once_and_writes_the_mission_it_flew(
     outcome = plan(PlanRequest(str(MISSIONS / f"{name}.yaml"), str(out)), Feedback())
     assert outcome.mission is not None and outcome.result.route is not None
     assert len(splits) == 1, splits
-    flight = outcome.result.flight
+    flight = outcome.flight
     assert flight is not None and flight.mission is not None
     # the mission written is the one the prediction flew, and the route's as built afresh
     afresh = mission_for(outcome.scenario, outcome.result.route)

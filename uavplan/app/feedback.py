@@ -13,6 +13,7 @@ from uavplan.errors import NoPathError
 from uavplan.scenario import Scenario
 
 if TYPE_CHECKING:  # planning loads numpy and the kernels: `validate` needs neither
+    from uavplan.flightcheck import FlightPrediction
     from uavplan.planning import RouteResult
     from uavplan.route import PlannedRoute
 
@@ -110,9 +111,12 @@ class PlannerOptions:
         return replace(scenario, planner=self.apply_to(scenario.planner))
 
 
-def require_route(scenario: Scenario, result: RouteResult) -> PlannedRoute:
-    """The planned route, or the error that says why there is none (exit 3). An interrupted
-    result is the caller's to report before it asks."""
+def require_route(
+    scenario: Scenario, result: RouteResult, flight: FlightPrediction | None = None
+) -> PlannedRoute:
+    """The planned route, or the error that says why there is none (exit 3): none found, one
+    closer than the margin, or one whose predicted ``flight`` breaks it. An interrupted result
+    is the caller's to report before it asks."""
     if not result.ok or result.route is None:
         raise NoPathError(f"{scenario.name}: no collision-free path: {result.message}")
     if not result.collision_free:
@@ -120,7 +124,6 @@ def require_route(scenario: Scenario, result: RouteResult) -> PlannedRoute:
             f"{scenario.name}: the route comes within {result.min_clearance_m:.2f} m of an "
             f"obstacle (safety margin {scenario.safety_margin_m:g} m)"
         )
-    flight = result.flight
     problem = None if flight is None else flight.problem()
     if problem is not None:
         raise NoPathError(f"{scenario.name}: {problem}")
@@ -130,3 +133,12 @@ def require_route(scenario: Scenario, result: RouteResult) -> PlannedRoute:
 def plural(count: int, noun: str, nouns: str | None = None) -> str:
     """``1 iteration``, ``2 iterations`` (``nouns``: an irregular plural)."""
     return f"{count} {noun if count == 1 else (nouns or noun + 's')}"
+
+
+def flight_text(flight: FlightPrediction | None) -> str:
+    """``, flight 7 min 36 s (ardupilot flight model)``: the predicted flight's time, for a
+    summary line ("" when the route was not rehearsed)."""
+    if flight is None:
+        return ""
+    minutes, seconds = divmod(round(flight.flight_time_s), 60)
+    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from uavplan.app.feedback import Feedback, PlannerOptions, plural, require_route
+from uavplan.app.feedback import Feedback, PlannerOptions, flight_text, plural, require_route
 from uavplan.app.inputs import load_scenario_file
 from uavplan.app.outputs import Output, OutputSet, check_report_name
 from uavplan.app.reports import export_extras, route_report
@@ -23,6 +23,7 @@ from uavplan.errors import InputError, NoPathError
 from uavplan.estimate import DEFAULT_RESERVE_PCT, BatteryEstimate, estimate_flown, estimate_route
 from uavplan.flown_safe import (
     MAX_REPLANS,
+    Flown,
     corner_pad_m,
     plan_padded,
     plan_safe_as_flown,
@@ -102,6 +103,8 @@ class PlanOutcome:
     way: WayHome | None = None
     #: the whole flight judged with the parameters the mission relies on
     verdict: FlightVerdict | None = None
+    #: what the flight model predicts for the mission (the whole flight judged), if rehearsed
+    flight: FlightPrediction | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -119,7 +122,7 @@ class PlanOutcome:
             f"goal, energy {result.energy:.1f} (path {e_path:.1f}, turning {fixed(e_turn, 2)}, "
             f"climb {e_climb:.1f}), min clearance {route.min_clearance_m:.2f} m, planned in "
             f"{result.runtime_s:.2f} s ({self.elapsed_s:.2f} s in all, reading and writing "
-            f"included){flight_text(result)}"
+            f"included){flight_text(self.flight)}"
         )
 
 
@@ -127,15 +130,6 @@ def fixed(value: float, digits: int) -> str:
     """``value`` with ``digits`` decimals, never ``-0.00`` (a tiny negative rounds to 0)."""
     text = f"{value:.{digits}f}"
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
-
-
-def flight_text(result: RouteResult) -> str:
-    """``, flight 7 min 36 s (ardupilot flight model)``: the predicted flight time."""
-    flight = result.flight
-    if flight is None:
-        return ""
-    minutes, seconds = divmod(round(flight.flight_time_s), 60)
-    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
 def plan(request: PlanRequest, feedback: Feedback) -> PlanOutcome | RerouteOutcome | SurveyOutcome:
@@ -203,48 +197,50 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
     site = CheckSite.of_scenario(scn)
     with outputs:
         with feedback.polled():
-            result, pad = _search(scn, feedback, site.world)
-            if result.collision_free:  # and the track the flight model predicts keeps it too
-                result = plan_safe_as_flown(
-                    scn, result, site=site, pad_m=pad, should_stop=feedback.should_stop
+            found, pad = _search(scn, feedback, site.world)
+            planned = Flown(found)
+            if found.collision_free:  # and the track the flight model predicts keeps it too
+                planned = plan_safe_as_flown(
+                    scn, found, site=site, pad_m=pad, should_stop=feedback.should_stop
                 )
-            flown = None if result.flight is None else result.flight.flown
+            result, flight = planned.result, planned.flight
             way = (
                 None
                 if result.route is None
-                else _way_home(scn, site, result.route, request, feedback, flown=flown)
+                else _way_home(scn, site, result.route, request, feedback, flown=_flown(flight))
             )
         if result.interrupted or (way is not None and way.interrupted):
             return PlanOutcome(scn, result, request.output, way=way)
-        route = require_route(scn, result)
+        route = require_route(scn, result, flight)
         if way is not None and way.route is not route:
             # the route as flown with its planned return: the flight model flies that mission
-            way, result = _return_safe_as_flown(scn, site, result, way, request, feedback)
+            way, planned = _return_safe_as_flown(scn, site, planned, way, request, feedback)
+            result, flight = planned.result, planned.flight
             if result.interrupted or way.interrupted:
                 return PlanOutcome(scn, result, request.output, way=way)
-            route = require_route(scn, result)
-            if not way.switched and result.flight is not None and result.flight.flown is not None:
+            route = require_route(scn, result, flight)
+            if not way.switched and flight is not None and flight.flown is not None:
                 # end: return: the failsafe from every point of that mission, its planned
                 # return included (a switched return replaces an RTL the outbound flight
                 # already proved unusable: more points cannot make it usable)
-                way = way.proven_on(scn, result.flight.flown, site)
-        flight = result.flight  # the mission its prediction flew is the route's: built once
+                way = way.proven_on(scn, flight.flown, site)
+        # the mission its prediction flew is the route's: built once
         mission = None if flight is None else flight.mission
         if mission is None:
             mission = mission_for(scn, route)
         if way is not None:
             mission = replace(mission, parameters=way.parameters)
-        verdict = _judge(scn, site, mission, None if result.flight is None else result.flight.flown)
+        verdict = _judge(scn, site, mission, _flown(flight))
         if verdict is not None:
             problem = verdict.problem()
             if problem is not None:
                 raise NoPathError(problem)
-            result = replace(result, flight=_predicted(verdict, result, mission))
+            flight = _predicted(verdict, flight, mission)
         mission, built = _fenced(scn, route, mission, request, verdict)
         from uavplan.mavlink.storage import check_storage  # the vehicle's storage
 
         check_storage(mission, scn.mission.max_items, file=request.output)
-        flown = None if result.flight is None else result.flight.flown
+        flown = _flown(flight)
         estimate = flight_estimate(
             scn,
             route,
@@ -258,7 +254,7 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
             mission_text(mission, request.output, extras=lambda: export_extras(scn, route, summary))
         )
         if report_out is not None:
-            report = {**route_report(result, scn), **estimate.report_fields()}
+            report = {**route_report(result, scn, flight), **estimate.report_fields()}
             if way is not None:
                 report.update(way.report())
             if verdict is not None:
@@ -312,7 +308,13 @@ def plan_scenario(request: PlanRequest, feedback: Feedback) -> PlanOutcome:
         estimate=estimate,
         way=way,
         verdict=verdict,
+        flight=flight,
     )
+
+
+def _flown(flight: FlightPrediction | None) -> FlownTrack | None:
+    """The track of a predicted flight (None: not rehearsed)."""
+    return None if flight is None else flight.flown
 
 
 def legal_ceiling_option(text: str) -> float | None:
@@ -347,13 +349,13 @@ def _judge(
 
 
 def _predicted(
-    verdict: FlightVerdict, result: RouteResult, mission: MissionPlan
+    verdict: FlightVerdict, before: FlightPrediction | None, mission: MissionPlan
 ) -> FlightPrediction:
     """The predicted flight the report and the summary give: the whole flight judged (of
-    ``mission``, with the parameters it relies on)."""
+    ``mission``, with the parameters it relies on), keeping how much wider than the margin
+    the route was planned (``before``: the prediction that widened it)."""
     from uavplan.flightcheck import FlightPrediction
 
-    before = result.flight
     rehearsal = verdict.rehearsal
     assert rehearsal is not None
     return FlightPrediction(
@@ -468,29 +470,31 @@ def _way_home(
 def _return_safe_as_flown(
     scn: Scenario,
     site: CheckSite,
-    result: RouteResult,
+    planned: Flown[RouteResult],
     way: WayHome,
     request: PlanRequest,
     feedback: Feedback,
-) -> tuple[WayHome, RouteResult]:
+) -> tuple[WayHome, Flown[RouteResult]]:
     """The planned return (``way``) flown with the route by the flight model; where the
     autopilot's flight of it comes closer than the margin (it cuts the return's corners as
     it cuts the route's), the return is planned again keeping what it lacked more: the widen
-    loop of :func:`~uavplan.flown_safe.widened_until_flown_safe`. The result's flight is
+    loop of :func:`~uavplan.flown_safe.widened_until_flown_safe`. The flight returned is
     that mission's; a return that could not be made safe says why in its ``gave_up``."""
+    result = planned.result
     route = result.route
     assert route is not None
 
-    def flown(home: WayHome) -> tuple[WayHome, RouteResult]:
-        return home, refresh_flight(scn, replace(result, route=home.route), site)
+    def flown(home: WayHome) -> tuple[WayHome, Flown[RouteResult]]:
+        with_return = Flown(replace(result, route=home.route), planned.flight)
+        return home, refresh_flight(scn, with_return, site)
 
-    def again(allowance: float) -> tuple[WayHome, RouteResult]:
+    def again(allowance: float) -> tuple[WayHome, Flown[RouteResult]]:
         home = _way_home(scn, site, route, request, feedback, allowance)
         if home.interrupted or home.route is route:  # stopped, or no planned return now
-            return home, result
+            return home, planned
         return flown(home)
 
-    def check_of(value: tuple[WayHome, RouteResult]) -> TrackCheck | None:
+    def check_of(value: tuple[WayHome, Flown[RouteResult]]) -> TrackCheck | None:
         flight = value[1].flight
         return None if flight is None else flight.check
 
@@ -512,8 +516,9 @@ def _return_safe_as_flown(
     flight = refreshed.flight
     if ended.gave_up and flight is not None:
         gave_up = "; ".join(part for part in (flight.gave_up, ended.gave_up) if part)
-        refreshed = replace(refreshed, flight=replace(flight, gave_up=gave_up))
-    return way, replace(refreshed, notes=(*refreshed.notes, *ended.notes))
+        flight = replace(flight, gave_up=gave_up)
+    noted = replace(refreshed.result, notes=(*refreshed.result.notes, *ended.notes))
+    return way, Flown(noted, flight)
 
 
 def _search(scn: Scenario, feedback: Feedback, world: World) -> tuple[RouteResult, float]:

@@ -23,9 +23,11 @@ if TYPE_CHECKING:
     from uavplan.scenario import Scenario
 
 
-def route_report(result: RouteResult, scenario: Scenario) -> dict[str, Any]:
+def route_report(
+    result: RouteResult, scenario: Scenario, flight: FlightPrediction | None = None
+) -> dict[str, Any]:
     """The report of one planned route (SPEC §3 keys, the run's budget and the resolved
-    configuration)."""
+    configuration), with its predicted ``flight`` when it was rehearsed."""
     path, turning, climb = result.energy_terms
     pr = result.planner
     route = result.route
@@ -55,7 +57,7 @@ def route_report(result: RouteResult, scenario: Scenario) -> dict[str, Any]:
         "notes": list(result.notes),
         "guide_s": result.guide_s,
         "legs": [leg.summary() for leg in result.legs],
-        **_flight_entries(result.flight),
+        **_flight_entries(flight),
         **({} if scenario.airspace is None else {"airspace": scenario.airspace.report()}),
         "config": {
             **resolved_config(scenario, result.algorithm),
@@ -64,8 +66,9 @@ def route_report(result: RouteResult, scenario: Scenario) -> dict[str, Any]:
     }
 
 
-def reroute_report(result: RerouteResult) -> dict[str, Any]:
-    """The report of a rerouted plan: totals, the legs of every planning run, the notes."""
+def reroute_report(result: RerouteResult, flight: FlightPrediction | None = None) -> dict[str, Any]:
+    """The report of a rerouted plan: totals, the legs of every planning run, the notes, and
+    its predicted ``flight`` when it was rehearsed."""
     return {
         "input": "qgc-plan",
         "scenario": result.name,
@@ -81,7 +84,7 @@ def reroute_report(result: RerouteResult) -> dict[str, Any]:
         "end": result.end,
         "notes": list(result.notes),
         "runs": [route_report(r, scn) for scn, r in result.runs],
-        **_flight_entries(result.flight),
+        **_flight_entries(flight),
     }
 
 

@@ -12,17 +12,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from uavplan.airspace import OUTSIDE_INCLUSION, Airspace
-from uavplan.app.feedback import Feedback, PlannerOptions, plural
+from uavplan.app.feedback import Feedback, PlannerOptions, flight_text, plural
 from uavplan.app.outputs import OutputSet, check_report_name
 from uavplan.app.reports import reroute_report
 from uavplan.config import PlannerConfig
 from uavplan.errors import InputError, NoPathError
-from uavplan.flown_safe import reroute_safe_as_flown
+from uavplan.flown_safe import Flown, reroute_safe_as_flown
 from uavplan.mission.io import load_mission, mission_text
 from uavplan.reroute import RerouteResult, reroute_plan
 from uavplan.scenario import Surroundings, load_surroundings
 
 if TYPE_CHECKING:
+    from uavplan.flightcheck import FlightPrediction
     from uavplan.mission.items import MissionPlan
     from uavplan.render import Scene
     from uavplan.verdict import FlightVerdict
@@ -53,6 +54,8 @@ class RerouteOutcome:
     result: RerouteResult
     output: str
     elapsed_s: float = math.nan
+    #: what the flight model predicts for the rerouted plan, if rehearsed
+    flight: FlightPrediction | None = None
 
     @property
     def interrupted(self) -> bool:
@@ -66,16 +69,8 @@ class RerouteOutcome:
             f"{len(r.plan.items) - r.inserted}), {r.length_m:.0f} m flown from take-off, "
             f"min clearance {r.min_clearance_m:.2f} m "
             f"(margin {r.safety_margin_m:g} m), rerouted in {self.elapsed_s:.2f} s "
-            f"(the search {r.runtime_s:.2f} s of it){_flight_text(r)}"
+            f"(the search {r.runtime_s:.2f} s of it){flight_text(self.flight)}"
         )
-
-
-def _flight_text(result: RerouteResult) -> str:
-    flight = result.flight
-    if flight is None:
-        return ""
-    minutes, seconds = divmod(round(flight.flight_time_s), 60)
-    return f", flight {minutes} min {seconds:02d} s ({flight.autopilot} flight model)"
 
 
 def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
@@ -130,8 +125,9 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
                     progress=bar,
                     should_stop=feedback.should_stop,
                 )
+                flown = Flown(result)
                 if not result.interrupted:  # the track the flight model predicts keeps it too
-                    result = reroute_safe_as_flown(
+                    flown = reroute_safe_as_flown(
                         plan,
                         result,
                         base=base,
@@ -143,9 +139,10 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
         finally:
             if bar is not None:
                 bar.close()
+        result, flight = flown.result, flown.flight
         if result.interrupted:
             return RerouteOutcome(result, request.output)
-        problem = None if result.flight is None else result.flight.problem()
+        problem = None if flight is None else flight.problem()
         if problem is not None:
             raise NoPathError(f"{request.source}: {problem}")
         verdict = _judged(result, base, request.source)
@@ -153,7 +150,7 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
             raise NoPathError(f"{request.source}: {verdict.problem()}")
         plan_out.write_text(mission_text(result.plan, request.output))
         if report_out is not None:
-            report_out.write_text(json.dumps(reroute_report(result), indent=2) + "\n")
+            report_out.write_text(json.dumps(reroute_report(result, flight), indent=2) + "\n")
         if plot_out is not None:
             plot_out.write_bytes(_picture(result, name))
         outputs.commit()
@@ -163,7 +160,7 @@ def reroute_file(request: RerouteRequest, feedback: Feedback) -> RerouteOutcome:
         feedback.say(verdict.summary())
         for line in verdict.warnings():
             feedback.warn(line)
-    return RerouteOutcome(result, request.output, time.perf_counter() - t0)
+    return RerouteOutcome(result, request.output, time.perf_counter() - t0, flight)
 
 
 def written_infringements(plan: MissionPlan, base: Surroundings) -> list[str]:
