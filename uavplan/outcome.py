@@ -7,6 +7,9 @@ planning wiring and the rerouting (STYLE: expected outcomes are values, not exce
 * :class:`RouteFailure`: why a route between two route points could not be had.
 * :class:`LegFailure`: which leg failed (a value, not a regular expression over a message),
   why, and the message for the user.
+* :class:`Ended`: the one small protocol every expected end speaks, from the search to the
+  transfer, the flight and the start refusal: ``ok``, ``interrupted``, a ``reason`` (an enum
+  value), a ``message`` and the ``step``.
 
 An interrupt is one of these values (``SearchEnd.INTERRUPTED`` ends the search,
 ``RouteFailure.INTERRUPTED`` the route); the command line turns it into exit 130. No library
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 
 class SearchEnd(enum.StrEnum):
@@ -67,3 +71,37 @@ class LegFailure:
         """``detail``, prefixed with ``leg i of n: `` when the route has several legs."""
         where = f"leg {self.leg + 1} of {self.legs}: " if self.legs > 1 else ""
         return where + self.detail
+
+
+@runtime_checkable
+class Ended(Protocol):
+    """How an expected operation ended, in one vocabulary (issue 36): the search and the
+    planning (:class:`uavplan.planning.RouteResult`), the rerouting
+    (:class:`uavplan.reroute.RerouteResult`), a mission transfer
+    (:class:`uavplan.mavlink.protocol.TransferOutcome`), a parameter
+    (:class:`uavplan.mavlink.parameters.ParamResult`), a command sequence
+    (:class:`uavplan.mavlink.flightmachines.CommandOutcome`), a flight (``fly``'s
+    :class:`uavplan.app.fly.FlyOutcome`) and the start refusal
+    (:class:`uavplan.autopilot.simulate.StartRefusal`).
+
+    ``ok``: it ended as asked. ``interrupted``: a Ctrl-C ended it (not ok). ``reason``: the
+    enum value saying why it is not ok (each operation's own: :class:`RouteFailure`, a
+    ``TransferStatus``, ...), None when ok. ``message``: that in words for the user ("" when
+    there is nothing to say). ``step``: where it ended (the leg, the protocol step, the
+    command), "" when ok or when it has no steps. Errors (what the user or the vehicle got
+    wrong beyond an expected end) are exceptions, not these."""
+
+    @property
+    def ok(self) -> bool: ...
+
+    @property
+    def interrupted(self) -> bool: ...
+
+    @property
+    def reason(self) -> enum.Enum | None: ...
+
+    @property
+    def message(self) -> str: ...
+
+    @property
+    def step(self) -> str: ...

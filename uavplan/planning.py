@@ -97,6 +97,17 @@ class RouteResult:
         return "" if self.failure is None else self.failure.message
 
     @property
+    def reason(self) -> RouteFailure | None:
+        """Why there is no route (:class:`~uavplan.outcome.Ended`); None: planned."""
+        return None if self.failure is None else self.failure.reason
+
+    @property
+    def step(self) -> str:
+        """The leg that failed, ``leg 2 of 3`` (:class:`~uavplan.outcome.Ended`); "": planned."""
+        f = self.failure
+        return "" if f is None else f"leg {f.leg + 1} of {f.legs}"
+
+    @property
     def collision_free(self) -> bool:
         return self.route is not None and self.route.collision_free
 

@@ -70,6 +70,7 @@ from uavplan.mission.items import (
     MissionPlan,
     canonical_frame,
 )
+from uavplan.outcome import RouteFailure
 from uavplan.planners.base import ProgressFn
 from uavplan.planning import RouteResult, over_ground, plan_route
 from uavplan.route import EndAction, Follow
@@ -127,10 +128,12 @@ class UserRoute:
     notes: tuple[str, ...] = ()
 
 
-@dataclass
+@dataclass(frozen=True)
 class RerouteResult:
     """The rerouted plan and how it was made (``interrupted``: a Ctrl-C ended the planning;
-    ``plan`` is then the user's, unchanged)."""
+    ``plan`` is then the user's, unchanged). A route that cannot be had is an error
+    (:func:`reroute_plan` raises), so the only end besides ``ok`` is the interrupt
+    (:class:`~uavplan.outcome.Ended`)."""
 
     plan: MissionPlan
     name: str
@@ -149,6 +152,22 @@ class RerouteResult:
     frame: EnuFrame | None = None
     #: the user's positions in flight order (ENU metres)
     positions_enu: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return not self.interrupted
+
+    @property
+    def reason(self) -> RouteFailure | None:
+        return RouteFailure.INTERRUPTED if self.interrupted else None
+
+    @property
+    def message(self) -> str:
+        return "interrupted" if self.interrupted else ""
+
+    @property
+    def step(self) -> str:
+        return ""
 
     @property
     def routes(self) -> tuple[RouteResult, ...]:

@@ -168,9 +168,7 @@ def command_mode(address: tuple[str, int], kind: ModeKind) -> None:
     with other_ground_station(address) as link:
         outcome = FlightClient(link, FlightTimeouts()).change_mode(kind)
         if not outcome.ok:
-            raise RuntimeError(
-                f"the other ground station's mode change failed: {outcome.message()}"
-            )
+            raise RuntimeError(f"the other ground station's mode change failed: {outcome.message}")
 
 
 def upload_other_mission(address: tuple[str, int], plan: MissionPlan) -> int:

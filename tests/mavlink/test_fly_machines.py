@@ -97,7 +97,7 @@ def test_a_command_without_an_answer_fails_after_its_retries() -> None:
     assert [len(s) for s in sent] == [1, 1, 0]
     outcome = machine.finished
     assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
-    assert "no COMMAND_ACK after 3 tries" in outcome.message()  # type: ignore[attr-defined]
+    assert "no COMMAND_ACK after 3 tries" in outcome.message  # type: ignore[attr-defined]
 
 
 def test_a_refusal_quotes_the_text_that_trails_its_ack() -> None:
@@ -116,7 +116,7 @@ def test_a_refusal_quotes_the_text_that_trails_its_ack() -> None:
     machine.on_timeout(0.7)
     outcome = machine.finished
     assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
-    text = outcome.message()  # type: ignore[attr-defined]
+    text = outcome.message  # type: ignore[attr-defined]
     assert '"Auto: Missing Takeoff Cmd"' in text and "MAV_RESULT_FAILED" in text
     assert "MISSION_START" in text
 
@@ -130,7 +130,7 @@ def test_an_accepted_command_that_never_shows_is_reported() -> None:
     machine.on_timeout(2.2)
     outcome = machine.finished
     assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
-    assert "still reports Mission, armed (expected mode Hold)" in outcome.message()  # type: ignore[attr-defined]
+    assert "still reports Mission, armed (expected mode Hold)" in outcome.message  # type: ignore[attr-defined]
 
 
 def test_preflight_reasks_what_is_missing_and_reports_the_prearm_bit() -> None:

@@ -216,7 +216,7 @@ class FlyOutcome:
     file: str
     vehicle: str
     autopilot: Autopilot
-    end: MonitorEnd | None  # None: interrupted
+    end: MonitorEnd  # INTERRUPTED: a Ctrl-C (during the upload or the flight)
     track: Track
     uploaded: bool
     airborne_s: float | None
@@ -229,7 +229,27 @@ class FlyOutcome:
 
     @property
     def interrupted(self) -> bool:
-        return self.end is None
+        return self.end is MonitorEnd.INTERRUPTED
+
+    # the outcome protocol (uavplan.outcome.Ended): a FlyOutcome is a flight that ended as
+    # the mission asks, or an interrupted one; every other end is an error fly raises
+    @property
+    def ok(self) -> bool:
+        return not self.interrupted
+
+    @property
+    def reason(self) -> MonitorEnd | None:
+        return self.end if self.interrupted else None
+
+    @property
+    def message(self) -> str:
+        return self.summary()
+
+    @property
+    def step(self) -> str:
+        if not self.interrupted:
+            return ""
+        return "upload" if self.holds is not None else "flight"
 
     def summary(self) -> str:
         name = Path(self.file).name
@@ -406,7 +426,7 @@ def _fly_started(
         if client.state.armed and client.state.on_ground:
             # armed on the ground by the refused start: leave it disarmed, as it was
             client.commands([disarm_step()])
-        raise VehicleRefused(f"{who} did not start the mission: {started.message()}", step="start")
+        raise VehicleRefused(f"{who} did not start the mission: {started.message}", step="start")
     feedback.say("mission started")
 
     # -- the flight -------------------------------------------------------------------------
@@ -512,6 +532,8 @@ def _problems(end: MonitorEnd, state: VehicleState, watch: Watch, action: str) -
             )
         case MonitorEnd.DISARMED_IN_AIR:
             out.append(f"the vehicle disarmed in the air: {last}")
+        case MonitorEnd.INTERRUPTED:  # fly's own end, handled before a verdict: never a success
+            out.append(f"the watch was interrupted: {last}")
         case MonitorEnd.STALLED:
             out.append(
                 f"no progress for {watch.request.stall_s:g} s of the vehicle's time{action}; "
@@ -581,7 +603,7 @@ def _on_stall(client: FlightClient, kind: ModeKind, watch: Watch) -> str:
     mode = "the new mode" if state.mode is None else state.mode.name
     if changed.ok:
         return f"; fly switched it to {mode} (--on-interrupt)"
-    return f"; fly could not switch it to the --on-interrupt mode: {changed.message()}"
+    return f"; fly could not switch it to the --on-interrupt mode: {changed.message}"
 
 
 def _holds(state: VehicleState) -> str:
@@ -770,7 +792,7 @@ def _upload_interrupted(
         request.mission,
         who,
         autopilot,
-        None,
+        MonitorEnd.INTERRUPTED,
         empty,
         False,
         None,
@@ -837,7 +859,7 @@ def _interrupted(
         watch.save(request.track)
         if not changed.ok:
             raise VehicleRefused(
-                f"interrupted, but {who} did not change mode: {changed.message()}",
+                f"interrupted, but {who} did not change mode: {changed.message}",
                 step="interrupt",
             )
         mode_name = "the new mode" if state.mode is None else state.mode.name
@@ -846,7 +868,7 @@ def _interrupted(
         request.mission,
         who,
         state.autopilot,
-        None,
+        MonitorEnd.INTERRUPTED,
         watch.save(request.track),
         False,
         None,

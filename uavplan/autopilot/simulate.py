@@ -13,7 +13,7 @@ from __future__ import annotations
 import array
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from enum import StrEnum
+from enum import Enum, StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,6 +32,7 @@ __all__ = [
     "FlownTrack",
     "MissionRefused",
     "StartRefusal",
+    "StartRefused",
     "check_startable",
     "refusal_of",
     "simulate",
@@ -47,16 +48,33 @@ NO_HEADWAY_LIMIT_S = 60.0
 TRACK_COLUMNS = 9
 
 
+class StartRefused(Enum):
+    """Why the autopilot refuses to start a mission from the ground."""
+
+    NO_TAKEOFF = "no take-off"  # ArduPilot: the first NAV command is not NAV_TAKEOFF
+    NO_POSITION = "no position item"  # PX4: no item with a position
+
+
 @dataclass(frozen=True)
 class StartRefusal:
-    """Why the autopilot would refuse to start a mission from the ground: our words
-    (``reason``) and the firmware's (``firmware_text``, its STATUSTEXT)."""
+    """Why the autopilot would refuse to start a mission from the ground: the ``reason``,
+    our words (``detail``) and the firmware's (``firmware_text``, its STATUSTEXT). An
+    expected end (:class:`~uavplan.outcome.Ended`: never ok, at the ``start`` step)."""
 
-    reason: str
+    reason: StartRefused
+    detail: str
     firmware_text: str
 
+    ok = False
+    interrupted = False
+    step = "start"
+
+    @property
+    def message(self) -> str:
+        return self.text()
+
     def text(self) -> str:
-        return f"{self.reason} ({self.firmware_text!r})"
+        return f"{self.detail} ({self.firmware_text!r})"
 
 
 class MissionRefused(InputError):
@@ -64,9 +82,10 @@ class MissionRefused(InputError):
     (``simulate``: exit 2); ``firmware_text`` is its words. Code that only asks whether a
     mission can start calls :func:`start_refusal` instead."""
 
-    def __init__(self, reason: str, firmware_text: str) -> None:
-        super().__init__(StartRefusal(reason, firmware_text).text())
-        self.firmware_text = firmware_text
+    def __init__(self, refusal: StartRefusal) -> None:
+        super().__init__(refusal.text())
+        self.refusal = refusal
+        self.firmware_text = refusal.firmware_text
 
 
 def _first_nav(items: list[MissionItem], start: int) -> MissionItem | None:
@@ -85,12 +104,14 @@ def start_refusal(wire_items: list[MissionItem], autopilot: Autopilot) -> StartR
         first = _first_nav(wire_items, 1)
         if first is None or first.command != MavCmd.NAV_TAKEOFF:
             return StartRefusal(
+                StartRefused.NO_TAKEOFF,
                 "ArduPilot refuses a mission that does not begin with NAV_TAKEOFF",
                 "Auto: Missing Takeoff Cmd",
             )
         return None
     if not any(item.command < 80 and item.is_global for item in wire_items):
         return StartRefusal(
+            StartRefused.NO_POSITION,
             "PX4 refuses a mission without a position item",
             "Mission start denied! No valid mission",
         )
@@ -108,7 +129,7 @@ def check_startable(wire_items: list[MissionItem], autopilot: Autopilot) -> None
     (:func:`start_refusal`)."""
     refusal = start_refusal(wire_items, autopilot)
     if refusal is not None:
-        raise MissionRefused(refusal.reason, refusal.firmware_text)
+        raise MissionRefused(refusal)
 
 
 class FlightEnd(StrEnum):

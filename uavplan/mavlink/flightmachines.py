@@ -68,6 +68,7 @@ __all__ = [
     "GAP_S",
     "REORDER_WINDOW_S",
     "RESTART_SAMPLES",
+    "CommandEnd",
     "CommandOutcome",
     "CommandSequence",
     "FlightMachine",
@@ -549,6 +550,14 @@ class Step:
     expect: str = ""  # what ``confirm`` waits for, in words
 
 
+class CommandEnd(enum.Enum):
+    """Why a :class:`CommandSequence` did not end ok."""
+
+    REFUSED = "refused"  # the vehicle answered a MAV_RESULT other than ACCEPTED
+    UNCONFIRMED = "unconfirmed"  # accepted, but its telemetry never showed the effect
+    UNANSWERED = "unanswered"  # no COMMAND_ACK after every re-send
+
+
 @dataclass(frozen=True)
 class CommandOutcome:
     """How a :class:`CommandSequence` ended: ``ok``, or at ``step`` with the vehicle's
@@ -561,9 +570,26 @@ class CommandOutcome:
     detail: str = ""
 
     @property
+    def interrupted(self) -> bool:
+        """Never: a Ctrl-C stops the driver's loop, which then has no outcome."""
+        return False
+
+    @property
+    def reason(self) -> CommandEnd | None:
+        """Why it did not end ok (:class:`~uavplan.outcome.Ended`); None: it did."""
+        if self.ok:
+            return None
+        if self.result is None:
+            return CommandEnd.UNANSWERED
+        if self.result == MavResult.ACCEPTED:
+            return CommandEnd.UNCONFIRMED
+        return CommandEnd.REFUSED
+
+    @property
     def result_name(self) -> str:
         return _result_name(self.result)
 
+    @property
     def message(self) -> str:
         """The refusal in the vehicle's words: its texts and its ACK."""
         said = "; ".join(f'"{t}"' for t in self.texts)
@@ -785,6 +811,9 @@ class MonitorEnd(enum.Enum):
     HELD = "held"  # a mode the ground station did not command outlasted takeover_wait_s
     DISARMED_IN_AIR = "disarmed in the air"
     STALLED = "no progress"  # the caller's judge: no progress for its stated time
+    #: the ground station's own end: a Ctrl-C stopped the watch (``fly`` then commands its
+    #: --on-interrupt mode); the machine never ends so by itself
+    INTERRUPTED = "interrupted"
 
 
 class NoticeKind(enum.Enum):

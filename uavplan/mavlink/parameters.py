@@ -193,6 +193,20 @@ class ParamResult:
     def ok(self) -> bool:
         return self.status.ok
 
+    @property
+    def interrupted(self) -> bool:
+        return False
+
+    @property
+    def reason(self) -> ParamStatus | None:
+        """Why the vehicle does not hold what the mission needs
+        (:class:`~uavplan.outcome.Ended`); None: it does."""
+        return None if self.ok else self.status
+
+    @property
+    def message(self) -> str:
+        return self.describe()
+
     def describe(self) -> str:
         """One phrase: ``RTL_ALT 1500 → 4500``, ``FENCE_ENABLE 1 (kept)``, or the failure."""
         if self.status is ParamStatus.CHANGED:

@@ -126,6 +126,17 @@ class TransferOutcome:
         return self.status is TransferStatus.SUCCESS
 
     @property
+    def interrupted(self) -> bool:
+        """Never: a Ctrl-C stops the caller's loop, not the transfer's machine (a vehicle's
+        cancel is ``TransferStatus.CANCELLED``)."""
+        return False
+
+    @property
+    def reason(self) -> TransferStatus | None:
+        """How it failed (:class:`~uavplan.outcome.Ended`); None: it succeeded."""
+        return None if self.ok else self.status
+
+    @property
     def where(self) -> str:
         """``"upload mission: MISSION_COUNT"``: the operation, plan type and step."""
         head = f"{self.operation.value} {type_label(self.mission_type)}"
