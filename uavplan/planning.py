@@ -52,7 +52,7 @@ if TYPE_CHECKING:
 _Point = tuple[float, float, float]
 
 
-@dataclass
+@dataclass(frozen=True)
 class RouteResult:
     """A planning run: the planner's record and, when it found one, the planned route.
 

@@ -386,7 +386,7 @@ class Termination:
         return self.stall_iterations
 
 
-@dataclass
+@dataclass(frozen=True)
 class PlannerResult:
     """What a planner returns: one record (STYLE: x, fun, nit, success, message).
 
