@@ -10,7 +10,6 @@ rehearsal only check in them, so they live below :mod:`uavplan.planning` and
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,12 +81,9 @@ def padded_world(world: World, scenario: Scenario | Site) -> World:
 
 def enu_frame(scenario: Scenario | Site) -> EnuFrame:
     """The local ENU frame the scenario is planned in (at its site's origin: over terrain at
-    the datum); one per origin, its transformer cached."""
-    origin = (scenario.site if isinstance(scenario, Scenario) else scenario).origin
-    return _frames.setdefault(origin, EnuFrame.at(origin))
-
-
-_frames: dict[Any, EnuFrame] = {}
+    the datum). A frame is a value (equal frames share an origin) and cheap to make once
+    pyproj is loaded (some 0.5 ms, its transformer made on first use), so none is kept."""
+    return EnuFrame.at((scenario.site if isinstance(scenario, Scenario) else scenario).origin)
 
 
 @dataclass(frozen=True, eq=False)
