@@ -603,13 +603,6 @@ def _terrain_notes(ground: Ground, waypoints_enu: np.ndarray, *, dense: bool = F
     return notes
 
 
-def _why_not_started(message: str) -> str:
-    """A planner's "no path" message as a note says it of one frame (its direction left out:
-    the note names the frame)."""
-    why = message.removesuffix(" along the start→goal direction")
-    return why or "no initial path reached the goal"
-
-
 def _plan_leg(
     scenario: Scenario,
     world: World,
@@ -634,7 +627,7 @@ def _plan_leg(
     if not res.solved:
         # the straight start→goal columns hold no path to start the swarm from (none, or too
         # few: base.INIT_MIN_SHARE): search the whole volume
-        straight_why = _why_not_started(res.message)
+        straight_why = res.message
         from uavplan.planners.guide import GuideSpace, find_guide, problem_along
 
         space = GuideSpace.of(problem)
@@ -655,7 +648,7 @@ def _plan_leg(
             route_pf = guide.route_pf
             notes.append(
                 f"{cfg.algorithm} could not start along the guide either "
-                f"({_why_not_started(res.message)}); flying the grid search's route "
+                f"({res.message}); flying the grid search's route "
                 "(shortened, smoothed and clearance-checked)"
             )
     if res.termination is SearchEnd.INTERRUPTED:

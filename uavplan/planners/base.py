@@ -544,10 +544,10 @@ class SwarmPlanner:
                     return record(
                         SearchEnd.NO_PATH,
                         "every initial path deadlocked: no reachable node sequence "
-                        "from start to goal along the start→goal direction"
+                        "from start to goal"
                         if n_ok == 0
                         else f"only {n_ok} of {ok.size} initial paths reached the goal "
-                        f"(a search needs {need}) along the start→goal direction",
+                        f"(a search needs {need})",
                     )
                 convergence.extend([best_f] * int(n_iter))
                 continue
