@@ -23,6 +23,7 @@ from helpers.mavlink_helpers import synthetic_mission
 
 from uavplan.cli import main
 from uavplan.flavour import Autopilot
+from uavplan.flown_safe import corner_pad_m
 from uavplan.mission.io import load_mission, save_mission
 from uavplan.mission.track import Track, TrackFileError
 from uavplan.planning import mission_for, plan_route
@@ -72,11 +73,14 @@ def test_the_route_as_planned_breaks_the_margin_as_flown_and_plan_now_keeps_it(
     code, text = run("plan", str(ENV1), "-o", str(out), "--autopilot", autopilot.label,
                      "--report", str(report))  # fmt: skip
     assert code == 0, text
-    assert "planned again with the margin" in text
     after = rehearse(load_mission(out), site)
     assert after.check is not None and after.check.ok, after.check.problem()
     rep = json.loads(report.read_text())
-    assert rep["flight"]["keeps_margin"] is True and rep["flight"]["margin_pad_m"] > 0
+    # planned wider than the margin: by the corner the autopilot cuts, before the search
+    # (issue 36), and more where the flight model still found a corner too close
+    pad = rep["flight"]["margin_pad_m"]
+    assert rep["flight"]["keeps_margin"] is True and pad >= corner_pad_m(autopilot) > 0
+    assert (pad > corner_pad_m(autopilot)) == ("planned again with the margin" in text)
     assert rep["flight_time_s"] == pytest.approx(after.flight_time_s, abs=0.05)
     assert rep["safety_margin_m"] == 10
     minutes, seconds = divmod(round(after.flight_time_s), 60)
