@@ -43,8 +43,13 @@ VERTICAL_TOL_M = 0.05
 #: a flown point may be this far outside the flight volume (files round positions)
 VOLUME_TOL_M = 0.05
 #: ... and a flown track's sample this far: a vehicle overshoots a waypoint by a step or so
-#: (PX4 settles onto a landing point at the edge of the volume 0.1 m past it in the model)
-TRACK_VOLUME_TOL_M = 0.5
+#: (PX4 settles onto a landing point at the edge of the volume 0.1 m past it in the model),
+#: and a firmware's position estimate wanders while it holds: PX4 SIH, taking off from a
+#: start on the edge of the bounds (the bundled scenarios start at x = 0), drifted 0.5 m and
+#: more outside it at the top of its climb (CI, tests/sitl/test_sitl_fly.py, via-tour; 0.5 m
+#: had been the tolerance). The volume is the operator's box, not the obstacles' margin; a
+#: geofence keeps the margin and 2 m more beyond it (uavplan.mission.fence)
+TRACK_VOLUME_TOL_M = 1.0
 
 
 @dataclass(frozen=True, eq=False)
