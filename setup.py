@@ -21,8 +21,9 @@ MinGW) runs the step on one thread. It says so when it is built (a warning here 
 ``#pragma message`` of kernels.h) and when it runs (``uavplan._ckernels.HAVE_THREADS`` is 0,
 reported by the planner's notes, ``uavplan bench`` and tools/bench_core.py).
 
-The flag selection is a plain function, tested without a compiler (tests/architecture/test_build_flags.py);
-``setup()`` runs only when this file is run as the build script.
+The flag selection is a plain function, tested without a compiler
+(tests/architecture/test_build_flags.py); ``setup()`` runs only when this file is run as the
+build script.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ runner, or as a subprocess where a signal is sent to it. What is asserted is wha
 did and said (its mode, its words, simulated times), never the wall clock.
 
 - each refusal, quoting the vehicle: a pre-arm check, the mode (PX4 Mission without a
-  position item), ArduPilot's missing take-off, the home, the mission upload;
+  position item), ArduPilot's missing take-off, the home, the mission upload; a PX4 arm
+  refused while a check flickers is asked again, and the mission flies;
 - Ctrl-C: the vehicle holds, exit 130; a lost link: exit 4 saying what the vehicle did;
 - bundled scenarios flown to the end in both flavours: exit 0, the track's clearance by the
   independent end-to-end check, the flight time within 5 % of the flight model's
@@ -91,6 +92,19 @@ def test_a_failing_prearm_check_stops_fly_before_the_upload_quoting_the_vehicle(
         assert words in out and "pre-arm" in out
         assert vehicle.stats().uploads_accepted == 0  # refused before anything was sent
         assert not vehicle.snapshot().armed
+
+
+def test_px4_refusing_to_arm_while_a_check_flickers_is_asked_again_and_flies(
+    tmp_path: Path,
+) -> None:
+    """PX4 answers TEMPORARILY_REJECTED when a health check flickers just after it passed
+    (SITL under load: "vertical velocity unstable"); fly asks again and the mission flies."""
+    plan = synthetic_mission(3, seed=2, autopilot=PX4)
+    with running_mock(config(plan, PX4, faults=Faults(arm_flickers=2))) as vehicle:
+        code, out = run("fly", saved(tmp_path, plan), "--conn", client_conn(vehicle))
+        assert code == 0, out
+        assert "mission complete" in out
+    assert "Preflight Fail: vertical velocity unstable" in out  # the vehicle quoted
 
 
 @pytest.mark.slow

@@ -3,6 +3,8 @@
 - a command is re-sent with a growing ``confirmation`` until its COMMAND_ACK comes, then
   confirmed by the HEARTBEAT; a refusal keeps the STATUSTEXT that explains it (also one that
   trails the ACK), and a command that is accepted but never takes effect is reported so;
+- an arm the vehicle TEMPORARILY_REJECTED is asked again (a new try) until ``busy_s``, then
+  reported with every reason it gave; other commands are not asked again;
 - the start sequences are QGroundControl's (PX4: Mission mode, arm; ArduPilot: GUIDED, arm,
   MISSION_START with param1 = param2 = 0);
 - the pre-flight machine re-asks what is missing and reports the pre-arm bit and texts;
@@ -119,6 +121,54 @@ def test_a_refusal_quotes_the_text_that_trails_its_ack() -> None:
     text = outcome.message  # type: ignore[attr-defined]
     assert '"Auto: Missing Takeoff Cmd"' in text and "MAV_RESULT_FAILED" in text
     assert "MISSION_START" in text
+
+
+BUSY = FlightTimeouts(ack_s=1.0, retries=2, confirm_s=2.0, text_grace_s=0.2, busy_s=3.0)
+
+
+def test_an_arm_temporarily_rejected_is_asked_again_and_goes_on_once_accepted() -> None:
+    state = VehicleState(PX4)
+    machine = CommandSequence(state, TARGET, BUSY, [arm_step()])
+    machine.start(0.0)
+    machine.on_message(StatusText(2, "Preflight Fail: vertical velocity unstable"), 0.05)
+    assert machine.on_message(CommandAck(400, MavResult.TEMPORARILY_REJECTED), 0.1) == []
+    assert machine.finished is None and machine.deadline == pytest.approx(1.1)
+    # a late copy of the refusal while waiting changes nothing
+    assert machine.on_message(CommandAck(400, MavResult.TEMPORARILY_REJECTED), 0.5) == []
+    (again,) = machine.on_timeout(1.1)
+    assert isinstance(again, CommandLong) and again.command == 400 and again.confirmation == 0
+    machine.on_message(CommandAck(400, MavResult.ACCEPTED), 1.2)
+    machine.on_message(heartbeat(PX4, ModeKind.MISSION, armed=True), 1.4)
+    assert machine.finished is not None and machine.finished.ok  # type: ignore[attr-defined]
+
+
+def test_an_arm_refused_for_longer_than_busy_s_is_reported_with_its_reasons() -> None:
+    state = VehicleState(PX4)
+    machine = CommandSequence(state, TARGET, BUSY, [arm_step()])
+    machine.start(0.0)
+    sent = 1
+    now = 0.0
+    while machine.finished is None and now < 10.0:
+        machine.on_message(StatusText(2, "Preflight Fail: High Accelerometer Bias"), now + 0.05)
+        machine.on_message(CommandAck(400, MavResult.TEMPORARILY_REJECTED), now + 0.1)
+        now = machine.deadline
+        sent += len(machine.on_timeout(now))
+    outcome = machine.finished
+    assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
+    assert sent == 3  # at 0, 1.1 and 2.2 s; a fourth try would come after busy_s
+    text = outcome.message  # type: ignore[attr-defined]
+    assert "asked 3 times over 2.5 s" in text and "MAV_RESULT_TEMPORARILY_REJECTED" in text
+    assert text.count("High Accelerometer Bias") == 1  # said three times, quoted once
+
+
+def test_a_mode_change_temporarily_rejected_is_reported_at_once() -> None:
+    machine = CommandSequence(VehicleState(PX4), TARGET, BUSY, start_steps(PX4))
+    machine.start(0.0)
+    machine.on_message(CommandAck(176, MavResult.TEMPORARILY_REJECTED), 0.1)
+    machine.on_timeout(0.3)
+    outcome = machine.finished
+    assert outcome is not None and not outcome.ok  # type: ignore[attr-defined]
+    assert "asked" not in outcome.message  # type: ignore[attr-defined]
 
 
 def test_an_accepted_command_that_never_shows_is_reported() -> None:

@@ -116,7 +116,13 @@ class FlightTimeouts:
     answers to the pre-flight requests; ``text_grace_s`` for the STATUSTEXT that explains a
     refusal; ``link_s`` without a message from the vehicle before the link counts as lost
     (QGroundControl warns after about 3.5 s without a HEARTBEAT; the default allows a
-    missed heartbeat or two more)."""
+    missed heartbeat or two more); ``busy_s`` how long a step that may wait (the arm) is
+    asked again, every ``busy_every_s``, while the vehicle answers
+    MAV_RESULT_TEMPORARILY_REJECTED. MAVLink defines that result as a problem "that should
+    be fixed just by waiting ... Retrying later should work", and PX4 gives it when a health
+    check flickers just after it passed (its estimator's "vertical velocity unstable"); a
+    check that keeps failing is reported, in the vehicle's words, once ``busy_s`` has
+    passed."""
 
     ack_s: float = 1.5
     retries: int = 6
@@ -124,14 +130,19 @@ class FlightTimeouts:
     preflight_s: float = 3.0
     text_grace_s: float = 0.3
     link_s: float = 5.0
+    busy_s: float = 10.0
+    busy_every_s: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("ack_s", "confirm_s", "preflight_s", "text_grace_s", "link_s"):
+        names = ("ack_s", "confirm_s", "preflight_s", "text_grace_s", "link_s", "busy_every_s")
+        for name in names:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
         if not 0 <= self.retries <= 20:
             raise ValueError(f"retries must be within 0..20, got {self.retries!r}")
+        if not (math.isfinite(self.busy_s) and self.busy_s >= 0):
+            raise ValueError(f"busy_s must be a number of seconds >= 0, got {self.busy_s!r}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -548,6 +559,8 @@ class Step:
     params: tuple[float, ...]
     confirm: Callable[[VehicleState], bool] | None = None
     expect: str = ""  # what ``confirm`` waits for, in words
+    #: asked again while the vehicle answers TEMPORARILY_REJECTED (FlightTimeouts.busy_s)
+    waits_when_busy: bool = False
 
 
 class CommandEnd(enum.Enum):
@@ -603,13 +616,16 @@ class _Phase(enum.Enum):
     ACK = "ack"
     CONFIRM = "confirm"
     GRACE = "grace"
+    BUSY = "busy"  # temporarily rejected: asked again at the deadline
 
 
 class CommandSequence(FlightMachine):
     """Send ``steps`` one after another: each is re-sent until its COMMAND_ACK comes
     (``confirmation`` counts the re-sends), then confirmed by the vehicle's telemetry. Any
     result but ACCEPTED (IN_PROGRESS waits) ends the sequence as a refusal, after a short
-    grace for the STATUSTEXT explaining it."""
+    grace for the STATUSTEXT explaining it; a step that ``waits_when_busy`` is asked again
+    after TEMPORARILY_REJECTED until :attr:`FlightTimeouts.busy_s` has passed (``busy``
+    counts those refusals)."""
 
     def __init__(
         self,
@@ -627,6 +643,7 @@ class CommandSequence(FlightMachine):
         self.confirmation = 0
         self.step_started = 0.0
         self.refusal: CommandOutcome | None = None
+        self.busy = 0
 
     @property
     def step(self) -> Step:
@@ -656,15 +673,32 @@ class CommandSequence(FlightMachine):
         confirm = self.step.confirm
         return confirm is None or confirm(self.state)
 
+    def _waits(self, result: int, now: float) -> bool:
+        """Ask again later: the step waits while busy and ``busy_s`` has not passed."""
+        t = self.timeouts
+        return (
+            self.step.waits_when_busy
+            and result == MavResult.TEMPORARILY_REJECTED
+            and now + t.busy_every_s - self.step_started <= t.busy_s
+        )
+
     def handle(self, message: Message, now: float) -> list[Message]:
         if self.phase is _Phase.GRACE:
             return []
         step = self.step
+        if self.phase is _Phase.BUSY:
+            # a late ACCEPTED to an earlier try may still take effect
+            return self._next(now) if step.confirm is not None and self._confirmed() else []
         if isinstance(message, CommandAck) and message.command == step.command:
             if self.phase is not _Phase.ACK:
                 return []  # the answer to a re-send, already taken
             if message.result == MavResult.IN_PROGRESS:
                 self.deadline = now + self.timeouts.confirm_s
+                return []
+            if self._waits(message.result, now):
+                self.busy += 1
+                self.phase = _Phase.BUSY
+                self.deadline = now + self.timeouts.busy_every_s
                 return []
             if message.result != MavResult.ACCEPTED:
                 self.refusal = CommandOutcome(False, step.label, message.result)
@@ -679,11 +713,18 @@ class CommandSequence(FlightMachine):
 
     def on_timeout(self, now: float) -> list[Message]:
         step = self.step
+        if self.phase is _Phase.BUSY:
+            self.confirmation = 0  # a new try, not a re-send of the refused one
+            return self._send_step(now)
         if self.phase is _Phase.GRACE:
             assert self.refusal is not None
             r = self.refusal
-            texts = tuple(self.state.texts_since(self.step_started))
-            self.finished = CommandOutcome(False, r.step, r.result, texts, r.detail)
+            texts = tuple(dict.fromkeys(self.state.texts_since(self.step_started)))
+            detail = r.detail
+            if self.busy:
+                waited = now - self.step_started
+                detail = f"asked {self.busy + 1} times over {waited:.1f} s"
+            self.finished = CommandOutcome(False, r.step, r.result, texts, detail)
             return []
         if self.phase is _Phase.CONFIRM:
             texts = tuple(self.state.texts_since(self.step_started))
@@ -743,6 +784,7 @@ def arm_step() -> Step:
         (1.0,),
         lambda s: s.armed,
         "armed",
+        waits_when_busy=True,
     )
 
 

@@ -62,6 +62,10 @@ class Faults:
     fails with this reason (``"Need Position Estimate"``): SYS_STATUS reports the pre-arm
     check unhealthy, and arming is refused with the reason in the firmware's words
     (ArduPilot ``PreArm: <reason>``, PX4 ``Preflight Fail: <reason>``).
+    ``arm_flickers``: the first that many arm commands are refused although SYS_STATUS said
+    the pre-arm checks pass, as PX4 refuses them while an estimator check flickers just after
+    it passed ("Preflight Fail: vertical velocity unstable", TEMPORARILY_REJECTED); PX4
+    only.
 
     Parameters: ``refuse_param_set`` names parameters the vehicle will not write (as a
     read-only one): a PARAM_SET of one is answered with the value it keeps.
@@ -80,6 +84,7 @@ class Faults:
     ignore_requests: bool = False
     link_lost_after_s: float | None = None
     prearm_failure: str | None = None
+    arm_flickers: int = 0
     refuse_param_set: frozenset[str] = frozenset()
     seed: int | None = 0
 
@@ -92,6 +97,8 @@ class Faults:
             raise ValueError(f"direction must be both, in or out, got {self.direction!r}")
         if self.link_lost_after_s is not None and not self.link_lost_after_s >= 0.0:
             raise ValueError(f"link_lost_after_s must be >= 0, got {self.link_lost_after_s!r}")
+        if self.arm_flickers < 0:
+            raise ValueError(f"arm_flickers must be >= 0, got {self.arm_flickers!r}")
         if self.prearm_failure is not None and not self.prearm_failure.strip():
             raise ValueError("prearm_failure must name the failing check")
 

@@ -29,6 +29,8 @@ __all__ = ["Px4Vehicle"]
 
 #: "Arming denied: ..." (commander/Commander.cpp arm())
 _ARMING_DENIED = "Arming denied: Resolve system health failures first"
+#: the estimator check (EKF2 preflight checks) that flickers after start-up: Faults.arm_flickers
+_FLICKER = "vertical velocity unstable"
 
 
 class Px4Vehicle(SimVehicle):
@@ -45,6 +47,8 @@ class Px4Vehicle(SimVehicle):
     MAV_AUTOPILOT = MavAutopilotId.PX4
     PARAM_ENCODING = Capability.PARAM_ENCODE_BYTEWISE
     FLIGHT_SW_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 official
+
+    _arm_refusals = 0  # arm commands refused for Faults.arm_flickers
 
     def _initial_mode(self) -> FlightMode:
         return mode_named(Autopilot.PX4, ModeKind.HOLD)
@@ -65,6 +69,11 @@ class Px4Vehicle(SimVehicle):
             # a failing pre-arm check: PX4 reports the health failure, then "Arming denied:
             # Resolve system health failures first", TEMPORARILY_REJECTED
             out.extend(self._prearm_report())
+            out.append(self._say(Severity.CRITICAL, _ARMING_DENIED))
+            return MavResult.TEMPORARILY_REJECTED
+        if not forced and self._arm_refusals < self.faults.arm_flickers:
+            self._arm_refusals += 1
+            out.append(self._say(Severity.CRITICAL, self.PREARM_PREFIX + _FLICKER))
             out.append(self._say(Severity.CRITICAL, _ARMING_DENIED))
             return MavResult.TEMPORARILY_REJECTED
         # HealthAndArmingChecks: COM_ARM_MIS_REQ makes a valid mission an arming requirement,
