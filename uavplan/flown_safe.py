@@ -61,10 +61,6 @@ class Flown(Generic[_R]):
     result: _R
     flight: FlightPrediction | None = None
 
-    @property
-    def interrupted(self) -> bool:
-        return self.result.interrupted
-
 
 def corner_pad_m(autopilot: Autopilot) -> float:
     """How much wider than the margin ``plan`` searches first for ``autopilot``'s missions: the

@@ -94,6 +94,7 @@ def test_a_failing_prearm_check_stops_fly_before_the_upload_quoting_the_vehicle(
         assert not vehicle.snapshot().armed
 
 
+@pytest.mark.slow
 def test_px4_refusing_to_arm_while_a_check_flickers_is_asked_again_and_flies(
     tmp_path: Path,
 ) -> None:
