@@ -418,7 +418,7 @@ def _fly_started(
 ) -> FlyOutcome:
     autopilot = client.link.vehicle.autopilot
     should_stop = feedback.should_stop
-    started = client.start_mission(should_stop=should_stop)
+    started = client.start_mission(should_stop=should_stop, on_tick=watch.tell)
     if started is None:  # Ctrl-C during the start
         return _interrupted(client, kind, watch, request, who)
     if not started.ok:

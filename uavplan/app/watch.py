@@ -187,9 +187,14 @@ class Watch:
             feedback.progress.start("item")
 
     # -- what the vehicle reports ----------------------------------------------------------
-    def tick(self, state: VehicleState, *, final: bool = False) -> MonitorEnd | None:
+    def tell(self, state: VehicleState) -> None:
+        """Say what the vehicle said and what changed, as it comes: while the start waits
+        (an arm asked again for up to FlightTimeouts.busy_s) the operator hears why."""
         self._notices(state)
         self._texts(state)
+
+    def tick(self, state: VehicleState, *, final: bool = False) -> MonitorEnd | None:
+        self.tell(state)
         new = state.take_samples()
         self.samples.extend(s for s in new if s.epoch == 0)
         self.after_restart.extend(s for s in new if s.epoch != 0)

@@ -104,21 +104,30 @@ class FlightClient:
         return result
 
     def commands(
-        self, steps: list, *, should_stop: Callable[[], bool] | None = None
+        self,
+        steps: list,
+        *,
+        should_stop: Callable[[], bool] | None = None,
+        on_tick: Callable[[VehicleState], None] | None = None,
     ) -> CommandOutcome | None:
-        """Run a command sequence; None when interrupted."""
+        """Run a command sequence; None when interrupted. ``on_tick`` sees the state as it
+        comes (to say what the vehicle says while a step waits)."""
         machine = CommandSequence(self.state, self.target, self.timeouts, steps)
-        result = self.run(machine, should_stop=should_stop)
+        result = self.run(machine, should_stop=should_stop, on_tick=on_tick)
         assert result is None or isinstance(result, CommandOutcome)
         return result
 
     def start_mission(
-        self, *, should_stop: Callable[[], bool] | None = None
+        self,
+        *,
+        should_stop: Callable[[], bool] | None = None,
+        on_tick: Callable[[VehicleState], None] | None = None,
     ) -> CommandOutcome | None:
         """Start the uploaded mission from the ground the way the firmware expects
         (:func:`~uavplan.mavlink.flightmachines.start_steps`)."""
         self.state.recording = True
-        return self.commands(start_steps(self.state.autopilot), should_stop=should_stop)
+        steps = start_steps(self.state.autopilot)
+        return self.commands(steps, should_stop=should_stop, on_tick=on_tick)
 
     def change_mode(self, kind: ModeKind) -> CommandOutcome:
         """Switch to the mode of ``kind`` and see the vehicle report it (never interrupted:
