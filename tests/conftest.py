@@ -10,6 +10,8 @@ behaviour here, so the same assertions hold on both ends of the range.
 from __future__ import annotations
 
 import inspect
+import shutil
+from pathlib import Path
 from typing import Any
 
 import click.testing
@@ -42,3 +44,40 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.get_closest_marker("sitl") is not None:
             item.add_marker(pytest.mark.slow)
+
+
+RIDGE_FRAMES = ("relative", "amsl", "terrain")
+
+
+@pytest.fixture(scope="session")
+def ridge_plans(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with the bundled terrain scenario (missions/jacksboro-ridge.yaml) in each
+    altitude frame, ``FRAME.yaml`` beside its DEM, each planned briefly by the CLI into
+    ``FRAME.plan`` with its ``FRAME.json`` report. Planned once for the whole run: modules
+    copy the folder (``ridge_frames``) and write their own outputs into the copy."""
+    pytest.importorskip("rasterio")
+    from click.testing import CliRunner
+
+    from uavplan.cli import main
+
+    root = Path(__file__).resolve().parents[1]
+    folder = tmp_path_factory.mktemp("ridge-plans")
+    shutil.copy(root / "maps" / "jacksboro-fault-dem.tif", folder / "dem.tif")
+    text = (root / "missions" / "jacksboro-ridge.yaml").read_text(encoding="utf-8")
+    text = text.replace("../maps/jacksboro-fault-dem.tif", "dem.tif")
+    for altitude in RIDGE_FRAMES:
+        scenario = folder / f"{altitude}.yaml"
+        scenario.write_text(text.replace("altitude: terrain", f"altitude: {altitude}"))
+        args = ["plan", str(scenario), "-o", str(folder / f"{altitude}.plan"), "-q"]
+        args += ["--iterations", "40", "--report", str(folder / f"{altitude}.json")]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+    return folder
+
+
+@pytest.fixture(scope="module")
+def ridge_frames(ridge_plans: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The module's own copy of ``ridge_plans``, for its outputs: each frame's scenario."""
+    folder = tmp_path_factory.mktemp("ridge") / "ridge"
+    shutil.copytree(ridge_plans, folder)
+    return {altitude: folder / f"{altitude}.yaml" for altitude in RIDGE_FRAMES}

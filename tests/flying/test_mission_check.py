@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -117,33 +116,15 @@ def test_a_flight_too_close_is_refused_with_the_obstacle_named(tmp_path: Path) -
     assert "leg 1 of the flown path comes within 0.00 m of obstacles[0]" in str(check.problem())
 
 
-@pytest.fixture(scope="module")
-def ridge(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """The bundled terrain scenario planned (briefly) in each altitude frame."""
-    pytest.importorskip("rasterio")
-    folder = tmp_path_factory.mktemp("ridge")
-    shutil.copy(ROOT / "maps" / "jacksboro-fault-dem.tif", folder / "dem.tif")
-    text = (ROOT / "missions" / "jacksboro-ridge.yaml").read_text(encoding="utf-8")
-    text = text.replace("../maps/jacksboro-fault-dem.tif", "dem.tif")
-    out = {}
-    for altitude in ("relative", "amsl", "terrain"):
-        scenario = folder / f"{altitude}.yaml"
-        scenario.write_text(text.replace("altitude: terrain", f"altitude: {altitude}"))
-        mission = folder / f"{altitude}.plan"
-        run("plan", str(scenario), "-o", str(mission), "-q", "--iterations", "40")
-        out[altitude] = scenario
-    return out
-
-
 @pytest.mark.parametrize("altitude", ["relative", "amsl", "terrain"])
 @pytest.mark.parametrize("suffix", [".plan", ".waypoints"])
 @pytest.mark.slow
 def test_terrain_missions_pass_validate_in_every_altitude_frame(
-    ridge: dict[str, Path], altitude: str, suffix: str
+    ridge_frames: dict[str, Path], altitude: str, suffix: str
 ) -> None:
     """``plan`` then ``validate`` of the same terrain scenario passed only in one frame:
     the check read every mission over flat ground, under the terrain (issue 25)."""
-    scenario = ridge[altitude]
+    scenario = ridge_frames[altitude]
     mission = scenario.with_suffix(suffix)
     if suffix != ".plan":
         run("convert", str(scenario.with_suffix(".plan")), str(mission), "-q")
@@ -160,7 +141,7 @@ def test_terrain_missions_pass_validate_in_every_altitude_frame(
 
 
 @pytest.mark.slow
-def test_the_three_frames_fly_the_same_waypoints(ridge: dict[str, Path]) -> None:
+def test_the_three_frames_fly_the_same_waypoints(ridge_frames: dict[str, Path]) -> None:
     """Relative and AMSL altitudes fly the same straight legs; terrain-frame legs pass their
     waypoints but are flown over the ground between them (ArduPilot), so their flight is
     denser and follows the ground. (The terrain-frame plan may be another route: its
@@ -169,14 +150,14 @@ def test_the_three_frames_fly_the_same_waypoints(ridge: dict[str, Path]) -> None
     from uavplan.planning import enu_frame
 
     flights = {}
-    for altitude, scenario in ridge.items():
+    for altitude, scenario in ridge_frames.items():
         scn = load_scenario(scenario)
         plan = load_mission(scenario.with_suffix(".plan"))
         flights[altitude] = mission_flight(plan, scn).points_enu
     relative, amsl, over = flights["relative"], flights["amsl"], flights["terrain"]
     assert amsl.shape == relative.shape and np.max(np.abs(amsl - relative)) < 0.02
-    scn = load_scenario(ridge["terrain"])
-    plan = load_mission(ridge["terrain"].with_suffix(".plan"))
+    scn = load_scenario(ridge_frames["terrain"])
+    plan = load_mission(ridge_frames["terrain"].with_suffix(".plan"))
     assert scn.site.ground is not None
     site = scn.site
     straight = flight_of_mission(plan, enu_frame(site), site.ground.z_at).points_enu
@@ -185,12 +166,14 @@ def test_the_three_frames_fly_the_same_waypoints(ridge: dict[str, Path]) -> None
     assert gap.max() < 0.02  # every waypoint of the straight line is on the flown one
 
 
-def test_a_mission_below_the_ridge_names_the_ground(ridge: dict[str, Path], tmp_path: Path) -> None:
+def test_a_mission_below_the_ridge_names_the_ground(
+    ridge_frames: dict[str, Path], tmp_path: Path
+) -> None:
     """Flown 40 m lower, the relative mission goes into the ground: exit 3, and the message
     names the ground and where, not an internal obstacle index."""
     from dataclasses import replace
 
-    scenario = ridge["relative"]
+    scenario = ridge_frames["relative"]
     plan = load_mission(scenario.with_suffix(".plan"))
     items = tuple(
         replace(i, z=i.z - 40.0) if i.is_global and i.command == 16 else i for i in plan.items
@@ -205,12 +188,14 @@ def test_a_mission_below_the_ridge_names_the_ground(ridge: dict[str, Path], tmp_
         validate(str(low), str(scenario))
 
 
-def test_the_climb_from_home_is_checked_against_obstacles_only(ridge: dict[str, Path]) -> None:
+def test_the_climb_from_home_is_checked_against_obstacles_only(
+    ridge_frames: dict[str, Path],
+) -> None:
     """Home stands on the ground: the take-off climb touches the terrain's solids by design,
     so it is measured against the obstacles; the same line measured all the way against the
     terrain would come within 0 m of it."""
-    scn = load_scenario(ridge["terrain"])
-    flight = mission_flight(load_mission(ridge["terrain"].with_suffix(".plan")), scn)
+    scn = load_scenario(ridge_frames["terrain"])
+    flight = mission_flight(load_mission(ridge_frames["terrain"].with_suffix(".plan")), scn)
     assert flight.airborne[0] >= 1
     world = build_world(scn)
     checked = check_flight(world, flight, name_of=scn.obstacle_name)

@@ -38,29 +38,12 @@ def run(*args: str) -> str:
     return result.output
 
 
-@pytest.fixture(scope="module")
-def ridge(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """The bundled terrain scenario planned (briefly) in each altitude frame, with reports."""
-    folder = tmp_path_factory.mktemp("ridge")
-    shutil.copy(ROOT / "maps" / "jacksboro-fault-dem.tif", folder / "dem.tif")
-    text = (ROOT / "missions" / "jacksboro-ridge.yaml").read_text(encoding="utf-8")
-    text = text.replace("../maps/jacksboro-fault-dem.tif", "dem.tif")
-    out = {}
-    for altitude in FRAMES:
-        scenario = folder / f"{altitude}.yaml"
-        scenario.write_text(text.replace("altitude: terrain", f"altitude: {altitude}"))
-        mission = folder / f"{altitude}.plan"
-        report = folder / f"{altitude}.json"
-        run("plan", str(scenario), "-o", str(mission), "-q", "--iterations", "40",
-            "--report", str(report))  # fmt: skip
-        out[altitude] = scenario
-    return out
-
-
 @pytest.mark.parametrize("altitude", FRAMES)
 @pytest.mark.slow
-def test_validate_render_and_convert_agree_with_plan(ridge: dict[str, Path], altitude: str) -> None:
-    scenario = ridge[altitude]
+def test_validate_render_and_convert_agree_with_plan(
+    ridge_frames: dict[str, Path], altitude: str
+) -> None:
+    scenario = ridge_frames[altitude]
     mission = scenario.with_suffix(".plan")
     planned = json.loads(scenario.with_suffix(".json").read_text())["min_clearance_m"]
     validated = float(
@@ -91,11 +74,11 @@ def test_validate_render_and_convert_agree_with_plan(ridge: dict[str, Path], alt
 
 
 @pytest.mark.slow
-def test_exports_label_every_height_and_never_give_the_datum(ridge: dict[str, Path]) -> None:
+def test_exports_label_every_height_and_never_give_the_datum(ridge_frames: dict[str, Path]) -> None:
     """The route and the waypoints in AMSL (terrain-frame waypoints at the ground + their
     height), each labelled; the 60 m mast as 60 m above the ground with its top AMSL. Before:
     "height above home (the takeoff point on flat ground)" and ``height_m: 564.6``."""
-    scenario = ridge["terrain"]
+    scenario = ridge_frames["terrain"]
     scn = load_scenario(scenario)
     mission = scenario.with_suffix(".plan")
     geojson, kml = scenario.with_suffix(".geojson"), scenario.with_suffix(".kml")
@@ -135,21 +118,21 @@ def test_exports_label_every_height_and_never_give_the_datum(ridge: dict[str, Pa
 
 
 def test_without_the_scenario_a_terrain_mission_export_says_what_it_assumes(
-    ridge: dict[str, Path],
+    ridge_frames: dict[str, Path],
 ) -> None:
-    scenario = ridge["terrain"]
+    scenario = ridge_frames["terrain"]
     out = scenario.with_name("flat.geojson")
     printed = run("convert", str(scenario.with_suffix(".plan")), str(out))
     assert "as if the ground were flat" in printed
 
 
-def test_pictures_label_heights_above_the_ground_and_amsl(ridge: dict[str, Path]) -> None:
+def test_pictures_label_heights_above_the_ground_and_amsl(ridge_frames: dict[str, Path]) -> None:
     """The colour bar gives the obstacles' heights above the ground (35 and 60 m), the contour
     labels and the 3-D view's height axis altitudes AMSL. Before: "obstacle height 476-477.75"
     and contours in the datum."""
     from uavplan.render import draw_scene, scene_for
 
-    scn = load_scenario(ridge["terrain"])
+    scn = load_scenario(ridge_frames["terrain"])
     fig = draw_scene(scene_for(scn))
     axes = [*fig.axes, *(child for ax in fig.axes for child in ax.child_axes)]
     names = {str(i) for i in range(len(scn.obstacles))}  # the obstacles' index labels

@@ -23,7 +23,7 @@ from uavplan.mavlink.messages import (
 )
 from uavplan.mavlink.modes import FlightMode, ModeKind, mode_named, px4_mode
 from uavplan.mission.items import Autopilot, MissionType
-from uavplan.sim.vehicle import PX4_DISARM_AFTER_LANDING_S, SimVehicle, whole_number
+from uavplan.sim.vehicle import PX4_DISARM_AFTER_LANDING_S, SimConfig, SimVehicle, whole_number
 
 __all__ = ["Px4Vehicle"]
 
@@ -48,7 +48,9 @@ class Px4Vehicle(SimVehicle):
     PARAM_ENCODING = Capability.PARAM_ENCODE_BYTEWISE
     FLIGHT_SW_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 official
 
-    _arm_refusals = 0  # arm commands refused for Faults.arm_flickers
+    def __init__(self, config: SimConfig | None = None, now: float = 0.0) -> None:
+        super().__init__(config, now)
+        self._arm_refusals = 0  # arm commands refused for Faults.arm_flickers
 
     def _initial_mode(self) -> FlightMode:
         return mode_named(Autopilot.PX4, ModeKind.HOLD)
