@@ -480,6 +480,7 @@ def test_bench_out_into_a_folder_nobody_may_write_is_exit_2_before_any_run(
     assert len(result.stderr.splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_bench_out_makes_the_folder_with_every_file_at_the_end(tmp_path: Path) -> None:
     out = tmp_path / "bench"
     result = run(

@@ -186,6 +186,7 @@ def test_two_outputs_through_a_link_are_one_file(tmp_path: Path) -> None:
         outputs.check()
 
 
+@pytest.mark.slow
 def test_other_commands_refuse_their_inputs(tmp_path: Path, scenario: Path) -> None:
     plan = tmp_path / "m.plan"
     code, out = run("plan", str(scenario), "-o", str(plan), *QUICK)

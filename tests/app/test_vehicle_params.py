@@ -241,6 +241,7 @@ def wall_scene(tmp_path: Path) -> tuple[Path, MissionPlan]:
     return scenario, with_parameters(plan, wanted)
 
 
+@pytest.mark.slow
 def test_accept_vehicle_params_is_refused_when_the_reproof_fails(tmp_path: Path) -> None:
     scenario, plan = wall_scene(tmp_path)
     path = saved(tmp_path, plan)

@@ -69,6 +69,7 @@ def test_freed_large_arrays_go_back_to_the_system() -> None:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux") or not _glibc(), reason="glibc only")
+@pytest.mark.slow
 def test_without_it_they_stay() -> None:
     """The measure can fail: glibc's own dynamic threshold keeps them resident, more than the
     bound above allows (how much more depends on numpy's allocations: 14 MiB of the 32 with

@@ -100,6 +100,7 @@ def test_plan_warns_when_a_failsafe_return_crosses_obstacles_even_quiet(tmp_path
         assert "0.00 m from obstacle #0" in warning[0] and "230.01 m" in warning[0]
 
 
+@pytest.mark.slow
 def test_a_rerouted_plan_keeps_the_margin_as_flown(tmp_path: Path) -> None:
     out, report = tmp_path / "q.plan", tmp_path / "q.json"
     code, text = run("plan", str(ROOT / "missions" / "qgc-inspection.plan"), "-o", str(out),
@@ -143,6 +144,7 @@ def test_simulate_prints_the_flight_and_writes_a_track_that_reads_back(
     assert set(flown.mode) == {"AUTO"}
 
 
+@pytest.mark.slow
 def test_simulate_exits_3_naming_when_the_track_breaks_the_margin(
     env1_as_planned: dict[Autopilot, Path],
 ) -> None:

@@ -166,6 +166,7 @@ def test_the_three_frames_fly_the_same_waypoints(ridge_frames: dict[str, Path]) 
     assert gap.max() < 0.02  # every waypoint of the straight line is on the flown one
 
 
+@pytest.mark.slow
 def test_a_mission_below_the_ridge_names_the_ground(
     ridge_frames: dict[str, Path], tmp_path: Path
 ) -> None:
@@ -188,6 +189,7 @@ def test_a_mission_below_the_ridge_names_the_ground(
         validate(str(low), str(scenario))
 
 
+@pytest.mark.slow
 def test_the_climb_from_home_is_checked_against_obstacles_only(
     ridge_frames: dict[str, Path],
 ) -> None:

@@ -41,7 +41,8 @@ def _same_answers(a: World, b: World) -> None:
     free = b.segments_free(p0, p1)
     assert 0 < free.mean() < 1
     assert np.array_equal(a.segments_free(p0, p1), free)
-    assert np.allclose(a.points_clearance(p1)[0], b.points_clearance(p1)[0])
+    ends = p1[::3]  # every third end: the clearance over terrain is the slow answer
+    assert np.allclose(a.points_clearance(ends)[0], b.points_clearance(ends)[0])
 
 
 @pytest.mark.parametrize("name", ["paper-env3", "jacksboro-ridge"])

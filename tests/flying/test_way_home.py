@@ -348,6 +348,7 @@ def test_where_no_rtl_altitude_is_safe_the_planned_return_is_in_the_file(
 
 
 @pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+@pytest.mark.slow
 def test_the_simulated_vehicle_flies_the_planned_return_home_inside_the_margin(
     courtyard_plans: dict, autopilot: str
 ) -> None:

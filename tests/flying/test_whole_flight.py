@@ -135,6 +135,7 @@ def test_simulate_judges_the_return_at_the_altitude_the_vehicle_holds(env1_rtl: 
 
 
 @pytest.mark.timeout(300)
+@pytest.mark.slow
 def test_fly_does_not_call_a_return_through_buildings_a_success(
     env1_rtl: Path, tmp_path: Path
 ) -> None:

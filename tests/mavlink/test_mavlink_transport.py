@@ -316,6 +316,7 @@ def test_pymavlink_is_imported_only_by_the_connection_module() -> None:
     assert importers == {"uavplan/mavlink/connection.py"}
 
 
+@pytest.mark.slow
 def test_only_the_use_cases_the_cli_the_simulator_and_the_package_import_uavplan_mavlink() -> None:
     # uavplan.sim is the vehicle end of the link, a layer above it; the use cases of upload,
     # download and clear (uavplan/app/link.py) and of fly (uavplan/app/fly.py) are the ground

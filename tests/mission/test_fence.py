@@ -330,6 +330,7 @@ def _random_footprints(rng: np.random.Generator, n: int, span: float) -> list[Fo
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_route=st.integers(1, 30))
 def test_route_distances_of_all_footprints_at_once_equal_them_one_by_one(

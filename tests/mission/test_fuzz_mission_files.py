@@ -845,6 +845,7 @@ def test_waypoints_values_the_wire_cannot_hold(fuzz_env: dict[str, Path]) -> Non
         assert "float32" in result.stderr, (name, result.stderr)
 
 
+@pytest.mark.slow
 def test_huge_inputs_are_refused_with_one_message(
     fuzz_env: dict[str, Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -156,6 +156,7 @@ def test_complex_items_we_cannot_fly_are_refused_naming_the_key(
 
 
 @pytest.mark.timeout(300)
+@pytest.mark.slow
 def test_a_survey_is_rerouted_around_a_building_on_a_lane_and_mavsdk_imports_it(
     tmp_path: Path,
 ) -> None:

@@ -50,10 +50,12 @@ def user_plan(tmp_path: Path) -> Path:
     return write(tmp_path, plan_doc(user_items("land")))
 
 
-@pytest.fixture
-def safe_plan(tmp_path: Path, user_plan: Path) -> Path:
-    out = tmp_path / "safe.plan"
-    result = run("plan", user_plan, "-o", out, *FAST)
+@pytest.fixture(scope="module")
+def safe_plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The user's plan rerouted, once for the module: the tests only read it."""
+    folder = tmp_path_factory.mktemp("safe")
+    out = folder / "safe.plan"
+    result = run("plan", write(folder, plan_doc(user_items("land"))), "-o", out, *FAST)
     assert result.exit_code == 0, result.output
     return out
 
@@ -173,6 +175,7 @@ def test_render_draws_a_plan_with_its_own_geofence(tmp_path: Path, safe_plan: Pa
     assert "min clearance from its geofence" in result.stderr
 
 
+@pytest.mark.slow
 def test_plan_of_a_qgc_plan_draws_the_rerouted_plan(tmp_path: Path, user_plan: Path) -> None:
     """--plot used to be refused "about the autopilot flavour and geofence"."""
     out, picture = tmp_path / "safe.plan", tmp_path / "safe.png"
@@ -271,6 +274,7 @@ def test_the_home_at_the_origin_is_written_as_the_origin(tmp_path: Path) -> None
     assert "47.397742000000015" not in out.read_text()
 
 
+@pytest.mark.slow
 def test_each_length_says_what_it_measures(tmp_path: Path) -> None:
     """plan printed 2071 m and render 2100 m for the same route without saying that one is
     the planned path from start to goal and the other the flight with the take-off climb."""

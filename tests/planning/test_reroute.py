@@ -368,6 +368,7 @@ def test_amsl_items_are_heights_above_home(tmp_path: Path) -> None:
     assert key(amsl) in [key(it) for it in new["mission"]["items"]]
 
 
+@pytest.mark.slow
 def test_bundled_inspection_plan_reroutes_clear_of_its_zones(tmp_path: Path) -> None:
     out = tmp_path / "safe.plan"
     result = CliRunner().invoke(

@@ -166,12 +166,14 @@ def test_serial_runs_are_reproducible_and_in_job_order(tiny_path: Path) -> None:
 
 
 @pytest.mark.timeout(90)
+@pytest.mark.slow
 def test_process_pool_matches_serial(tiny_path: Path) -> None:
     jobs = bench.make_jobs([load_scenario(tiny_path)], ["spsa", "gwo"], runs=2)
     assert _key(bench.run_jobs(jobs, workers=2)) == _key(bench.run_jobs(jobs))
 
 
 @pytest.mark.timeout(90)
+@pytest.mark.slow
 def test_dask_local_cluster_matches_serial(tiny_path: Path) -> None:
     distributed = pytest.importorskip("distributed")
     jobs = bench.make_jobs([load_scenario(tiny_path)], ["de", "cso"], runs=2)

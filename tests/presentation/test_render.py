@@ -73,6 +73,7 @@ def test_bundled_scenarios_are_there() -> None:
     }
 
 
+@pytest.mark.slow
 def test_render_a_mission_file_plans_nothing(tmp_path: Path, monkeypatch) -> None:
     scenario = ROOT / "missions" / "paper-env1.yaml"
     scn = load_scenario(scenario)

@@ -179,6 +179,7 @@ def _shifted_track(plan_path: Path, tmp_path: Path) -> tuple[Path, int]:
     return out, leg + 1
 
 
+@pytest.mark.slow
 def test_a_track_under_the_margin_on_one_leg_marks_exactly_that_leg(
     env1_plan: Path, tmp_path: Path
 ) -> None:

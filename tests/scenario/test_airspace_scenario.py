@@ -204,6 +204,7 @@ def test_bad_zone_file_is_one_message(tmp_path: Path) -> None:
 # Plan, validate, fence
 
 
+@pytest.mark.slow
 def test_route_flies_over_a_low_agl_zone_where_the_ceiling_allows(tmp_path: Path) -> None:
     # a zone across the whole flight area up to 50 m above the ground: no way round, so the
     # route climbs over it and keeps the margin above its ceiling
@@ -412,6 +413,7 @@ def test_bundled_route_keeps_the_margin_from_the_reserve_independently(bundled) 
     assert dist.min() - 0.71 - 0.5 >= scn.safety_margin_m - 1e-6, dist.min()
 
 
+@pytest.mark.slow
 def test_bundled_route_crosses_the_zones_that_do_not_bind(bundled) -> None:
     """'Exactly the ones it must': the route flies through the footprints of the restricted
     area (its floor far above) and of the reserved area (inactive at the take-off time)."""

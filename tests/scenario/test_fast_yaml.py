@@ -306,6 +306,7 @@ def _reference_self_intersects(poly: list[tuple[float, float]]) -> bool:
     return False
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(st.lists(st.tuples(st.integers(-5, 5), st.integers(-5, 5)), min_size=3, max_size=16))
 def test_polygon_checks_match_the_plain_definitions(pts: list[tuple[int, int]]) -> None:

@@ -606,7 +606,10 @@ def test_deeply_nested_lists_are_refused(tmp_path: Path) -> None:
     assert "nested more than 64 levels deep" in err.reason
 
 
-@pytest.mark.parametrize("depth", [65, 999, 1000, 5000])
+@pytest.mark.parametrize(
+    "depth",
+    [65, 999, 1000, pytest.param(5000, marks=pytest.mark.slow)],  # 5000: over 0.5 s
+)
 def test_nesting_is_refused_in_our_words_at_any_depth(tmp_path: Path, depth: int) -> None:
     """Flow and block nesting past our limit get our message whether or not the YAML parser
     has a limit of its own (libyaml's, 1,000 in PyYAML 6.0.4, is reported in its words)."""

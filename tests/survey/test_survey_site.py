@@ -127,16 +127,27 @@ def test_a_mission_through_the_no_fly_hole_fails_in_the_survey_s_scenario(
     assert "survey.exclude" not in result.output
 
 
-def test_a_camera_survey_s_picture_has_a_footprint_per_photo(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def power_line(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    """The bundled camera survey planned once for the module: (scenario, plan, what plan
+    printed). The tests only read them."""
+    src = Path(__file__).resolve().parents[2] / "missions" / "surveys" / "survey-power-line.yaml"
+    plan = tmp_path_factory.mktemp("line") / "line.plan"
+    result = CliRunner().invoke(main, ["plan", str(src), "-o", str(plan)])
+    assert result.exit_code == 0, result.output
+    return src, plan, result.output
+
+
+def test_a_camera_survey_s_picture_has_a_footprint_per_photo(
+    power_line: tuple[Path, Path, str],
+) -> None:
     from uavplan.app.check import judged, read_mission_flight
     from uavplan.app.render import survey_layers
     from uavplan.planning import enu_frame
     from uavplan.rehearsal import CheckSite
     from uavplan.render import RouteLayers
 
-    src = Path(__file__).resolve().parents[2] / "missions" / "surveys" / "survey-power-line.yaml"
-    out = tmp_path / "line.plan"
-    assert CliRunner().invoke(main, ["plan", str(src), "-o", str(out), "-q"]).exit_code == 0
+    src, out, _ = power_line
     scn = load_site(src)
     mission, flight = read_mission_flight(str(out), scn)
     verdict = judged(mission, CheckSite.of_scenario(scn), scn)
@@ -150,17 +161,16 @@ def test_a_camera_survey_s_picture_has_a_footprint_per_photo(tmp_path: Path) -> 
     assert sorted(np.round(sides, 1))[::2] == [33.8, 50.8]
 
 
-def test_the_exports_carry_the_area_photos_and_footprints(tmp_path: Path) -> None:
+def test_the_exports_carry_the_area_photos_and_footprints(
+    power_line: tuple[Path, Path, str], tmp_path: Path
+) -> None:
     """convert --scenario SURVEY to GeoJSON and KML: the area, one footprint per photo and
     the photos the mission's camera items ask for (as many as plan counted), each inside
     the area."""
     import shapely
 
-    src = Path(__file__).resolve().parents[2] / "missions" / "surveys" / "survey-power-line.yaml"
-    plan = tmp_path / "line.plan"
-    result = CliRunner().invoke(main, ["plan", str(src), "-o", str(plan)])
-    assert result.exit_code == 0, result.output
-    photos = int(result.output.split(" photos,")[0].rsplit(" ", 1)[1])
+    src, plan, printed = power_line
+    photos = int(printed.split(" photos,")[0].rsplit(" ", 1)[1])
     out = tmp_path / "line.geojson"
     result = CliRunner().invoke(main, ["convert", str(plan), str(out), "--scenario", str(src)])
     assert result.exit_code == 0, result.output

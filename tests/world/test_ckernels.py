@@ -98,6 +98,7 @@ def test_point_polygon_distance_matches_reference() -> None:
         )
 
 
+@pytest.mark.slow
 def test_point_and_segment_piece_distances_match_dense_sampling() -> None:
     w = sample_world()
     rng = np.random.default_rng(2)

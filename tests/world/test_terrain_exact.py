@@ -79,6 +79,7 @@ def steep_dem(tmp_path: Path) -> Path:
     return write_utm_dem(tmp_path / "steep.tif", steep, cell_m=90.0, size=80)
 
 
+@pytest.mark.slow
 def test_a_goal_40_m_above_a_slope_with_a_30_m_margin_is_planned(tmp_path: Path) -> None:
     """40 m above a 35 % slope a point is 37.7 m from it: a 30 m margin holds, so the goal
     (and the start) are accepted, planned and pass validate; the DEM cells raised to their

@@ -446,6 +446,7 @@ def test_segments_clearance_of_300_boxes_against_dense_samples() -> None:
         assert got[i] >= d.min() - step / 2 - 1e-9
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), scale=st.sampled_from([5.0, 40.0, 300.0, 1500.0]))
 def test_segments_free_matches_brute_force_among_300_boxes(seed, scale) -> None:
