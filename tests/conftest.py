@@ -16,6 +16,7 @@ from typing import Any
 
 import click.testing
 import pytest
+from helpers.terrain_helpers import RIDGE_FRAMES
 
 if "mix_stderr" in inspect.signature(click.testing.CliRunner.__init__).parameters:
 
@@ -44,9 +45,6 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.get_closest_marker("sitl") is not None:
             item.add_marker(pytest.mark.slow)
-
-
-RIDGE_FRAMES = ("relative", "amsl", "terrain")
 
 
 @pytest.fixture(scope="session")

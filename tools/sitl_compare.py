@@ -54,9 +54,7 @@ from uavplan.rehearsal import CheckSite  # noqa: E402
 from uavplan.scenario import load_scenario  # noqa: E402
 
 #: the targets of issue 32
-TIME_TOLERANCE = 0.03
-END_TOLERANCE = 0.05
-DEVIATION_M = 2.0
+TIME_TOLERANCE, END_TOLERANCE, DEVIATION_M = sf.TIME_TOLERANCE, sf.END_TOLERANCE, sf.DEVIATION_M
 #: a corner the firmware cuts by more than the model, beyond the position noise (m)
 CUT_SLACK_M = 0.1
 

@@ -45,6 +45,11 @@ from uavplan.mission.io import load_mission
 from uavplan.mission.items import Autopilot, MavCmd, MissionPlan, MissionType
 from uavplan.mission.track import Track
 
+#: issue 32's targets for the flight model against the firmware: flight time within ±3 %,
+#: the return and landing within ±5 %, the track within 2 m
+TIME_TOLERANCE = 0.03
+END_TOLERANCE = 0.05
+DEVIATION_M = 2.0
 #: above this height over home the vehicle counts as in the air (both tracks alike)
 AIRBORNE_M = 0.5
 #: a waypoint where the route turns by less than this is no corner

@@ -26,6 +26,8 @@ from uavplan.geo import EnuFrame
 from uavplan.mission.items import MavCmd, MavFrame, MissionPlan
 
 UTM = "EPSG:32632"
+#: the altitude frames a terrain scenario is planned in (tests/conftest.py's ridge plans)
+RIDGE_FRAMES = ("relative", "amsl", "terrain")
 LAT0, LON0 = 47.0, 9.2
 #: how far apart the independent check samples the flown path (m)
 SAMPLE_M = 1.0

@@ -18,7 +18,7 @@ import pytest
 rasterio = pytest.importorskip("rasterio")
 
 from click.testing import CliRunner  # noqa: E402
-from helpers.terrain_helpers import independent_ground_check, raw_ground  # noqa: E402
+from helpers.terrain_helpers import RIDGE_FRAMES, independent_ground_check, raw_ground  # noqa: E402
 
 from uavplan.app.check import mission_flight  # noqa: E402
 from uavplan.cli import main  # noqa: E402
@@ -29,7 +29,6 @@ from uavplan.scenario import load_scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 CLEARANCE = re.compile(r"min clearance (\d+\.\d\d) m")
-FRAMES = ("relative", "amsl", "terrain")
 
 
 def run(*args: str) -> str:
@@ -38,7 +37,7 @@ def run(*args: str) -> str:
     return result.output
 
 
-@pytest.mark.parametrize("altitude", FRAMES)
+@pytest.mark.parametrize("altitude", RIDGE_FRAMES)
 @pytest.mark.slow
 def test_validate_render_and_convert_agree_with_plan(
     ridge_frames: dict[str, Path], altitude: str
@@ -117,6 +116,7 @@ def test_exports_label_every_height_and_never_give_the_datum(ridge_frames: dict[
     assert f"{scn.site.obstacles[0].height_m:.1f}" not in text  # the mast's top in the datum
 
 
+@pytest.mark.slow
 def test_without_the_scenario_a_terrain_mission_export_says_what_it_assumes(
     ridge_frames: dict[str, Path],
 ) -> None:
@@ -126,13 +126,14 @@ def test_without_the_scenario_a_terrain_mission_export_says_what_it_assumes(
     assert "as if the ground were flat" in printed
 
 
-def test_pictures_label_heights_above_the_ground_and_amsl(ridge_frames: dict[str, Path]) -> None:
+def test_pictures_label_heights_above_the_ground_and_amsl() -> None:
     """The colour bar gives the obstacles' heights above the ground (35 and 60 m), the contour
     labels and the 3-D view's height axis altitudes AMSL. Before: "obstacle height 476-477.75"
-    and contours in the datum."""
+    and contours in the datum. (The bundled scenario is the terrain frame: no plan needed.)"""
     from uavplan.render import draw_scene, scene_for
 
-    scn = load_scenario(ridge_frames["terrain"])
+    scn = load_scenario(ROOT / "missions" / "jacksboro-ridge.yaml")
+    assert scn.mission.altitude == "terrain"
     fig = draw_scene(scene_for(scn))
     axes = [*fig.axes, *(child for ax in fig.axes for child in ax.child_axes)]
     names = {str(i) for i in range(len(scn.obstacles))}  # the obstacles' index labels
@@ -164,7 +165,8 @@ def hillside(e: np.ndarray, n: np.ndarray) -> np.ndarray:
     return 520.0 + 0.08 * (e - e0) - 80.0 * np.exp(-((e - e0) ** 2) / (2 * 160.0**2))
 
 
-@pytest.mark.parametrize("altitude", FRAMES)
+@pytest.mark.parametrize("altitude", RIDGE_FRAMES)
+@pytest.mark.slow
 def test_a_plan_rerouted_over_terrain_keeps_its_altitudes_and_the_margin(
     tmp_path: Path, altitude: str
 ) -> None:

@@ -41,7 +41,7 @@ MISSIONS = sitl.MISSIONS
 #: simulated seconds per wall second asked of the firmware (2 shared cores sustain 5-10)
 SPEEDUP = 8.0
 SITL_PARAMS = sitl.FLIGHT_PARAMS
-TIME_TOLERANCE = 0.03
+TIME_TOLERANCE = sf.TIME_TOLERANCE
 #: missions whose flight times the model predicts within ±3 % (docs/flight-model.md, "Held
 #: against the firmware"); courtyard ends with a planned return, whose waypoints PX4 stalled
 #: short of while they carried a 0.5 m acceptance radius (+4.9 %, +5.9 %; now +0.7 %). PX4's

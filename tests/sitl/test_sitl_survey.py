@@ -38,7 +38,7 @@ from uavplan.surveying import HAG_TOLERANCE_M
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
 # issue 32's target for the model's track against the firmware's (m)
-MODEL_GAP_M = 2.0
+MODEL_GAP_M = sf.DEVIATION_M
 
 RIDGE = Path(__file__).resolve().parents[2] / "missions" / "surveys" / "survey-jacksboro-ridge.yaml"
 
@@ -87,8 +87,8 @@ def test_the_dem_survey_flies_on_the_firmware_as_planned(
         gap = float(np.abs(fw_err[seen] - md_err[seen]).max())
         fw_s = sf.phases(fw_path, takeoff_seq, end_seq, landing).flight_s
         tries.append((round(gap, 2), round(fw_s / md_s - 1.0, 4)))
-        if gap <= MODEL_GAP_M and abs(fw_s / md_s - 1.0) <= 0.03:
+        if gap <= MODEL_GAP_M and abs(fw_s / md_s - 1.0) <= sf.TIME_TOLERANCE:
             break
     # the model against the firmware: a flight that misses is flown once more (module doc)
     assert gap <= MODEL_GAP_M, (tries, fw, md)
-    assert abs(fw_s / md_s - 1.0) <= 0.03, (tries, fw_s, md_s)
+    assert abs(fw_s / md_s - 1.0) <= sf.TIME_TOLERANCE, (tries, fw_s, md_s)
