@@ -163,6 +163,29 @@ def test_a_home_away_from_the_planned_one_is_refused_quoting_the_vehicle(
     assert code2 == 0, out2
 
 
+@pytest.mark.slow
+def test_a_vehicle_that_leaves_the_planned_route_is_not_a_success(tmp_path: Path) -> None:
+    """PX4 SIH, its accelerometer timing out, flew 74.5 m off midtown-manhattan's route (and,
+    by an independent observer, through a building); fly, without --scenario, said "mission
+    complete", exit 0 (issue 32, 2026-11-30). Here the vehicle's home is 60 m from the planned
+    one (let through with --home-tolerance): it takes off 60 m from the planned legs."""
+    plan = synthetic_mission(4, seed=4, autopilot=PX4)
+    assert plan.home is not None
+    lat, lon, _ = EnuFrame.at(plan.home).to_geodetic(np.array([60.0, 0.0, 0.0]))
+    away = GeoPoint(float(lat[0]), float(lon[0]), plan.home.alt_m)
+    with running_mock(replace(config(plan, PX4), home=away)) as vehicle:
+        code, out = fly(
+            saved(tmp_path, plan), "--conn", client_conn(vehicle), "--home-tolerance", "100,3"
+        )
+    assert code == 4, out
+    assert "the mission completed and the vehicle landed" in out
+    assert re.search(
+        r"the vehicle left the planned route: (\d+\.\d) m off it at most, \d+ min \d+ s into "
+        r"the flight \(item \d+\), beyond --max-deviation 10 m",
+        out,
+    ), out
+
+
 def test_an_upload_the_vehicle_rejects_is_refused_quoting_its_answer(tmp_path: Path) -> None:
     plan = synthetic_mission(5, seed=5, autopilot=PX4)
     other = synthetic_mission(3, seed=6, autopilot=PX4)

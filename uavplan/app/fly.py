@@ -456,8 +456,9 @@ def _verdict(
     who: str,
 ) -> FlyOutcome:
     """The one verdict on the flight: success only when the mission completed, nothing
-    changed behind ``fly``'s back, the whole flight was observed and (with a scenario) the
-    whole observed track kept the margin."""
+    changed behind ``fly``'s back, the whole flight was observed, the vehicle kept within
+    ``--max-deviation`` of the planned legs and (with a scenario) the whole observed track
+    kept the margin."""
     state = client.state
     action = ""
     if end is MonitorEnd.STALLED:
@@ -539,6 +540,15 @@ def _problems(end: MonitorEnd, state: VehicleState, watch: Watch, action: str) -
                 f"no progress for {watch.request.stall_s:g} s of the vehicle's time{action}; "
                 f"{state.describe()}" + _last_words(state)
             )
+    off = watch.farthest_off_route
+    if off is not None and off[0] > watch.max_deviation_m:
+        # the route was proven within the margin of the planned legs; farther off it, nothing
+        # says the vehicle kept clear (without --scenario fly cannot see the obstacles)
+        metres, when, seq = off
+        out.append(
+            f"the vehicle left the planned route: {metres:.1f} m off it at most, {when} into "
+            f"the flight (item {seq}), beyond --max-deviation {watch.max_deviation_m:g} m"
+        )
     changes = [n.line() for n in watch.takeovers()]
     if changes:
         out.append("changed behind fly's back: " + "; ".join(changes))

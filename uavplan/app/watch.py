@@ -163,12 +163,18 @@ class Watch:
         #: samples after a restart of the vehicle (a clock of their own: not the track)
         self.after_restart: list[TelemetrySample] = []
         self.max_cross_track_m = 0.0
+        #: where the vehicle was farthest off the planned legs: (metres, when, item)
+        self.farthest_off_route: tuple[float, str, int] | None = None
         assert plan.home is not None
         self.home = plan.home
         self.frame = EnuFrame.at(plan.home)
         self.legs, self.leg_seqs = _planned_legs(plan, autopilot)
         self.rtl = return_seq(plan, autopilot)
         wire = plan_wire_items(plan, MissionType.MISSION, autopilot)
+        #: the first NAV_LAND's seq (None: the mission does not land on its own)
+        self.land = next(
+            (q for q, item in enumerate(wire) if item.command == MavCmd.NAV_LAND), None
+        )
         self.total = len(wire)
         self.hold_s = [_hold_time_s(item) for item in wire]
         self.off_route = False
@@ -283,9 +289,22 @@ class Watch:
         ]
         if not mission:
             return
-        error = distance_to_polyline(self._enu(mission), self.legs)
+        enu = self._enu(mission)
+        error = distance_to_polyline(enu, self.legs)
+        if self.land is not None:
+            # a NAV_LAND is flown over its position at the altitude the vehicle has, then
+            # down to wherever the ground is: across the approach only, the descent is the
+            # autopilot's (a landing on a hillside ends below or above its planned altitude)
+            landing = np.array([s.current_seq >= self.land for s in mission])
+            if landing.any():
+                flat = np.column_stack((enu[landing, :2], np.zeros(int(landing.sum()))))
+                legs = np.column_stack((self.legs[:, :2], np.zeros(len(self.legs))))
+                error[landing] = distance_to_polyline(flat, legs)
         worst = int(np.argmax(error))
-        self.max_cross_track_m = max(self.max_cross_track_m, float(error[worst]))
+        if float(error[worst]) > self.max_cross_track_m:
+            s = mission[worst]
+            self.max_cross_track_m = float(error[worst])
+            self.farthest_off_route = (self.max_cross_track_m, self._when(s), s.current_seq)
         over = float(error[worst]) > self.max_deviation_m
         if over and not self.off_route:
             s = mission[worst]
