@@ -211,9 +211,11 @@ def test_ctrl_c_holds_position_and_altitude_for_30_s(autopilot: Autopilot) -> No
     first = held[0]
     drift = max(sitl.distance_m(first, s) for s in held)
     climb = max(abs(s.relative_alt_m - first.relative_alt_m) for s in held)
-    # PX4 SIH's position wanders about a metre in Hold (1.01 m once in CI): a vehicle that
-    # lands, drifts off or loiters down fails by far more
-    assert drift < (1.5 if autopilot is PX4 else 1.0) and climb < 0.5, (drift, climb)
+    # PX4 SIH's position wanders about a metre in Hold (1.01 m once in CI) and its altitude
+    # more than half a metre (0.65 m once in CI, 2026-11-30): a vehicle that lands, drifts
+    # off or loiters down (LOITER with SITL's low throttle: 2.5 m/s down) fails by far more
+    px4 = autopilot is PX4
+    assert drift < (1.5 if px4 else 1.0) and climb < (1.0 if px4 else 0.5), (drift, climb)
     # ... where it was when Ctrl-C was pressed (LOITER, with SITL's low throttle, landed)
     assert abs(first.relative_alt_m - altitude) < 2.0, (first.relative_alt_m, altitude)
     mode = mode_from_heartbeat(autopilot, seen.modes[-1][1])
